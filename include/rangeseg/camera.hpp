@@ -1,0 +1,32 @@
+// Pinhole camera intrinsics and conversion between depth images and organized clouds.
+#pragma once
+
+#include "rangeseg/cloud.hpp"
+#include "rangeseg/image.hpp"
+
+namespace rangeseg {
+
+/// Pinhole intrinsics in pixels: pixel (u, v) with depth z (metres) is the point
+/// x = (u - cx) z / fx, y = (v - cy) z / fy. Defaults: a Kinect / PrimeSense at 640x480.
+struct CameraIntrinsics {
+  double fx = 525.0;  ///< focal length along x [pixel]
+  double fy = 525.0;  ///< focal length along y [pixel]
+  double cx = 319.5;  ///< principal point x [pixel]
+  double cy = 239.5;  ///< principal point y [pixel]
+  int width = 0;      ///< image width [pixel], 0 = not given
+  int height = 0;     ///< image height [pixel], 0 = not given
+};
+
+/// Throws std::invalid_argument unless fx, fy > 0 and all values are finite.
+void validate(const CameraIntrinsics& camera);
+
+/// Converts a depth image (raw units, 0 = no measurement) to an organized cloud.
+/// `depth_scale` is metres per raw unit (0.001 for millimetres). Invalid pixels become NaN.
+OrganizedCloud depth_to_cloud(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
+                              double depth_scale = 0.001);
+
+/// Converts the z plane of an organized cloud back to raw depth units (rounded; 0 where the
+/// point is invalid, z <= 0, or z / depth_scale does not fit in 16 bits).
+DepthImage cloud_to_depth(const OrganizedCloud& cloud, double depth_scale = 0.001);
+
+}  // namespace rangeseg

@@ -1,0 +1,60 @@
+// Point clouds on a pixel grid.
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+
+#include "rangeseg/image.hpp"
+
+namespace rangeseg {
+
+/// A `width x height` grid of 3D points in metres, camera frame (x right, y down, z forward),
+/// stored as separate planes. A pixel without a measurement has NaN in x, y and z.
+/// An unorganized cloud is a cloud with height 1; functions that need a grid check
+/// `is_organized()` and throw std::invalid_argument otherwise.
+///
+/// Optional planes are empty when absent: `intensity` (sensor units, any range), `r`, `g`, `b`
+/// (0..255) and `label` (integer label per point, e.g. the ground truth of a data set).
+struct OrganizedCloud {
+  FloatPlane x, y, z;
+  FloatPlane intensity;
+  BytePlane r, g, b;
+  LabelImage label;
+
+  OrganizedCloud() = default;
+  /// Allocates x, y, z planes filled with NaN; the optional planes stay empty.
+  OrganizedCloud(int width, int height) { resize(width, height); }
+
+  /// Sets the size; x, y, z become NaN, present optional planes are resized and zeroed.
+  void resize(int width, int height);
+  void add_intensity() { intensity.resize(width(), height(), 0.0f); }
+  void add_rgb();
+  void add_label() { label.resize(width(), height(), 0); }
+
+  int width() const { return z.width(); }
+  int height() const { return z.height(); }
+  std::size_t size() const { return static_cast<std::size_t>(width()) * height(); }
+  bool empty() const { return size() == 0; }
+  bool is_organized() const { return height() > 1; }
+  bool has_intensity() const { return !intensity.empty(); }
+  bool has_rgb() const { return !r.empty(); }
+  bool has_label() const { return !label.empty(); }
+
+  /// A point is valid when x, y and z are all finite.
+  bool valid(int u, int v) const {
+    return std::isfinite(x(u, v)) && std::isfinite(y(u, v)) && std::isfinite(z(u, v));
+  }
+  std::size_t count_valid() const;
+};
+
+/// Depth range and valid count of a cloud, for `rangeseg info`.
+struct CloudStats {
+  std::size_t valid = 0;
+  float min_z = NAN, max_z = NAN;  ///< metres, over valid points
+};
+CloudStats cloud_stats(const OrganizedCloud& cloud);
+
+/// Throws std::invalid_argument naming `what` if the cloud is not organized (height < 2).
+void require_organized(const OrganizedCloud& cloud, const char* what);
+
+}  // namespace rangeseg

@@ -1,0 +1,85 @@
+// Images as separate planes with a row stride (structure of arrays).
+#pragma once
+
+#include <cassert>
+#include <cstddef>
+#include <algorithm>
+#include <cstdint>
+#include <vector>
+
+namespace rangeseg {
+
+/// Non-owning view of one image plane: `height` rows of `width` elements, row `y` starting at
+/// `data + y * stride` (stride in elements, >= width). T is float, std::uint8_t, std::uint16_t or
+/// std::int32_t in this library.
+template <class T>
+struct View {
+  T* data = nullptr;
+  int width = 0;
+  int height = 0;
+  std::ptrdiff_t stride = 0;
+
+  T* row(int y) const {
+    assert(y >= 0 && y < height);
+    return data + static_cast<std::ptrdiff_t>(y) * stride;
+  }
+  T& operator()(int x, int y) const {
+    assert(x >= 0 && x < width);
+    return row(y)[x];
+  }
+  bool empty() const { return width <= 0 || height <= 0; }
+  operator View<const T>() const { return {data, width, height, stride}; }  // NOLINT: intended
+};
+
+/// Owning image plane. The row stride is the width rounded up to 16 elements so that every row
+/// starts aligned for vector loads. `resize` keeps the allocation when it is large enough, so a
+/// plane reused frame after frame allocates only once.
+template <class T>
+class Plane {
+ public:
+  Plane() = default;
+  Plane(int width, int height, T fill = T{}) { resize(width, height, fill); }
+
+  /// Sets the size and fills every element with `fill`. Throws std::invalid_argument for
+  /// negative sizes.
+  void resize(int width, int height, T fill = T{});
+  void fill(T value) { std::fill(buffer_.begin(), buffer_.end(), value); }
+  void clear() { width_ = height_ = 0; stride_ = 0; buffer_.clear(); }
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  std::ptrdiff_t stride() const { return stride_; }
+  bool empty() const { return width_ == 0 || height_ == 0; }
+
+  T* row(int y) { return buffer_.data() + static_cast<std::ptrdiff_t>(y) * stride_; }
+  const T* row(int y) const { return buffer_.data() + static_cast<std::ptrdiff_t>(y) * stride_; }
+  T& operator()(int x, int y) {
+    assert(x >= 0 && x < width_ && y >= 0 && y < height_);
+    return row(y)[x];
+  }
+  const T& operator()(int x, int y) const {
+    assert(x >= 0 && x < width_ && y >= 0 && y < height_);
+    return row(y)[x];
+  }
+
+  View<T> view() { return {buffer_.data(), width_, height_, stride_}; }
+  View<const T> view() const { return {buffer_.data(), width_, height_, stride_}; }
+
+ private:
+  std::vector<T> buffer_;
+  int width_ = 0;
+  int height_ = 0;
+  std::ptrdiff_t stride_ = 0;
+};
+
+using FloatPlane = Plane<float>;
+using BytePlane = Plane<std::uint8_t>;
+using LabelImage = Plane<std::int32_t>;   ///< segment / ground-truth label per pixel, 0 = none
+using DepthImage = Plane<std::uint16_t>;  ///< raw sensor depth, 0 = no measurement
+
+extern template class Plane<float>;
+extern template class Plane<std::uint8_t>;
+extern template class Plane<std::uint16_t>;
+extern template class Plane<std::int32_t>;
+
+}  // namespace rangeseg

@@ -1,0 +1,29 @@
+// Whole-file reading and atomic writing, shared by every format.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace rangeseg::io {
+
+/// Reads a whole file. Throws std::runtime_error naming the file if it cannot be opened or read,
+/// or if it is larger than `max_bytes`.
+std::vector<std::uint8_t> read_file(const std::string& path,
+                                    std::uint64_t max_bytes = std::uint64_t{1} << 32);
+
+/// Writes `bytes` to a temporary file beside `path`, then renames it over `path`, so a reader
+/// never sees a half-written file. Throws std::runtime_error naming the file on failure and
+/// leaves no temporary behind.
+void write_file_atomic(const std::string& path, const void* bytes, std::size_t size);
+inline void write_file_atomic(const std::string& path, const std::vector<std::uint8_t>& bytes) {
+  write_file_atomic(path, bytes.data(), bytes.size());
+}
+inline void write_file_atomic(const std::string& path, const std::string& text) {
+  write_file_atomic(path, text.data(), text.size());
+}
+
+/// Lower-case extension of a path including the dot ("" if none), e.g. ".pcd".
+std::string extension(const std::string& path);
+
+}  // namespace rangeseg::io

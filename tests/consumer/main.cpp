@@ -1,0 +1,17 @@
+// Built against an installed rangeseg: proves the exported target and headers are usable.
+#include <rangeseg/camera.hpp>
+#include <rangeseg/cloud.hpp>
+
+#include <cstdio>
+#include <vector>
+
+int main() {
+  std::vector<std::uint16_t> depth(4 * 3, 1000);
+  depth[5] = 0;
+  const rangeseg::CameraIntrinsics cam{.fx = 2, .fy = 2, .cx = 1.5, .cy = 1};
+  const rangeseg::OrganizedCloud cloud =
+      rangeseg::depth_to_cloud({depth.data(), 4, 3, 4}, cam, 0.001);
+  const std::size_t valid = cloud.count_valid();
+  std::printf("consumer: %zu valid points\n", valid);
+  return valid == 11 ? 0 : 1;
+}

@@ -1,0 +1,77 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <stdexcept>
+
+#include "rangeseg/camera.hpp"
+#include "rangeseg/cloud.hpp"
+#include "rangeseg/image.hpp"
+#include "rangeseg/io/file.hpp"
+#include "test_util.hpp"
+
+using namespace rangeseg;
+
+TEST(Plane, StrideIsPaddedAndRowsAreIndependent) {
+  FloatPlane p(17, 3, 1.0f);
+  EXPECT_EQ(p.stride(), 32);
+  p(16, 1) = 5.0f;
+  EXPECT_EQ(p.row(1)[16], 5.0f);
+  EXPECT_EQ(p(0, 2), 1.0f);
+  EXPECT_THROW(p.resize(-1, 2), std::invalid_argument);
+}
+
+TEST(Camera, DepthToCloudAndBackIsExact) {
+  DepthImage depth(8, 6, 0);
+  for (int v = 0; v < 6; ++v)
+    for (int u = 0; u < 8; ++u) depth(u, v) = static_cast<std::uint16_t>((u + v) % 4 == 0 ? 0 : 500 + 37 * u + v);
+  const CameraIntrinsics cam{.fx = 10, .fy = 12, .cx = 3.5, .cy = 2.5};
+  const OrganizedCloud cloud = depth_to_cloud(depth.view(), cam, 0.001);
+  ASSERT_EQ(cloud.width(), 8);
+  ASSERT_EQ(cloud.height(), 6);
+  for (int v = 0; v < 6; ++v) {
+    for (int u = 0; u < 8; ++u) {
+      if (depth(u, v) == 0) {
+        EXPECT_FALSE(cloud.valid(u, v));
+        continue;
+      }
+      const double z = depth(u, v) * 0.001;
+      EXPECT_NEAR(cloud.z(u, v), z, 1e-6);
+      EXPECT_NEAR(cloud.x(u, v), (u - 3.5) * z / 10, 1e-6);
+      EXPECT_NEAR(cloud.y(u, v), (v - 2.5) * z / 12, 1e-6);
+    }
+  }
+  const DepthImage back = cloud_to_depth(cloud, 0.001);
+  for (int v = 0; v < 6; ++v)
+    for (int u = 0; u < 8; ++u) EXPECT_EQ(back(u, v), depth(u, v));
+  EXPECT_THROW(depth_to_cloud(depth.view(), CameraIntrinsics{.fx = 0}, 0.001), std::invalid_argument);
+  EXPECT_THROW(depth_to_cloud(depth.view(), cam, -1.0), std::invalid_argument);
+}
+
+TEST(Cloud, StatsCountOnlyFinitePoints) {
+  OrganizedCloud c(3, 2);
+  EXPECT_EQ(c.count_valid(), 0u);
+  c.x(0, 0) = 0; c.y(0, 0) = 0; c.z(0, 0) = 2;
+  c.x(1, 1) = 0; c.y(1, 1) = 0; c.z(1, 1) = 1;
+  c.x(2, 1) = INFINITY; c.y(2, 1) = 0; c.z(2, 1) = 7;
+  const CloudStats s = cloud_stats(c);
+  EXPECT_EQ(s.valid, 2u);
+  EXPECT_FLOAT_EQ(s.min_z, 1);
+  EXPECT_FLOAT_EQ(s.max_z, 2);
+  EXPECT_THROW(require_organized(OrganizedCloud(5, 1), "test"), std::invalid_argument);
+}
+
+TEST(File, AtomicWriteLeavesNoTemporary) {
+  const auto dir = rangeseg::test::scratch_dir("file");
+  const std::string path = (dir / "a.bin").string();
+  io::write_file_atomic(path, std::string("hello"));
+  EXPECT_EQ(io::read_file(path).size(), 5u);
+  EXPECT_THROW(io::write_file_atomic((dir / "missing" / "b.bin").string(), std::string("x")),
+               std::runtime_error);
+  int files = 0;
+  for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir)) ++files;
+  EXPECT_EQ(files, 1);
+  EXPECT_THROW(io::read_file((dir / "nope").string()), std::runtime_error);
+  EXPECT_THROW(io::read_file(path, 2), std::runtime_error);
+  EXPECT_EQ(io::extension("a/b.PCD"), ".pcd");
+}
