@@ -10,6 +10,14 @@ void set_exit_code(int code) { g_exit_code = code; }
 
 void register_commands(CLI::App& app) {
   add_info(app);
+  add_convert(app);
+  add_synth(app);
+  add_mesh(app);
+  add_demo(app);
+  add_segment(app);
+  add_smooth(app);
+  add_eval(app);
+  add_bench(app);
 }
 
 }  // namespace rangeseg::cli

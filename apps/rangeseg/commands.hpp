@@ -15,5 +15,13 @@ int exit_code();
 void set_exit_code(int code);
 
 void add_info(CLI::App& app);
+void add_convert(CLI::App& app);
+void add_synth(CLI::App& app);
+void add_mesh(CLI::App& app);
+void add_demo(CLI::App& app);
+void add_segment(CLI::App& app);
+void add_bench(CLI::App& app);
+void add_smooth(CLI::App& app);
+void add_eval(CLI::App& app);
 
 }  // namespace rangeseg::cli

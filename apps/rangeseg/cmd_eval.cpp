@@ -1,0 +1,179 @@
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "input.hpp"
+#include "names.hpp"
+#include "output.hpp"
+#include "segment_output.hpp"
+#include "rangeseg/eval.hpp"
+#include "rangeseg/io/file.hpp"
+#include "rangeseg/io/pcd.hpp"
+#include "rangeseg/io/png.hpp"
+#include "rangeseg/io/rasterfile.hpp"
+
+namespace rangeseg::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct GroundTruth {
+  LabelImage labels;
+  int min_label = 1;
+  std::optional<OrganizedCloud> cloud;  ///< for plane fits, when the format brings points
+};
+
+GroundTruth load_ground_truth(const std::string& path) {
+  GroundTruth gt;
+  const std::string ext = io::extension(path);
+  if (ext == ".gt-seg") {
+    gt.labels = io::read_segcomp_gt(path);
+    gt.min_label = 10;
+    fs::path range = path;
+    range.replace_extension(".range");
+    if (fs::exists(range)) gt.cloud = io::read_abw_range(range.string());
+  } else if (ext == ".png") {
+    gt.labels = io::read_label_png(path);
+  } else if (ext == ".pcd") {
+    OrganizedCloud cloud = io::read_pcd(path);
+    if (!cloud.has_label()) throw std::runtime_error(path + ": the PCD file has no 'label' field");
+    gt.labels = cloud.label;
+    gt.cloud = std::move(cloud);
+  } else {
+    throw std::runtime_error(path + ": unsupported ground truth type '" + ext +
+                             "' (expected .gt-seg, 16-bit label .png or .pcd with a label field)");
+  }
+  return gt;
+}
+
+LabelImage load_machine(const std::string& path) {
+  const std::string ext = io::extension(path);
+  if (ext == ".png") return io::read_label_png(path);
+  if (ext == ".ms-seg") {
+    const BytePlane raw = io::read_rasterfile(path);
+    LabelImage labels(raw.width(), raw.height(), 0);
+    for (int v = 0; v < raw.height(); ++v)
+      for (int u = 0; u < raw.width(); ++u) labels(u, v) = raw(u, v);
+    return labels;
+  }
+  throw std::runtime_error(path + ": unsupported segmentation type '" + ext +
+                           "' (expected a 16-bit label .png or a SegComp .ms-seg)");
+}
+
+eval::AngleStats angles_for(const eval::EvalResult& r, const GroundTruth& gt, const LabelImage& ms) {
+  if (!gt.cloud) return {};
+  return eval::angle_error(r, gt.labels, eval::fit_planes(*gt.cloud, gt.labels, gt.min_label),
+                           eval::fit_planes(*gt.cloud, ms, 1));
+}
+
+void print_row(const char* name, const eval::EvalResult& r, const eval::AngleStats& a) {
+  std::printf("%-22s %5d %5d %7d %5d %6d %6d %6d %9.2f\n", name, r.gt_regions, r.ms_regions, r.correct,
+              r.over, r.under, r.missed, r.noise, a.mean_deg);
+}
+
+void print_header() {
+  std::printf("%-22s %5s %5s %7s %5s %6s %6s %6s %9s\n", "image", "GT", "MS", "correct", "over",
+              "under", "missed", "noise", "angle_deg");
+}
+
+struct EvalOptions {
+  std::string gt, pred;
+  double tolerance = 0.8;
+};
+
+struct SegcompOptions {
+  std::string dir;
+  std::string out_dir;
+  std::string preset = "abw";
+  std::string config;
+  double tolerance = 0.8;
+  bool no_smooth = false;
+};
+
+/// SegComp .ms-seg: 8-bit rasterfile; labels above 255 cannot be stored and become 0.
+void write_ms_seg(const std::string& path, const LabelImage& labels) {
+  BytePlane raw(labels.width(), labels.height(), 0);
+  for (int v = 0; v < labels.height(); ++v)
+    for (int u = 0; u < labels.width(); ++u) {
+      const int l = labels(u, v);
+      raw(u, v) = static_cast<std::uint8_t>(l > 0 && l <= 255 ? l : 0);
+    }
+  io::write_rasterfile(path, raw.view());
+}
+
+void run_segcomp(const SegcompOptions& o) {
+  std::vector<fs::path> images;
+  for (const auto& e : fs::directory_iterator(o.dir)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind("abw.test.", 0) == 0 && e.path().extension() == ".range") images.push_back(e.path());
+  }
+  if (images.empty()) throw std::runtime_error(o.dir + ": no abw.test.*.range files");
+  std::sort(images.begin(), images.end(), [](const fs::path& a, const fs::path& b) {
+    const auto num = [](const fs::path& p) { return std::stoi(p.stem().extension().string().substr(1)); };
+    return num(a) < num(b);
+  });
+  Pipeline pipeline(settings_from(o.preset, "plane", o.config, o.no_smooth));
+  std::vector<eval::EvalResult> results;
+  std::vector<eval::AngleStats> angles;
+  print_header();
+  for (const fs::path& range : images) {
+    fs::path gt_path = range;
+    gt_path.replace_extension(".gt-seg");
+    GroundTruth gt = load_ground_truth(gt_path.string());
+    if (!gt.cloud) gt.cloud = io::read_abw_range(range.string());
+    pipeline.process(*gt.cloud);
+    const LabelImage& ms = pipeline.segmentation().labels;
+    const eval::EvalResult r = eval::evaluate(gt.labels, ms, {.tolerance = o.tolerance, .min_gt_label = 10});
+    const eval::AngleStats a = angles_for(r, gt, ms);
+    print_row(range.filename().string().c_str(), r, a);
+    results.push_back(r);
+    angles.push_back(a);
+    if (!o.out_dir.empty()) {
+      const std::string stem = range.stem().string();
+      const auto dir = ensure_dir(o.out_dir);
+      write_ms_seg((dir / (stem + ".ms-seg")).string(), ms);
+      write_segmentation_folder((dir / stem).string(), *gt.cloud, pipeline, false);
+    }
+  }
+  const eval::EvalSummary s = eval::summarize(results, angles);
+  std::printf("%-22s %5.1f %5s %7.1f %5.1f %6.1f %6.1f %6.1f %9.2f\n", "average", s.mean_gt, "", s.mean_correct,
+              s.mean_over, s.mean_under, s.mean_missed, s.mean_noise, s.mean_angle_deg);
+  std::printf("correctly detected: %.1f%% of ground-truth regions (T = %.2f), angle error %.2f +- %.2f deg\n",
+              100.0 * s.mean_correct / s.mean_gt, o.tolerance, s.mean_angle_deg, s.std_angle_deg);
+}
+
+}  // namespace
+
+void add_eval(CLI::App& app) {
+  auto o = std::make_shared<EvalOptions>();
+  auto* cmd = app.add_subcommand("eval", "Score a segmentation against ground truth (SegComp protocol)");
+  cmd->add_option("ground_truth", o->gt, "SegComp .gt-seg, 16-bit label .png, or .pcd with a label field")
+      ->required();
+  cmd->add_option("segmentation", o->pred, "16-bit label .png (e.g. labels.png) or SegComp .ms-seg")->required();
+  cmd->add_option("--T", o->tolerance, "Overlap tolerance T, 0.5 < T <= 1")->capture_default_str();
+  cmd->callback([o] {
+    const GroundTruth gt = load_ground_truth(o->gt);
+    const LabelImage ms = load_machine(o->pred);
+    const eval::EvalResult r = eval::evaluate(gt.labels, ms, {.tolerance = o->tolerance, .min_gt_label = gt.min_label});
+    print_header();
+    print_row(fs::path(o->gt).filename().string().c_str(), r, angles_for(r, gt, ms));
+  });
+
+  auto s = std::make_shared<SegcompOptions>();
+  auto* seg = app.add_subcommand("eval-segcomp",
+                                 "Segment every abw.test.*.range in a folder and score it (paper, Table II)");
+  seg->add_option("dir", s->dir, "Folder with abw.test.N.range and .gt-seg files")->required();
+  seg->add_option("-o,--output", s->out_dir, "Also write .ms-seg files and result folders here");
+  seg->add_option("--preset", s->preset, "Sensor preset")->capture_default_str();
+  seg->add_option("--config", s->config, "JSON settings overriding the preset");
+  seg->add_option("--T", s->tolerance, "Overlap tolerance T")->capture_default_str();
+  seg->add_flag("--no-smooth", s->no_smooth, "Skip the bilateral filter");
+  seg->callback([s] { run_segcomp(*s); });
+}
+
+}  // namespace rangeseg::cli

@@ -1,0 +1,59 @@
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "commands.hpp"
+#include "input.hpp"
+#include "names.hpp"
+#include "output.hpp"
+#include "rangeseg/colorize.hpp"
+#include "rangeseg/io/png.hpp"
+#include "rangeseg/mesh.hpp"
+#include "rangeseg/normals.hpp"
+
+namespace rangeseg::cli {
+namespace {
+
+struct MeshOptions {
+  InputOptions in;
+  std::string out;
+  std::string type = "adaptive";
+  std::string normal_png;
+  std::string curvature_png;
+  int stride = 1;
+};
+
+}  // namespace
+
+MeshType mesh_type_by_name(const std::string& name) {
+  if (name == "adaptive") return MeshType::adaptive;
+  if (name == "quad") return MeshType::quad;
+  if (name == "left") return MeshType::left_cut;
+  if (name == "right") return MeshType::right_cut;
+  throw std::invalid_argument("unknown mesh type '" + name + "' (expected adaptive, quad, left or right)");
+}
+
+void add_mesh(CLI::App& app) {
+  auto o = std::make_shared<MeshOptions>();
+  auto* cmd = app.add_subcommand("mesh", "Build the approximate mesh with normals; write a PLY coloured by normal");
+  add_input_options(*cmd, o->in);
+  cmd->add_option("-o,--output", o->out, "Output mesh (.ply)")->required();
+  cmd->add_option("--type", o->type, "Mesh type: adaptive, quad, left or right")->capture_default_str();
+  cmd->add_option("--stride", o->stride, "Mesh every k-th pixel")->capture_default_str()->check(CLI::Range(1, 64));
+  cmd->add_option("--normal-png", o->normal_png, "Also write the normal map as a PNG");
+  cmd->add_option("--curvature-png", o->curvature_png, "Also write the curvature as a false-colour PNG");
+  cmd->callback([o] {
+    const LoadedInput in = load_input(o->in);
+    const Mesh mesh = build_mesh(in.cloud, {.type = mesh_type_by_name(o->type), .pixel_stride = o->stride});
+    const NormalMap normals = compute_normals(in.cloud, mesh);
+    const RgbImage colours = colorize_normals(normals.nx.view(), normals.ny.view(), normals.nz.view());
+    write_mesh_ply(o->out, in.cloud, mesh, &normals, &colours);
+    if (!o->normal_png.empty()) io::write_rgb_png(o->normal_png, colours);
+    if (!o->curvature_png.empty()) {
+      io::write_rgb_png(o->curvature_png, colorize_scalar_auto(normals.curvature.view()));
+    }
+    progress("wrote " + o->out + " (" + std::to_string(count_faces(mesh)) + " faces)");
+  });
+}
+
+}  // namespace rangeseg::cli

@@ -1,0 +1,49 @@
+#include <memory>
+#include <string>
+
+#include "commands.hpp"
+#include "input.hpp"
+#include "names.hpp"
+#include "output.hpp"
+#include "rangeseg/io/pcd.hpp"
+
+namespace rangeseg::cli {
+namespace {
+
+struct SmoothOptions {
+  InputOptions in;
+  std::string out;
+  std::string preset = "kinect";
+  std::string config;
+  int iterations = -1;
+};
+
+}  // namespace
+
+void add_smooth(CLI::App& app) {
+  auto o = std::make_shared<SmoothOptions>();
+  auto* cmd = app.add_subcommand(
+      "smooth", "Bilateral filter of points and normals over the mesh; writes a PCD with normals");
+  add_input_options(*cmd, o->in);
+  cmd->add_option("-o,--output", o->out, "Output .pcd (x y z [intensity] [rgb] normal_x normal_y normal_z curvature)")
+      ->required();
+  cmd->add_option("--preset", o->preset, "Sensor preset (noise model)")->capture_default_str();
+  cmd->add_option("--config", o->config, "JSON settings overriding the preset");
+  cmd->add_option("--iterations", o->iterations, "Filter passes (default: the preset's)");
+  cmd->callback([o] {
+    const LoadedInput in = load_input(o->in);
+    PipelineSettings s = settings_from(o->preset, "plane", o->config, false);
+    if (o->iterations >= 0) s.smoothing.iterations = o->iterations;
+    s.segment = false;
+    Pipeline pipeline(s);
+    pipeline.process(in.cloud);
+    const NormalMap& n = pipeline.normals();
+    io::write_pcd(o->out, pipeline.cloud(),
+                  {.encoding = io::PcdEncoding::binary_compressed,
+                   .extra_float_fields = {{"normal_x", &n.nx}, {"normal_y", &n.ny}, {"normal_z", &n.nz},
+                                          {"curvature", &n.curvature}}});
+    progress("wrote " + o->out);
+  });
+}
+
+}  // namespace rangeseg::cli

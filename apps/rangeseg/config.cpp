@@ -1,0 +1,118 @@
+#include <stdexcept>
+#include <string>
+
+#include "names.hpp"
+#include "rangeseg/io/file.hpp"
+
+namespace rangeseg::cli {
+namespace {
+
+using nlohmann::json;
+
+template <class T>
+void take(const json& obj, const char* key, T& field, const std::string& where) {
+  if (!obj.contains(key)) return;
+  try {
+    field = obj.at(key).get<T>();
+  } catch (const json::exception& e) {
+    throw std::runtime_error(where + ": key '" + key + "' has the wrong type: " + e.what());
+  }
+}
+
+void reject_unknown(const json& obj, std::initializer_list<const char*> known, const std::string& where) {
+  if (!obj.is_object()) throw std::runtime_error(where + ": expected a JSON object");
+  for (const auto& item : obj.items()) {
+    bool ok = false;
+    for (const char* k : known) ok = ok || item.key() == k;
+    if (!ok) throw std::runtime_error(where + ": unknown key '" + item.key() + "'");
+  }
+}
+
+}  // namespace
+
+PipelineSettings pipeline_preset(const std::string& name) {
+  PipelineSettings s;
+  s.segmentation = preset(name);
+  const SensorNoise& n = s.segmentation.noise;
+  s.smoothing.noise_a = static_cast<float>(n.a);
+  s.smoothing.noise_b = static_cast<float>(n.b);
+  s.smoothing.noise_z0 = static_cast<float>(n.z0);
+  return s;
+}
+
+void apply_config_file(const std::string& path, PipelineSettings& s) {
+  const std::vector<std::uint8_t> bytes = io::read_file(path, 1 << 20);
+  json j;
+  try {
+    j = json::parse(bytes.begin(), bytes.end());
+  } catch (const json::exception& e) {
+    throw std::runtime_error(path + ": not valid JSON: " + e.what());
+  }
+  reject_unknown(j, {"mesh", "smoothing", "segmentation", "smooth"}, path);
+  take(j, "smooth", s.smooth, path);
+  if (j.contains("mesh")) {
+    const json& m = j["mesh"];
+    const std::string where = path + " [mesh]";
+    reject_unknown(m, {"type", "eps_theta", "max_edge_a", "max_edge_b", "max_edge_c", "pixel_stride"}, where);
+    if (m.contains("type")) s.mesh.type = mesh_type_by_name(m["type"].get<std::string>());
+    take(m, "eps_theta", s.mesh.eps_theta, where);
+    take(m, "max_edge_a", s.mesh.max_edge_a, where);
+    take(m, "max_edge_b", s.mesh.max_edge_b, where);
+    take(m, "max_edge_c", s.mesh.max_edge_c, where);
+    take(m, "pixel_stride", s.mesh.pixel_stride, where);
+  }
+  if (j.contains("smoothing")) {
+    const json& m = j["smoothing"];
+    const std::string where = path + " [smoothing]";
+    reject_unknown(m, {"iterations", "use_distance", "distance_scale", "pixel_angle", "noise_a", "noise_b",
+                       "noise_z0", "use_normals", "normal_scale", "use_intensity", "intensity_scale",
+                       "intensity_range", "move_along_ray", "recompute_normals"},
+                   where);
+    auto& t = s.smoothing;
+    take(m, "iterations", t.iterations, where);
+    take(m, "use_distance", t.use_distance, where);
+    take(m, "distance_scale", t.distance_scale, where);
+    take(m, "pixel_angle", t.pixel_angle, where);
+    take(m, "noise_a", t.noise_a, where);
+    take(m, "noise_b", t.noise_b, where);
+    take(m, "noise_z0", t.noise_z0, where);
+    take(m, "use_normals", t.use_normals, where);
+    take(m, "normal_scale", t.normal_scale, where);
+    take(m, "use_intensity", t.use_intensity, where);
+    take(m, "intensity_scale", t.intensity_scale, where);
+    take(m, "intensity_range", t.intensity_range, where);
+    take(m, "move_along_ray", t.move_along_ray, where);
+    take(m, "recompute_normals", t.recompute_normals, where);
+  }
+  if (j.contains("segmentation")) {
+    const json& m = j["segmentation"];
+    const std::string where = path + " [segmentation]";
+    reject_unknown(m, {"model", "noise_a", "noise_b", "noise_z0", "max_normal_angle", "max_distance_sigmas",
+                       "max_smooth_angle", "max_curvature", "max_seed_curvature", "min_region_size",
+                       "merge_planes", "merge_angle", "merge_distance_sigmas", "reassign_boundary"},
+                   where);
+    auto& t = s.segmentation;
+    if (m.contains("model")) {
+      const std::string model = m["model"].get<std::string>();
+      if (model == "plane") t.model = RegionModel::plane;
+      else if (model == "smooth") t.model = RegionModel::smooth;
+      else throw std::runtime_error(where + ": unknown model '" + model + "' (plane or smooth)");
+    }
+    take(m, "noise_a", t.noise.a, where);
+    take(m, "noise_b", t.noise.b, where);
+    take(m, "noise_z0", t.noise.z0, where);
+    take(m, "max_normal_angle", t.max_normal_angle, where);
+    take(m, "max_distance_sigmas", t.max_distance_sigmas, where);
+    take(m, "max_smooth_angle", t.max_smooth_angle, where);
+    take(m, "max_curvature", t.max_curvature, where);
+    take(m, "max_seed_curvature", t.max_seed_curvature, where);
+    take(m, "min_region_size", t.min_region_size, where);
+    take(m, "merge_planes", t.merge_planes, where);
+    take(m, "merge_angle", t.merge_angle, where);
+    take(m, "merge_distance_sigmas", t.merge_distance_sigmas, where);
+    take(m, "reassign_boundary", t.reassign_boundary, where);
+  }
+  validate(s.smoothing);
+}
+
+}  // namespace rangeseg::cli

@@ -1,0 +1,33 @@
+// Parsing of names given on the command line, shared by several commands.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <string>
+
+#include "rangeseg/mesh.hpp"
+#include "rangeseg/pipeline.hpp"
+#include "rangeseg/synth.hpp"
+
+namespace rangeseg::cli {
+
+MeshType mesh_type_by_name(const std::string& name);
+synth::Scene scene_by_name(const std::string& name, std::uint64_t seed);
+synth::Noise noise_by_name(const std::string& name);
+nlohmann::json surfaces_json(const synth::Rendering& rendering);
+
+/// Pipeline settings for a sensor preset ("kinect", "abw", "laser"): the segmentation preset,
+/// with the smoothing noise model taken from it.
+PipelineSettings pipeline_preset(const std::string& preset);
+/// Applies a JSON object {"mesh": {...}, "smoothing": {...}, "segmentation": {...}, "smooth": bool}
+/// read from `path` on top of `settings`; unknown keys are errors naming the file and the key.
+void apply_config_file(const std::string& path, PipelineSettings& settings);
+
+}  // namespace rangeseg::cli
+
+namespace rangeseg::cli {
+/// Settings from --preset, --model, --config and --no-smooth.
+PipelineSettings settings_from(const std::string& preset, const std::string& model,
+                               const std::string& config, bool no_smooth);
+}  // namespace rangeseg::cli

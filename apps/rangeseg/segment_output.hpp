@@ -1,0 +1,19 @@
+// Writing a segmentation result folder (labels.png, segments.json, overlay.png, mesh.ply).
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+
+#include "rangeseg/pipeline.hpp"
+
+namespace rangeseg::cli {
+
+nlohmann::json segments_json(const Segmentation& segmentation);
+
+/// Writes the results of the pipeline's last frame into `dir` (each file atomically).
+/// `input` is the cloud the pipeline processed (for the overlay's shading).
+void write_segmentation_folder(const std::string& dir, const OrganizedCloud& input,
+                               const Pipeline& pipeline, bool write_mesh);
+
+}  // namespace rangeseg::cli

@@ -1,0 +1,44 @@
+// Segmentation (stage 4) on a real Kinect frame; mesh and normals are computed once outside.
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+#include <string>
+
+#include "rangeseg/io/pcd.hpp"
+#include "rangeseg/mesh.hpp"
+#include "rangeseg/normals.hpp"
+#include "rangeseg/segmentation.hpp"
+
+namespace {
+
+void run_segmentation(benchmark::State& state, rangeseg::RegionModel model) {
+  const std::string path = RANGESEG_SOURCE_DIR "/../shared/data/kinect/grabber_frame0.pcd";
+  if (!std::filesystem::exists(path)) {
+    state.SkipWithError(("shared data not found: " + path).c_str());
+    return;
+  }
+  const rangeseg::OrganizedCloud cloud = rangeseg::io::read_pcd(path);
+  const rangeseg::Mesh mesh = rangeseg::build_mesh(cloud);
+  const rangeseg::NormalMap normals = rangeseg::compute_normals(cloud, mesh);
+  rangeseg::SegmentationSettings settings = rangeseg::preset("kinect");
+  settings.model = model;
+  rangeseg::Segmenter segmenter;
+  rangeseg::Segmentation out;
+  for (auto _ : state) {
+    segmenter.segment(cloud, mesh, normals, settings, out);
+    benchmark::DoNotOptimize(out.labels.row(0));
+  }
+  state.counters["segments"] = static_cast<double>(out.segments.size());
+}
+
+void BM_SegmentPlanes(benchmark::State& state) {
+  run_segmentation(state, rangeseg::RegionModel::plane);
+}
+void BM_SegmentSmooth(benchmark::State& state) {
+  run_segmentation(state, rangeseg::RegionModel::smooth);
+}
+
+}  // namespace
+
+BENCHMARK(BM_SegmentPlanes)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SegmentSmooth)->Unit(benchmark::kMillisecond);

@@ -1,0 +1,59 @@
+// PCD (Point Cloud Library's "Point Cloud Data" format) reading and writing.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "rangeseg/cloud.hpp"
+
+namespace rangeseg::io {
+
+/// The three PCD data encodings. `binary_compressed` is LZF-compressed structure-of-arrays data.
+enum class PcdEncoding { ascii, binary, binary_compressed };
+
+/// What a PCD header declared, reported by the readers.
+struct PcdInfo {
+  std::string version;  ///< as in the file ("0.7", ".7"); empty if there is no VERSION line
+  std::vector<std::string> fields;  ///< field names in file order, e.g. {"x", "y", "z", "rgba"}
+  std::string fields_summary;       ///< the names joined by spaces, e.g. "x y z rgba"
+  int width = 0, height = 0;        ///< grid size; height 1 = unorganized
+  std::uint64_t points = 0;         ///< width * height
+  PcdEncoding encoding = PcdEncoding::binary;
+};
+
+/// Reads a PCD file (VERSION 0.7 and older headers; DATA ascii, binary or binary_compressed;
+/// any field order; TYPE F/U/I with SIZE 1/2/4/8; COUNT > 1 allowed).
+/// Fields used: x, y, z (required, metres), `rgb` (packed 0x00RRGGBB in a float or U4) or `rgba`
+/// (U4 0xAARRGGBB) -> r, g, b planes, `intensity` (any numeric type, converted to float) and
+/// `label` (-> label plane). Every other field is skipped. Values are kept bit-exact (a NaN in the
+/// file stays that NaN); a point is invalid when x, y or z is not finite.
+/// Throws std::runtime_error naming the file and the problem for any malformed input, and never
+/// allocates more than the file size can justify.
+OrganizedCloud read_pcd(const std::string& path, PcdInfo* info = nullptr);
+
+/// Same as read_pcd for a file already in memory; `name` is used in error messages.
+OrganizedCloud parse_pcd(const std::uint8_t* data, std::size_t size, const std::string& name,
+                         PcdInfo* info = nullptr);
+
+struct PcdWriteOptions {
+  PcdEncoding encoding = PcdEncoding::binary;
+  /// Additional F4 fields written after the cloud's own, e.g. {"normal_x", &nx}. Each plane
+  /// must have the cloud's width and height (std::invalid_argument otherwise).
+  std::vector<std::pair<std::string, const FloatPlane*>> extra_float_fields{};
+};
+
+/// Encodes a cloud as a PCD v0.7 file: fields x y z (F4), then `intensity` (F4), `rgb` (F4
+/// holding the bits 0x00RRGGBB, as PCL writes it) and `label` (U4, the int32 bits) when the
+/// cloud has them, then the extra fields. WIDTH/HEIGHT are the cloud's. Reading the result back
+/// gives every plane bit-exact for all three encodings.
+std::vector<std::uint8_t> encode_pcd(const OrganizedCloud& cloud,
+                                     const PcdWriteOptions& options = {});
+
+/// encode_pcd, then io::write_file_atomic. Throws std::runtime_error naming the file on failure.
+void write_pcd(const std::string& path, const OrganizedCloud& cloud,
+               const PcdWriteOptions& options = {});
+
+}  // namespace rangeseg::io

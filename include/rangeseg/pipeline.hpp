@@ -1,0 +1,59 @@
+// The whole frame: mesh, normals, smoothing and segmentation with buffers reused across frames.
+#pragma once
+
+#include "rangeseg/cloud.hpp"
+#include "rangeseg/mesh.hpp"
+#include "rangeseg/normals.hpp"
+#include "rangeseg/segmentation.hpp"
+#include "rangeseg/smoothing.hpp"
+
+namespace rangeseg {
+
+struct PipelineSettings {
+  MeshSettings mesh{};
+  NormalSettings normals{};
+  bool smooth = true;  ///< run the bilateral filter; segmentation then uses smoothed points/normals
+  SmoothingSettings smoothing{};
+  bool segment = true;
+  SegmentationSettings segmentation{};
+};
+
+/// Wall-clock time of each stage of the last frame [ms].
+struct StageTimes {
+  double mesh = 0, normals = 0, smoothing = 0, segmentation = 0, total = 0;
+};
+
+/// Runs the stages on frame after frame. It owns every intermediate buffer, so after the first
+/// frame of a given size no stage allocates (except segmentation when a frame has more regions
+/// than any before). Results stay valid until the next call of `process`. Not thread-safe.
+class Pipeline {
+ public:
+  /// Throws std::invalid_argument for invalid settings.
+  explicit Pipeline(const PipelineSettings& settings = {});
+
+  /// Processes one organized cloud. Throws std::invalid_argument for an unorganized cloud.
+  void process(const OrganizedCloud& cloud);
+
+  const PipelineSettings& settings() const { return settings_; }
+  const Mesh& mesh() const { return mesh_; }
+  const NormalMap& raw_normals() const { return raw_normals_; }
+  /// Smoothed points and normals, or the input and raw normals when smoothing is off.
+  const OrganizedCloud& cloud() const { return settings_.smooth ? smoothed_cloud_ : *input_; }
+  const NormalMap& normals() const { return settings_.smooth ? smoothed_normals_ : raw_normals_; }
+  const Segmentation& segmentation() const { return segmentation_; }
+  const StageTimes& times() const { return times_; }
+
+ private:
+  PipelineSettings settings_;
+  const OrganizedCloud* input_ = nullptr;
+  Mesh mesh_;
+  NormalMap raw_normals_;
+  Smoother smoother_;
+  OrganizedCloud smoothed_cloud_;
+  NormalMap smoothed_normals_;
+  Segmenter segmenter_;
+  Segmentation segmentation_;
+  StageTimes times_;
+};
+
+}  // namespace rangeseg

@@ -1,0 +1,179 @@
+// Plane polygons (paper, Fig. 1d): the outline of every planar segment as closed polygons on its
+// fitted plane (outer boundary and holes), simplified, with area, perimeter and convex hull.
+//
+// A mesh face belongs to segment L when all its corners carry label L. The boundary of the
+// segment is the set of edges used by exactly one of its faces; they are chained into closed
+// loops. Where two loops touch in one vertex (a "pinch"), each loop turns into the tightest
+// wedge of the segment at that vertex and a walk that visits a vertex twice is cut there, so
+// every loop visits each vertex at most once and loops never cross.
+//
+// Loop vertices are mesh vertices projected onto the segment's plane along their viewing ray
+// (from `PolygonSettings::viewpoint`): the projection of the pixel grid onto a plane is a
+// homography, so depth noise does not fold the outline. Rays that meet the plane at more than
+// ~84 degrees from its normal fall back to the orthogonal projection.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rangeseg/cloud.hpp"
+#include "rangeseg/mesh.hpp"
+#include "rangeseg/segmentation.hpp"
+
+namespace rangeseg {
+
+/// An orthonormal 2D frame on a plane. A point with plane coordinates (x, y) is the camera-frame
+/// point origin + x e1 + y e2; a camera-frame point p on the plane has x = (p - origin) . e1,
+/// y = (p - origin) . e2. e1 x e2 = normal (the segment's normal, facing the camera), so seen
+/// from the camera (e1, e2) is a right-handed frame: counter-clockwise in 2D is counter-clockwise
+/// on the image. e1 is the camera's x axis (image right) projected onto the plane; for planes
+/// nearly perpendicular to it, e2 is the camera's -y axis (image up) projected instead.
+struct PlaneFrame {
+  std::array<double, 3> origin{};  ///< plane point closest to the segment centroid [m]
+  std::array<double, 3> normal{};  ///< unit, facing the camera
+  std::array<double, 3> e1{};      ///< unit, in the plane
+  std::array<double, 3> e2{};      ///< unit, in the plane, normal x e1
+  double offset = 0;               ///< normal . x + offset = 0 [m]
+};
+
+/// Settings of `PolygonExtractor::extract`.
+struct PolygonSettings {
+  /// Douglas-Peucker tolerance: max distance of a dropped boundary vertex from the simplified
+  /// loop [m]. The tolerance used for a loop is the larger of this and
+  /// `simplify_tolerance_pixels` pixel footprints. 0 and 0 = no simplification.
+  double simplify_tolerance = 0.01;
+  /// Depth-aware part of the tolerance, in pixel footprints at the loop (one footprint = mean
+  /// length of the loop's mesh boundary edges) [dimensionless]. The mesh outline is a staircase
+  /// on the pixel grid whose steps are up to one footprint, plus ~1 pixel of edge dropouts.
+  double simplify_tolerance_pixels = 1.5;
+  /// Compute a convex hull per segment (Andrew's monotone chain on the boundary vertices).
+  bool convex_hull = true;
+  /// Segments with fewer pixels are skipped [pixels].
+  int min_segment_pixels = 0;
+  /// Only segments with SegmentModel::plane (smooth segments are curved: their plane is a fit).
+  bool planes_only = true;
+  /// Holes and further outer loops (islands) whose area in the image is smaller are dropped
+  /// (e.g. single dropped pixels) [pixel^2]; the largest outer loop is always kept. 0 keeps all.
+  double min_loop_pixels = 8.0;
+  /// Sensor origin for the ray projection [m], camera frame.
+  std::array<float, 3> viewpoint{0.0f, 0.0f, 0.0f};
+};
+
+/// One closed loop, vertices [first, first + count) of the PolygonSet point arrays, without
+/// repeating the first vertex at the end. Outer loops run counter-clockwise in the plane frame
+/// (positive area), holes clockwise.
+struct PolygonLoop {
+  int segment = 0;    ///< index into PolygonSet::segments
+  int label = 0;      ///< segment label (Segmentation::labels value)
+  bool is_hole = false;
+  int parent = -1;    ///< holes: index in PolygonSet::loops of the enclosing outer loop; else -1
+  int first = 0;      ///< first vertex in points3d / points2d / pixels
+  int count = 0;      ///< number of vertices (>= 3)
+  double area = 0;       ///< |area| of the simplified loop [m^2]
+  double perimeter = 0;  ///< of the simplified loop [m]
+  double raw_area = 0;   ///< |area| of the unsimplified mesh boundary [m^2]
+  double raw_perimeter = 0;  ///< of the unsimplified mesh boundary [m] (a staircase: longer)
+  int raw_count = 0;         ///< vertices of the unsimplified loop
+  double tolerance = 0;      ///< simplification tolerance used [m] (0: kept unsimplified)
+};
+
+/// Per segment: its frame, loops, hull and areas.
+struct SegmentPolygons {
+  int label = 0;
+  PlaneFrame frame;
+  int first_loop = 0;  ///< loops[first_loop] is the outer loop with the largest area
+  int loop_count = 0;  ///< loops of this segment (outer loops each followed by their holes)
+  int hull_first = 0;  ///< range into hull_points2d / hull_points3d / hull_pixels (CCW)
+  int hull_count = 0;
+  double area = 0;       ///< outer loops minus holes, simplified [m^2]
+  double raw_area = 0;   ///< the same for the mesh boundary (= projected mesh area) [m^2]
+  double perimeter = 0;  ///< sum over all loops, simplified [m]
+  double hull_area = 0;       ///< [m^2]
+  double hull_perimeter = 0;  ///< [m]
+};
+
+/// All polygons of one frame in flat arrays (no container per polygon).
+struct PolygonSet {
+  int width = 0, height = 0;  ///< image size the pixels refer to
+  std::vector<SegmentPolygons> segments;  ///< processed segments, by label ascending
+  std::vector<PolygonLoop> loops;
+  std::vector<std::array<float, 3>> points3d;  ///< on the plane, camera frame [m]
+  std::vector<std::array<float, 2>> points2d;  ///< plane frame (PlaneFrame) [m]
+  std::vector<std::array<float, 2>> pixels;    ///< image (u, v) of the mesh vertex [pixel]
+  std::vector<std::array<float, 3>> hull_points3d;
+  std::vector<std::array<float, 2>> hull_points2d;
+  std::vector<std::array<float, 2>> hull_pixels;
+};
+
+/// Computes plane polygons frame after frame. Reusing one extractor and one PolygonSet for a
+/// stream of frames of one size allocates nothing after the first frames (buffers only grow).
+/// Not thread-safe; use one per thread.
+class PolygonExtractor {
+ public:
+  PolygonExtractor();
+  ~PolygonExtractor();
+  PolygonExtractor(PolygonExtractor&&) noexcept;
+  PolygonExtractor& operator=(PolygonExtractor&&) noexcept;
+
+  /// `cloud` is the cloud the segmentation was computed on (e.g. Pipeline::cloud()), `mesh` its
+  /// mesh. Throws std::invalid_argument for mismatched sizes or invalid settings.
+  void extract(const OrganizedCloud& cloud, const Mesh& mesh, const Segmentation& segmentation,
+               const PolygonSettings& settings, PolygonSet& out);
+
+  struct Scratch;
+
+ private:
+  std::unique_ptr<Scratch> scratch_;
+};
+
+/// One-shot extraction (allocates its scratch buffers).
+PolygonSet extract_polygons(const OrganizedCloud& cloud, const Mesh& mesh,
+                            const Segmentation& segmentation, const PolygonSettings& settings = {});
+
+/// The pixel coordinates of loop `loop` (closed = the caller passes closed=true to
+/// draw_polyline), into `out` (reused).
+void loop_pixels(const PolygonSet& polygons, int loop, std::vector<std::array<float, 2>>& out);
+/// The same for the convex hull of segment `segment` (index into PolygonSet::segments).
+void hull_pixels(const PolygonSet& polygons, int segment, std::vector<std::array<float, 2>>& out);
+
+/// Convex hull of 2D points (Andrew's monotone chain), counter-clockwise, without collinear
+/// points; fewer than 3 distinct points give those points. O(n log n).
+void convex_hull(const std::vector<std::array<float, 2>>& points,
+                 std::vector<std::array<float, 2>>& hull);
+
+/// Loops in flat arrays: loop i is points[first[i] .. first[i] + count[i]); outer loops
+/// counter-clockwise, holes clockwise (negative area).
+struct Polygons2D {
+  std::vector<std::array<float, 2>> points;
+  std::vector<int> first;
+  std::vector<int> count;
+  std::vector<std::uint8_t> is_hole;
+};
+
+/// Concave hull ("grid alpha shape") of a 2D point set without a mesh, e.g. a segment given as
+/// points. The points are binned into square cells of side alpha / 2; the shape is the union of
+/// occupied cells closed morphologically with a 3x3 structuring element (gaps up to ~alpha are
+/// bridged, so alpha should be ~2-3 times the point spacing), and its boundary is traced and
+/// simplified with tolerance alpha / 4. Every point lies inside or within alpha / 2 * sqrt(2)
+/// of the result; concavities and holes wider than ~1.5 alpha are kept. Cost O(n + cells) with
+/// cells = area of the bounding box / (alpha / 2)^2 (throws std::invalid_argument above 2^26
+/// cells or for alpha <= 0). Several components give several outer loops.
+void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha,
+                  Polygons2D& out);
+
+/// Triangulates every outer loop with its holes (holes bridged to the outer loop, then ear
+/// clipping) into `triangles`: vertex index triples into PolygonSet::points3d/points2d,
+/// counter-clockwise in the plane frame (seen from the camera).
+void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int, 3>>& triangles);
+
+/// Writes the polygons as a Wavefront OBJ: one object `segment_<label>` per segment with the
+/// simplified loop vertices (`v`, metres, camera frame) and the faces of
+/// `triangulate_polygons` (`f`), written atomically. Throws std::runtime_error naming the file.
+void write_polygons_obj(const std::string& path, const PolygonSet& polygons);
+/// The OBJ text of write_polygons_obj.
+std::string polygons_to_obj(const PolygonSet& polygons);
+
+}  // namespace rangeseg

@@ -1,0 +1,135 @@
+// Stage 4 of Holz & Behnke (paper, Sec. III-D): region growing over the mesh 1-ring with an
+// exchangeable region model, followed by plane refitting, merging, small-region removal and
+// re-assignment of boundary points.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string_view>
+#include <vector>
+
+#include "rangeseg/cloud.hpp"
+#include "rangeseg/image.hpp"
+#include "rangeseg/mesh.hpp"
+#include "rangeseg/normals.hpp"
+
+namespace rangeseg {
+
+/// The region model a segment is grown with.
+enum class RegionModel : std::uint8_t {
+  /// Planes: a point joins when its normal is within `max_normal_angle` of the region's mean
+  /// normal and its distance to the region's plane (through the centroid, with the mean normal)
+  /// is at most `max_distance_sigmas` * sigma(z).
+  plane,
+  /// Regions of local surface continuity: a neighbour joins when its normal is within
+  /// `max_smooth_angle` of the current point's normal and its curvature is at most
+  /// `max_curvature`. There is no global model, so curved surfaces form one segment.
+  smooth,
+};
+using SegmentModel = RegionModel;
+
+/// Axial (depth) noise of the sensor, sigma(z) = a + b (z - z0)^2 [m] at depth z [m]. The
+/// default is the structured-light (Kinect / PrimeSense) model of Khoshelham & Elberink (2012).
+struct SensorNoise {
+  double a = 0.0012;  ///< [m]
+  double b = 0.0019;  ///< [1/m]
+  double z0 = 0.4;    ///< [m]
+  double sigma(double z) const { return a + b * (z - z0) * (z - z0); }
+};
+
+/// Settings of `segment`. Distances scale with the sensor noise, so one setting serves the whole
+/// depth range of a sensor; see `preset` for physically motivated values per sensor.
+struct SegmentationSettings {
+  RegionModel model = RegionModel::plane;
+  SensorNoise noise{};
+
+  // --- region growing ---
+  /// plane: max angle between a point's normal and the region's mean normal [rad] (25 deg).
+  /// Generous because 1-ring normals of raw data are noisy; the distance test does the work.
+  double max_normal_angle = 0.4363;
+  /// plane: max point-to-plane distance in multiples of sigma(z) of the point (k, dimensionless)
+  double max_distance_sigmas = 3.0;
+  /// smooth: max angle between neighbouring normals [rad] (8 deg)
+  double max_smooth_angle = 0.1396;
+  /// smooth: points with larger curvature are neither seeds nor added [1/m]
+  double max_curvature = 50.0;
+  /// Pixels with larger curvature are not used as seeds [1/m] (both models; inf = all).
+  double max_seed_curvature = 1e30;
+
+  // --- post-processing ---
+  /// Segments with fewer pixels are removed (their pixels become unlabelled and may then be
+  /// re-assigned to an adjacent plane) [pixels].
+  int min_region_size = 100;
+  /// plane: merge adjacent segments whose least-squares planes agree.
+  bool merge_planes = true;
+  /// Max angle between the normals of two planes to merge [rad] (5 deg).
+  double merge_angle = 0.0873;
+  /// Max distance of each plane's centroid to the other plane, in multiples of sigma(z) at that
+  /// centroid (dimensionless).
+  double merge_distance_sigmas = 3.0;
+  /// plane: unlabelled valid points adjacent (mesh 1-ring) to a plane segment join the closest
+  /// adjacent plane if within `max_distance_sigmas` * sigma(z) of it.
+  bool reassign_boundary = true;
+  /// Compute Segment::area_m2 (one extra pass over the mesh faces).
+  bool compute_area = true;
+};
+
+/// Settings for a sensor: "kinect" (structured light, 0.5-6 m, sigma = 0.0012 + 0.0019 (z-0.4)^2
+/// m), "abw" (SegComp ABW structured-light scanner in metres, sigma ~ 0.5 mm over 0.8-1.1 m,
+/// dominated by the 8-bit range quantisation), "laser" (time-of-flight laser scanner, sigma ~
+/// 15 mm constant). Throws std::invalid_argument naming the valid presets for any other name.
+SegmentationSettings preset(std::string_view name);
+
+/// One segment. The plane fields are a least-squares fit over the segment's points (also for
+/// smooth segments, where they describe the best plane through a curved surface).
+struct Segment {
+  int label = 0;  ///< value in Segmentation::labels, 1..N
+  SegmentModel model = SegmentModel::plane;
+  int pixel_count = 0;               ///< [pixels]
+  double area_m2 = 0;                ///< sum of the mesh face areas split among vertices [m^2]
+  std::array<double, 3> centroid{};  ///< [m], camera frame
+  std::array<double, 3> normal{};    ///< unit, facing the camera (normal . centroid <= 0)
+  double offset = 0;                 ///< normal . x + offset = 0 [m], offset >= 0
+  double rms_residual = 0;           ///< RMS point-to-plane distance [m]
+};
+
+struct Segmentation {
+  LabelImage labels;              ///< size of the cloud; 0 = no segment, else 1..N
+  std::vector<Segment> segments;  ///< segments[i].label == i + 1, by pixel count descending
+};
+
+/// Owns the scratch buffers of segmentation (seed buckets, processing queue, per-region
+/// statistics, union-find). Reusing one Segmenter and one Segmentation for a stream of frames of
+/// the same size allocates nothing after the first frame (unless a frame has more regions than
+/// any before). Not thread-safe; use one per thread.
+class Segmenter {
+ public:
+  Segmenter();
+  ~Segmenter();
+  Segmenter(Segmenter&&) noexcept;
+  Segmenter& operator=(Segmenter&&) noexcept;
+
+  /// Segments an organized cloud with its mesh and normals (all of the same size; vertices on
+  /// the mesh's stride lattice only). Throws std::invalid_argument for mismatched sizes or
+  /// invalid settings.
+  void segment(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
+               const SegmentationSettings& settings, Segmentation& out);
+
+  struct Scratch;
+
+ private:
+  std::unique_ptr<Scratch> scratch_;
+};
+
+/// One-shot segmentation (allocates its scratch buffers; use a Segmenter for streams).
+void segment(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
+             const SegmentationSettings& settings, Segmentation& out);
+inline Segmentation segment(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
+                            const SegmentationSettings& settings = {}) {
+  Segmentation out;
+  segment(cloud, mesh, normals, settings, out);
+  return out;
+}
+
+}  // namespace rangeseg

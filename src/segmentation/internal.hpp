@@ -1,0 +1,76 @@
+// Internal: the data shared by the segmentation stages (engine, models, post-processing).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "detail/plane_stats.hpp"
+#include "rangeseg/segmentation.hpp"
+
+namespace rangeseg::seg {
+
+/// Flat views of every per-pixel input plane. All planes have the same width and therefore the
+/// same row stride, so one index i = v * stride + u addresses all of them.
+struct Frame {
+  const float* x = nullptr;
+  const float* y = nullptr;
+  const float* z = nullptr;
+  const float* nx = nullptr;
+  const float* ny = nullptr;
+  const float* nz = nullptr;
+  const float* curvature = nullptr;
+  const std::uint8_t* edges = nullptr;
+  const std::uint8_t* faces = nullptr;  ///< face_bits per cell (top-left pixel)
+  std::int32_t* labels = nullptr;
+  int width = 0, height = 0;
+  std::ptrdiff_t stride = 0;  ///< [elements]
+  int pixel_stride = 1;       ///< mesh lattice step s
+  /// Index offset of the 8 mesh neighbour directions (kNeighbourDu/Dv, scaled by s).
+  std::array<std::ptrdiff_t, 8> neighbour_offset{};
+};
+
+}  // namespace rangeseg::seg
+
+namespace rangeseg {
+
+struct Segmenter::Scratch {
+  // seeds
+  std::vector<std::int32_t> candidate_pixel;
+  std::vector<std::uint16_t> candidate_key;
+  std::vector<std::int32_t> bucket_start;
+  std::vector<std::int32_t> seeds;
+  // region growing
+  std::vector<std::int32_t> queue;
+  std::vector<detail::PlaneStats> regions;  ///< per raw region label; [0] unused
+  // post-processing
+  std::vector<detail::PlaneFit> fits;
+  std::vector<std::int32_t> parent;  ///< union-find over raw labels
+  std::vector<std::uint64_t> adjacency;
+  std::vector<std::int32_t> remap;
+  std::vector<std::uint8_t> queued;
+  std::vector<double> area;
+  std::vector<std::int32_t> order;
+};
+
+}  // namespace rangeseg
+
+namespace rangeseg::seg {
+
+/// Fills scratch.seeds with the seed pixels in ascending curvature order (counting sort).
+void collect_seeds(const Frame& frame, const SegmentationSettings& settings,
+                   Segmenter::Scratch& scratch);
+
+/// Grows regions from the seeds; writes raw labels 1..R into frame.labels and their point
+/// statistics into scratch.regions[1..R].
+void grow_planes(const Frame& frame, const SegmentationSettings& settings,
+                 Segmenter::Scratch& scratch);
+void grow_smooth(const Frame& frame, const SegmentationSettings& settings,
+                 Segmenter::Scratch& scratch);
+
+/// Refit, merge, small-region removal, boundary re-assignment, compaction and the Segment list.
+void postprocess(const Frame& frame, const SegmentationSettings& settings,
+                 Segmenter::Scratch& scratch, Segmentation& out);
+
+}  // namespace rangeseg::seg

@@ -1,0 +1,117 @@
+// The plane region model (paper, Sec. III-D): running centroids in point and normal space.
+#include <Eigen/Eigenvalues>
+
+#include <cmath>
+#include <cstdint>
+
+#include "segmentation/region_growing.hpp"
+
+namespace rangeseg::seg {
+namespace {
+
+/// A point joins when its normal is within an angle of the region's normal and its distance to
+/// the plane through the region's centroid with that normal is within k sigma(z).
+/// The region's normal starts as the mean of its point normals (the paper's running centroid in
+/// normal space). Once the region has kPcaMinPoints points it is the least-squares (PCA) normal
+/// of the points, oriented like the mean normal: 1-ring normals carry the full sensor noise
+/// (and range quantisation) over a one-pixel baseline, while the PCA normal averages over the
+/// region's extent, so the model stops following the noise of the first few normals.
+/// The plane used by the test is refreshed after every point while the region is small and then
+/// whenever it has grown by 1/8, since a large region's plane hardly moves.
+class PlaneModel {
+ public:
+  explicit PlaneModel(const SegmentationSettings& s)
+      : cos_max_angle_(static_cast<float>(std::cos(s.max_normal_angle))),
+        k_(static_cast<float>(s.max_distance_sigmas)),
+        a_(static_cast<float>(s.noise.a)),
+        b_(static_cast<float>(s.noise.b)),
+        z0_(static_cast<float>(s.noise.z0)) {}
+
+  void init(const Frame& f, std::int32_t seed) {
+    stats_.clear();
+    snx_ = sny_ = snz_ = 0.0;
+    next_refresh_ = 0;
+    add(f, seed);
+  }
+
+  bool accepts(const Frame& f, std::int32_t /*from*/, std::int32_t q) const {
+    const float dot = nx_ * f.nx[q] + ny_ * f.ny[q] + nz_ * f.nz[q];
+    if (!(dot >= cos_max_angle_)) return false;  // also rejects NaN normals
+    const float z = f.z[q];
+    const float distance = std::fabs(nx_ * f.x[q] + ny_ * f.y[q] + nz_ * z + d_);
+    const float dz = z - z0_;
+    return distance <= k_ * (a_ + b_ * dz * dz);
+  }
+
+  void add(const Frame& f, std::int32_t q) {
+    stats_.add(f.x[q], f.y[q], f.z[q]);
+    snx_ += f.nx[q];
+    sny_ += f.ny[q];
+    snz_ += f.nz[q];
+    if (stats_.count >= next_refresh_) refresh();
+  }
+
+  const detail::PlaneStats& stats() const { return stats_; }
+
+ private:
+  static constexpr std::int64_t kPcaMinPoints = 8;
+
+  void refresh() {
+    const double norm = std::sqrt(snx_ * snx_ + sny_ * sny_ + snz_ * snz_);
+    const double inv_count = 1.0 / static_cast<double>(stats_.count);
+    double nx = snx_, ny = sny_, nz = snz_;
+    if (norm > 0) {
+      nx /= norm;
+      ny /= norm;
+      nz /= norm;
+    }
+    if (stats_.count >= kPcaMinPoints) pca_normal(inv_count, nx, ny, nz);
+    nx_ = static_cast<float>(nx);
+    ny_ = static_cast<float>(ny);
+    nz_ = static_cast<float>(nz);
+    d_ = static_cast<float>(-(nx * stats_.sx + ny * stats_.sy + nz * stats_.sz) * inv_count);
+    next_refresh_ = stats_.count < 16 ? stats_.count + 1 : stats_.count + stats_.count / 8;
+  }
+
+  /// Replaces (nx, ny, nz) by the PCA normal, oriented like it, unless the points are
+  /// (nearly) collinear.
+  void pca_normal(double inv_count, double& nx, double& ny, double& nz) const {
+    const auto& s = stats_;
+    const double mx = s.sx * inv_count, my = s.sy * inv_count, mz = s.sz * inv_count;
+    Eigen::Matrix3d cov;
+    cov << s.sxx * inv_count - mx * mx, s.sxy * inv_count - mx * my, s.sxz * inv_count - mx * mz, 0,
+        s.syy * inv_count - my * my, s.syz * inv_count - my * mz,  //
+        0, 0, s.szz * inv_count - mz * mz;
+    cov(1, 0) = cov(0, 1);
+    cov(2, 0) = cov(0, 2);
+    cov(2, 1) = cov(1, 2);
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+    solver.computeDirect(cov);
+    const Eigen::Vector3d ev = solver.eigenvalues();
+    // A strip of points one pixel wide does not define a plane: keep the mean normal.
+    if (!(ev(1) > 4.0 * ev(0)) || !(ev(1) > 0)) return;
+    Eigen::Vector3d n = solver.eigenvectors().col(0);
+    if (n(0) * nx + n(1) * ny + n(2) * nz < 0) n = -n;
+    nx = n(0);
+    ny = n(1);
+    nz = n(2);
+  }
+
+  float cos_max_angle_, k_, a_, b_, z0_;
+  detail::PlaneStats stats_;
+  double snx_ = 0, sny_ = 0, snz_ = 0;
+  std::int64_t next_refresh_ = 0;
+  float nx_ = 0, ny_ = 0, nz_ = 1, d_ = 0;
+};
+
+static_assert(RegionGrowingModel<PlaneModel>);
+
+}  // namespace
+
+void grow_planes(const Frame& frame, const SegmentationSettings& settings,
+                 Segmenter::Scratch& scratch) {
+  PlaneModel model(settings);
+  grow_regions(frame, model, scratch);
+}
+
+}  // namespace rangeseg::seg

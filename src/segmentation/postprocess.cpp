@@ -1,0 +1,293 @@
+// Post-processing of the grown regions: least-squares refit, merging of adjacent coplanar
+// segments, removal of small segments, re-assignment of boundary points, compaction.
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <numeric>
+
+#include "segmentation/internal.hpp"
+
+namespace rangeseg::seg {
+namespace {
+
+using detail::PlaneFit;
+using detail::PlaneStats;
+
+/// Regions smaller than this take no part in merging: their normals are not worth testing, and
+/// they are dissolved later and re-assigned point by point [pixels] (a 3x3 patch).
+constexpr std::int64_t kMinFitPixels = 9;
+
+std::int32_t find_root(std::vector<std::int32_t>& parent, std::int32_t a) {
+  while (parent[a] != a) {
+    parent[a] = parent[parent[a]];
+    a = parent[a];
+  }
+  return a;
+}
+
+double dot(const std::array<double, 3>& a, const std::array<double, 3>& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/// Two fitted planes describe the same surface when their normals agree within the merge angle
+/// plus the statistical uncertainty of both normals, and each centroid lies on the other plane
+/// within the sensor noise plus the error that the other normal's uncertainty causes over the
+/// distance between the centroids.
+bool same_plane(const PlaneFit& a, const PlaneFit& b, const SegmentationSettings& s) {
+  const double k = s.merge_distance_sigmas;
+  const double cos_angle = std::min(1.0, std::fabs(dot(a.normal, b.normal)));
+  const double angle = std::acos(cos_angle);
+  if (angle > s.merge_angle + k * std::hypot(a.normal_stderr, b.normal_stderr)) return false;
+  const double dx = a.centroid[0] - b.centroid[0], dy = a.centroid[1] - b.centroid[1],
+               dz = a.centroid[2] - b.centroid[2];
+  const double lever2 = dx * dx + dy * dy + dz * dz;
+  const auto on_plane = [&](const PlaneFit& point_of, const PlaneFit& plane) {
+    const double sigma = s.noise.sigma(point_of.centroid[2]);
+    const double tol2 =
+        k * k * (sigma * sigma + lever2 * plane.normal_stderr * plane.normal_stderr);
+    const double d =
+        plane.distance(point_of.centroid[0], point_of.centroid[1], point_of.centroid[2]);
+    return d * d <= tol2;
+  };
+  return on_plane(a, b) && on_plane(b, a);
+}
+
+void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
+                           Segmenter::Scratch& s) {
+  const auto& regions = s.regions;
+  s.adjacency.clear();
+  std::uint64_t last = 0;
+  const int step = f.pixel_stride;
+  for (int v = 0; v < f.height; v += step) {
+    const std::ptrdiff_t row = v * f.stride;
+    for (int u = 0; u < f.width; u += step) {
+      const std::ptrdiff_t i = row + u;
+      const std::int32_t a = f.labels[i];
+      // Directions 0..3 (right, down-right, down, down-left) visit every undirected edge once.
+      unsigned mask = f.edges[i] & 0x0Fu;
+      if (a == 0 || mask == 0 || regions[a].count < kMinFitPixels) continue;
+      while (mask != 0) {
+        const int k = std::countr_zero(mask);
+        mask &= mask - 1;
+        const std::int32_t b = f.labels[i + f.neighbour_offset[k]];
+        if (b == 0 || b == a || regions[b].count < kMinFitPixels) continue;
+        const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) |
+                                  static_cast<std::uint32_t>(std::max(a, b));
+        if (key != last) s.adjacency.push_back(key);
+        last = key;
+      }
+    }
+  }
+  std::sort(s.adjacency.begin(), s.adjacency.end());
+  s.adjacency.erase(std::unique(s.adjacency.begin(), s.adjacency.end()), s.adjacency.end());
+
+  for (const std::uint64_t key : s.adjacency) {
+    std::int32_t a = find_root(s.parent, static_cast<std::int32_t>(key >> 32));
+    std::int32_t b = find_root(s.parent, static_cast<std::int32_t>(key & 0xFFFFFFFFu));
+    if (a == b || !s.fits[a].ok || !s.fits[b].ok) continue;
+    if (!same_plane(s.fits[a], s.fits[b], settings)) continue;
+    if (s.regions[a].count < s.regions[b].count) std::swap(a, b);
+    s.parent[b] = a;
+    s.regions[a].merge(s.regions[b]);
+    s.fits[a] = s.regions[a].fit();
+  }
+}
+
+/// Unlabelled valid points next to a plane segment join the adjacent plane they are closest to,
+/// if within k sigma(z) of it; newly labelled points make their neighbours candidates in turn,
+/// so dissolved small regions that lie on an adjacent plane are absorbed whole.
+void reassign_boundary_points(const Frame& f, const SegmentationSettings& settings,
+                              Segmenter::Scratch& s) {
+  const std::size_t pixels = static_cast<std::size_t>(f.stride) * f.height;
+  s.queued.assign(pixels, 0);
+  std::int32_t* const ring = s.queue.data();
+  const std::size_t capacity = s.queue.size();
+  std::size_t head = 0, size = 0;
+  const auto push = [&](std::int32_t i) {
+    s.queued[i] = 1;
+    ring[(head + size) % capacity] = i;
+    ++size;
+  };
+  const auto has_labelled_neighbour = [&](std::ptrdiff_t i) {
+    unsigned mask = f.edges[i];
+    while (mask != 0) {
+      const int k = std::countr_zero(mask);
+      mask &= mask - 1;
+      if (f.labels[i + f.neighbour_offset[k]] != 0) return true;
+    }
+    return false;
+  };
+  const int step = f.pixel_stride;
+  for (int v = 0; v < f.height; v += step) {
+    const std::ptrdiff_t row = v * f.stride;
+    for (int u = 0; u < f.width; u += step) {
+      const std::ptrdiff_t i = row + u;
+      if (f.labels[i] == 0 && f.edges[i] != 0 && has_labelled_neighbour(i)) {
+        push(static_cast<std::int32_t>(i));
+      }
+    }
+  }
+  const double k = settings.max_distance_sigmas;
+  while (size > 0) {
+    const std::int32_t q = ring[head];
+    head = (head + 1) % capacity;
+    --size;
+    s.queued[q] = 0;
+    if (f.labels[q] != 0) continue;
+    const double x = f.x[q], y = f.y[q], z = f.z[q];
+    std::int32_t best = 0;
+    double best_distance = k * settings.noise.sigma(z);
+    unsigned mask = f.edges[q];
+    while (mask != 0) {
+      const int n = std::countr_zero(mask);
+      mask &= mask - 1;
+      const std::int32_t label = f.labels[q + f.neighbour_offset[n]];
+      if (label == 0 || label == best || !s.fits[label].ok) continue;
+      const double d = std::fabs(s.fits[label].distance(x, y, z));
+      if (d <= best_distance) {
+        best_distance = d;
+        best = label;
+      }
+    }
+    if (best == 0) continue;
+    f.labels[q] = best;
+    s.regions[best].add(x, y, z);
+    mask = f.edges[q];
+    while (mask != 0) {
+      const int n = std::countr_zero(mask);
+      mask &= mask - 1;
+      const std::int32_t r = static_cast<std::int32_t>(q + f.neighbour_offset[n]);
+      if (f.labels[r] == 0 && !s.queued[r]) push(r);
+    }
+  }
+}
+
+double triangle_area(const Frame& f, std::ptrdiff_t a, std::ptrdiff_t b, std::ptrdiff_t c) {
+  const double ux = f.x[b] - f.x[a], uy = f.y[b] - f.y[a], uz = f.z[b] - f.z[a];
+  const double vx = f.x[c] - f.x[a], vy = f.y[c] - f.y[a], vz = f.z[c] - f.z[a];
+  const double cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
+  return 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+}
+
+/// Adds a third of every triangle's area (a quarter of every quad's) to each labelled corner.
+void accumulate_areas(const Frame& f, Segmenter::Scratch& s) {
+  const std::uint8_t* const faces = f.faces;
+  const int step = f.pixel_stride;
+  const std::ptrdiff_t right = step, down = step * f.stride;
+  double* const area = s.area.data();
+  const std::int32_t* const labels = f.labels;
+  for (int v = 0; v + step < f.height; v += step) {
+    const std::ptrdiff_t row = v * f.stride;
+    for (int u = 0; u + step < f.width; u += step) {
+      const std::ptrdiff_t a = row + u, b = a + right, c = a + down, d = c + right;
+      const std::uint8_t bits = faces[a];
+      if (bits == 0) continue;
+      const std::int32_t la = labels[a], lb = labels[b], lc = labels[c], ld = labels[d];
+      if ((la | lb | lc | ld) == 0) continue;
+      const auto credit = [&](double face_area, int corners, std::int32_t l0, std::int32_t l1,
+                              std::int32_t l2, std::int32_t l3) {
+        const double share = face_area / corners;
+        area[l0] += share;
+        area[l1] += share;
+        area[l2] += share;
+        if (corners == 4) area[l3] += share;
+      };
+      if (bits & face_bits::quad) {
+        credit(triangle_area(f, a, c, d) + triangle_area(f, a, d, b), 4, la, lc, ld, lb);
+      } else if (bits & face_bits::diag_bc) {
+        if (bits & face_bits::tri0) credit(triangle_area(f, a, c, b), 3, la, lc, lb, 0);
+        if (bits & face_bits::tri1) credit(triangle_area(f, b, c, d), 3, lb, lc, ld, 0);
+      } else {
+        if (bits & face_bits::tri0) credit(triangle_area(f, a, d, b), 3, la, ld, lb, 0);
+        if (bits & face_bits::tri1) credit(triangle_area(f, a, c, d), 3, la, lc, ld, 0);
+      }
+    }
+  }
+  area[0] = 0;  // unlabelled corners collected here
+}
+
+}  // namespace
+
+void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s,
+                 Segmentation& out) {
+  const auto region_count = static_cast<std::int32_t>(s.regions.size());  // incl. label 0
+  const bool planes = settings.model == RegionModel::plane;
+
+  s.parent.resize(region_count);
+  std::iota(s.parent.begin(), s.parent.end(), 0);
+  s.fits.assign(region_count, PlaneFit{});
+  // Small-region removal first: the points between two pieces of one surface (e.g. the steps of
+  // a disparity-quantised wall) often form tiny regions of their own, which would keep the
+  // pieces from being adjacent. Raw labels map to themselves or to 0.
+  s.remap.assign(region_count, 0);
+  for (std::int32_t r = 1; r < region_count; ++r) {
+    if (s.regions[r].count >= settings.min_region_size) {
+      s.remap[r] = r;
+      if (!s.fits[r].ok) s.fits[r] = s.regions[r].fit();
+    }
+  }
+  const std::size_t pixels = static_cast<std::size_t>(f.stride) * f.height;
+  std::int32_t* const labels = f.labels;
+  const std::int32_t* const remap = s.remap.data();
+  for (std::size_t i = 0; i < pixels; ++i) labels[i] = remap[labels[i]];
+
+  if (planes && settings.reassign_boundary) reassign_boundary_points(f, settings, s);
+  if (planes && settings.merge_planes) {
+    for (std::int32_t r = 1; r < region_count; ++r) {
+      if (s.remap[r] == r) s.fits[r] = s.regions[r].fit();
+    }
+    merge_adjacent_planes(f, settings, s);
+    for (std::int32_t r = 1; r < region_count; ++r) {
+      if (s.remap[r] == r) s.remap[r] = find_root(s.parent, r);
+    }
+    for (std::size_t i = 0; i < pixels; ++i) labels[i] = remap[labels[i]];
+    for (std::int32_t r = 1; r < region_count; ++r) {
+      if (s.remap[r] != r) s.remap[r] = 0;
+    }
+  }
+
+  // Compact labels 1..N by size, descending (ties by raw label for determinism).
+  s.order.clear();
+  for (std::int32_t r = 1; r < region_count; ++r) {
+    if (s.remap[r] == r) s.order.push_back(r);
+  }
+  std::sort(s.order.begin(), s.order.end(), [&](std::int32_t a, std::int32_t b) {
+    const auto ca = s.regions[a].count, cb = s.regions[b].count;
+    return ca != cb ? ca > cb : a < b;
+  });
+  std::fill(s.remap.begin(), s.remap.end(), 0);
+  for (std::size_t j = 0; j < s.order.size(); ++j) {
+    s.remap[s.order[j]] = static_cast<std::int32_t>(j + 1);
+  }
+  for (std::size_t i = 0; i < pixels; ++i) labels[i] = remap[labels[i]];
+
+  const std::size_t n = s.order.size();
+  s.area.assign(n + 1, 0.0);
+  if (settings.compute_area) accumulate_areas(f, s);
+
+  out.segments.resize(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    const PlaneStats& stats = s.regions[s.order[j]];
+    const PlaneFit fit = stats.fit();
+    Segment& seg = out.segments[j];
+    seg.label = static_cast<int>(j + 1);
+    seg.model = settings.model;
+    seg.pixel_count = static_cast<int>(stats.count);
+    seg.area_m2 = s.area[j + 1];
+    seg.centroid = stats.mean();
+    if (fit.ok) {
+      seg.normal = fit.normal;
+      seg.offset = fit.offset;
+      seg.rms_residual = fit.rms;
+    } else {
+      // Collinear points (a one-pixel strip) have no plane: report the plane facing the sensor.
+      const double dist = std::hypot(seg.centroid[0], seg.centroid[1], seg.centroid[2]);
+      seg.normal = {-seg.centroid[0] / dist, -seg.centroid[1] / dist, -seg.centroid[2] / dist};
+      seg.offset = dist;
+      seg.rms_residual = stats.rms_distance(seg.normal, seg.offset);
+    }
+  }
+}
+
+}  // namespace rangeseg::seg

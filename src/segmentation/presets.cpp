@@ -1,0 +1,47 @@
+// Sensor presets for segmentation. Every value follows from the sensor's noise and sampling,
+// not from any test image.
+#include <stdexcept>
+#include <string>
+
+#include "rangeseg/segmentation.hpp"
+
+namespace rangeseg {
+
+SegmentationSettings preset(std::string_view name) {
+  constexpr double deg = 3.14159265358979323846 / 180.0;
+  SegmentationSettings s;
+  if (name == "kinect") {
+    // Structured light, disparity noise: sigma grows quadratically with depth (Khoshelham &
+    // Elberink 2012). Raw 1-ring normals at 3-4 m are dominated by noise, so the angle test is
+    // loose and the depth-scaled distance test separates surfaces.
+    s.noise = {.a = 0.0012, .b = 0.0019, .z0 = 0.4};
+    s.max_normal_angle = 25 * deg;
+    s.max_distance_sigmas = 3.0;
+    s.min_region_size = 200;  // ~ a 14x14 pixel patch: 3x3 cm at 2 m
+    return s;
+  }
+  if (name == "abw") {
+    // SegComp ABW: 8-bit range over ~0.3 m, i.e. a ~1.25 mm quantisation step (sigma of a
+    // uniform step ~0.36 mm) plus sensor noise: sigma ~0.5 mm, independent of depth over the
+    // 0.8-1.1 m working range. Pixel spacing is ~0.7 mm, so a 1-ring normal sees a noise of
+    // ~sigma / spacing ~ 0.7 (35 deg, 1 sigma) from the quantisation staircase; the angle test
+    // only rejects grossly different orientations and the distance test does the rest.
+    s.noise = {.a = 0.0005, .b = 0.0, .z0 = 0.0};
+    s.max_normal_angle = 60 * deg;
+    s.max_distance_sigmas = 3.0;
+    s.min_region_size = 100;
+    return s;
+  }
+  if (name == "laser") {
+    // Time-of-flight laser scanner: range noise roughly constant, ~1-2 cm.
+    s.noise = {.a = 0.015, .b = 0.0, .z0 = 0.0};
+    s.max_normal_angle = 20 * deg;
+    s.max_distance_sigmas = 3.0;
+    s.min_region_size = 50;  // scans are sparse (e.g. 361 columns)
+    return s;
+  }
+  throw std::invalid_argument("segmentation preset \"" + std::string(name) +
+                              "\" is unknown; valid presets: kinect, abw, laser");
+}
+
+}  // namespace rangeseg

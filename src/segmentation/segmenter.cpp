@@ -1,0 +1,165 @@
+// Segmentation entry points: validation, seed ordering, and dispatch to the region models.
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "segmentation/internal.hpp"
+
+namespace rangeseg {
+namespace {
+
+void require_size(const char* what, int width, int height, const OrganizedCloud& cloud) {
+  if (width != cloud.width() || height != cloud.height()) {
+    std::ostringstream msg;
+    msg << "segment: " << what << " is " << width << "x" << height << " but the cloud is "
+        << cloud.width() << "x" << cloud.height();
+    throw std::invalid_argument(msg.str());
+  }
+}
+
+void require(bool ok, const char* field, double value, const char* condition) {
+  if (!ok) {
+    std::ostringstream msg;
+    msg << "SegmentationSettings::" << field << " = " << value << " must be " << condition;
+    throw std::invalid_argument(msg.str());
+  }
+}
+
+void validate(const SegmentationSettings& s) {
+  constexpr double pi = 3.14159265358979323846;
+  require(std::isfinite(s.noise.a) && s.noise.a > 0, "noise.a", s.noise.a, "finite and > 0");
+  require(std::isfinite(s.noise.b) && s.noise.b >= 0, "noise.b", s.noise.b, "finite and >= 0");
+  require(std::isfinite(s.noise.z0), "noise.z0", s.noise.z0, "finite");
+  require(s.max_normal_angle > 0 && s.max_normal_angle <= pi, "max_normal_angle",
+          s.max_normal_angle, "in (0, pi] rad");
+  require(s.max_distance_sigmas > 0 && std::isfinite(s.max_distance_sigmas), "max_distance_sigmas",
+          s.max_distance_sigmas, "finite and > 0");
+  require(s.max_smooth_angle > 0 && s.max_smooth_angle <= pi, "max_smooth_angle",
+          s.max_smooth_angle, "in (0, pi] rad");
+  require(s.max_curvature > 0, "max_curvature", s.max_curvature, "> 0");
+  require(s.max_seed_curvature > 0, "max_seed_curvature", s.max_seed_curvature, "> 0");
+  require(s.min_region_size >= 1, "min_region_size", s.min_region_size, ">= 1");
+  require(s.merge_angle > 0 && s.merge_angle <= pi, "merge_angle", s.merge_angle, "in (0, pi] rad");
+  require(s.merge_distance_sigmas > 0 && std::isfinite(s.merge_distance_sigmas),
+          "merge_distance_sigmas", s.merge_distance_sigmas, "finite and > 0");
+}
+
+/// Seed order key: the bits of a non-negative float are monotone in its value, so the exponent
+/// and top 6 mantissa bits give 64 buckets per octave (a piecewise-linear log2) without a log.
+constexpr int kSeedBuckets = 2048;
+constexpr float kSeedKeyFloor = 1e-3f;  // [1/m]; all smaller curvatures share bucket 0
+
+inline std::uint32_t float_key(float c) { return std::bit_cast<std::uint32_t>(c) >> 17; }
+
+}  // namespace
+
+namespace seg {
+
+void collect_seeds(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s) {
+  float max_curvature = static_cast<float>(std::fmin(settings.max_seed_curvature, 3e38));
+  if (settings.model == RegionModel::smooth) {
+    max_curvature = std::fmin(max_curvature, static_cast<float>(settings.max_curvature));
+  }
+  const std::uint32_t floor_key = float_key(kSeedKeyFloor);
+  s.candidate_pixel.clear();
+  s.candidate_key.clear();
+  s.bucket_start.assign(kSeedBuckets + 1, 0);
+  std::int32_t* const count = s.bucket_start.data() + 1;
+  const int step = f.pixel_stride;
+  for (int v = 0; v < f.height; v += step) {
+    const std::ptrdiff_t row = v * f.stride;
+    for (int u = 0; u < f.width; u += step) {
+      const std::ptrdiff_t i = row + u;
+      const float c = f.curvature[i];
+      // A seed needs a point and a normal; NaN curvature fails the comparison.
+      if (!(c <= max_curvature) || !std::isfinite(f.nz[i]) || !std::isfinite(f.z[i])) continue;
+      const std::uint32_t key = float_key(std::fabs(c));
+      const std::uint32_t bucket =
+          key <= floor_key ? 0u : std::min<std::uint32_t>(key - floor_key, kSeedBuckets - 1);
+      ++count[bucket];
+      s.candidate_pixel.push_back(static_cast<std::int32_t>(i));
+      s.candidate_key.push_back(static_cast<std::uint16_t>(bucket));
+    }
+  }
+  for (int b = 0; b < kSeedBuckets; ++b) s.bucket_start[b + 1] += s.bucket_start[b];
+  s.seeds.resize(s.candidate_pixel.size());
+  std::int32_t* const next = s.bucket_start.data();
+  for (std::size_t j = 0; j < s.candidate_pixel.size(); ++j) {
+    s.seeds[next[s.candidate_key[j]]++] = s.candidate_pixel[j];
+  }
+}
+
+}  // namespace seg
+
+Segmenter::Segmenter() : scratch_(std::make_unique<Scratch>()) {}
+Segmenter::~Segmenter() = default;
+Segmenter::Segmenter(Segmenter&&) noexcept = default;
+Segmenter& Segmenter::operator=(Segmenter&&) noexcept = default;
+
+void Segmenter::segment(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
+                        const SegmentationSettings& settings, Segmentation& out) {
+  require_organized(cloud, "segment");
+  require_size("the mesh", mesh.width(), mesh.height(), cloud);
+  require_size("the mesh faces", mesh.faces.width(), mesh.faces.height(), cloud);
+  require_size("the normal map (nz)", normals.nz.width(), normals.nz.height(), cloud);
+  require_size("the normal map (nx)", normals.nx.width(), normals.nx.height(), cloud);
+  require_size("the normal map (ny)", normals.ny.width(), normals.ny.height(), cloud);
+  require_size("the curvature plane", normals.curvature.width(), normals.curvature.height(), cloud);
+  if (mesh.pixel_stride < 1) {
+    throw std::invalid_argument(
+        "segment: mesh.pixel_stride = " + std::to_string(mesh.pixel_stride) + " must be >= 1");
+  }
+  validate(settings);
+  if (!scratch_) scratch_ = std::make_unique<Scratch>();
+
+  out.labels.resize(cloud.width(), cloud.height(), 0);
+  seg::Frame f;
+  f.x = cloud.x.row(0);
+  f.y = cloud.y.row(0);
+  f.z = cloud.z.row(0);
+  f.nx = normals.nx.row(0);
+  f.ny = normals.ny.row(0);
+  f.nz = normals.nz.row(0);
+  f.curvature = normals.curvature.row(0);
+  f.edges = mesh.edges.row(0);
+  f.faces = mesh.faces.row(0);
+  f.labels = out.labels.row(0);
+  f.width = cloud.width();
+  f.height = cloud.height();
+  f.stride = cloud.z.stride();
+  f.pixel_stride = mesh.pixel_stride;
+  for (const std::ptrdiff_t stride :
+       {cloud.x.stride(), cloud.y.stride(), normals.nx.stride(), normals.ny.stride(),
+        normals.nz.stride(), normals.curvature.stride(), mesh.edges.stride(), mesh.faces.stride(),
+        out.labels.stride()}) {
+    if (stride != f.stride) {
+      throw std::invalid_argument("segment: planes of equal width have different row strides (" +
+                                  std::to_string(stride) + " vs " + std::to_string(f.stride) + ")");
+    }
+  }
+  for (int k = 0; k < 8; ++k) {
+    f.neighbour_offset[k] = static_cast<std::ptrdiff_t>(f.pixel_stride) *
+                            (kNeighbourDv[k] * f.stride + kNeighbourDu[k]);
+  }
+
+  Scratch& s = *scratch_;
+  s.queue.resize(static_cast<std::size_t>(f.stride) * f.height);
+  seg::collect_seeds(f, settings, s);
+  if (settings.model == RegionModel::plane) {
+    seg::grow_planes(f, settings, s);
+  } else {
+    seg::grow_smooth(f, settings, s);
+  }
+  seg::postprocess(f, settings, s, out);
+}
+
+void segment(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
+             const SegmentationSettings& settings, Segmentation& out) {
+  Segmenter segmenter;
+  segmenter.segment(cloud, mesh, normals, settings, out);
+}
+
+}  // namespace rangeseg

@@ -1,0 +1,368 @@
+// Stage 1: mesh construction, face extraction.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <iostream>
+#include <random>
+#include <set>
+#include <vector>
+
+#include "rangeseg/mesh.hpp"
+#include "test_util.hpp"
+
+#if __has_include("rangeseg/io/pcd.hpp")
+#include "rangeseg/io/pcd.hpp"
+#define RANGESEG_HAVE_PCD 1
+#endif
+
+namespace {
+
+using rangeseg::Mesh;
+using rangeseg::MeshSettings;
+using rangeseg::MeshType;
+using rangeseg::OrganizedCloud;
+namespace face_bits = rangeseg::face_bits;
+
+constexpr double kF = 525.0;
+const MeshType kAllTypes[] = {MeshType::quad, MeshType::left_cut, MeshType::right_cut,
+                              MeshType::adaptive};
+
+// Pinhole ray-cast: depth(u, v) returns z (NaN or <= 0 for no hit).
+OrganizedCloud render(int w, int h, const std::function<double(double, double)>& depth_of_ray) {
+  OrganizedCloud c(w, h);
+  const double cx = (w - 1) / 2.0, cy = (h - 1) / 2.0;
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      const double dx = (u - cx) / kF, dy = (v - cy) / kF;
+      const double z = depth_of_ray(dx, dy);
+      if (!(z > 0)) continue;
+      c.x(u, v) = static_cast<float>(dx * z);
+      c.y(u, v) = static_cast<float>(dy * z);
+      c.z(u, v) = static_cast<float>(z);
+    }
+  }
+  return c;
+}
+
+// Plane n . p = dist (n towards +z seen from the camera means dist > 0).
+OrganizedCloud plane(int w, int h, double nx, double ny, double nz, double dist) {
+  return render(w, h, [=](double dx, double dy) { return dist / (nx * dx + ny * dy + nz); });
+}
+
+TEST(Mesh, FullGridFaceCountsPerType) {
+  const int w = 37, h = 23;
+  const OrganizedCloud cloud = plane(w, h, 0.2, -0.1, 1.0, 1.5);
+  for (MeshType type : kAllTypes) {
+    for (int s : {1, 2, 3, 5}) {
+      const Mesh mesh = rangeseg::build_mesh(cloud, {.type = type, .pixel_stride = s});
+      const std::size_t cells = static_cast<std::size_t>((w - 1) / s) * ((h - 1) / s);
+      const std::size_t expected = type == MeshType::quad ? cells : 2 * cells;
+      EXPECT_EQ(rangeseg::count_faces(mesh), expected) << "type " << int(type) << " stride " << s;
+      // Only lattice pixels carry bits.
+      for (int v = 0; v < h; ++v) {
+        for (int u = 0; u < w; ++u) {
+          if (u % s != 0 || v % s != 0) {
+            ASSERT_EQ(mesh.faces(u, v), 0);
+            ASSERT_EQ(mesh.edges(u, v), 0);
+          }
+        }
+      }
+      rangeseg::TriangleList list;
+      rangeseg::extract_faces(mesh, false, list);
+      EXPECT_EQ(list.indices.size(), expected * list.vertices_per_face);
+      EXPECT_EQ(list.vertices_per_face, type == MeshType::quad ? 4 : 3);
+    }
+  }
+}
+
+TEST(Mesh, DiagonalChoice) {
+  // A plane seen at a slant: the a-d and b-c diagonals differ in length; adaptive picks the
+  // shorter.
+  const OrganizedCloud cloud = plane(20, 20, 0.7, 0.7, 1.0, 1.0);
+  const Mesh left = rangeseg::build_mesh(cloud, {.type = MeshType::left_cut});
+  const Mesh right = rangeseg::build_mesh(cloud, {.type = MeshType::right_cut});
+  const Mesh adaptive = rangeseg::build_mesh(cloud, {.type = MeshType::adaptive});
+  for (int v = 0; v < 19; ++v) {
+    for (int u = 0; u < 19; ++u) {
+      ASSERT_EQ(left.faces(u, v), face_bits::tri0 | face_bits::tri1 | face_bits::diag_bc);
+      ASSERT_EQ(right.faces(u, v), face_bits::tri0 | face_bits::tri1);
+      auto p = [&](int du, int dv) {
+        return std::array<double, 3>{cloud.x(u + du, v + dv), cloud.y(u + du, v + dv),
+                                     cloud.z(u + du, v + dv)};
+      };
+      auto d2 = [](std::array<double, 3> a, std::array<double, 3> b) {
+        return (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+               (a[2] - b[2]) * (a[2] - b[2]);
+      };
+      const bool bc_shorter = d2(p(1, 0), p(0, 1)) < d2(p(0, 0), p(1, 1));
+      ASSERT_EQ((adaptive.faces(u, v) & face_bits::diag_bc) != 0, bc_shorter);
+    }
+  }
+}
+
+TEST(Mesh, DepthJumpIsCut) {
+  // Box face at 1 m in front of a wall at 2 m.
+  const int w = 80, h = 60;
+  OrganizedCloud cloud = render(w, h, [](double dx, double dy) {
+    return (std::abs(dx) < 0.03 && std::abs(dy) < 0.02) ? 1.0 : 2.0;
+  });
+  for (MeshType type : kAllTypes) {
+    const Mesh mesh = rangeseg::build_mesh(cloud, {.type = type});
+    rangeseg::TriangleList list;
+    rangeseg::extract_faces(mesh, false, list);
+    std::size_t near_faces = 0;
+    for (std::size_t f = 0; f < list.indices.size(); f += list.vertices_per_face) {
+      int n_near = 0;
+      for (int k = 0; k < list.vertices_per_face; ++k) {
+        const int i = list.indices[f + k];
+        n_near += cloud.z(i % w, i / w) < 1.5f;
+      }
+      ASSERT_TRUE(n_near == 0 || n_near == list.vertices_per_face) << "face straddles the jump";
+      near_faces += n_near > 0;
+    }
+    EXPECT_GT(near_faces, 0u);
+    // Edge masks never cross the jump either.
+    for (int v = 0; v < h; ++v) {
+      for (int u = 0; u < w; ++u) {
+        for (int k = 0; k < 8; ++k) {
+          if (mesh.edges(u, v) >> k & 1) {
+            ASSERT_EQ(cloud.z(u, v) < 1.5f,
+                      cloud.z(u + rangeseg::kNeighbourDu[k], v + rangeseg::kNeighbourDv[k]) < 1.5f);
+          }
+        }
+      }
+    }
+  }
+}
+
+// Noisy plane with holes: the per-cell result must match a slow double-precision re-derivation
+// of the rules in the header (except for edges within float rounding of a threshold).
+TEST(Mesh, MatchesSlowReference) {
+  const int w = 64, h = 48;
+  OrganizedCloud cloud = plane(w, h, 0.3, 0.2, 1.0, 2.0);
+  std::mt19937 rng(7);
+  std::normal_distribution<float> noise(0.0f, 0.01f);
+  std::uniform_real_distribution<float> uni(0.0f, 1.0f);
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      const float k = 1.0f + noise(rng) / cloud.z(u, v);
+      cloud.x(u, v) *= k, cloud.y(u, v) *= k, cloud.z(u, v) *= k;
+      if (uni(rng) < 0.05f) cloud.x(u, v) = cloud.y(u, v) = cloud.z(u, v) = NAN;
+    }
+  }
+  for (MeshType type : kAllTypes) {
+    for (int s : {1, 2}) {
+      const MeshSettings settings{
+          .type = type, .viewpoint = {0.01f, -0.02f, 0.0f}, .pixel_stride = s};
+      const Mesh mesh = rangeseg::build_mesh(cloud, settings);
+      int mismatches = 0, cells = 0, ambiguous = 0, partial = 0;
+      for (int v = 0; v + s < h; v += s) {
+        for (int u = 0; u + s < w; u += s) {
+          std::array<std::array<double, 3>, 4> p;
+          std::array<bool, 4> ok;
+          const int pu[4] = {u, u + s, u, u + s}, pv[4] = {v, v, v + s, v + s};
+          for (int i = 0; i < 4; ++i) {
+            p[i] = {cloud.x(pu[i], pv[i]), cloud.y(pu[i], pv[i]), cloud.z(pu[i], pv[i])};
+            ok[i] = cloud.valid(pu[i], pv[i]);
+          }
+          bool near_threshold = false;
+          auto edge = [&](int i, int j) {
+            if (!ok[i] || !ok[j]) return false;
+            double e[3], r[3], len2 = 0, r2 = 0, dot = 0, q2 = 0;
+            for (int k = 0; k < 3; ++k) {
+              e[k] = p[j][k] - p[i][k];
+              r[k] = p[i][k] - settings.viewpoint[k];
+              const double q = p[j][k] - settings.viewpoint[k];
+              len2 += e[k] * e[k], r2 += r[k] * r[k], dot += e[k] * r[k], q2 += q * q;
+            }
+            const double range = std::sqrt(std::max(r2, q2));
+            const double eps = settings.max_edge_a + settings.max_edge_b * s * range +
+                               settings.max_edge_c * range * range;
+            const double c = std::cos(double(settings.eps_theta));
+            const double m1 = eps * eps - len2, m2 = c * c * len2 * r2 - dot * dot;
+            if (std::abs(m1) < 1e-5 * eps * eps || std::abs(m2) < 1e-5 * len2 * r2)
+              near_threshold = true;
+            return m1 >= 0 && m2 >= 0;
+          };
+          const bool ab = edge(0, 1), ac = edge(0, 2), bd = edge(1, 3), cd = edge(2, 3),
+                     ad = edge(0, 3), bc = edge(1, 2);
+          std::uint8_t expected = 0;
+          if (type == MeshType::quad) {
+            expected = (ab && ac && bd && cd) ? face_bits::quad : 0;
+          } else {
+            const int fad = (ad && bd && ab ? 1 : 0) | (ac && cd && ad ? 2 : 0);
+            const int fbc = (ac && bc && ab ? 1 : 0) | (bc && cd && bd ? 2 : 0);
+            const int nad = std::popcount(unsigned(fad)), nbc = std::popcount(unsigned(fbc));
+            double lad = 0, lbc = 0;
+            for (int k = 0; k < 3; ++k) {
+              lad += (p[3][k] - p[0][k]) * (p[3][k] - p[0][k]);
+              lbc += (p[2][k] - p[1][k]) * (p[2][k] - p[1][k]);
+            }
+            if (nad != nbc && std::abs(lad - lbc) < 1e-5 * lad) near_threshold = true;
+            bool use_bc = type == MeshType::left_cut ||
+                          (type == MeshType::adaptive && (nad != nbc ? nbc > nad : lbc < lad));
+            if (type == MeshType::adaptive && nad == nbc && std::abs(lad - lbc) < 1e-5 * lad)
+              near_threshold = true;
+            const int fx = use_bc ? fbc : fad;
+            expected = fx == 0 ? 0 : std::uint8_t(fx | (use_bc ? face_bits::diag_bc : 0));
+          }
+          ++cells;
+          if (near_threshold) {
+            ++ambiguous;
+            continue;
+          }
+          mismatches += mesh.faces(u, v) != expected;
+          partial += expected != 0 && std::popcount(unsigned(expected & 3)) == 1;
+        }
+      }
+      EXPECT_EQ(mismatches, 0) << "type " << int(type) << " stride " << s;
+      EXPECT_LT(ambiguous, cells / 100);
+      if (type != MeshType::quad) {
+        EXPECT_GT(partial, cells / 50);  // the rules are exercised
+      }
+    }
+  }
+}
+
+TEST(Mesh, HolesSymmetryAndCompaction) {
+  const int w = 50, h = 40;
+  OrganizedCloud cloud = plane(w, h, -0.2, 0.3, 1.0, 1.2);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> uni(0.0f, 1.0f);
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u)
+      if (uni(rng) < 0.1f) cloud.x(u, v) = cloud.y(u, v) = cloud.z(u, v) = NAN;
+  for (MeshType type : kAllTypes) {
+    for (int s : {1, 2}) {
+      const Mesh mesh = rangeseg::build_mesh(cloud, {.type = type, .pixel_stride = s});
+      // Symmetric edges, none touching an invalid vertex.
+      for (int v = 0; v < h; ++v) {
+        for (int u = 0; u < w; ++u) {
+          for (int k = 0; k < 8; ++k) {
+            if (!(mesh.edges(u, v) >> k & 1)) continue;
+            ASSERT_TRUE(cloud.valid(u, v));
+            const int qu = u + s * rangeseg::kNeighbourDu[k],
+                      qv = v + s * rangeseg::kNeighbourDv[k];
+            ASSERT_TRUE(qu >= 0 && qu < w && qv >= 0 && qv < h);
+            ASSERT_TRUE(mesh.edges(qu, qv) >> ((k + 4) % 8) & 1) << u << "," << v << " k " << k;
+          }
+        }
+      }
+      rangeseg::TriangleList full, compact;
+      rangeseg::extract_faces(mesh, false, full);
+      rangeseg::extract_faces(mesh, true, compact);
+      ASSERT_EQ(full.indices.size(), compact.indices.size());
+      EXPECT_TRUE(full.vertex_pixel.empty());
+      std::set<int> used;
+      for (int i : full.indices) {
+        ASSERT_TRUE(cloud.valid(i % w, i / w));
+        used.insert(i);
+      }
+      // Compaction keeps exactly the used vertices, in pixel order, and the same faces.
+      ASSERT_EQ(compact.vertex_pixel.size(), used.size());
+      EXPECT_TRUE(std::equal(used.begin(), used.end(), compact.vertex_pixel.begin()));
+      for (std::size_t i = 0; i < full.indices.size(); ++i) {
+        ASSERT_EQ(compact.vertex_pixel.at(compact.indices[i]), full.indices[i]);
+      }
+      // Every face edge is in the edge masks and vice versa.
+      std::set<std::pair<int, int>> face_edges;
+      const int n = full.vertices_per_face;
+      for (std::size_t f = 0; f < full.indices.size(); f += n)
+        for (int k = 0; k < n; ++k)
+          face_edges.insert({full.indices[f + k], full.indices[f + (k + 1) % n]}),
+              face_edges.insert({full.indices[f + (k + 1) % n], full.indices[f + k]});
+      std::size_t mask_edges = 0;
+      for (int v = 0; v < h; ++v)
+        for (int u = 0; u < w; ++u)
+          for (int k = 0; k < 8; ++k)
+            if (mesh.edges(u, v) >> k & 1) {
+              ++mask_edges;
+              const int q =
+                  (v + s * rangeseg::kNeighbourDv[k]) * w + u + s * rangeseg::kNeighbourDu[k];
+              ASSERT_TRUE(face_edges.count({v * w + u, q}));
+            }
+      EXPECT_EQ(mask_edges, face_edges.size());
+    }
+  }
+}
+
+TEST(Mesh, WindingFacesTheSensor) {
+  const int w = 40, h = 30;
+  const OrganizedCloud cloud = render(w, h, [](double dx, double dy) {
+    // A wavy surface: normals vary but always face the camera.
+    return 1.5 + 0.05 * std::sin(40 * dx) * std::cos(30 * dy);
+  });
+  for (MeshType type : kAllTypes) {
+    const Mesh mesh = rangeseg::build_mesh(cloud, {.type = type});
+    rangeseg::TriangleList list;
+    rangeseg::extract_faces(mesh, false, list);
+    ASSERT_GT(list.indices.size(), 0u);
+    const int n = list.vertices_per_face;
+    for (std::size_t f = 0; f < list.indices.size(); f += n) {
+      auto p = [&](int k) {
+        const int i = list.indices[f + k];
+        return std::array<double, 3>{cloud.x(i % w, i / w), cloud.y(i % w, i / w),
+                                     cloud.z(i % w, i / w)};
+      };
+      // Newell's normal (works for the quad too) against the direction to the sensor.
+      double nrm[3] = {0, 0, 0};
+      for (int k = 0; k < n; ++k) {
+        const auto a = p(k), b = p((k + 1) % n);
+        nrm[0] += (a[1] - b[1]) * (a[2] + b[2]);
+        nrm[1] += (a[2] - b[2]) * (a[0] + b[0]);
+        nrm[2] += (a[0] - b[0]) * (a[1] + b[1]);
+      }
+      const auto c = p(0);
+      ASSERT_GT(-(nrm[0] * c[0] + nrm[1] * c[1] + nrm[2] * c[2]), 0.0) << "face " << f / n;
+    }
+  }
+}
+
+TEST(Mesh, ReusesBuffersAndValidates) {
+  const OrganizedCloud cloud = plane(64, 48, 0.0, 0.0, 1.0, 2.0);
+  Mesh mesh;
+  rangeseg::build_mesh(cloud, {}, mesh);
+  const std::uint8_t* faces = mesh.faces.row(0);
+  const std::uint8_t* edges = mesh.edges.row(0);
+  rangeseg::build_mesh(cloud, {.type = MeshType::quad}, mesh);
+  EXPECT_EQ(mesh.faces.row(0), faces);
+  EXPECT_EQ(mesh.edges.row(0), edges);
+  EXPECT_EQ(rangeseg::count_faces(mesh), 63u * 47u);
+
+  EXPECT_THROW(rangeseg::build_mesh(OrganizedCloud(10, 1)), std::invalid_argument);
+  EXPECT_THROW(rangeseg::build_mesh(cloud, {.eps_theta = -0.1f}), std::invalid_argument);
+  EXPECT_THROW(rangeseg::build_mesh(cloud, {.max_edge_c = NAN}), std::invalid_argument);
+  EXPECT_THROW(rangeseg::build_mesh(cloud, {.pixel_stride = 0}), std::invalid_argument);
+  EXPECT_THROW(rangeseg::build_mesh(cloud, {.viewpoint = {0, INFINITY, 0}}), std::invalid_argument);
+  EXPECT_THROW(rangeseg::build_mesh(cloud, {.type = static_cast<MeshType>(9)}),
+               std::invalid_argument);
+}
+
+#ifdef RANGESEG_HAVE_PCD
+TEST(Mesh, RealKinectFrameIsWellConnected) {
+  RANGESEG_REQUIRE_DATA("kinect/grabber_frame0.pcd");
+  const OrganizedCloud cloud = rangeseg::io::read_pcd(data_file.string());
+  for (MeshType type : kAllTypes) {
+    const Mesh mesh = rangeseg::build_mesh(cloud, {.type = type});
+    std::size_t valid = 0, used = 0;
+    for (int v = 0; v < cloud.height(); ++v)
+      for (int u = 0; u < cloud.width(); ++u) {
+        valid += cloud.valid(u, v);
+        used += mesh.edges(u, v) != 0;
+      }
+    const double fraction = double(used) / double(valid);
+    RecordProperty("used_fraction_type" + std::to_string(int(type)), std::to_string(fraction));
+    std::cout << "grabber_frame0 type " << int(type) << ": " << rangeseg::count_faces(mesh)
+              << " faces, " << used << " / " << valid << " valid points used (" << fraction
+              << ")\n";
+    EXPECT_GT(fraction, 0.95);
+  }
+}
+#endif
+
+}  // namespace

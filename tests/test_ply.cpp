@@ -1,0 +1,139 @@
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "rangeseg/io/file.hpp"
+#include "rangeseg/io/ply.hpp"
+#include "test_util.hpp"
+
+using namespace rangeseg;
+
+namespace {
+
+io::PlyMesh quad_mesh(bool normals, bool colours) {
+  io::PlyMesh m;
+  m.xyz = {0, 0, 1, 1, 0, 1, 1, 1, 1.5f, 0, 1, 1.25f};
+  if (normals) m.normals = {0, 0, -1, 0, 0, -1, 0, 0.6f, -0.8f, 0, 0, -1};
+  if (colours) m.rgb = {255, 0, 0, 0, 255, 0, 0, 0, 255, 7, 8, 9};
+  m.faces = {0, 1, 2, 0, 2, 3};
+  return m;
+}
+
+}  // namespace
+
+TEST(Ply, RoundTripAllLayouts) {
+  const auto dir = test::scratch_dir("ply");
+  for (int variant = 0; variant < 4; ++variant) {
+    const io::PlyMesh m = quad_mesh(variant & 1, variant & 2);
+    std::string file_name = "m";
+    file_name += std::to_string(variant);
+    file_name += ".ply";
+    const std::string path = (dir / file_name).string();
+    io::write_ply(path, m);
+    const io::PlyMesh back = io::read_ply(path);
+    EXPECT_EQ(back.xyz, m.xyz);
+    EXPECT_EQ(back.normals, m.normals);
+    EXPECT_EQ(back.rgb, m.rgb);
+    EXPECT_EQ(back.faces, m.faces);
+    EXPECT_EQ(back.vertices_per_face, 3);
+  }
+  io::PlyMesh quads = quad_mesh(false, false);
+  quads.faces = {0, 1, 2, 3};
+  quads.vertices_per_face = 4;
+  const auto bytes = io::encode_ply(quads);
+  const io::PlyMesh back = io::decode_ply(bytes.data(), bytes.size(), "q.ply");
+  EXPECT_EQ(back.vertices_per_face, 4);
+  EXPECT_EQ(back.faces, quads.faces);
+}
+
+TEST(Ply, HeaderAndBinaryLayoutAreExactlyAsDocumented) {
+  const io::PlyMesh m = quad_mesh(true, true);
+  const std::vector<std::uint8_t> bytes = io::encode_ply(m);
+  const std::string text(bytes.begin(), bytes.end());
+  const std::string expected_header =
+      "ply\nformat binary_little_endian 1.0\ncomment written by rangeseg\nelement vertex 4\n"
+      "property float x\nproperty float y\nproperty float z\n"
+      "property float nx\nproperty float ny\nproperty float nz\n"
+      "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+      "element face 2\nproperty list uchar int vertex_indices\nend_header\n";
+  ASSERT_EQ(text.substr(0, expected_header.size()), expected_header);
+  const std::size_t body = expected_header.size();
+  ASSERT_EQ(bytes.size(), body + 4 * 27 + 2 * 13);
+  float z1 = 0;
+  std::memcpy(&z1, bytes.data() + body + 27 + 8, 4);  // vertex 1, z
+  EXPECT_EQ(z1, 1.0f);
+  EXPECT_EQ(bytes[body + 3 * 27 + 24], 7);  // vertex 3, red
+  const std::size_t faces = body + 4 * 27;
+  EXPECT_EQ(bytes[faces], 3);
+  EXPECT_EQ(bytes[faces + 13], 3);
+  std::int32_t last = 0;
+  std::memcpy(&last, bytes.data() + faces + 13 + 1 + 8, 4);
+  EXPECT_EQ(last, 3);
+}
+
+TEST(Ply, InvalidMeshesAreRejectedWithValues) {
+  const auto expect_invalid = [](const io::PlyMesh& m, const std::string& needle) {
+    try {
+      io::encode_ply(m);
+      ADD_FAILURE() << "no exception for " << needle;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  io::PlyMesh m = quad_mesh(false, false);
+  m.xyz.push_back(1);
+  expect_invalid(m, "13");
+  m = quad_mesh(false, false);
+  m.normals = {0, 0, 1};
+  expect_invalid(m, "normals");
+  m = quad_mesh(false, false);
+  m.rgb = {1, 2};
+  expect_invalid(m, "rgb");
+  m = quad_mesh(false, false);
+  m.faces[4] = 4;
+  expect_invalid(m, "index 4");
+  m.faces[4] = -1;
+  expect_invalid(m, "index -1");
+  m = quad_mesh(false, false);
+  m.faces.push_back(0);
+  expect_invalid(m, "7");
+  m.vertices_per_face = 2;
+  expect_invalid(m, "vertices_per_face");
+  EXPECT_THROW(io::write_ply("/tmp/rangeseg_never.ply", m), std::invalid_argument);
+}
+
+TEST(Ply, ReaderRejectsOtherLayoutsAndDamage) {
+  const auto expect_bad = [](const std::string& text, const std::string& needle) {
+    const std::vector<std::uint8_t> b(text.begin(), text.end());
+    try {
+      io::decode_ply(b.data(), b.size(), "bad.ply");
+      ADD_FAILURE() << "no exception for " << needle;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("bad.ply"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  expect_bad("not a ply", "not a PLY");
+  expect_bad("ply\nformat ascii 1.0\nend_header\n", "ascii");
+  expect_bad(
+      "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty double x\n"
+      "end_header\n",
+      "float x");
+  expect_bad(
+      "ply\nformat binary_little_endian 1.0\nelement vertex 1000\nproperty float x\n"
+      "property float y\nproperty float z\nend_header\n1234",
+      "truncated");
+  expect_bad("ply\nformat binary_little_endian 1.0\nelement vertex 0\n", "end_header");
+
+  const io::PlyMesh m = quad_mesh(false, false);
+  std::vector<std::uint8_t> b = io::encode_ply(m);
+  b.back() = 9;  // last index byte: vertex index 9 + 256 * 0 ... out of range
+  EXPECT_THROW(io::decode_ply(b.data(), b.size(), "bad.ply"), std::runtime_error);
+  b = io::encode_ply(m);
+  for (std::size_t cut = 1; cut < 40; ++cut)
+    EXPECT_THROW(io::decode_ply(b.data(), b.size() - cut, "cut.ply"), std::runtime_error) << cut;
+}
