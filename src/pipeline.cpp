@@ -16,6 +16,21 @@ double ms_since(Clock::time_point& start) {
 
 }  // namespace
 
+void set_noise(PipelineSettings& settings, const SensorNoise& noise) {
+  settings.segmentation.noise = noise;
+  settings.smoothing.noise = noise;
+}
+
+PipelineSettings pipeline_preset(std::string_view sensor) {
+  PipelineSettings s;
+  s.segmentation = preset(sensor);
+  set_noise(s, s.segmentation.noise);
+  // Angle between neighbouring pixel rays: 1 / focal length in pixels.
+  if (sensor == "abw") s.smoothing.pixel_angle = 1.0f / 1586.0f;
+  if (sensor == "laser") s.smoothing.pixel_angle = 0.0087f;  // 0.5 degree scan resolution
+  return s;
+}
+
 Pipeline::Pipeline(const PipelineSettings& settings)
     : settings_(settings), smoother_(settings.smoothing) {}
 

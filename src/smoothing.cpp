@@ -322,13 +322,13 @@ void validate(const SmoothingSettings& settings) {
   }
   check_positive(settings.distance_scale, "distance_scale");
   check_positive(settings.pixel_angle, "pixel_angle");
-  check_positive(settings.noise_a, "noise_a");
-  check_finite(settings.noise_b, "noise_b");
-  if (settings.noise_b < 0.0f) {
+  check_positive(settings.noise.a, "noise_a");
+  check_finite(settings.noise.b, "noise_b");
+  if (settings.noise.b < 0.0f) {
     throw std::invalid_argument("SmoothingSettings::noise_b must be >= 0, got " +
-                                std::to_string(settings.noise_b));
+                                std::to_string(settings.noise.b));
   }
-  check_finite(settings.noise_z0, "noise_z0");
+  check_finite(settings.noise.z0, "noise_z0");
   check_positive(settings.normal_scale, "normal_scale");
   check_positive(settings.intensity_scale, "intensity_scale");
   check_finite(settings.intensity_range, "intensity_range");
@@ -398,9 +398,9 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
   prm.kd2 = st.distance_scale * st.distance_scale;
   const float spacing = static_cast<float>(mesh.pixel_stride) * st.pixel_angle;
   prm.spacing = spacing;
-  prm.noise_a = st.noise_a;
-  prm.noise_b = st.noise_b;
-  prm.noise_z0 = st.noise_z0;
+  prm.noise_a = static_cast<float>(st.noise.a);
+  prm.noise_b = static_cast<float>(st.noise.b);
+  prm.noise_z0 = static_cast<float>(st.noise.z0);
   prm.inv_normal_scale = 1.0f / st.normal_scale;
 
   bool use_intensity = false;

@@ -358,7 +358,7 @@ Reference reference_pass(const OrganizedCloud& cloud, const NormalMap& normals, 
       const std::array<double, 3> p{cloud.x(u, v), cloud.y(u, v), cloud.z(u, v)};
       const std::array<double, 3> n{normals.nx(u, v), normals.ny(u, v), normals.nz(u, v)};
       const double z = p[2],
-                   sigma = st.noise_a + st.noise_b * (z - st.noise_z0) * (z - st.noise_z0);
+                   sigma = static_cast<float>(st.noise.sigma(z));
       const double spacing = s * static_cast<double>(st.pixel_angle) * z;
       const double sd2 =
           st.distance_scale * st.distance_scale * (spacing * spacing + 2 * sigma * sigma);

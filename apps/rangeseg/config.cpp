@@ -30,15 +30,6 @@ void reject_unknown(const json& obj, std::initializer_list<const char*> known, c
 
 }  // namespace
 
-PipelineSettings pipeline_preset(const std::string& name) {
-  PipelineSettings s;
-  s.segmentation = preset(name);
-  const SensorNoise& n = s.segmentation.noise;
-  s.smoothing.noise_a = static_cast<float>(n.a);
-  s.smoothing.noise_b = static_cast<float>(n.b);
-  s.smoothing.noise_z0 = static_cast<float>(n.z0);
-  return s;
-}
 
 void apply_config_file(const std::string& path, PipelineSettings& s) {
   const std::vector<std::uint8_t> bytes = io::read_file(path, 1 << 20);
@@ -48,8 +39,18 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
   } catch (const json::exception& e) {
     throw std::runtime_error(path + ": not valid JSON: " + e.what());
   }
-  reject_unknown(j, {"mesh", "smoothing", "segmentation", "smooth"}, path);
+  reject_unknown(j, {"noise", "mesh", "smoothing", "segmentation", "smooth"}, path);
   take(j, "smooth", s.smooth, path);
+  if (j.contains("noise")) {
+    const json& m = j["noise"];
+    const std::string where = path + " [noise]";
+    reject_unknown(m, {"a", "b", "z0"}, where);
+    SensorNoise noise = s.segmentation.noise;
+    take(m, "a", noise.a, where);
+    take(m, "b", noise.b, where);
+    take(m, "z0", noise.z0, where);
+    set_noise(s, noise);
+  }
   if (j.contains("mesh")) {
     const json& m = j["mesh"];
     const std::string where = path + " [mesh]";
@@ -64,8 +65,7 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
   if (j.contains("smoothing")) {
     const json& m = j["smoothing"];
     const std::string where = path + " [smoothing]";
-    reject_unknown(m, {"iterations", "use_distance", "distance_scale", "pixel_angle", "noise_a", "noise_b",
-                       "noise_z0", "use_normals", "normal_scale", "use_intensity", "intensity_scale",
+    reject_unknown(m, {"iterations", "use_distance", "distance_scale", "pixel_angle", "use_normals", "normal_scale", "use_intensity", "intensity_scale",
                        "intensity_range", "move_along_ray", "recompute_normals"},
                    where);
     auto& t = s.smoothing;
@@ -73,9 +73,6 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
     take(m, "use_distance", t.use_distance, where);
     take(m, "distance_scale", t.distance_scale, where);
     take(m, "pixel_angle", t.pixel_angle, where);
-    take(m, "noise_a", t.noise_a, where);
-    take(m, "noise_b", t.noise_b, where);
-    take(m, "noise_z0", t.noise_z0, where);
     take(m, "use_normals", t.use_normals, where);
     take(m, "normal_scale", t.normal_scale, where);
     take(m, "use_intensity", t.use_intensity, where);
@@ -87,7 +84,7 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
   if (j.contains("segmentation")) {
     const json& m = j["segmentation"];
     const std::string where = path + " [segmentation]";
-    reject_unknown(m, {"model", "noise_a", "noise_b", "noise_z0", "max_normal_angle", "max_distance_sigmas",
+    reject_unknown(m, {"model", "max_normal_angle", "max_distance_sigmas",
                        "max_smooth_angle", "max_curvature", "max_seed_curvature", "min_region_size",
                        "merge_planes", "merge_angle", "merge_distance_sigmas", "reassign_boundary"},
                    where);
@@ -98,9 +95,6 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
       else if (model == "smooth") t.model = RegionModel::smooth;
       else throw std::runtime_error(where + ": unknown model '" + model + "' (plane or smooth)");
     }
-    take(m, "noise_a", t.noise.a, where);
-    take(m, "noise_b", t.noise.b, where);
-    take(m, "noise_z0", t.noise.z0, where);
     take(m, "max_normal_angle", t.max_normal_angle, where);
     take(m, "max_distance_sigmas", t.max_distance_sigmas, where);
     take(m, "max_smooth_angle", t.max_smooth_angle, where);

@@ -1,6 +1,8 @@
 // The whole frame: mesh, normals, smoothing and segmentation with buffers reused across frames.
 #pragma once
 
+#include <string_view>
+
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/normals.hpp"
@@ -17,6 +19,15 @@ struct PipelineSettings {
   bool segment = true;
   SegmentationSettings segmentation{};
 };
+
+/// Sets the sensor noise model of every stage.
+void set_noise(PipelineSettings& settings, const SensorNoise& noise);
+
+/// Settings for a sensor: "kinect" (structured light, also PrimeSense / RealSense-like), "abw"
+/// (SegComp ABW scanner in metres) or "laser" (see `preset` in segmentation.hpp). Sets the noise
+/// model of every stage and the angular pixel spacing. Throws std::invalid_argument for other
+/// names, listing the valid ones.
+PipelineSettings pipeline_preset(std::string_view sensor);
 
 /// Wall-clock time of each stage of the last frame [ms].
 struct StageTimes {

@@ -13,6 +13,7 @@
 #include "rangeseg/image.hpp"
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/normals.hpp"
+#include "rangeseg/sensor.hpp"
 
 namespace rangeseg {
 
@@ -28,15 +29,6 @@ enum class RegionModel : std::uint8_t {
   smooth,
 };
 using SegmentModel = RegionModel;
-
-/// Axial (depth) noise of the sensor, sigma(z) = a + b (z - z0)^2 [m] at depth z [m]. The
-/// default is the structured-light (Kinect / PrimeSense) model of Khoshelham & Elberink (2012).
-struct SensorNoise {
-  double a = 0.0012;  ///< [m]
-  double b = 0.0019;  ///< [1/m]
-  double z0 = 0.4;    ///< [m]
-  double sigma(double z) const { return a + b * (z - z0) * (z - z0); }
-};
 
 /// Settings of `segment`. Distances scale with the sensor noise, so one setting serves the whole
 /// depth range of a sensor; see `preset` for physically motivated values per sensor.

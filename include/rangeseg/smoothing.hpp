@@ -8,6 +8,7 @@
 #include "rangeseg/image.hpp"
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/normals.hpp"
+#include "rangeseg/sensor.hpp"
 
 namespace rangeseg {
 
@@ -24,7 +25,7 @@ namespace rangeseg {
 /// square root, and its scale follows depth so that one setting works from 0.5 m to 6 m:
 ///
 ///   s_d(z)^2 = distance_scale^2 * ( (pixel_stride * pixel_angle * z)^2 + 2 sigma(z)^2 ),
-///   sigma(z) = noise_a + noise_b * (z - noise_z0)^2       [m]
+///   sigma(z) = noise.a + noise.b * (z - noise.z0)^2       [m]
 ///
 /// i.e. `distance_scale` times the expected length of a ring edge on a surface facing the sensor:
 /// the neighbour spacing at depth z plus the depth noise of both end points (Kinect model of
@@ -45,9 +46,7 @@ struct SmoothingSettings {
   bool use_distance = true;
   float distance_scale = 1.5f;        ///< k_d: s_d in units of the expected ring edge length [1]
   float pixel_angle = 1.0f / 525.0f;  ///< angle between neighbouring pixel rays [rad] (Kinect)
-  float noise_a = 0.0012f;            ///< sigma(z) constant term [m]
-  float noise_b = 0.0019f;            ///< sigma(z) quadratic term [1/m]
-  float noise_z0 = 0.4f;              ///< sigma(z) offset [m]
+  SensorNoise noise{};                ///< sigma(z) of the sensor (see sensor.hpp)
 
   bool use_normals = true;
   float normal_scale = 1.0f;  ///< s_n where noise < spacing; ||n_i - n_j||_1 is in 0..2 sqrt(3) [1]
