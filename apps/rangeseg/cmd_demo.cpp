@@ -1,6 +1,7 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "commands.hpp"
 #include "input.hpp"
@@ -23,8 +24,24 @@ struct DemoOptions {
   std::uint64_t seed = 1;
 };
 
-void write_normals(const std::string& path, const NormalMap& n) {
-  io::write_rgb_png(path, colorize_normals(n.nx.view(), n.ny.view(), n.nz.view()));
+/// The panels side by side at half resolution: the picture at the top of the README.
+RgbImage montage(const std::vector<const RgbImage*>& panels) {
+  const int h = panels.front()->height / 2, w = panels.front()->width / 2;
+  RgbImage out = RgbImage::black(w * static_cast<int>(panels.size()), h);
+  for (std::size_t k = 0; k < panels.size(); ++k) {
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        std::uint8_t* dst = out.pixel(static_cast<int>(k) * w + x, y);
+        for (int c = 0; c < 3; ++c) {
+          int sum = 0;
+          for (int dy = 0; dy < 2; ++dy)
+            for (int dx = 0; dx < 2; ++dx) sum += panels[k]->pixel(2 * x + dx, 2 * y + dy)[c];
+          dst[c] = static_cast<std::uint8_t>((sum + 2) / 4);
+        }
+      }
+    }
+  }
+  return out;
 }
 
 void run_demo(const DemoOptions& o) {
@@ -43,14 +60,19 @@ void run_demo(const DemoOptions& o) {
   Pipeline pipeline(pipeline_preset(o.preset));
   pipeline.process(in.cloud);
   const OrganizedCloud& input = in.cloud;
-  io::write_rgb_png((dir / "depth.png").string(), colorize_depth(input));
-  write_normals((dir / "normals_raw.png").string(), pipeline.raw_normals());
-  write_normals((dir / "normals_smoothed.png").string(), pipeline.normals());
-  io::write_rgb_png((dir / "curvature.png").string(), colorize_scalar_auto(pipeline.raw_normals().curvature.view()));
+  const RgbImage depth = colorize_depth(input);
+  io::write_rgb_png((dir / "depth.png").string(), depth);
   const NormalMap& raw = pipeline.raw_normals();
   const RgbImage normal_colours = colorize_normals(raw.nx.view(), raw.ny.view(), raw.nz.view());
+  io::write_rgb_png((dir / "normals_raw.png").string(), normal_colours);
+  const NormalMap& smooth = pipeline.normals();
+  const RgbImage smooth_colours = colorize_normals(smooth.nx.view(), smooth.ny.view(), smooth.nz.view());
+  io::write_rgb_png((dir / "normals_smoothed.png").string(), smooth_colours);
+  io::write_rgb_png((dir / "curvature.png").string(), colorize_scalar_auto(pipeline.raw_normals().curvature.view()));
   write_mesh_ply((dir / "mesh.ply").string(), input, pipeline.mesh(), &raw, &normal_colours);
   write_segmentation_folder((dir / "segmentation").string(), input, pipeline, true);
+  const RgbImage overlay = colorize_labels(pipeline.segmentation().labels, &input);
+  io::write_rgb_png((dir / "summary.png").string(), montage({&depth, &normal_colours, &smooth_colours, &overlay}));
   const StageTimes& t = pipeline.times();
   std::printf("demo: %d x %d, %zu valid points, %zu mesh faces, %zu segments\n", input.width(), input.height(),
               input.count_valid(), count_faces(pipeline.mesh()), pipeline.segmentation().segments.size());

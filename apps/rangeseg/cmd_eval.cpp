@@ -106,6 +106,19 @@ void write_ms_seg(const std::string& path, const LabelImage& labels) {
   io::write_rasterfile(path, raw.view());
 }
 
+/// SegComp .ms-nor: one line per region, "label nx ny nz", the unit normal in SegComp's scanner
+/// frame (X right, Y up, Z towards the sensor), i.e. our camera-frame normal with y and z negated.
+void write_ms_nor(const std::string& path, const Segmentation& seg) {
+  std::string text;
+  char line[128];
+  for (const Segment& s : seg.segments) {
+    if (s.label > 255) break;
+    std::snprintf(line, sizeof line, "%d %.6f %.6f %.6f\n", s.label, s.normal[0], -s.normal[1], -s.normal[2]);
+    text += line;
+  }
+  io::write_file_atomic(path, text);
+}
+
 void run_segcomp(const SegcompOptions& o) {
   std::vector<fs::path> images;
   for (const auto& e : fs::directory_iterator(o.dir)) {
@@ -137,6 +150,7 @@ void run_segcomp(const SegcompOptions& o) {
       const std::string stem = range.stem().string();
       const auto dir = ensure_dir(o.out_dir);
       write_ms_seg((dir / (stem + ".ms-seg")).string(), ms);
+      write_ms_nor((dir / (stem + ".ms-nor")).string(), pipeline.segmentation());
       write_segmentation_folder((dir / stem).string(), *gt.cloud, pipeline, false);
     }
   }

@@ -1,0 +1,548 @@
+// Tests of the plane polygons against analytic scenes (synthetic renderer with ground-truth
+// labels and planes), hand-made label patterns with pinch vertices, and an independent
+// computation of the mesh area from the explicit face list.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+
+#include "rangeseg/mesh.hpp"
+#include "rangeseg/pipeline.hpp"
+#include "rangeseg/polygons.hpp"
+#include "rangeseg/synth.hpp"
+#include "test_util.hpp"
+
+namespace rangeseg {
+namespace {
+
+using V3 = std::array<double, 3>;
+using P2 = std::array<float, 2>;
+
+double dot(const V3& a, const V3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+/// Segmentation from the renderer's ground truth: labels and the analytic planes (normal facing
+/// the camera), centroid = mean of the labelled points.
+Segmentation truth_segmentation(const synth::Rendering& r) {
+  Segmentation seg;
+  seg.labels = r.labels;
+  const int n = static_cast<int>(r.surfaces.size());
+  std::vector<V3> sum(n, V3{0, 0, 0});
+  std::vector<int> count(n, 0);
+  for (int v = 0; v < r.labels.height(); ++v)
+    for (int u = 0; u < r.labels.width(); ++u) {
+      const int l = r.labels(u, v);
+      if (l <= 0 || !r.cloud.valid(u, v)) continue;
+      sum[l - 1][0] += r.cloud.x(u, v);
+      sum[l - 1][1] += r.cloud.y(u, v);
+      sum[l - 1][2] += r.cloud.z(u, v);
+      ++count[l - 1];
+    }
+  for (int i = 0; i < n; ++i) {
+    Segment s;
+    s.label = i + 1;
+    const synth::Surface& surf = r.surfaces[i];
+    s.model = surf.type == synth::SurfaceType::plane ? SegmentModel::plane : SegmentModel::smooth;
+    s.pixel_count = count[i];
+    if (count[i] > 0) s.centroid = {sum[i][0] / count[i], sum[i][1] / count[i], sum[i][2] / count[i]};
+    s.normal = surf.normal;
+    s.offset = surf.offset;
+    if (dot(s.normal, s.centroid) > 0) {  // face the camera
+      for (double& c : s.normal) c = -c;
+      s.offset = -s.offset;
+    }
+    seg.segments.push_back(s);
+  }
+  return seg;
+}
+
+/// A flat fronto-parallel cloud at depth z with the default intrinsics.
+OrganizedCloud flat_cloud(int w, int h, double z) {
+  OrganizedCloud c(w, h);
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) {
+      c.x(u, v) = static_cast<float>((u - 319.5) / 525.0 * z);
+      c.y(u, v) = static_cast<float>((v - 239.5) / 525.0 * z);
+      c.z(u, v) = static_cast<float>(z);
+    }
+  return c;
+}
+
+double shoelace(const std::vector<P2>& p) {
+  double a = 0;
+  for (std::size_t i = 0, j = p.size() - 1; i < p.size(); j = i++)
+    a += static_cast<double>(p[j][0]) * p[i][1] - static_cast<double>(p[i][0]) * p[j][1];
+  return 0.5 * a;
+}
+
+std::vector<P2> loop2d(const PolygonSet& ps, const PolygonLoop& lp) {
+  return {ps.points2d.begin() + lp.first, ps.points2d.begin() + lp.first + lp.count};
+}
+
+bool point_in(const std::vector<P2>& poly, double x, double y) {
+  bool in = false;
+  for (std::size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
+    if ((poly[i][1] > y) != (poly[j][1] > y) &&
+        x < (poly[j][0] - poly[i][0]) * (y - poly[i][1]) / (poly[j][1] - poly[i][1]) + poly[i][0])
+      in = !in;
+  }
+  return in;
+}
+
+double orient(const P2& a, const P2& b, const P2& c) {
+  return (static_cast<double>(b[0]) - a[0]) * (static_cast<double>(c[1]) - a[1]) -
+         (static_cast<double>(b[1]) - a[1]) * (static_cast<double>(c[0]) - a[0]);
+}
+bool cross_or_touch(const P2& a, const P2& b, const P2& c, const P2& d) {
+  const double o1 = orient(a, b, c), o2 = orient(a, b, d), o3 = orient(c, d, a),
+               o4 = orient(c, d, b);
+  if (o1 * o2 < 0 && o3 * o4 < 0) return true;
+  const auto on = [](const P2& p, const P2& q, const P2& r) {
+    return std::min(p[0], q[0]) <= r[0] && r[0] <= std::max(p[0], q[0]) &&
+           std::min(p[1], q[1]) <= r[1] && r[1] <= std::max(p[1], q[1]);
+  };
+  return (o1 == 0 && on(a, b, c)) || (o2 == 0 && on(a, b, d)) || (o3 == 0 && on(c, d, a)) ||
+         (o4 == 0 && on(c, d, b));
+}
+
+/// Slow exact checks of one polygon set: loops closed (>= 3 vertices, no repeated vertex),
+/// simple and mutually non-crossing (edges meet only in shared vertices), outer loops CCW and
+/// holes CW, holes inside their parent, areas consistent.
+void check_properties(const PolygonSet& ps) {
+  for (const SegmentPolygons& sp : ps.segments) {
+    if (sp.loop_count == 0) continue;
+    struct E {
+      P2 a, b;
+    };
+    std::vector<E> edges;
+    double area = 0;
+    for (int li = sp.first_loop; li < sp.first_loop + sp.loop_count; ++li) {
+      const PolygonLoop& lp = ps.loops[li];
+      ASSERT_GE(lp.count, 3);
+      ASSERT_EQ(lp.label, sp.label);
+      const std::vector<P2> pts = loop2d(ps, lp);
+      std::vector<P2> sorted = pts;
+      std::sort(sorted.begin(), sorted.end());
+      EXPECT_EQ(std::adjacent_find(sorted.begin(), sorted.end()), sorted.end())
+          << "loop " << li << " repeats a vertex";
+      const double a = shoelace(pts);
+      EXPECT_EQ(a < 0, lp.is_hole) << "loop " << li << " area " << a;
+      EXPECT_NEAR(std::abs(a), lp.area, 1e-6 + 1e-4 * lp.area);
+      area += a;
+      for (std::size_t i = 0, j = pts.size() - 1; i < pts.size(); j = i++)
+        edges.push_back({pts[j], pts[i]});
+      if (lp.is_hole) {
+        ASSERT_GE(lp.parent, sp.first_loop);
+        const std::vector<P2> outer = loop2d(ps, ps.loops[lp.parent]);
+        EXPECT_FALSE(ps.loops[lp.parent].is_hole);
+        int outside = 0;
+        for (std::size_t i = 0, j = pts.size() - 1; i < pts.size(); j = i++) {
+          const double mx = 0.5 * (pts[i][0] + pts[j][0]), my = 0.5 * (pts[i][1] + pts[j][1]);
+          outside += !point_in(outer, mx, my);
+        }
+        EXPECT_EQ(outside, 0) << "hole " << li << " leaves its outer loop";
+      }
+    }
+    EXPECT_NEAR(area, sp.area, 1e-6 + 1e-4 * std::abs(sp.area));
+    for (std::size_t i = 0; i < edges.size(); ++i)
+      for (std::size_t j = i + 1; j < edges.size(); ++j) {
+        const E& e = edges[i];
+        const E& f = edges[j];
+        if (e.a == f.a || e.a == f.b || e.b == f.a || e.b == f.b) continue;
+        ASSERT_FALSE(cross_or_touch(e.a, e.b, f.a, f.b))
+            << "segment " << sp.label << ": edges (" << e.a[0] << "," << e.a[1] << ")-(" << e.b[0]
+            << "," << e.b[1] << ") and (" << f.a[0] << "," << f.a[1] << ")-(" << f.b[0] << ","
+            << f.b[1] << ") cross";
+      }
+  }
+}
+
+/// Area of each segment's faces projected onto its plane along the viewing rays, from the
+/// explicit face list (independent of the boundary tracing).
+std::vector<double> mesh_areas(const OrganizedCloud& cloud, const Mesh& mesh,
+                               const Segmentation& seg) {
+  TriangleList tl;
+  extract_faces(mesh, false, tl);
+  std::vector<double> area(seg.segments.size() + 1, 0.0);
+  const int w = cloud.width();
+  for (std::size_t f = 0; f < tl.indices.size(); f += 3) {
+    std::array<V3, 3> q;
+    int label = -1;
+    bool same = true;
+    for (int k = 0; k < 3; ++k) {
+      const int idx = tl.indices[f + k], u = idx % w, v = idx / w;
+      const int l = seg.labels(u, v);
+      if (label < 0) label = l;
+      same &= l == label;
+      if (l <= 0) continue;
+      const Segment& s = seg.segments[l - 1];
+      const V3 p{cloud.x(u, v), cloud.y(u, v), cloud.z(u, v)};
+      const double t = -s.offset / dot(s.normal, p);
+      q[k] = {p[0] * t, p[1] * t, p[2] * t};
+    }
+    if (!same || label <= 0) continue;
+    const V3 a{q[1][0] - q[0][0], q[1][1] - q[0][1], q[1][2] - q[0][2]};
+    const V3 b{q[2][0] - q[0][0], q[2][1] - q[0][1], q[2][2] - q[0][2]};
+    const V3 c{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+    area[label] += 0.5 * std::sqrt(dot(c, c));
+  }
+  return area;
+}
+
+const SegmentPolygons* find_segment(const PolygonSet& ps, int label) {
+  for (const SegmentPolygons& sp : ps.segments)
+    if (sp.label == label) return &sp;
+  return nullptr;
+}
+
+double dist_to_segment(const V3& p, const V3& a, const V3& b) {
+  const V3 e{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, d{p[0] - a[0], p[1] - a[1], p[2] - a[2]};
+  const double t = std::clamp(dot(d, e) / dot(e, e), 0.0, 1.0);
+  const V3 r{d[0] - t * e[0], d[1] - t * e[1], d[2] - t * e[2]};
+  return std::sqrt(dot(r, r));
+}
+
+/// Every true corner has a polygon vertex within `tol`, and every polygon vertex is within
+/// `tol` of the true rectangle's outline.
+void expect_rectangle(const PolygonSet& ps, const PolygonLoop& lp, const std::array<V3, 4>& corners,
+                      double tol) {
+  for (const V3& c : corners) {
+    double best = 1e9;
+    for (int i = lp.first; i < lp.first + lp.count; ++i) {
+      const auto& p = ps.points3d[i];
+      best = std::min(best, std::hypot(p[0] - c[0], p[1] - c[1], p[2] - c[2]));
+    }
+    EXPECT_LT(best, tol) << "corner (" << c[0] << ", " << c[1] << ", " << c[2] << ")";
+  }
+  for (int i = lp.first; i < lp.first + lp.count; ++i) {
+    const V3 p{ps.points3d[i][0], ps.points3d[i][1], ps.points3d[i][2]};
+    double best = 1e9;
+    for (int k = 0; k < 4; ++k) best = std::min(best, dist_to_segment(p, corners[k], corners[(k + 1) % 4]));
+    EXPECT_LT(best, tol) << "vertex " << i;
+  }
+}
+
+// A wall (rectangle 1.4 x 1.0 m at 1.5 m) with a box in front: the box's silhouette is a hole
+// in the wall's segment, the box's front face a rectangle.
+synth::Scene wall_and_box() {
+  synth::Scene scene;
+  scene.rectangles.push_back({.centre = {0.0, 0.0, 1.5}, .half_u = {0.7, 0.0, 0.0},
+                              .half_v = {0.0, 0.5, 0.0}, .name = "wall"});
+  scene.boxes.push_back({.centre = {0.1, 0.05, 1.1}, .half_extent = {0.3, 0.2, 0.1}});
+  return scene;
+}
+
+TEST(Polygons, WallWithBoxNoiseFreeCornersAreaAndHole) {
+  const synth::Rendering r = synth::render(wall_and_box());
+  const Segmentation seg = truth_segmentation(r);
+  const Mesh mesh = build_mesh(r.cloud);
+  const PolygonSet ps = extract_polygons(r.cloud, mesh, seg);
+  check_properties(ps);
+
+  // Wall: label 1. Outer loop = the rectangle, one hole = the box silhouette.
+  const SegmentPolygons* wall = find_segment(ps, 1);
+  ASSERT_NE(wall, nullptr);
+  ASSERT_EQ(wall->loop_count, 2);
+  const PolygonLoop& outer = ps.loops[wall->first_loop];
+  const PolygonLoop& hole = ps.loops[wall->first_loop + 1];
+  EXPECT_FALSE(outer.is_hole);
+  EXPECT_TRUE(hole.is_hole);
+  EXPECT_EQ(outer.count, 4);
+  expect_rectangle(ps, outer, {V3{-0.7, -0.5, 1.5}, V3{0.7, -0.5, 1.5}, V3{0.7, 0.5, 1.5},
+                               V3{-0.7, 0.5, 1.5}},
+                   0.01);
+  // The hole: the box's silhouette (convex hull of its corners seen from the camera) on the wall.
+  std::vector<P2> silhouette, hull;
+  for (int k = 0; k < 8; ++k) {
+    const double x = 0.1 + ((k & 1) ? 0.3 : -0.3), y = 0.05 + ((k & 2) ? 0.2 : -0.2),
+                 z = 1.1 + ((k & 4) ? 0.1 : -0.1);
+    silhouette.push_back({static_cast<float>(x * 1.5 / z), static_cast<float>(y * 1.5 / z)});
+  }
+  convex_hull(silhouette, hull);
+  const double hole_area = std::abs(shoelace(hull));
+  EXPECT_NEAR(hole.area, hole_area, 0.02 * hole_area);
+  EXPECT_NEAR(outer.area, 1.4, 0.01 * 1.4);
+  EXPECT_NEAR(wall->area, 1.4 - hole_area, 0.01 * (1.4 - hole_area));
+  EXPECT_NEAR(wall->hull_area, 1.4, 0.01 * 1.4);
+
+  // Box front face (-z, label 1 + 6): 0.6 x 0.4 m at z = 1.0.
+  const SegmentPolygons* front = find_segment(ps, 1 + 6);
+  ASSERT_NE(front, nullptr);
+  ASSERT_EQ(front->loop_count, 1);
+  EXPECT_EQ(ps.loops[front->first_loop].count, 4);
+  expect_rectangle(ps, ps.loops[front->first_loop],
+                   {V3{-0.2, -0.15, 1.0}, V3{0.4, -0.15, 1.0}, V3{0.4, 0.25, 1.0},
+                    V3{-0.2, 0.25, 1.0}},
+                   0.01);
+  // The mesh ends at the outermost pixel centres, on average half a pixel (1 mm here) inside.
+  EXPECT_NEAR(front->area, 0.24, 0.01 * 0.24);
+  EXPECT_NEAR(front->hull_area, front->area, 1e-3 * 0.24);
+
+  // Plane frame: orthonormal, right-handed with the normal, origin on the plane.
+  const PlaneFrame& fr = wall->frame;
+  EXPECT_NEAR(dot(fr.e1, fr.e1), 1.0, 1e-9);
+  EXPECT_NEAR(dot(fr.e1, fr.e2), 0.0, 1e-9);
+  EXPECT_NEAR(dot(fr.e1, fr.normal), 0.0, 1e-9);
+  EXPECT_NEAR(dot(fr.normal, fr.origin) + fr.offset, 0.0, 1e-9);
+  EXPECT_NEAR(fr.e1[0], 1.0, 1e-9);   // image right
+  EXPECT_NEAR(fr.e2[1], -1.0, 1e-9);  // image up
+}
+
+TEST(Polygons, AreaMatchesMeshFacesWithoutSimplification) {
+  for (synth::Noise noise : {synth::Noise::none, synth::Noise::kinect}) {
+    const synth::Rendering r = synth::render(synth::random_scene(7), {.noise = noise});
+    const Segmentation seg = truth_segmentation(r);
+    const Mesh mesh = build_mesh(r.cloud);
+    const PolygonSet ps = extract_polygons(
+        r.cloud, mesh, seg,
+        {.simplify_tolerance = 0, .simplify_tolerance_pixels = 0, .min_loop_pixels = 0});
+    check_properties(ps);
+    const std::vector<double> truth = mesh_areas(r.cloud, mesh, seg);
+    int checked = 0;
+    for (const SegmentPolygons& sp : ps.segments) {
+      EXPECT_NEAR(sp.raw_area, truth[sp.label], 1e-5 * truth[sp.label] + 1e-9) << sp.label;
+      EXPECT_NEAR(sp.area, sp.raw_area, 1e-9);
+      checked += truth[sp.label] > 0;
+    }
+    EXPECT_GE(checked, 4);
+  }
+}
+
+TEST(Polygons, KinectNoiseAt2mAreaWithin5Percent) {
+  synth::Scene scene;
+  scene.rectangles.push_back({.centre = {0.0, 0.0, 2.0}, .half_u = {0.9, 0.0, 0.0},
+                              .half_v = {0.0, 0.6, 0.0}, .name = "wall"});
+  scene.boxes.push_back({.centre = {-0.2, 0.1, 1.7}, .half_extent = {0.25, 0.2, 0.15}});
+  const synth::Rendering r = synth::render(scene, {.noise = synth::Noise::kinect, .seed = 3});
+  const Segmentation seg = truth_segmentation(r);
+  const Mesh mesh = build_mesh(r.cloud);
+  const PolygonSet ps = extract_polygons(r.cloud, mesh, seg);
+  check_properties(ps);
+  const SegmentPolygons* wall = find_segment(ps, 1);
+  ASSERT_NE(wall, nullptr);
+  std::vector<P2> silhouette, hull;
+  for (int k = 0; k < 8; ++k) {
+    const double x = -0.2 + ((k & 1) ? 0.25 : -0.25), y = 0.1 + ((k & 2) ? 0.2 : -0.2),
+                 z = 1.7 + ((k & 4) ? 0.15 : -0.15);
+    silhouette.push_back({static_cast<float>(x * 2.0 / z), static_cast<float>(y * 2.0 / z)});
+  }
+  convex_hull(silhouette, hull);
+  const double truth = 1.8 * 1.2 - std::abs(shoelace(hull));
+  EXPECT_NEAR(wall->area, truth, 0.05 * truth);
+  int holes = 0;
+  for (int li = wall->first_loop; li < wall->first_loop + wall->loop_count; ++li)
+    holes += ps.loops[li].is_hole;
+  EXPECT_GE(holes, 1);
+  const SegmentPolygons* front = find_segment(ps, 1 + 6);
+  ASSERT_NE(front, nullptr);
+  EXPECT_NEAR(front->area, 0.5 * 0.4, 0.05 * 0.2);
+  EXPECT_LE(ps.loops[front->first_loop].count, 12);
+}
+
+// Labels drawn by hand on a flat cloud at 1 m: pinch vertices where loops touch.
+struct Handmade {
+  OrganizedCloud cloud = flat_cloud(48, 40, 1.0);
+  Segmentation seg;
+  Mesh mesh;
+  Handmade(MeshType type) {
+    seg.labels.resize(48, 40, 0);
+    Segment s;
+    s.label = 1;
+    s.normal = {0, 0, -1};
+    s.offset = 1.0;
+    s.centroid = {0, 0, 1};
+    s.pixel_count = 1000;
+    seg.segments.push_back(s);
+    mesh = build_mesh(cloud, {.type = type});
+  }
+  void fill(int u0, int u1, int v0, int v1) {
+    for (int v = v0; v <= v1; ++v)
+      for (int u = u0; u <= u1; ++u) seg.labels(u, v) = 1;
+  }
+};
+
+double pixel_area(const PolygonSet& ps, const PolygonLoop& lp) {
+  return -shoelace({ps.pixels.begin() + lp.first, ps.pixels.begin() + lp.first + lp.count});
+}
+
+TEST(Polygons, PinchBetweenTwoBlocksGivesTwoSimpleLoops) {
+  Handmade h(MeshType::left_cut);
+  h.fill(10, 20, 10, 20);
+  h.fill(20, 30, 20, 30);
+  const PolygonSettings raw{.simplify_tolerance = 0, .simplify_tolerance_pixels = 0,
+                            .min_loop_pixels = 0};
+  const PolygonSet ps = extract_polygons(h.cloud, h.mesh, h.seg, raw);
+  check_properties(ps);
+  ASSERT_EQ(ps.segments.size(), 1u);
+  ASSERT_EQ(ps.loops.size(), 2u);
+  EXPECT_FALSE(ps.loops[0].is_hole);
+  EXPECT_FALSE(ps.loops[1].is_hole);
+  EXPECT_DOUBLE_EQ(pixel_area(ps, ps.loops[0]), 100.0);
+  EXPECT_DOUBLE_EQ(pixel_area(ps, ps.loops[1]), 100.0);
+  EXPECT_EQ(ps.loops[0].count, 40);
+  EXPECT_NEAR(ps.segments[0].area, 200.0 / (525.0 * 525.0), 1e-9);
+}
+
+TEST(Polygons, HoleTouchingOuterLoopIsSplitOff) {
+  Handmade h(MeshType::left_cut);
+  h.fill(10, 20, 10, 20);  // A
+  h.fill(20, 30, 20, 30);  // B, touches A in (20, 20)
+  h.fill(25, 30, 10, 20);  // C joins B
+  h.fill(20, 25, 10, 12);  // D joins A and C; the hole (20..25, 12..20) touches the outside at (20, 20)
+  const PolygonSet ps = extract_polygons(
+      h.cloud, h.mesh, h.seg,
+      {.simplify_tolerance = 0, .simplify_tolerance_pixels = 0, .min_loop_pixels = 0});
+  check_properties(ps);
+  ASSERT_EQ(ps.loops.size(), 2u);
+  EXPECT_FALSE(ps.loops[0].is_hole);
+  EXPECT_TRUE(ps.loops[1].is_hole);
+  EXPECT_EQ(ps.loops[1].parent, 0);
+  EXPECT_DOUBLE_EQ(pixel_area(ps, ps.loops[1]), -40.0);
+  // With the default simplification the result is still simple and keeps the hole.
+  const PolygonSet simplified = extract_polygons(h.cloud, h.mesh, h.seg);
+  check_properties(simplified);
+  ASSERT_EQ(simplified.loops.size(), 2u);
+  EXPECT_TRUE(simplified.loops[1].is_hole);
+}
+
+TEST(Polygons, SmallHolesAndFilters) {
+  Handmade h(MeshType::adaptive);
+  h.fill(5, 40, 5, 35);
+  h.seg.labels(20, 20) = 0;  // one missing pixel: a hole of 3 pixel^2 (its 6 triangles)
+  PolygonSet ps = extract_polygons(h.cloud, h.mesh, h.seg, {.min_loop_pixels = 0});
+  check_properties(ps);
+  ASSERT_EQ(ps.loops.size(), 2u);
+  EXPECT_NEAR(ps.loops[1].raw_area, 3.0 / (525.0 * 525.0), 1e-12);
+  ps = extract_polygons(h.cloud, h.mesh, h.seg);  // default: holes under 8 pixel^2 dropped
+  EXPECT_EQ(ps.loops.size(), 1u);
+  ps = extract_polygons(h.cloud, h.mesh, h.seg, {.min_segment_pixels = 2000});
+  EXPECT_TRUE(ps.segments.empty());
+  h.seg.segments[0].model = SegmentModel::smooth;
+  EXPECT_TRUE(extract_polygons(h.cloud, h.mesh, h.seg).segments.empty());
+  EXPECT_EQ(extract_polygons(h.cloud, h.mesh, h.seg, {.planes_only = false}).segments.size(), 1u);
+  EXPECT_THROW(extract_polygons(h.cloud, h.mesh, h.seg, {.simplify_tolerance = -1}),
+               std::invalid_argument);
+  OrganizedCloud other = flat_cloud(10, 10, 1.0);
+  EXPECT_THROW(extract_polygons(other, h.mesh, h.seg), std::invalid_argument);
+}
+
+TEST(Polygons, PipelineSegmentationIsHandledAndExtractorReuseIsDeterministic) {
+  const synth::Rendering a = synth::render(synth::demo_scene(), {.noise = synth::Noise::kinect});
+  const synth::Rendering b = synth::render(synth::random_scene(3), {.noise = synth::Noise::kinect});
+  Pipeline pipeline;
+  pipeline.process(a.cloud);
+  PolygonExtractor extractor;
+  PolygonSet first, other, again;
+  extractor.extract(pipeline.cloud(), pipeline.mesh(), pipeline.segmentation(), {}, first);
+  check_properties(first);
+  EXPECT_GE(first.segments.size(), 3u);
+  Pipeline pipeline_b;
+  pipeline_b.process(b.cloud);
+  extractor.extract(pipeline_b.cloud(), pipeline_b.mesh(), pipeline_b.segmentation(), {}, other);
+  check_properties(other);
+  extractor.extract(pipeline.cloud(), pipeline.mesh(), pipeline.segmentation(), {}, again);
+  ASSERT_EQ(first.loops.size(), again.loops.size());
+  EXPECT_EQ(first.points3d, again.points3d);
+  EXPECT_EQ(first.hull_points2d, again.hull_points2d);
+  // Simplified areas stay within tolerance * perimeter of the mesh areas.
+  for (const SegmentPolygons& sp : first.segments) {
+    double bound = 0;
+    for (int li = sp.first_loop; li < sp.first_loop + sp.loop_count; ++li)
+      bound += first.loops[li].tolerance * first.loops[li].raw_perimeter;
+    EXPECT_LE(std::abs(sp.area - sp.raw_area), bound + 1e-9) << sp.label;
+    EXPECT_GE(sp.hull_area + 1e-9, sp.raw_area);
+  }
+  // Pixels line up with the loops for drawing.
+  std::vector<P2> px;
+  loop_pixels(first, 0, px);
+  EXPECT_EQ(static_cast<int>(px.size()), first.loops[0].count);
+}
+
+TEST(Polygons, ConvexHullContainsAllPoints) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> d(-1, 1);
+  std::vector<P2> pts, hull;
+  for (int i = 0; i < 500; ++i) pts.push_back({d(rng), d(rng) * 0.5f});
+  convex_hull(pts, hull);
+  ASSERT_GE(hull.size(), 3u);
+  EXPECT_GT(shoelace(hull), 0);
+  for (std::size_t i = 0, j = hull.size() - 1; i < hull.size(); j = i++)
+    for (const P2& p : pts) EXPECT_GE(orient(hull[j], hull[i], p), -1e-6);
+}
+
+TEST(Polygons, ConcaveHullOfLShapeAndRing) {
+  // L shape of points on a 1 cm grid: [0, 1] x [0, 0.3] and [0, 0.3] x [0, 1].
+  std::vector<P2> pts;
+  for (int i = 0; i <= 100; ++i)
+    for (int j = 0; j <= 100; ++j)
+      if (i <= 30 || j <= 30) pts.push_back({i * 0.01f, j * 0.01f});
+  Polygons2D out;
+  concave_hull(pts, 0.03, out);
+  ASSERT_EQ(out.first.size(), 1u);
+  EXPECT_FALSE(out.is_hole[0]);
+  std::vector<P2> loop(out.points.begin(), out.points.begin() + out.count[0]);
+  const double truth = 1.0 * 0.3 + 0.3 * 0.7;
+  EXPECT_NEAR(shoelace(loop), truth, 0.1 * truth);
+  EXPECT_LE(out.count[0], 12);
+  for (const P2& p : pts) {
+    // Inside, or within alpha / 2 * sqrt(2) of the outline.
+    bool near = point_in(loop, p[0], p[1]);
+    for (std::size_t i = 0, j = loop.size() - 1; i < loop.size() && !near; j = i++)
+      near = dist_to_segment({p[0], p[1], 0}, {loop[j][0], loop[j][1], 0}, {loop[i][0], loop[i][1], 0}) <
+             0.03 * 0.71;
+    ASSERT_TRUE(near);
+  }
+  // A ring: a hole.
+  pts.clear();
+  for (int i = 0; i <= 100; ++i)
+    for (int j = 0; j <= 100; ++j)
+      if (i <= 20 || i >= 80 || j <= 20 || j >= 80) pts.push_back({i * 0.01f, j * 0.01f});
+  concave_hull(pts, 0.03, out);
+  ASSERT_EQ(out.first.size(), 2u);
+  EXPECT_EQ(out.is_hole[0] + out.is_hole[1], 1);
+  EXPECT_THROW(concave_hull(pts, 0.0, out), std::invalid_argument);
+}
+
+TEST(Polygons, ObjTriangulationCoversThePolygonArea) {
+  const synth::Rendering r = synth::render(wall_and_box());
+  const Segmentation seg = truth_segmentation(r);
+  const PolygonSet ps = extract_polygons(r.cloud, build_mesh(r.cloud), seg);
+  std::vector<std::array<int, 3>> tris;
+  triangulate_polygons(ps, tris);
+  std::vector<double> area(ps.segments.size(), 0.0);
+  for (const auto& t : tris) {
+    const double a = orient(ps.points2d[t[0]], ps.points2d[t[1]], ps.points2d[t[2]]) * 0.5;
+    EXPECT_GT(a, 0);
+    int si = -1;
+    for (const PolygonLoop& lp : ps.loops)
+      if (t[0] >= lp.first && t[0] < lp.first + lp.count) si = lp.segment;
+    area[si] += a;
+  }
+  for (std::size_t i = 0; i < ps.segments.size(); ++i)
+    EXPECT_NEAR(area[i], ps.segments[i].area, 1e-6 + 1e-4 * ps.segments[i].area) << i;
+
+  const auto dir = test::scratch_dir("polygons_obj");
+  const std::string path = (dir / "planes.obj").string();
+  write_polygons_obj(path, ps);
+  std::ifstream in(path);
+  std::string line;
+  int nv = 0, nf = 0;
+  while (std::getline(in, line)) {
+    if (line.rfind("v ", 0) == 0) ++nv;
+    if (line.rfind("f ", 0) == 0) {
+      ++nf;
+      std::istringstream ss(line.substr(2));
+      int a, b, c;
+      ss >> a >> b >> c;
+      EXPECT_TRUE(a >= 1 && b >= 1 && c >= 1 && a <= nv && b <= nv && c <= nv);
+    }
+  }
+  EXPECT_EQ(nv, static_cast<int>(ps.points3d.size()));
+  EXPECT_EQ(nf, static_cast<int>(tris.size()));
+}
+
+}  // namespace
+}  // namespace rangeseg
