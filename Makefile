@@ -24,13 +24,14 @@ test: build
 	ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
 
 test-asan: deps
-	cmake -S . -B $(BUILD_ASAN) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRANGESEG_SANITIZE=ON -DRANGESEG_BUILD_BENCH=OFF
+	cmake -S . -B $(BUILD_ASAN) -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" \
+	  -DRANGESEG_SANITIZE=ON -DRANGESEG_BUILD_BENCH=OFF
 	cmake --build $(BUILD_ASAN) -j $(JOBS)
 	ctest --test-dir $(BUILD_ASAN) --output-on-failure -j $(JOBS)
 
 fuzz-smoke:
 	RANGESEG_WITH_CLANG=1 ./scripts/install-deps.sh
-	CC=clang CXX=clang++ cmake -S . -B $(BUILD_FUZZ) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRANGESEG_FUZZ=ON \
+	CC=clang CXX=clang++ cmake -S . -B $(BUILD_FUZZ) -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" -DRANGESEG_FUZZ=ON \
 	  -DRANGESEG_BUILD_TESTS=OFF -DRANGESEG_BUILD_BENCH=OFF -DRANGESEG_BUILD_APPS=OFF
 	cmake --build $(BUILD_FUZZ) -j $(JOBS)
 	./scripts/fuzz-smoke.sh $(BUILD_FUZZ)

@@ -1,14 +1,15 @@
 // Stage 1: the implicit mesh as per-pixel bit masks.
 //
-// Three passes over the stride lattice, all reading and writing whole rows:
-//  1. edge candidates: the validity (paper, eq. 1) of every lattice edge, computed once per
-//     geometric edge and stored as scratch bits in `mesh.edges`;
-//  2. faces: per cell, a 128-entry table maps the 6 edge bits (+ "a-d is not longer") to the
-//     face bits of the mesh type;
-//  3. edges: per vertex, the union of the edges of the faces in the (up to) 4 cells around it,
-//     again by table, overwriting the scratch bits.
+// One sweep over the lattice rows, each step reading and writing whole rows through small row
+// buffers (structure of arrays, branch-free, so the compiler vectorises every pass):
+//  1. per-pixel quantities of a row (range, eps_d^2, noise variance, ...), computed once;
+//  2. edge candidates: the validity (paper, eq. 1, plus the noise gate) of the edges a-b, a-d,
+//     a-c, b-c of every cell, each geometric edge tested exactly once;
+//  3. faces per cell from the candidate bits of two rows, and the 1-ring bits each face edge
+//     contributes to the cell's four corners; a vertex's mask is the union over its <= 4 cells.
 #include "rangeseg/mesh.hpp"
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <cmath>
@@ -17,6 +18,12 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace rangeseg {
 namespace {
@@ -28,157 +35,201 @@ constexpr std::uint8_t kEdgeAC = 4;        // a -> c (down)
 constexpr std::uint8_t kEdgeBC = 8;        // b -> c (down-left, stored at a)
 constexpr std::uint8_t kAdNotLonger = 16;  // |a-d| <= |b-c|
 
-// Bits of the 7-bit cell index of pass 2.
-constexpr int kIdxAB = 1, kIdxAD = 2, kIdxAC = 4, kIdxBC = 8, kIdxShort = 16, kIdxBD = 32,
-              kIdxCD = 64;
-
-constexpr std::uint8_t cell_faces(MeshType type, int idx) {
-  const bool ab = idx & kIdxAB, ad = idx & kIdxAD, ac = idx & kIdxAC, bc = idx & kIdxBC,
-             ad_short = idx & kIdxShort, bd = idx & kIdxBD, cd = idx & kIdxCD;
-  if (type == MeshType::quad) return (ab && ac && bd && cd) ? face_bits::quad : 0;
-  // Diagonal a-d: (a,d,b) needs ad, bd, ab; (a,c,d) needs ac, cd, ad.
-  const std::uint8_t faces_ad = static_cast<std::uint8_t>((ad && bd && ab ? face_bits::tri0 : 0) |
-                                                          (ac && cd && ad ? face_bits::tri1 : 0));
-  // Diagonal b-c: (a,c,b) needs ac, bc, ab; (b,c,d) needs bc, cd, bd.
-  const std::uint8_t faces_bc = static_cast<std::uint8_t>((ac && bc && ab ? face_bits::tri0 : 0) |
-                                                          (bc && cd && bd ? face_bits::tri1 : 0));
-  const std::uint8_t with_bc =
-      faces_bc ? static_cast<std::uint8_t>(faces_bc | face_bits::diag_bc) : 0;
-  switch (type) {
-    case MeshType::right_cut:
-      return faces_ad;
-    case MeshType::left_cut:
-      return with_bc;
-    default: {
-      const int n_ad = std::popcount(static_cast<unsigned>(faces_ad));
-      const int n_bc = std::popcount(static_cast<unsigned>(faces_bc));
-      if (n_ad != n_bc) return n_ad > n_bc ? faces_ad : with_bc;
-      return ad_short ? faces_ad : with_bc;
-    }
-  }
-}
-
-using CellTable = std::array<std::uint8_t, 128>;
-constexpr CellTable make_cell_table(MeshType type) {
-  CellTable t{};
-  for (int i = 0; i < 128; ++i) t[i] = cell_faces(type, i);
-  return t;
-}
-constexpr std::array<CellTable, 4> kCellTables{
-    make_cell_table(MeshType::quad), make_cell_table(MeshType::left_cut),
-    make_cell_table(MeshType::right_cut), make_cell_table(MeshType::adaptive)};
-
-// Edge bits (kNeighbourDu/Dv order: 0 right, 1 down-right, 2 down, 3 down-left, 4 left,
-// 5 up-left, 6 up, 7 up-right) contributed to a vertex by the faces of one adjacent cell,
-// indexed by the cell's face byte, for each role the vertex plays in that cell.
-enum Corner { kA, kB, kC, kD };
-constexpr std::uint8_t corner_edges(Corner corner, int f) {
-  constexpr std::uint8_t R = 1, DR = 2, D = 4, DL = 8, L = 16, UL = 32, U = 64, UR = 128;
-  const bool t0 = f & face_bits::tri0, t1 = f & face_bits::tri1, q = f & face_bits::quad,
-             bc = f & face_bits::diag_bc;
-  int m = 0;
-  switch (corner) {
-    case kA:  // edges a-b (R), a-d (DR), a-c (D)
-      if (q) m |= R | D;
-      if (!bc)
-        m |= (t0 ? R | DR : 0) | (t1 ? D | DR : 0);
-      else
-        m |= (t0 ? R | D : 0);
-      break;
-    case kB:  // b-a (L), b-d (D), b-c (DL)
-      if (q) m |= L | D;
-      if (!bc)
-        m |= (t0 ? L | D : 0);
-      else
-        m |= (t0 ? L | DL : 0) | (t1 ? DL | D : 0);
-      break;
-    case kC:  // c-a (U), c-d (R), c-b (UR)
-      if (q) m |= U | R;
-      if (!bc)
-        m |= (t1 ? U | R : 0);
-      else
-        m |= (t0 ? U | UR : 0) | (t1 ? UR | R : 0);
-      break;
-    case kD:  // d-b (U), d-c (L), d-a (UL)
-      if (q) m |= U | L;
-      if (!bc)
-        m |= (t0 ? UL | U : 0) | (t1 ? UL | L : 0);
-      else
-        m |= (t1 ? U | L : 0);
-      break;
-  }
-  return static_cast<std::uint8_t>(m);
-}
-using CornerTable = std::array<std::uint8_t, 16>;
-constexpr CornerTable make_corner_table(Corner c) {
-  CornerTable t{};
-  for (int f = 0; f < 16; ++f) t[f] = corner_edges(c, f);
-  return t;
-}
-constexpr CornerTable kAsA = make_corner_table(kA), kAsB = make_corner_table(kB),
-                      kAsC = make_corner_table(kC), kAsD = make_corner_table(kD);
-
-struct EdgeTest {
-  float vx, vy, vz;  // viewpoint
-  float cos2;        // cos(eps_theta)^2
-  float a, bs, c;    // eps_d(r) = a + bs r + c r^2 (bs = b * stride)
-
-  // Branch-free; any NaN coordinate makes a comparison false, so validity of both ends needs
-  // no separate test.
-  bool operator()(float px, float py, float pz, float qx, float qy, float qz) const {
-    const float ex = qx - px, ey = qy - py, ez = qz - pz;
-    const float rx = px - vx, ry = py - vy, rz = pz - vz;
-    const float sx = qx - vx, sy = qy - vy, sz = qz - vz;
-    const float len2 = ex * ex + ey * ey + ez * ez;
-    const float rp2 = rx * rx + ry * ry + rz * rz;
-    const float rq2 = sx * sx + sy * sy + sz * sz;
-    const float dot = ex * rx + ey * ry + ez * rz;
-    const float r = std::sqrt(rp2 > rq2 ? rp2 : rq2);
-    const float eps = a + r * (bs + c * r);
-    return (len2 <= eps * eps) & (dot * dot <= cos2 * len2 * rp2);
-  }
+// Per-pixel quantities of one lattice row, relative to the viewpoint (structure of arrays, so
+// that the edge tests below vectorise).
+struct PixelRow {
+  float* x;
+  float* y;
+  float* z;
+  float* range;      // |p - viewpoint|
+  float* cos2_r2;    // cos(eps_theta)^2 |p - viewpoint|^2
+  float* max_len2;   // eps_d(range)^2
+  float* noise_var;  // (jump_sigmas sigma(range))^2
 };
 
-// Pass 1 for lattice row v. kStride > 0 fixes the stride at compile time (the common s = 1
-// lets the compiler vectorise); 0 reads it from `s`.
-template <int kStride>
-void edge_candidates_row(const OrganizedCloud& cloud, const EdgeTest& test, int v, int s,
-                         std::uint8_t* out) {
-  if constexpr (kStride > 0) s = kStride;
-  const int width = cloud.width();
-  const float* x0 = cloud.x.row(v);
-  const float* y0 = cloud.y.row(v);
-  const float* z0 = cloud.z.row(v);
-  const int last_u = (width - 1) / s * s;
-  const bool has_down = v + s < cloud.height();
-  if (!has_down) {
-    for (int u = 0; u < last_u; u += s) {
-      out[u] = test(x0[u], y0[u], z0[u], x0[u + s], y0[u + s], z0[u + s]) ? kEdgeAB : 0;
+struct EdgeParams {
+  float vx, vy, vz;   // viewpoint
+  float cos2;         // cos(eps_theta)^2
+  float a, bs, c;     // eps_d(r) = a + bs r + c r^2 (bs = b * stride)
+  float na, nb, nz0;  // sigma(r) = na + nb (r - nz0)^2
+  float k2;           // jump_sigmas^2
+};
+
+// r[i] = sqrt(max(r2[i], 0)), in place; NaN becomes 0 (maxps returns its second operand then).
+// A separate pass: with errno-setting math GCC keeps a branch around std::sqrt, which stopped
+// the whole per-pixel loop from vectorising, so SSE is used directly.
+void sqrt_clamped(float* __restrict r, int n) {
+  int i = 0;
+#if defined(__SSE2__)
+  const __m128 zero = _mm_setzero_ps();
+  for (; i + 4 <= n; i += 4) {
+    _mm_storeu_ps(r + i, _mm_sqrt_ps(_mm_max_ps(_mm_loadu_ps(r + i), zero)));
+  }
+#endif
+  for (; i < n; ++i) r[i] = std::sqrt(r[i] > 0.0f ? r[i] : 0.0f);
+}
+
+template <bool kUnitStride>
+void load_row(const OrganizedCloud& cloud, const EdgeParams& p, int v, int s, int n,
+              const PixelRow& out) {
+  const float* __restrict xs = cloud.x.row(v);
+  const float* __restrict ys = cloud.y.row(v);
+  const float* __restrict zs = cloud.z.row(v);
+  float* __restrict ox = out.x;
+  float* __restrict oy = out.y;
+  float* __restrict oz = out.z;
+  float* __restrict orange = out.range;
+  float* __restrict ocos = out.cos2_r2;
+  float* __restrict olen = out.max_len2;
+  float* __restrict ovar = out.noise_var;
+#pragma GCC ivdep
+  for (int i = 0; i < n; ++i) {
+    const int u = kUnitStride ? i : i * s;
+    const float x = xs[u] - p.vx, y = ys[u] - p.vy, z = zs[u] - p.vz;
+    const float r2 = x * x + y * y + z * z;
+    ox[i] = x;
+    oy[i] = y;
+    oz[i] = z;
+    orange[i] = r2;
+    ocos[i] = p.cos2 * r2;
+  }
+  // NaN points need no range (their edges fail on their NaN length): they get 0.
+  sqrt_clamped(orange, n);
+#pragma GCC ivdep
+  for (int i = 0; i < n; ++i) {
+    const float r = orange[i];
+    const float eps = p.a + r * (p.bs + p.c * r);
+    const float dr = r - p.nz0;
+    const float sigma = p.na + p.nb * dr * dr;
+    olen[i] = eps * eps;
+    ovar[i] = p.k2 * sigma * sigma;
+  }
+}
+
+// Edge p -> q (paper, eq. 1 plus the noise gate documented in mesh.hpp). eps_d is monotonic in
+// the range, so eps_d(max range)^2 is the larger of the two per-pixel values. Branch-free; a
+// NaN end makes len2 NaN and every comparison with it false, so validity needs no extra test.
+#define RANGESEG_EDGE_OK(PX, PY, PZ, PR, PC, PL, PV, QX, QY, QZ, QR, QL, QV)        \
+  [&] {                                                                             \
+    const float ex = (QX) - (PX), ey = (QY) - (PY), ez = (QZ) - (PZ);               \
+    const float len2 = ex * ex + ey * ey + ez * ez;                                 \
+    const float dot = ex * (PX) + ey * (PY) + ez * (PZ);                            \
+    const float dr = (PR) - (QR);                                                   \
+    const float lim = (PL) > (QL) ? (PL) : (QL);                                    \
+    return (len2 <= lim) & ((dot * dot <= len2 * (PC)) | (dr * dr <= (PV) + (QV))); \
+  }()
+
+// Pass 1 for one lattice row: the edges a-b, a-d, a-c and b-c of every cell whose top-left
+// vertex is in this row, plus "a-d not longer than b-c". `below` is null on the last row.
+void edge_candidates(const PixelRow& top, const PixelRow* below, int n,
+                     std::uint8_t* __restrict out) {
+  const float* __restrict ax = top.x;
+  const float* __restrict ay = top.y;
+  const float* __restrict az = top.z;
+  const float* __restrict ar = top.range;
+  const float* __restrict ac2 = top.cos2_r2;
+  const float* __restrict al = top.max_len2;
+  const float* __restrict av = top.noise_var;
+  if (below == nullptr) {
+    for (int i = 0; i + 1 < n; ++i) {
+      const bool ab = RANGESEG_EDGE_OK(ax[i], ay[i], az[i], ar[i], ac2[i], al[i], av[i], ax[i + 1],
+                                       ay[i + 1], az[i + 1], ar[i + 1], al[i + 1], av[i + 1]);
+      out[i] = ab ? kEdgeAB : 0;
     }
-    out[last_u] = 0;
+    out[n - 1] = 0;
     return;
   }
-  const float* x1 = cloud.x.row(v + s);
-  const float* y1 = cloud.y.row(v + s);
-  const float* z1 = cloud.z.row(v + s);
-  for (int u = 0; u < last_u; u += s) {
-    const float ax = x0[u], ay = y0[u], az = z0[u];
-    const float bx = x0[u + s], by = y0[u + s], bz = z0[u + s];
-    const float cx = x1[u], cy = y1[u], cz = z1[u];
-    const float dx = x1[u + s], dy = y1[u + s], dz = z1[u + s];
-    const float adx = dx - ax, ady = dy - ay, adz = dz - az;
-    const float bcx = cx - bx, bcy = cy - by, bcz = cz - bz;
+  const float* __restrict cx = below->x;
+  const float* __restrict cy = below->y;
+  const float* __restrict cz = below->z;
+  const float* __restrict cr = below->range;
+  const float* __restrict cl = below->max_len2;
+  const float* __restrict cv = below->noise_var;
+  for (int i = 0; i + 1 < n; ++i) {
+    const int j = i + 1;
+    const bool ab = RANGESEG_EDGE_OK(ax[i], ay[i], az[i], ar[i], ac2[i], al[i], av[i], ax[j], ay[j],
+                                     az[j], ar[j], al[j], av[j]);
+    const bool ad = RANGESEG_EDGE_OK(ax[i], ay[i], az[i], ar[i], ac2[i], al[i], av[i], cx[j], cy[j],
+                                     cz[j], cr[j], cl[j], cv[j]);
+    const bool acv = RANGESEG_EDGE_OK(ax[i], ay[i], az[i], ar[i], ac2[i], al[i], av[i], cx[i],
+                                      cy[i], cz[i], cr[i], cl[i], cv[i]);
+    const bool bc = RANGESEG_EDGE_OK(ax[j], ay[j], az[j], ar[j], ac2[j], al[j], av[j], cx[i], cy[i],
+                                     cz[i], cr[i], cl[i], cv[i]);
+    const float adx = cx[j] - ax[i], ady = cy[j] - ay[i], adz = cz[j] - az[i];
+    const float bcx = cx[i] - ax[j], bcy = cy[i] - ay[j], bcz = cz[i] - az[j];
     const bool ad_not_longer =
         adx * adx + ady * ady + adz * adz <= bcx * bcx + bcy * bcy + bcz * bcz;
-    out[u] = static_cast<std::uint8_t>((test(ax, ay, az, bx, by, bz) ? kEdgeAB : 0) |
-                                       (test(ax, ay, az, dx, dy, dz) ? kEdgeAD : 0) |
-                                       (test(ax, ay, az, cx, cy, cz) ? kEdgeAC : 0) |
-                                       (test(bx, by, bz, cx, cy, cz) ? kEdgeBC : 0) |
-                                       (ad_not_longer ? kAdNotLonger : 0));
+    out[i] =
+        static_cast<std::uint8_t>((ab ? kEdgeAB : 0) | (ad ? kEdgeAD : 0) | (acv ? kEdgeAC : 0) |
+                                  (bc ? kEdgeBC : 0) | (ad_not_longer ? kAdNotLonger : 0));
   }
-  out[last_u] =
-      test(x0[last_u], y0[last_u], z0[last_u], x1[last_u], y1[last_u], z1[last_u]) ? kEdgeAC : 0;
+  const int i = n - 1;
+  const bool acv = RANGESEG_EDGE_OK(ax[i], ay[i], az[i], ar[i], ac2[i], al[i], av[i], cx[i], cy[i],
+                                    cz[i], cr[i], cl[i], cv[i]);
+  out[i] = acv ? kEdgeAC : 0;
 }
+#undef RANGESEG_EDGE_OK
+
+// Edge bits of Mesh::edges (kNeighbourDu/Dv order).
+constexpr std::uint8_t kR = 1, kDR = 2, kD = 4, kDL = 8, kL = 16, kUL = 32, kU = 64, kUR = 128;
+
+// Passes 2 and 3 for lattice row v: the faces of its cells from the candidate bits of rows v
+// (`cand`) and v + 1 (`cand_below`), and the 1-ring bits each cell contributes to its corners:
+// as_a[i] (vertex i of row v), as_b[i + 1], as_c[i] and as_d[i + 1] (row v + 1). Branch-free
+// byte logic, one template instance per mesh type, so that it vectorises.
+template <MeshType kType>
+void faces_row(const std::uint8_t* __restrict cand, const std::uint8_t* __restrict cand_below,
+               int n, std::uint8_t* __restrict faces, std::uint8_t* __restrict as_a,
+               std::uint8_t* __restrict as_b, std::uint8_t* __restrict as_c,
+               std::uint8_t* __restrict as_d) {
+  as_b[0] = 0;
+  as_d[0] = 0;
+  // 0/1 bytes and bitwise logic (no bool conversions, no branches) vectorise.
+  using B = std::uint8_t;
+  for (int i = 0; i + 1 < n; ++i) {
+    const B e = cand[i];
+    const B ab = e & 1, ad = (e >> 1) & 1, ac = (e >> 2) & 1, bc = (e >> 3) & 1;
+    const B bd = (cand[i + 1] >> 2) & 1, cd = cand_below[i] & 1;
+    const B ad0 = ab & ad & bd, ad1 = ac & cd & ad;  // (a,d,b), (a,c,d)
+    const B bc0 = ab & ac & bc, bc1 = bc & cd & bd;  // (a,c,b), (b,c,d)
+    B t0 = 0, t1 = 0, q = 0, cut_bc = 0;
+    if constexpr (kType == MeshType::quad) {
+      q = ab & ac & bd & cd;
+    } else if constexpr (kType == MeshType::right_cut) {
+      t0 = ad0, t1 = ad1;
+    } else if constexpr (kType == MeshType::left_cut) {
+      t0 = bc0, t1 = bc1, cut_bc = bc0 | bc1;
+    } else {
+      const B n_ad = ad0 + ad1, n_bc = bc0 + bc1;
+      const B ad_not_longer = (e >> 4) & 1;
+      cut_bc = static_cast<B>(n_bc > n_ad) |
+               (static_cast<B>(n_bc == n_ad) & (ad_not_longer ^ 1) & (bc0 | bc1));
+      const B keep_ad = cut_bc ^ 1;
+      t0 = (cut_bc & bc0) | (keep_ad & ad0);
+      t1 = (cut_bc & bc1) | (keep_ad & ad1);
+    }
+    faces[i] = static_cast<B>(t0 * face_bits::tri0 | t1 * face_bits::tri1 | q * face_bits::quad |
+                              cut_bc * face_bits::diag_bc);
+    // Edges of the cell that belong to a face.
+    const B any = t0 | t1, keep_ad = cut_bc ^ 1;
+    const B e_ab = q | t0, e_cd = q | t1;
+    const B e_ac = q | (cut_bc & t0) | (keep_ad & t1), e_bd = q | (cut_bc & t1) | (keep_ad & t0);
+    const B e_ad = keep_ad & any, e_bc = cut_bc & any;
+    as_a[i] = static_cast<B>(e_ab * kR | e_ad * kDR | e_ac * kD);
+    as_b[i + 1] = static_cast<B>(e_ab * kL | e_bd * kD | e_bc * kDL);
+    as_c[i] = static_cast<B>(e_cd * kR | e_ac * kU | e_bc * kUR);
+    as_d[i + 1] = static_cast<B>(e_cd * kL | e_bd * kU | e_ad * kUL);
+  }
+  faces[n - 1] = 0;
+  as_a[n - 1] = 0;
+  as_c[n - 1] = 0;
+}
+
+using FacesRowFn = void (*)(const std::uint8_t*, const std::uint8_t*, int, std::uint8_t*,
+                            std::uint8_t*, std::uint8_t*, std::uint8_t*, std::uint8_t*);
+constexpr std::array<FacesRowFn, 4> kFacesRow{
+    faces_row<MeshType::quad>, faces_row<MeshType::left_cut>, faces_row<MeshType::right_cut>,
+    faces_row<MeshType::adaptive>};
 
 void validate(const OrganizedCloud& cloud, const MeshSettings& s) {
   require_organized(cloud, "build_mesh");
@@ -210,6 +261,17 @@ void validate(const OrganizedCloud& cloud, const MeshSettings& s) {
   for (float p : s.viewpoint) {
     if (!std::isfinite(p)) throw std::invalid_argument("build_mesh: viewpoint must be finite");
   }
+  if (!(s.jump_sigmas >= 0.0f) || !std::isfinite(s.jump_sigmas)) {
+    throw std::invalid_argument("build_mesh: jump_sigmas must be finite and >= 0, got " +
+                                std::to_string(s.jump_sigmas));
+  }
+  for (double e : {s.noise.a, s.noise.b, s.noise.z0}) {
+    if (!std::isfinite(e)) {
+      throw std::invalid_argument("build_mesh: noise model must be finite, got a " +
+                                  std::to_string(s.noise.a) + ", b " + std::to_string(s.noise.b) +
+                                  ", z0 " + std::to_string(s.noise.z0));
+    }
+  }
   if (s.pixel_stride < 1) {
     throw std::invalid_argument("build_mesh: pixel_stride must be >= 1, got " +
                                 std::to_string(s.pixel_stride));
@@ -223,54 +285,104 @@ void build_mesh(const OrganizedCloud& cloud, const MeshSettings& settings, Mesh&
   const int width = cloud.width(), height = cloud.height(), s = settings.pixel_stride;
   mesh.type = settings.type;
   mesh.pixel_stride = s;
-  // Plane::resize keeps the allocation and only refills: no per-frame allocation.
-  mesh.faces.resize(width, height, 0);
-  mesh.edges.resize(width, height, 0);
+  // At stride 1 every element of both planes is written below, so a plane of the right size is
+  // not refilled; otherwise Plane::resize keeps the allocation and zeroes the off-lattice pixels.
+  if (s != 1 || mesh.faces.width() != width || mesh.faces.height() != height) {
+    mesh.faces.resize(width, height, 0);
+  }
+  if (s != 1 || mesh.edges.width() != width || mesh.edges.height() != height) {
+    mesh.edges.resize(width, height, 0);
+  }
 
   const float cos_theta = std::cos(settings.eps_theta);
-  const EdgeTest test{settings.viewpoint[0], settings.viewpoint[1],
-                      settings.viewpoint[2], cos_theta * cos_theta,
-                      settings.max_edge_a,   settings.max_edge_b * static_cast<float>(s),
-                      settings.max_edge_c};
+  const SensorNoise& noise = settings.noise;
+  const EdgeParams params{settings.viewpoint[0],
+                          settings.viewpoint[1],
+                          settings.viewpoint[2],
+                          cos_theta * cos_theta,
+                          settings.max_edge_a,
+                          settings.max_edge_b * static_cast<float>(s),
+                          settings.max_edge_c,
+                          static_cast<float>(noise.a),
+                          static_cast<float>(noise.b),
+                          static_cast<float>(noise.z0),
+                          settings.jump_sigmas * settings.jump_sigmas};
 
-  for (int v = 0; v < height; v += s) {
+  // Lattice size; all row buffers are indexed by lattice column i (pixel u = i * s).
+  const int n = (width - 1) / s + 1, m = (height - 1) / s + 1;
+  // Reused across calls on the same thread: no allocation per frame.
+  thread_local std::vector<float> float_buffer;
+  thread_local std::vector<std::uint8_t> byte_buffer;
+  constexpr int kFloatsPerPixel = 7;
+  float_buffer.resize(static_cast<std::size_t>(3 * kFloatsPerPixel) * n);
+  byte_buffer.resize(static_cast<std::size_t>(9) * n);
+  std::array<PixelRow, 3> rows{};
+  for (int k = 0; k < 3; ++k) {
+    float* base = float_buffer.data() + static_cast<std::size_t>(k * kFloatsPerPixel) * n;
+    rows[k] = {base,         base + n,     base + 2 * n, base + 3 * n,
+               base + 4 * n, base + 5 * n, base + 6 * n};
+  }
+  std::uint8_t* bytes = byte_buffer.data();
+  std::uint8_t* cand = bytes;
+  std::uint8_t* cand_below = bytes + n;
+  std::uint8_t* faces = bytes + 2 * n;
+  std::uint8_t* as_a = bytes + 3 * n;
+  std::uint8_t* as_b = bytes + 4 * n;
+  std::uint8_t* as_c = bytes + 5 * n;  // contributions to the next lattice row
+  std::uint8_t* as_d = bytes + 6 * n;
+  std::uint8_t* from_above_c = bytes + 7 * n;  // ... and those from the previous one
+  std::uint8_t* from_above_d = bytes + 8 * n;
+  std::fill(from_above_c, from_above_c + 2 * n, std::uint8_t{0});
+
+  const auto load = [&](int lattice_row, const PixelRow& out) {
     if (s == 1) {
-      edge_candidates_row<1>(cloud, test, v, s, mesh.edges.row(v));
+      load_row<true>(cloud, params, lattice_row, 1, n, out);
     } else {
-      edge_candidates_row<0>(cloud, test, v, s, mesh.edges.row(v));
+      load_row<false>(cloud, params, lattice_row * s, s, n, out);
     }
-  }
-
-  const CellTable& table = kCellTables[static_cast<int>(settings.type)];
-  for (int v = 0; v + s < height; v += s) {
-    const std::uint8_t* e0 = mesh.edges.row(v);
-    const std::uint8_t* e1 = mesh.edges.row(v + s);
-    std::uint8_t* f = mesh.faces.row(v);
-    for (int u = 0; u + s < width; u += s) {
-      const int idx =
-          (e0[u] & 31) | ((e0[u + s] & kEdgeAC) ? kIdxBD : 0) | ((e1[u] & kEdgeAB) ? kIdxCD : 0);
-      f[u] = table[idx];
+  };
+  const FacesRowFn faces_row_fn = kFacesRow[static_cast<int>(settings.type)];
+  PixelRow* top = &rows[0];
+  PixelRow* mid = &rows[1];
+  PixelRow* low = &rows[2];
+  load(0, *top);
+  if (m > 1) load(1, *mid);
+  edge_candidates(*top, m > 1 ? mid : nullptr, n, cand);
+  for (int j = 0; j < m; ++j) {
+    std::uint8_t* face_row = mesh.faces.row(j * s);
+    std::uint8_t* edge_row = mesh.edges.row(j * s);
+    if (j + 1 < m) {
+      // Candidates of row j + 1 need pixel row j + 2.
+      if (j + 2 < m) load(j + 2, *low);
+      edge_candidates(*mid, j + 2 < m ? low : nullptr, n, cand_below);
+      faces_row_fn(cand, cand_below, n, faces, as_a, as_b, as_c, as_d);
+    } else {
+      std::fill(faces, faces + n, std::uint8_t{0});
+      std::fill(as_a, as_a + n, std::uint8_t{0});
+      std::fill(as_b, as_b + n, std::uint8_t{0});
+      std::fill(as_c, as_c + n, std::uint8_t{0});
+      std::fill(as_d, as_d + n, std::uint8_t{0});
     }
-  }
-
-  // Pass 3: faces of the cells (u,v), (u-s,v), (u,v-s), (u-s,v-s); rows/columns outside the
-  // image contribute nothing (their cells hold 0 or do not exist).
-  for (int v = 0; v < height; v += s) {
-    const std::uint8_t* f0 = mesh.faces.row(v);  // cells with this vertex as a or b
-    const std::uint8_t* fu = v >= s ? mesh.faces.row(v - s) : nullptr;  // as c or d
-    std::uint8_t* e = mesh.edges.row(v);
-    if (fu != nullptr) {
-      e[0] = static_cast<std::uint8_t>(kAsA[f0[0]] | kAsC[fu[0]]);
-      for (int u = s; u < width; u += s) {
-        e[u] = static_cast<std::uint8_t>(kAsA[f0[u]] | kAsB[f0[u - s]] | kAsC[fu[u]] |
-                                         kAsD[fu[u - s]]);
+    if (s == 1) {
+      for (int i = 0; i < n; ++i) {
+        face_row[i] = faces[i];
+        edge_row[i] =
+            static_cast<std::uint8_t>(as_a[i] | as_b[i] | from_above_c[i] | from_above_d[i]);
       }
     } else {
-      e[0] = kAsA[f0[0]];
-      for (int u = s; u < width; u += s) {
-        e[u] = static_cast<std::uint8_t>(kAsA[f0[u]] | kAsB[f0[u - s]]);
+      for (int i = 0; i < n; ++i) {
+        face_row[i * s] = faces[i];
+        edge_row[i * s] =
+            static_cast<std::uint8_t>(as_a[i] | as_b[i] | from_above_c[i] | from_above_d[i]);
       }
     }
+    std::swap(cand, cand_below);
+    std::swap(as_c, from_above_c);
+    std::swap(as_d, from_above_d);
+    PixelRow* const old_top = top;
+    top = mid;
+    mid = low;
+    low = old_top;
   }
 }
 

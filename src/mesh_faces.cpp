@@ -58,7 +58,16 @@ void extract_faces(const Mesh& mesh, bool remove_unused_vertices, TriangleList& 
   const int per_face = mesh.type == MeshType::quad ? 4 : 3;
   out.vertices_per_face = per_face;
   out.vertex_pixel.clear();
-  const std::size_t n_indices = count_faces(mesh) * static_cast<std::size_t>(per_face);
+  // Faces per cell are its bits tri0 + tri1 + quad: a byte loop that vectorises (count_faces
+  // uses popcount, a library call without -mpopcnt).
+  std::size_t n_faces = 0;
+  for (int v = 0; v < height; ++v) {
+    const std::uint8_t* f = mesh.faces.row(v);
+    std::uint32_t row = 0;
+    for (int u = 0; u < width; ++u) row += (f[u] & 1u) + ((f[u] >> 1) & 1u) + ((f[u] >> 2) & 1u);
+    n_faces += row;
+  }
+  const std::size_t n_indices = n_faces * static_cast<std::size_t>(per_face);
   // Every cell writes 6 indices unconditionally and advances by what it really holds; the slack
   // keeps the last write inside the buffer.
   out.indices.resize(n_indices + 6);

@@ -25,22 +25,35 @@ namespace {
 #define RANGESEG_VECTORIZE
 #endif
 
+#if defined(__GNUC__) || defined(__clang__)
+#define RANGESEG_INLINE inline __attribute__((always_inline))
+#else
+#define RANGESEG_INLINE inline
+#endif
+
+// The pass is compiled twice, for the baseline ISA and for AVX2 + FMA, and chosen at run time:
+// the build does not assume -march=native, and 8-lane vectors halve the filter's time.
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#define RANGESEG_SMOOTH_AVX2 1
+#else
+#define RANGESEG_SMOOTH_AVX2 0
+#endif
+
 /// Weights exp(-a) with a >= kMaxExponent are treated as 0 (e^-30 ~ 1e-13, far below the
 /// centre's weight 1).
 constexpr float kMaxExponent = 30.0f;
 
 /// exp(-a) for a in [0, kMaxExponent]: 2^y = 2^n 2^f with n = round(y), |f| <= 1/2, and 2^f from
-/// its degree-5 Taylor polynomial in f ln 2 (|f ln 2| <= 0.347, relative error < 4e-6, checked in
-/// tests against std::exp through the filter output). Branch-free and integer-free except for bit
-/// casts, so the row loops vectorise; std::exp is the whole cost of the filter otherwise.
-inline float exp_neg(float a) {
+/// its degree-4 Taylor polynomial in g = f ln 2 (|g| <= 0.347, relative error <= g^5 / 120 <
+/// 5e-5, far below what a weight needs; checked in tests against std::exp through the filter
+/// output). Branch-free and integer-free except for bit casts, so the row loops vectorise.
+RANGESEG_INLINE float exp_neg(float a) {
   constexpr float kRound = 12582912.0f;  // 1.5 * 2^23: adding it rounds to an integer
   const float y = a * -1.44269504f;      // -a log2(e), in [-43.3, 0]
   const float t = y + kRound;
   const float n = t - kRound;
   const float g = (y - n) * 0.693147181f;
-  const float p =
-      1.0f + g * (1.0f + g * (0.5f + g * (1.0f / 6 + g * (1.0f / 24 + g * (1.0f / 120)))));
+  const float p = 1.0f + g * (1.0f + g * (0.5f + g * (1.0f / 6 + g * (1.0f / 24))));
   const std::int32_t exponent =
       std::bit_cast<std::int32_t>(t) - std::bit_cast<std::int32_t>(kRound);
   return std::bit_cast<float>(std::bit_cast<std::int32_t>(p) + exponent * (1 << 23));
@@ -48,10 +61,22 @@ inline float exp_neg(float a) {
 
 /// c ? a : b on the bits. A plain ?: on floats lets the compiler sink the arithmetic that
 /// computes `a` into a branch, which (floating-point ops may trap) it then cannot vectorise.
-inline float select(bool c, float a, float b) {
+RANGESEG_INLINE float select(bool c, float a, float b) {
   const std::uint32_t mask = 0u - static_cast<std::uint32_t>(c);
   return std::bit_cast<float>((std::bit_cast<std::uint32_t>(a) & mask) |
                               (std::bit_cast<std::uint32_t>(b) & ~mask));
+}
+
+/// 1 / sqrt(x) for finite x > 0: the classic bit-level first guess and three Newton steps
+/// (relative error ~1e-7, float rounding). std::sqrt keeps the loop scalar: with errno
+/// semantics it has a branch to the library call for negative arguments.
+RANGESEG_INLINE float inverse_sqrt(float x) {
+  float r = std::bit_cast<float>(0x5f375a86 - (std::bit_cast<std::int32_t>(x) >> 1));
+  const float half_x = 0.5f * x;
+  r = r * (1.5f - half_x * r * r);
+  r = r * (1.5f - half_x * r * r);
+  r = r * (1.5f - half_x * r * r);
+  return r;
 }
 
 template <class T>
@@ -69,196 +94,323 @@ void copy_plane(const FloatPlane& from, FloatPlane& to) {
 /// Per-frame constants of one pass.
 struct PassParams {
   int stride = 1;
-  float ox = 0, oy = 0, oz = 0;
   float kd2 = 0;      // distance_scale^2
   float spacing = 0;  // stride * pixel_angle [rad]
   float noise_a = 0, noise_b = 0, noise_z0 = 0;
   float inv_normal_scale = 0;
   float inv_intensity_scale = 0;  // 1 / (c_I s_I)
+  std::array<float, 3> origin{};  // added to the output points (inputs are origin-relative)
   const FloatPlane* intensity = nullptr;
 };
 
-/// Row accumulators, each `width` floats inside Smoother::rows_.
-struct RowScratch {
-  float* w;        // sum of weights
-  float* a0;       // sum w t (along ray) or sum w x
-  float* a1;       // sum w y
-  float* a2;       // sum w z
-  float* n0;       // sum w nx
-  float* n1;       // sum w ny
-  float* n2;       // sum w nz
-  float* inv2sd2;  // 1 / (2 s_d(z_i)^2)
-  float* inv_sn;   // 1 / s_n(z_i)
+/// Row buffers of one pass. Edge rows hold, per forward direction k = 0..3 (right, down-right,
+/// down, down-left) and per lattice row, the quantities of edge (i, j = i + d_k): weight w,
+/// w q_i.q_j (along the ray) or w (p_j - p_i) (mean), w (n_j - n_i). Two slots alternate between
+/// the current and the previous lattice row. Every edge row has `pad` zero floats on both sides,
+/// so that the gather reads zeros for edges leaving the grid.
+struct RowBuffers {
+  static constexpr int kEdgeArrays = 7;  // w, t or dp (3), dn (3): at most 1 + 3 + 3
+  float* base = nullptr;
+  std::size_t row_len = 0;  // width + 2 pad
+  int pad = 0;
+  /// Array a (0: w, 1..3: t / dp, 4..6: dn) of direction k in slot s.
+  float* edge(int slot, int k, int a) const {
+    return base + ((static_cast<std::size_t>(slot) * 4 + k) * kEdgeArrays + a) * row_len + pad;
+  }
+  /// Per-pixel half inverse scales of slot s: 0 = 1 / (4 s_d^2), 1 = 1 / (2 s_n).
+  float* scale(int slot, int a) const {
+    return base + (2 * 4 * kEdgeArrays + static_cast<std::size_t>(slot) * 2 + a) * row_len + pad;
+  }
+  static std::size_t floats_needed(int width, int pad) {
+    return (2 * 4 * kEdgeArrays + 4) * (static_cast<std::size_t>(width) + 2 * pad);
+  }
 };
 
-template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals>
-void smooth_pass(const OrganizedCloud& src, const NormalMap& src_normals, const Mesh& mesh,
-                 const PassParams& prm, RowScratch sc, OrganizedCloud& dst,
-                 NormalMap& dst_normals) {
-  const int width = src.width(), height = src.height(), s = prm.stride;
-  const float ox = prm.ox, oy = prm.oy, oz = prm.oz;
-  float* __restrict aw = sc.w;
-  float* __restrict a0 = sc.a0;
-  float* __restrict a1 = sc.a1;
-  float* __restrict a2 = sc.a2;
-  float* __restrict n0 = sc.n0;
-  float* __restrict n1 = sc.n1;
-  float* __restrict n2 = sc.n2;
-  float* __restrict inv2sd2 = sc.inv2sd2;
-  float* __restrict inv_sn = sc.inv_sn;
-
-  for (int v = 0; v < height; ++v) {
-    const float* __restrict xc = src.x.row(v);
-    const float* __restrict yc = src.y.row(v);
-    const float* __restrict zc = src.z.row(v);
-    const float* __restrict nxc = src_normals.nx.row(v);
-    const float* __restrict nyc = src_normals.ny.row(v);
-    const float* __restrict nzc = src_normals.nz.row(v);
-    const float* __restrict ic = kIntensity ? prm.intensity->row(v) : nullptr;
-    const std::uint8_t* __restrict edges = mesh.edges.row(v);
-
-    // The centre pixel itself, weight 1.
-    RANGESEG_VECTORIZE
-    for (int u = 0; u < width; ++u) {
-      aw[u] = 1.0f;
-      if constexpr (kAlongRay) {
-        const float qx = xc[u] - ox, qy = yc[u] - oy, qz = zc[u] - oz;
-        a0[u] = qx * qx + qy * qy + qz * qz;
-      } else {
-        a0[u] = xc[u];
-        a1[u] = yc[u];
-        a2[u] = zc[u];
-      }
-      if constexpr (kFilterNormals) {
-        n0[u] = nxc[u];
-        n1[u] = nyc[u];
-        n2[u] = nzc[u];
-      }
-      if constexpr (kDistance || kNormal) {
-        const float z = zc[u], dz = z - prm.noise_z0;
-        const float sigma = prm.noise_a + prm.noise_b * dz * dz;
-        const float spacing = prm.spacing * std::fabs(z);
-        if constexpr (kDistance) {
-          inv2sd2[u] = 0.5f / (prm.kd2 * (spacing * spacing + 2.0f * sigma * sigma));
-        }
-        // Normal noise grows with sigma / spacing: 1 / s_n = min(1, spacing / sigma) /
-        // normal_scale.
-        if constexpr (kNormal) {
-          const float ratio = spacing / sigma;
-          inv_sn[u] = prm.inv_normal_scale * select(ratio < 1.0f, ratio, 1.0f);
-        }
-      }
+template <bool kDistance, bool kNormal>
+RANGESEG_INLINE void compute_scales(const float* __restrict z, int width, const PassParams& prm,
+                                    float* __restrict half_inv2sd2, float* __restrict half_inv_sn) {
+  RANGESEG_VECTORIZE
+  for (int u = 0; u < width; ++u) {
+    const float zu = z[u], dz = zu - prm.noise_z0;
+    const float sigma = prm.noise_a + prm.noise_b * dz * dz;
+    const float spacing = prm.spacing * std::fabs(zu);
+    if constexpr (kDistance) {
+      half_inv2sd2[u] = 0.25f / (prm.kd2 * (spacing * spacing + 2.0f * sigma * sigma));
     }
-
-    for (int k = 0; k < 8; ++k) {
-      const int vn = v + s * kNeighbourDv[k];
-      if (vn < 0 || vn >= height) continue;  // the mesh has no edge leaving the grid
-      const int du = s * kNeighbourDu[k];
-      const int u_begin = std::max(0, -du), u_end = std::min(width, width - du);
-      const float* __restrict xn = src.x.row(vn) + du;
-      const float* __restrict yn = src.y.row(vn) + du;
-      const float* __restrict zn = src.z.row(vn) + du;
-      const float* __restrict nxn = src_normals.nx.row(vn) + du;
-      const float* __restrict nyn = src_normals.ny.row(vn) + du;
-      const float* __restrict nzn = src_normals.nz.row(vn) + du;
-      const float* __restrict in = kIntensity ? prm.intensity->row(vn) + du : nullptr;
-      const unsigned bit = 1u << k;
-
-      RANGESEG_VECTORIZE
-      for (int u = u_begin; u < u_end; ++u) {
-        float arg = 0.0f;
-        if constexpr (kDistance) {
-          const float dx = xn[u] - xc[u], dy = yn[u] - yc[u], dz = zn[u] - zc[u];
-          arg += (dx * dx + dy * dy + dz * dz) * inv2sd2[u];
-        }
-        if constexpr (kNormal) {
-          arg += (std::fabs(nxn[u] - nxc[u]) + std::fabs(nyn[u] - nyc[u]) +
-                  std::fabs(nzn[u] - nzc[u])) *
-                 inv_sn[u];
-        }
-        if constexpr (kIntensity) arg += std::fabs(in[u] - ic[u]) * prm.inv_intensity_scale;
-        // Everything is evaluated for every lane and then selected, so that the loop has no
-        // branches and vectorises. NaN (a NaN normal or intensity) fails the comparison.
-        const bool use = ((edges[u] & bit) != 0) & (arg < kMaxExponent);
-        const float e = exp_neg(select(arg < kMaxExponent, arg, kMaxExponent));
-        const float w = select(use, e, 0.0f);
-        aw[u] += w;
-        if constexpr (kAlongRay) {
-          const float t = (xn[u] - ox) * (xc[u] - ox) + (yn[u] - oy) * (yc[u] - oy) +
-                          (zn[u] - oz) * (zc[u] - oz);
-          a0[u] += w * select(use, t, 0.0f);
-        } else {
-          const float xv = xn[u], yv = yn[u], zv = zn[u];
-          a0[u] += w * select(use, xv, 0.0f);
-          a1[u] += w * select(use, yv, 0.0f);
-          a2[u] += w * select(use, zv, 0.0f);
-        }
-        if constexpr (kFilterNormals) {
-          // Without the normal term a NaN neighbour normal must be skipped explicitly.
-          const float nxv = nxn[u], nyv = nyn[u], nzv = nzn[u];
-          const bool use_n = kNormal ? use : (use & (nxv == nxv));
-          n0[u] += w * select(use_n, nxv, 0.0f);
-          n1[u] += w * select(use_n, nyv, 0.0f);
-          n2[u] += w * select(use_n, nzv, 0.0f);
-        }
-      }
-    }
-
-    float* __restrict xo = dst.x.row(v);
-    float* __restrict yo = dst.y.row(v);
-    float* __restrict zo = dst.z.row(v);
-    RANGESEG_VECTORIZE
-    for (int u = 0; u < width; ++u) {
-      if constexpr (kAlongRay) {
-        // p' = o + q (q . (m - o)) / (q . q), m the weighted mean, q = p - o: the weighted mean
-        // projected onto the viewing ray; the self term of a0 was q . q.
-        const float qx = xc[u] - ox, qy = yc[u] - oy, qz = zc[u] - oz;
-        const float qq = qx * qx + qy * qy + qz * qz;
-        const float scale = select(qq > 0.0f, a0[u] / (aw[u] * qq), 1.0f);
-        xo[u] = ox + qx * scale;
-        yo[u] = oy + qy * scale;
-        zo[u] = oz + qz * scale;
-      } else {
-        const float inv = 1.0f / aw[u];
-        xo[u] = a0[u] * inv;
-        yo[u] = a1[u] * inv;
-        zo[u] = a2[u] * inv;
-      }
-    }
-    if constexpr (kFilterNormals) {
-      float* __restrict nxo = dst_normals.nx.row(v);
-      float* __restrict nyo = dst_normals.ny.row(v);
-      float* __restrict nzo = dst_normals.nz.row(v);
-      RANGESEG_VECTORIZE
-      for (int u = 0; u < width; ++u) {
-        const float len2 = n0[u] * n0[u] + n1[u] * n1[u] + n2[u] * n2[u];
-        // Opposite normals can cancel; then (and for NaN) the pixel keeps its normal.
-        const bool ok = len2 > 1e-12f;
-        const float inv = 1.0f / std::sqrt(select(ok, len2, 1.0f));
-        nxo[u] = select(ok, n0[u] * inv, nxc[u]);
-        nyo[u] = select(ok, n1[u] * inv, nyc[u]);
-        nzo[u] = select(ok, n2[u] * inv, nzc[u]);
-      }
+    // Normal noise grows with sigma / spacing: 1 / s_n = min(1, spacing / sigma) / normal_scale.
+    if constexpr (kNormal) {
+      const float ratio = spacing / sigma;
+      half_inv_sn[u] = 0.5f * prm.inv_normal_scale * select(ratio < 1.0f, ratio, 1.0f);
     }
   }
 }
 
-using PassFn = void (*)(const OrganizedCloud&, const NormalMap&, const Mesh&, const PassParams&,
-                        RowScratch, OrganizedCloud&, NormalMap&);
+/// The edges of lattice row v in direction k (du, dv) into the slot's edge rows.
+template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals>
+RANGESEG_INLINE void edge_row(const OrganizedCloud& src, const NormalMap& nm, const Mesh& mesh,
+                              const PassParams& prm, const RowBuffers& rb, int v, int k,
+                              int cur_slot, int next_slot) {
+  const int width = src.width(), s = prm.stride;
+  const int du = s * kNeighbourDu[k], vn = v + s * kNeighbourDv[k];
+  // Edges leaving the grid are absent from the mask; the pad (and here the unused range) is 0.
+  const int u_begin = std::max(0, -du), u_end = std::min(width, width - du);
+  float* __restrict ew = rb.edge(cur_slot, k, 0);
+  float* __restrict e1 = rb.edge(cur_slot, k, 1);
+  float* __restrict e2 = rb.edge(cur_slot, k, 2);
+  float* __restrict e3 = rb.edge(cur_slot, k, 3);
+  float* __restrict en0 = rb.edge(cur_slot, k, 4);
+  float* __restrict en1 = rb.edge(cur_slot, k, 5);
+  float* __restrict en2 = rb.edge(cur_slot, k, 6);
+  auto clear = [&](int from, int to) {
+    for (int a = 0; a < RowBuffers::kEdgeArrays; ++a) {
+      std::fill(rb.edge(cur_slot, k, a) + from, rb.edge(cur_slot, k, a) + to, 0.0f);
+    }
+  };
+  if (vn >= src.height()) {
+    clear(0, width);
+    return;
+  }
+  clear(0, u_begin);
+  clear(u_end, width);
 
-template <int kFlags>
-constexpr PassFn pass_for() {
-  return &smooth_pass<(kFlags & 1) != 0, (kFlags & 2) != 0, (kFlags & 4) != 0, (kFlags & 8) != 0,
-                      (kFlags & 16) != 0>;
+  const float* __restrict xc = src.x.row(v);
+  const float* __restrict yc = src.y.row(v);
+  const float* __restrict zc = src.z.row(v);
+  const float* __restrict nxc = nm.nx.row(v);
+  const float* __restrict nyc = nm.ny.row(v);
+  const float* __restrict nzc = nm.nz.row(v);
+  const float* __restrict ic = kIntensity ? prm.intensity->row(v) : nullptr;
+  const float* __restrict hd_c = rb.scale(cur_slot, 0);
+  const float* __restrict hn_c = rb.scale(cur_slot, 1);
+  const std::uint8_t* __restrict edges = mesh.edges.row(v);
+  const float* __restrict xn = src.x.row(vn) + du;
+  const float* __restrict yn = src.y.row(vn) + du;
+  const float* __restrict zn = src.z.row(vn) + du;
+  const float* __restrict nxn = nm.nx.row(vn) + du;
+  const float* __restrict nyn = nm.ny.row(vn) + du;
+  const float* __restrict nzn = nm.nz.row(vn) + du;
+  const float* __restrict in = kIntensity ? prm.intensity->row(vn) + du : nullptr;
+  const int scale_slot = vn == v ? cur_slot : next_slot;
+  const float* __restrict hd_n = rb.scale(scale_slot, 0) + du;
+  const float* __restrict hn_n = rb.scale(scale_slot, 1) + du;
+  const float inv_intensity_scale = prm.inv_intensity_scale;
+  const unsigned bit = 1u << k;
+
+  RANGESEG_VECTORIZE
+  for (int u = u_begin; u < u_end; ++u) {
+    const float dx = xn[u] - xc[u], dy = yn[u] - yc[u], dz = zn[u] - zc[u];
+    const float dnx = nxn[u] - nxc[u], dny = nyn[u] - nyc[u], dnz = nzn[u] - nzc[u];
+    const float l1 = std::fabs(dnx) + std::fabs(dny) + std::fabs(dnz);
+    float arg = 0.0f;
+    // Symmetric scales (the mean of both ends' inverse scales), so that w_ij = w_ji.
+    if constexpr (kDistance) arg += (dx * dx + dy * dy + dz * dz) * (hd_c[u] + hd_n[u]);
+    if constexpr (kNormal) arg += l1 * (hn_c[u] + hn_n[u]);
+    if constexpr (kIntensity) arg += std::fabs(in[u] - ic[u]) * inv_intensity_scale;
+    // Everything is evaluated for every lane and then selected, so that the loop has no
+    // branches and vectorises. NaN (a NaN normal or intensity) fails the comparison.
+    const bool use = ((edges[u] & bit) != 0) & (arg < kMaxExponent);
+    const float w = select(use, exp_neg(select(arg < kMaxExponent, arg, kMaxExponent)), 0.0f);
+    ew[u] = w;
+    if constexpr (kAlongRay) {
+      e1[u] = select(use, w * (xn[u] * xc[u] + yn[u] * yc[u] + zn[u] * zc[u]), 0.0f);
+    } else {
+      e1[u] = select(use, w * dx, 0.0f);
+      e2[u] = select(use, w * dy, 0.0f);
+      e3[u] = select(use, w * dz, 0.0f);
+    }
+    if constexpr (kFilterNormals) {
+      // Without the normal term a NaN normal at either end must be skipped explicitly.
+      const bool use_n = kNormal ? use : (use & (l1 == l1));
+      en0[u] = select(use_n, w * dnx, 0.0f);
+      en1[u] = select(use_n, w * dny, 0.0f);
+      en2[u] = select(use_n, w * dnz, 0.0f);
+    }
+  }
 }
 
-template <int... kFlags>
+/// One pass. Each edge's weight is computed once (edge_row, forward directions only) and
+/// gathered by both ends: pixel (u, v) reads the forward edges of its own row and, negated
+/// where antisymmetric, the forward edges of row v - s that end in it.
+template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals>
+RANGESEG_INLINE void smooth_pass_body(const OrganizedCloud& src, const NormalMap& nm,
+                                      const Mesh& mesh, const PassParams& prm, RowBuffers rb,
+                                      OrganizedCloud& dst, NormalMap& dst_normals) {
+  const int width = src.width(), height = src.height(), s = prm.stride;
+  const float ox = prm.origin[0], oy = prm.origin[1], oz = prm.origin[2];
+  constexpr bool kScales = kDistance || kNormal;
+  int slot = 0;
+  if constexpr (kScales) {
+    compute_scales<kDistance, kNormal>(src.z.row(0), width, prm, rb.scale(0, 0), rb.scale(0, 1));
+  }
+  // The previous-row slot starts as zeros: no edges come from above row 0.
+  for (int k = 1; k < 4; ++k) {
+    for (int a = 0; a < RowBuffers::kEdgeArrays; ++a) {
+      std::fill(rb.edge(1, k, a), rb.edge(1, k, a) + width, 0.0f);
+    }
+  }
+  for (int v = 0; v < height; ++v) {
+    const float* __restrict xc = src.x.row(v);
+    const float* __restrict yc = src.y.row(v);
+    const float* __restrict zc = src.z.row(v);
+    const float* __restrict nxc = nm.nx.row(v);
+    const float* __restrict nyc = nm.ny.row(v);
+    const float* __restrict nzc = nm.nz.row(v);
+    float* __restrict xo = dst.x.row(v);
+    float* __restrict yo = dst.y.row(v);
+    float* __restrict zo = dst.z.row(v);
+    float* __restrict nxo = dst_normals.nx.row(v);
+    float* __restrict nyo = dst_normals.ny.row(v);
+    float* __restrict nzo = dst_normals.nz.row(v);
+    if (v % s != 0) {  // no vertex in this row: copied
+      RANGESEG_VECTORIZE
+      for (int u = 0; u < width; ++u) {
+        xo[u] = xc[u] + ox;
+        yo[u] = yc[u] + oy;
+        zo[u] = zc[u] + oz;
+      }
+      if constexpr (kFilterNormals) {
+        std::copy(nxc, nxc + width, nxo);
+        std::copy(nyc, nyc + width, nyo);
+        std::copy(nzc, nzc + width, nzo);
+      }
+      continue;
+    }
+    const int next = 1 - slot;
+    if constexpr (kScales) {
+      if (v + s < height) {
+        compute_scales<kDistance, kNormal>(src.z.row(v + s), width, prm, rb.scale(next, 0),
+                                           rb.scale(next, 1));
+      }
+    }
+    for (int k = 0; k < 4; ++k) {
+      edge_row<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(src, nm, mesh, prm, rb, v,
+                                                                          k, slot, next);
+    }
+
+    // Pixel u gathers the forward edges of this row (F) and the forward edges ending in it (B):
+    // direction k's edge ending in u starts at u - s du_k, in row v for k = 0 and in the previous
+    // lattice row (slot `next`, zeros above row 0) for k = 1..3.
+    const int prev = next;
+#define RANGESEG_EDGES(name, a)                               \
+  const float* __restrict name##f0 = rb.edge(slot, 0, a);     \
+  const float* __restrict name##f1 = rb.edge(slot, 1, a);     \
+  const float* __restrict name##f2 = rb.edge(slot, 2, a);     \
+  const float* __restrict name##f3 = rb.edge(slot, 3, a);     \
+  const float* __restrict name##b0 = rb.edge(slot, 0, a) - s; \
+  const float* __restrict name##b1 = rb.edge(prev, 1, a) - s; \
+  const float* __restrict name##b2 = rb.edge(prev, 2, a);     \
+  const float* __restrict name##b3 = rb.edge(prev, 3, a) + s;
+#define RANGESEG_SYM(name)                                       \
+  (((name##f0[u] + name##b0[u]) + (name##f1[u] + name##b1[u])) + \
+   ((name##f2[u] + name##b2[u]) + (name##f3[u] + name##b3[u])))
+#define RANGESEG_ANTI(name)                                      \
+  (((name##f0[u] - name##b0[u]) + (name##f1[u] - name##b1[u])) + \
+   ((name##f2[u] - name##b2[u]) + (name##f3[u] - name##b3[u])))
+    RANGESEG_EDGES(w, 0)
+    if constexpr (kAlongRay) {
+      RANGESEG_EDGES(t, 1)
+      RANGESEG_VECTORIZE
+      for (int u = 0; u < width; ++u) {
+        // p' = o + q (q . m) / (q . q) with m the weighted mean of the origin-relative points:
+        // the mean projected onto the viewing ray; the centre's own term of the sum is q . q.
+        const float qx = xc[u], qy = yc[u], qz = zc[u];
+        const float qq = qx * qx + qy * qy + qz * qz;
+        const float sum_w = 1.0f + RANGESEG_SYM(w);
+        const float sum_t = qq + RANGESEG_SYM(t);
+        const float scale = select(qq > 0.0f, sum_t / (sum_w * qq), 1.0f);
+        xo[u] = ox + qx * scale;
+        yo[u] = oy + qy * scale;
+        zo[u] = oz + qz * scale;
+      }
+    } else {
+      RANGESEG_EDGES(px, 1)
+      RANGESEG_EDGES(py, 2)
+      RANGESEG_EDGES(pz, 3)
+      RANGESEG_VECTORIZE
+      for (int u = 0; u < width; ++u) {
+        // sum_j w_j p_j / sum_j w_j = p + sum_j w_j (p_j - p) / sum_j w_j.
+        const float inv = 1.0f / (1.0f + RANGESEG_SYM(w));
+        xo[u] = ox + xc[u] + RANGESEG_ANTI(px) * inv;
+        yo[u] = oy + yc[u] + RANGESEG_ANTI(py) * inv;
+        zo[u] = oz + zc[u] + RANGESEG_ANTI(pz) * inv;
+      }
+    }
+    if constexpr (kFilterNormals) {
+      RANGESEG_EDGES(nx, 4)
+      RANGESEG_EDGES(ny, 5)
+      RANGESEG_EDGES(nz, 6)
+      RANGESEG_VECTORIZE
+      for (int u = 0; u < width; ++u) {
+        // sum_j w_j n_j = n sum_j w_j + sum_j w_j (n_j - n). Without the normal term, a
+        // neighbour without a normal keeps its weight on the pixel's own normal.
+        const float sum_w = 1.0f + RANGESEG_SYM(w);
+        const float ax = nxc[u] * sum_w + RANGESEG_ANTI(nx);
+        const float ay = nyc[u] * sum_w + RANGESEG_ANTI(ny);
+        const float az = nzc[u] * sum_w + RANGESEG_ANTI(nz);
+        const float len2 = ax * ax + ay * ay + az * az;
+        // Opposite normals can cancel; then (and for NaN) the pixel keeps its normal.
+        const bool ok = len2 > 1e-12f;
+        const float inv = inverse_sqrt(select(ok, len2, 1.0f));
+        nxo[u] = select(ok, ax * inv, nxc[u]);
+        nyo[u] = select(ok, ay * inv, nyc[u]);
+        nzo[u] = select(ok, az * inv, nzc[u]);
+      }
+    }
+#undef RANGESEG_EDGES
+#undef RANGESEG_SYM
+#undef RANGESEG_ANTI
+    slot = next;
+  }
+}
+
+template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals>
+void smooth_pass(const OrganizedCloud& src, const NormalMap& nm, const Mesh& mesh,
+                 const PassParams& prm, RowBuffers rb, OrganizedCloud& dst,
+                 NormalMap& dst_normals) {
+  smooth_pass_body<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(src, nm, mesh, prm,
+                                                                              rb, dst, dst_normals);
+}
+
+#if RANGESEG_SMOOTH_AVX2
+template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals>
+__attribute__((target("avx2,fma"))) void smooth_pass_avx2(const OrganizedCloud& src,
+                                                          const NormalMap& nm, const Mesh& mesh,
+                                                          const PassParams& prm, RowBuffers rb,
+                                                          OrganizedCloud& dst,
+                                                          NormalMap& dst_normals) {
+  smooth_pass_body<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(src, nm, mesh, prm,
+                                                                              rb, dst, dst_normals);
+}
+
+bool cpu_has_avx2_fma() {
+  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  return has;
+}
+#endif
+
+using PassFn = void (*)(const OrganizedCloud&, const NormalMap&, const Mesh&, const PassParams&,
+                        RowBuffers, OrganizedCloud&, NormalMap&);
+
+template <int kFlags, bool kAvx2>
+constexpr PassFn pass_for() {
+  constexpr bool d = (kFlags & 1) != 0, n = (kFlags & 2) != 0, i = (kFlags & 4) != 0,
+                 r = (kFlags & 8) != 0, f = (kFlags & 16) != 0;
+#if RANGESEG_SMOOTH_AVX2
+  if constexpr (kAvx2) return &smooth_pass_avx2<d, n, i, r, f>;
+#endif
+  return &smooth_pass<d, n, i, r, f>;
+}
+
+template <bool kAvx2, int... kFlags>
 constexpr std::array<PassFn, sizeof...(kFlags)> make_pass_table(
     std::integer_sequence<int, kFlags...>) {
-  return {pass_for<kFlags>()...};
+  return {pass_for<kFlags, kAvx2>()...};
 }
 
-constexpr auto kPassTable = make_pass_table(std::make_integer_sequence<int, 32>{});
+constexpr auto kPassTable = make_pass_table<false>(std::make_integer_sequence<int, 32>{});
+#if RANGESEG_SMOOTH_AVX2
+constexpr auto kPassTableAvx2 = make_pass_table<true>(std::make_integer_sequence<int, 32>{});
+#endif
 
 void require_same_size(const FloatPlane& plane, const OrganizedCloud& cloud, const char* what) {
   if (plane.width() != cloud.width() || plane.height() != cloud.height()) {
@@ -284,16 +436,18 @@ void rgb_to_grey(const OrganizedCloud& cloud, FloatPlane& grey) {
   }
 }
 
-/// max - min of `intensity` over the valid points of `cloud` (0 when none).
+/// max - min of `intensity` over the valid points of `cloud` (0 when none). Branch-free, so
+/// that it vectorises: x - x == 0 is false exactly for NaN and infinities.
 float intensity_range(const OrganizedCloud& cloud, const FloatPlane& intensity) {
-  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  float lo = kInf, hi = -kInf;
   for (int v = 0; v < cloud.height(); ++v) {
-    const float* z = cloud.z.row(v);
-    const float* in = intensity.row(v);
+    const float* __restrict z = cloud.z.row(v);
+    const float* __restrict in = intensity.row(v);
     for (int u = 0; u < cloud.width(); ++u) {
-      if (!std::isfinite(z[u]) || !std::isfinite(in[u])) continue;
-      lo = std::min(lo, in[u]);
-      hi = std::max(hi, in[u]);
+      const bool ok = ((z[u] - z[u]) == 0.0f) & ((in[u] - in[u]) == 0.0f);
+      lo = std::min(lo, select(ok, in[u], kInf));
+      hi = std::max(hi, select(ok, in[u], -kInf));
     }
   }
   return hi >= lo ? hi - lo : 0.0f;
@@ -392,9 +546,7 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
 
   PassParams prm;
   prm.stride = mesh.pixel_stride;
-  prm.ox = st.viewpoint[0];
-  prm.oy = st.viewpoint[1];
-  prm.oz = st.viewpoint[2];
+  prm.origin = st.viewpoint;
   prm.kd2 = st.distance_scale * st.distance_scale;
   const float spacing = static_cast<float>(mesh.pixel_stride) * st.pixel_angle;
   prm.spacing = spacing;
@@ -424,13 +576,27 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
   const bool filter_normals = !st.recompute_normals;
   const int flags = (st.use_distance ? 1 : 0) | (st.use_normals ? 2 : 0) | (use_intensity ? 4 : 0) |
                     (st.move_along_ray ? 8 : 0) | (filter_normals ? 16 : 0);
-  const PassFn pass = kPassTable[static_cast<std::size_t>(flags)];
+  PassFn pass = kPassTable[static_cast<std::size_t>(flags)];
+#if RANGESEG_SMOOTH_AVX2
+  if (cpu_has_avx2_fma()) pass = kPassTableAvx2[static_cast<std::size_t>(flags)];
+#endif
 
-  const std::size_t w = static_cast<std::size_t>(width);
-  if (rows_.size() < 9 * w) rows_.resize(9 * w);
-  RowScratch sc{rows_.data(),         rows_.data() + w,     rows_.data() + 2 * w,
-                rows_.data() + 3 * w, rows_.data() + 4 * w, rows_.data() + 5 * w,
-                rows_.data() + 6 * w, rows_.data() + 7 * w, rows_.data() + 8 * w};
+  RowBuffers rb;
+  rb.pad = mesh.pixel_stride;
+  rb.row_len = static_cast<std::size_t>(width) + 2 * static_cast<std::size_t>(rb.pad);
+  const std::size_t needed = RowBuffers::floats_needed(width, rb.pad);
+  // The pads must be zero; a new layout starts from a zeroed buffer (passes write inside only).
+  if (rows_.size() != needed || rows_layout_ != rb.row_len) {
+    rows_.assign(needed, 0.0f);
+    rows_layout_ = rb.row_len;
+  }
+  rb.base = rows_.data();
+
+  // The pass works on origin-relative points (q = p - viewpoint) and adds the viewpoint back.
+  const bool shifted = st.viewpoint != std::array<float, 3>{0.0f, 0.0f, 0.0f};
+  if (shifted) {
+    for (FloatPlane* p : {&shifted_.x, &shifted_.y, &shifted_.z}) ensure_size(*p, width, height);
+  }
 
   if (st.iterations > 1) {
     for (FloatPlane* p : {&scratch_cloud_.x, &scratch_cloud_.y, &scratch_cloud_.z,
@@ -448,7 +614,16 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
     const bool to_output = (st.iterations - 1 - i) % 2 == 0;
     OrganizedCloud& dst = to_output ? out_cloud : scratch_cloud_;
     NormalMap& dst_normals = to_output ? out_normals : scratch_normals_;
-    pass(*src, *src_normals, mesh, prm, sc, dst, dst_normals);
+    if (shifted) {
+      for (int v = 0; v < height; ++v) {
+        for (int u = 0; u < width; ++u) {
+          shifted_.x(u, v) = src->x(u, v) - st.viewpoint[0];
+          shifted_.y(u, v) = src->y(u, v) - st.viewpoint[1];
+          shifted_.z(u, v) = src->z(u, v) - st.viewpoint[2];
+        }
+      }
+    }
+    pass(shifted ? shifted_ : *src, *src_normals, mesh, prm, rb, dst, dst_normals);
     if (!filter_normals) compute_normals(dst, mesh, normal_settings, dst_normals);
     src = &dst;
     src_normals = &dst_normals;

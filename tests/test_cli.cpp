@@ -75,6 +75,9 @@ TEST(Cli, SynthSegmentEvalRoundTrip) {
                          first["normal"][2].get<double>()), 1.0, 1e-6);
   EXPECT_TRUE(fs::exists(dir / "seg" / "overlay.png"));
   EXPECT_TRUE(fs::exists(dir / "seg" / "mesh.ply"));
+  EXPECT_TRUE(fs::exists(dir / "seg" / "polygons.obj"));
+  ASSERT_TRUE(first.contains("polygon")) << first.dump();
+  EXPECT_GT(first["polygon"]["area_m2"].get<double>(), 0.0);
 
   const CliResult eval = run("eval " + (dir / "scene" / "labels.png").string() + " " + (dir / "seg" / "labels.png").string());
   ASSERT_EQ(eval.code, 0) << eval.out;
@@ -94,7 +97,7 @@ TEST(Cli, BenchJsonHasEveryStage) {
   ASSERT_EQ(bench.code, 0) << bench.out;
   const auto line = bench.out.substr(bench.out.find('{'));
   const auto json = nlohmann::json::parse(line);
-  for (const char* key : {"mesh", "normals", "smoothing", "segmentation", "total"}) {
+  for (const char* key : {"mesh", "normals", "smoothing", "segmentation", "polygons", "total"}) {
     ASSERT_TRUE(json.contains(key)) << key;
     EXPECT_GE(json[key].get<double>(), 0.0);
   }

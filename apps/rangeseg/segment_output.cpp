@@ -3,14 +3,61 @@
 #include "output.hpp"
 #include "rangeseg/colorize.hpp"
 #include "rangeseg/io/png.hpp"
-#include "rangeseg/io/rasterfile.hpp"
 
 namespace rangeseg::cli {
 
-nlohmann::json segments_json(const Segmentation& seg) {
+namespace {
+
+nlohmann::json loop_json(const PolygonSet& set, const PolygonLoop& loop) {
+  nlohmann::json points3d = nlohmann::json::array(), points2d = nlohmann::json::array();
+  for (int i = loop.first; i < loop.first + loop.count; ++i) {
+    points3d.push_back(set.points3d[static_cast<std::size_t>(i)]);
+    points2d.push_back(set.points2d[static_cast<std::size_t>(i)]);
+  }
+  return {{"hole", loop.is_hole}, {"area_m2", loop.area}, {"perimeter_m", loop.perimeter},
+          {"points", points3d}, {"points_2d", points2d}};
+}
+
+nlohmann::json polygon_json(const PolygonSet& set, const SegmentPolygons& sp) {
+  nlohmann::json loops = nlohmann::json::array();
+  for (int l = sp.first_loop; l < sp.first_loop + sp.loop_count; ++l) {
+    loops.push_back(loop_json(set, set.loops[static_cast<std::size_t>(l)]));
+  }
+  nlohmann::json hull = nlohmann::json::array();
+  for (int i = sp.hull_first; i < sp.hull_first + sp.hull_count; ++i) {
+    hull.push_back(set.hull_points3d[static_cast<std::size_t>(i)]);
+  }
+  return {{"frame", {{"origin", sp.frame.origin}, {"e1", sp.frame.e1}, {"e2", sp.frame.e2}}},
+          {"area_m2", sp.area},
+          {"perimeter_m", sp.perimeter},
+          {"loops", loops},
+          {"convex_hull", {{"area_m2", sp.hull_area}, {"perimeter_m", sp.hull_perimeter}, {"points", hull}}}};
+}
+
+void draw_polygons(RgbImage& image, const PolygonSet& set) {
+  std::vector<std::array<float, 2>> pixels;
+  for (std::size_t l = 0; l < set.loops.size(); ++l) {
+    loop_pixels(set, static_cast<int>(l), pixels);
+    const std::array<std::uint8_t, 3> colour =
+        set.loops[l].is_hole ? std::array<std::uint8_t, 3>{255, 64, 64} : std::array<std::uint8_t, 3>{255, 255, 255};
+    draw_polyline(image, pixels, colour, true);
+  }
+}
+
+}  // namespace
+
+nlohmann::json segments_json(const Segmentation& seg, const PolygonSet* polygons) {
+  std::vector<const SegmentPolygons*> by_label(seg.segments.size() + 1, nullptr);
+  if (polygons != nullptr) {
+    for (const SegmentPolygons& sp : polygons->segments) {
+      if (sp.label > 0 && static_cast<std::size_t>(sp.label) < by_label.size()) by_label[static_cast<std::size_t>(sp.label)] = &sp;
+    }
+  }
   nlohmann::json list = nlohmann::json::array();
   for (const Segment& s : seg.segments) {
-    list.push_back({{"id", s.label},
+    nlohmann::json& item = list.emplace_back();
+    if (const SegmentPolygons* sp = by_label[static_cast<std::size_t>(s.label)]) item["polygon"] = polygon_json(*polygons, *sp);
+    item.update({{"id", s.label},
                     {"model", s.model == RegionModel::plane ? "plane" : "smooth"},
                     {"pixel_count", s.pixel_count},
                     {"area_m2", s.area_m2},
@@ -30,8 +77,10 @@ void write_segmentation_folder(const std::string& dir_name, const OrganizedCloud
   const auto dir = ensure_dir(dir_name);
   const Segmentation& seg = pipeline.segmentation();
   io::write_label_png((dir / "labels.png").string(), seg.labels);
-  write_json((dir / "segments.json").string(), segments_json(seg));
-  const RgbImage overlay = colorize_labels(seg.labels, &input);
+  write_json((dir / "segments.json").string(), segments_json(seg, &pipeline.polygons()));
+  if (!pipeline.polygons().segments.empty()) write_polygons_obj((dir / "polygons.obj").string(), pipeline.polygons());
+  RgbImage overlay = colorize_labels(seg.labels, &input);
+  draw_polygons(overlay, pipeline.polygons());
   io::write_rgb_png((dir / "overlay.png").string(), overlay);
   if (write_mesh) {
     const RgbImage flat = colorize_labels(seg.labels);

@@ -6,6 +6,7 @@
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/normals.hpp"
+#include "rangeseg/polygons.hpp"
 #include "rangeseg/segmentation.hpp"
 #include "rangeseg/smoothing.hpp"
 
@@ -18,6 +19,8 @@ struct PipelineSettings {
   SmoothingSettings smoothing{};
   bool segment = true;
   SegmentationSettings segmentation{};
+  bool polygons = true;  ///< outline every plane segment (needs `segment`)
+  PolygonSettings polygon{};
 };
 
 /// Sets the sensor noise model of every stage.
@@ -31,7 +34,7 @@ PipelineSettings pipeline_preset(std::string_view sensor);
 
 /// Wall-clock time of each stage of the last frame [ms].
 struct StageTimes {
-  double mesh = 0, normals = 0, smoothing = 0, segmentation = 0, total = 0;
+  double mesh = 0, normals = 0, smoothing = 0, segmentation = 0, polygons = 0, total = 0;
 };
 
 /// Runs the stages on frame after frame. It owns every intermediate buffer, so after the first
@@ -52,6 +55,7 @@ class Pipeline {
   const OrganizedCloud& cloud() const { return settings_.smooth ? smoothed_cloud_ : *input_; }
   const NormalMap& normals() const { return settings_.smooth ? smoothed_normals_ : raw_normals_; }
   const Segmentation& segmentation() const { return segmentation_; }
+  const PolygonSet& polygons() const { return polygons_; }
   const StageTimes& times() const { return times_; }
 
  private:
@@ -64,6 +68,8 @@ class Pipeline {
   NormalMap smoothed_normals_;
   Segmenter segmenter_;
   Segmentation segmentation_;
+  PolygonExtractor polygon_extractor_;
+  PolygonSet polygons_;
   StageTimes times_;
 };
 

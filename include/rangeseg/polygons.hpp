@@ -9,8 +9,10 @@
 //
 // Loop vertices are mesh vertices projected onto the segment's plane along their viewing ray
 // (from `PolygonSettings::viewpoint`): the projection of the pixel grid onto a plane is a
-// homography, so depth noise does not fold the outline. Rays that meet the plane at more than
-// ~84 degrees from its normal fall back to the orthogonal projection.
+// homography, so depth noise does not fold the outline (an orthogonal projection does, and mixing
+// the two does too). Only a ray that misses the plane's front side falls back to the orthogonal
+// projection. Near grazing incidence a point's noise is stretched along the ray (by
+// 1 / cos(incidence)); the mesh's angle test (MeshSettings::eps_theta) keeps such faces rare.
 #pragma once
 
 #include <array>
@@ -66,12 +68,12 @@ struct PolygonSettings {
 /// repeating the first vertex at the end. Outer loops run counter-clockwise in the plane frame
 /// (positive area), holes clockwise.
 struct PolygonLoop {
-  int segment = 0;    ///< index into PolygonSet::segments
-  int label = 0;      ///< segment label (Segmentation::labels value)
+  int segment = 0;  ///< index into PolygonSet::segments
+  int label = 0;    ///< segment label (Segmentation::labels value)
   bool is_hole = false;
-  int parent = -1;    ///< holes: index in PolygonSet::loops of the enclosing outer loop; else -1
-  int first = 0;      ///< first vertex in points3d / points2d / pixels
-  int count = 0;      ///< number of vertices (>= 3)
+  int parent = -1;       ///< holes: index in PolygonSet::loops of the enclosing outer loop; else -1
+  int first = 0;         ///< first vertex in points3d / points2d / pixels
+  int count = 0;         ///< number of vertices (>= 3)
   double area = 0;       ///< |area| of the simplified loop [m^2]
   double perimeter = 0;  ///< of the simplified loop [m]
   double raw_area = 0;   ///< |area| of the unsimplified mesh boundary [m^2]
@@ -88,16 +90,16 @@ struct SegmentPolygons {
   int loop_count = 0;  ///< loops of this segment (outer loops each followed by their holes)
   int hull_first = 0;  ///< range into hull_points2d / hull_points3d / hull_pixels (CCW)
   int hull_count = 0;
-  double area = 0;       ///< outer loops minus holes, simplified [m^2]
-  double raw_area = 0;   ///< the same for the mesh boundary (= projected mesh area) [m^2]
-  double perimeter = 0;  ///< sum over all loops, simplified [m]
+  double area = 0;            ///< outer loops minus holes, simplified [m^2]
+  double raw_area = 0;        ///< the same for the mesh boundary (= projected mesh area) [m^2]
+  double perimeter = 0;       ///< sum over all loops, simplified [m]
   double hull_area = 0;       ///< [m^2]
   double hull_perimeter = 0;  ///< [m]
 };
 
 /// All polygons of one frame in flat arrays (no container per polygon).
 struct PolygonSet {
-  int width = 0, height = 0;  ///< image size the pixels refer to
+  int width = 0, height = 0;              ///< image size the pixels refer to
   std::vector<SegmentPolygons> segments;  ///< processed segments, by label ascending
   std::vector<PolygonLoop> loops;
   std::vector<std::array<float, 3>> points3d;  ///< on the plane, camera frame [m]
@@ -161,8 +163,7 @@ struct Polygons2D {
 /// of the result; concavities and holes wider than ~1.5 alpha are kept. Cost O(n + cells) with
 /// cells = area of the bounding box / (alpha / 2)^2 (throws std::invalid_argument above 2^26
 /// cells or for alpha <= 0). Several components give several outer loops.
-void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha,
-                  Polygons2D& out);
+void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha, Polygons2D& out);
 
 /// Triangulates every outer loop with its holes (holes bridged to the outer loop, then ear
 /// clipping) into `triangles`: vertex index triples into PolygonSet::points3d/points2d,

@@ -60,6 +60,12 @@ struct SegmentationSettings {
   /// Max distance of each plane's centroid to the other plane, in multiples of sigma(z) at that
   /// centroid (dimensionless).
   double merge_distance_sigmas = 3.0;
+  /// Adjacent segments also merge when one least-squares plane fits the union of their points
+  /// with an RMS residual of at most this many sigma(z) (and not much more than the parts' own
+  /// residuals), e.g. the strips range quantisation cuts a grazing surface into (dimensionless).
+  double merge_rms_sigmas = 1.0;
+  /// ... provided their normals are within this angle [rad] (20 deg).
+  double merge_rms_max_angle = 0.349;
   /// plane: unlabelled valid points adjacent (mesh 1-ring) to a plane segment join the closest
   /// adjacent plane if within `max_distance_sigmas` * sigma(z) of it.
   bool reassign_boundary = true;

@@ -35,9 +35,13 @@ namespace rangeseg {
 ///
 ///   s_n(z) = normal_scale * max(1, sigma(z) / (pixel_stride * pixel_angle * z)).
 ///
-/// Only mesh edges are used, so depth jumps cut by the mesh stay sharp.
-/// The exponential is evaluated with a polynomial approximation (relative error < 4e-6);
-/// weights below exp(-30) are treated as 0.
+/// Each edge uses one symmetric pair of scales, the means of both end points' inverse scales,
+///   1 / (2 s_d^2)_ij = (1 / (2 s_d(z_i)^2) + 1 / (2 s_d(z_j)^2)) / 2, likewise 1 / s_n,
+/// so that w_ij = w_ji and each edge's weight is computed once for both ends.
+/// Only mesh edges are used (bit k of pixel i's mask for the edge i -> i + d_k), so depth jumps
+/// cut by the mesh stay sharp. The exponential is evaluated with a polynomial approximation
+/// (relative error < 5e-5); weights below exp(-30) are treated as 0. Depths z are taken
+/// relative to `viewpoint`.
 struct SmoothingSettings {
   /// Filter passes; each reads the previous pass's points and normals, the mesh stays the input's.
   /// 3 passes halve point and normal errors on planes with Kinect noise from 1 to 4 m.
@@ -104,7 +108,9 @@ class Smoother {
   OrganizedCloud scratch_cloud_;
   NormalMap scratch_normals_;
   FloatPlane grey_;
-  std::vector<float> rows_;  ///< per-row accumulators and per-pixel scales
+  OrganizedCloud shifted_;       ///< points relative to a non-zero viewpoint
+  std::vector<float> rows_;      ///< per-row edge weights and per-pixel scales
+  std::size_t rows_layout_ = 0;  ///< row length the zero pads of rows_ were laid out for
 };
 
 /// One-shot filter (allocates its scratch buffers per call; keep a Smoother to avoid that).

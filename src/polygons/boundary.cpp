@@ -9,6 +9,7 @@
 // revisit positions are kept all-zero between frames, so no full-image clear is needed.
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -56,14 +57,14 @@ constexpr std::array<std::uint8_t, 16> kSides = make_side_table();
 // (vertex is its d), c01 up-right (its c), c10 down-left (its b), c11 down-right (its a).
 inline std::uint8_t vertex_mask(unsigned c00, unsigned c01, unsigned c10, unsigned c11) {
   unsigned m = 0;
-  m |= ((c01 & kB) && !(c11 & kT)) ? 1u : 0u;         // right: bottom side of c01
-  m |= (c11 & kDiagAD) ? 2u : 0u;                     // down-right: a -> d of c11
-  m |= ((c11 & kL) && !(c10 & kR)) ? 4u : 0u;         // down: left side of c11
-  m |= (c10 & kDiagBC) ? 8u : 0u;                     // down-left: b -> c of c10
-  m |= ((c10 & kT) && !(c00 & kB)) ? 16u : 0u;        // left: top side of c10
-  m |= (c00 & kDiagDA) ? 32u : 0u;                    // up-left: d -> a of c00
-  m |= ((c00 & kR) && !(c01 & kL)) ? 64u : 0u;        // up: right side of c00
-  m |= (c01 & kDiagCB) ? 128u : 0u;                   // up-right: c -> b of c01
+  m |= ((c01 & kB) && !(c11 & kT)) ? 1u : 0u;   // right: bottom side of c01
+  m |= (c11 & kDiagAD) ? 2u : 0u;               // down-right: a -> d of c11
+  m |= ((c11 & kL) && !(c10 & kR)) ? 4u : 0u;   // down: left side of c11
+  m |= (c10 & kDiagBC) ? 8u : 0u;               // down-left: b -> c of c10
+  m |= ((c10 & kT) && !(c00 & kB)) ? 16u : 0u;  // left: top side of c10
+  m |= (c00 & kDiagDA) ? 32u : 0u;              // up-left: d -> a of c00
+  m |= ((c00 & kR) && !(c01 & kL)) ? 64u : 0u;  // up: right side of c00
+  m |= (c01 & kDiagCB) ? 128u : 0u;             // up-right: c -> b of c01
   return static_cast<std::uint8_t>(m);
 }
 
@@ -112,8 +113,10 @@ struct RawLoop {
 bool inside_px(const std::int32_t* idx, int n, std::ptrdiff_t stride, double px, double py) {
   bool in = false;
   for (int i = 0, j = n - 1; i < n; j = i++) {
-    const double yi = static_cast<double>(idx[i] / stride), xi = static_cast<double>(idx[i] % stride);
-    const double yj = static_cast<double>(idx[j] / stride), xj = static_cast<double>(idx[j] % stride);
+    const double yi = static_cast<double>(idx[i] / stride),
+                 xi = static_cast<double>(idx[i] % stride);
+    const double yj = static_cast<double>(idx[j] / stride),
+                 xj = static_cast<double>(idx[j] % stride);
     if ((yi > py) != (yj > py) && px < (xj - xi) * (py - yi) / (yj - yi) + xi) in = !in;
   }
   return in;
@@ -158,12 +161,11 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       mesh.faces.height() != height || segmentation.labels.width() != width ||
       segmentation.labels.height() != height || cloud.x.width() != width ||
       cloud.y.width() != width || cloud.x.height() != height || cloud.y.height() != height) {
-    throw std::invalid_argument(
-        "PolygonExtractor::extract: sizes differ: cloud " + std::to_string(width) + "x" +
-        std::to_string(height) + ", mesh " + std::to_string(mesh.width()) + "x" +
-        std::to_string(mesh.height()) + ", labels " +
-        std::to_string(segmentation.labels.width()) + "x" +
-        std::to_string(segmentation.labels.height()));
+    throw std::invalid_argument("PolygonExtractor::extract: sizes differ: cloud " +
+                                std::to_string(width) + "x" + std::to_string(height) + ", mesh " +
+                                std::to_string(mesh.width()) + "x" + std::to_string(mesh.height()) +
+                                ", labels " + std::to_string(segmentation.labels.width()) + "x" +
+                                std::to_string(segmentation.labels.height()));
   }
   if (s < 1) {
     throw std::invalid_argument("PolygonExtractor::extract: mesh pixel_stride must be >= 1, got " +
@@ -176,9 +178,10 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       !std::isfinite(settings.viewpoint[2])) {
     throw std::invalid_argument(
         "PolygonExtractor::extract: tolerances and min_loop_pixels must be finite and >= 0, "
-        "viewpoint finite; got simplify_tolerance " + std::to_string(settings.simplify_tolerance) +
-        ", simplify_tolerance_pixels " + std::to_string(settings.simplify_tolerance_pixels) +
-        ", min_loop_pixels " + std::to_string(settings.min_loop_pixels));
+        "viewpoint finite; got simplify_tolerance " +
+        std::to_string(settings.simplify_tolerance) + ", simplify_tolerance_pixels " +
+        std::to_string(settings.simplify_tolerance_pixels) + ", min_loop_pixels " +
+        std::to_string(settings.min_loop_pixels));
   }
 
   Scratch& sc = *scratch_;
@@ -274,6 +277,21 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
     }
     std::uint8_t* mrow = orig + v * stride;
     for (int u = 0; u < width; u += s) {
+      if (s == 1 && u >= 1 && u + 8 < width) {
+        // Interior runs: 9 cells above and below all fully covered (or all empty) give no
+        // boundary at the 8 vertices between them.
+        std::uint64_t a, b, a1, b1;
+        std::memcpy(&a, prev + u - 1, 8);
+        std::memcpy(&b, cur + u - 1, 8);
+        std::memcpy(&a1, prev + u, 8);
+        std::memcpy(&b1, cur + u, 8);
+        constexpr std::uint64_t kFull = 0x0F0F0F0F0F0F0F0Full;
+        if ((a == kFull && b == kFull && a1 == kFull && b1 == kFull) ||
+            (a == 0 && b == 0 && a1 == 0 && b1 == 0)) {
+          u += 7;
+          continue;
+        }
+      }
       const unsigned c11 = cur[u], c01 = prev[u];
       const unsigned c10 = u >= s ? cur[u - s] : 0u, c00 = u >= s ? prev[u - s] : 0u;
       if ((c00 | c01 | c10 | c11) == 0) continue;
@@ -301,8 +319,12 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
           const std::int64_t yj = idx[j] / stride, xj = idx[j] - yj * stride;
           twice += xj * yi - xi * yj;
         }
-        RawLoop r{label, static_cast<int>(sc.raw_idx.size()), n, -0.5 * static_cast<double>(twice),
-                  sc.seg_of_label[static_cast<std::size_t>(label)], -1};
+        RawLoop r{label,
+                  static_cast<int>(sc.raw_idx.size()),
+                  n,
+                  -0.5 * static_cast<double>(twice),
+                  sc.seg_of_label[static_cast<std::size_t>(label)],
+                  -1};
         sc.raw.push_back(r);
         sc.raw_idx.insert(sc.raw_idx.end(), idx, idx + n);
       });
@@ -318,8 +340,8 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
   {
     sc.kept.assign(sc.bucket_start.begin(), sc.bucket_start.end() - 1);  // fill cursors
     for (std::size_t i = 0; i < sc.raw.size(); ++i) {
-      sc.bucket_loops[static_cast<std::size_t>(sc.kept[static_cast<std::size_t>(sc.raw[i].seg)]++)] =
-          static_cast<int>(i);
+      sc.bucket_loops[static_cast<std::size_t>(
+          sc.kept[static_cast<std::size_t>(sc.raw[i].seg)]++)] = static_cast<int>(i);
     }
   }
 
@@ -377,18 +399,19 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       }
       if (r.parent >= 0) sc.kept.push_back(li);
     }
-    // Output order: each outer loop followed by its holes (stable by tracing order).
-    std::stable_sort(sc.kept.begin() + static_cast<std::ptrdiff_t>(n_outer), sc.kept.end(),
-                     [&](int a, int b) {
-                       const auto rank = [&](int li) {
-                         const int parent = sc.raw[static_cast<std::size_t>(li)].parent;
-                         return std::find(sc.kept.begin(),
-                                          sc.kept.begin() + static_cast<std::ptrdiff_t>(n_outer),
-                                          parent) -
-                                sc.kept.begin();
-                       };
-                       return rank(a) < rank(b);
-                     });
+    // Output order: each outer loop followed by its holes, in tracing order (loop index as the
+    // tie-break: std::sort, unlike std::stable_sort, never allocates).
+    std::sort(
+        sc.kept.begin() + static_cast<std::ptrdiff_t>(n_outer), sc.kept.end(), [&](int a, int b) {
+          const auto rank = [&](int li) {
+            const int parent = sc.raw[static_cast<std::size_t>(li)].parent;
+            return std::find(sc.kept.begin(),
+                             sc.kept.begin() + static_cast<std::ptrdiff_t>(n_outer), parent) -
+                   sc.kept.begin();
+          };
+          const auto ra = rank(a), rb = rank(b);
+          return ra != rb ? ra < rb : a < b;
+        });
 
     // Project every kept loop onto the plane.
     const PlaneFrame& fr = sp.frame;
@@ -405,7 +428,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
         const Vec dir{p[0] - vp[0], p[1] - vp[1], p[2] - vp[2]};
         const double denom = dot(fr.normal, dir);
         Vec q;
-        if (denom < -0.1 * std::sqrt(dot(dir, dir)) && nvp > 0) {
+        if (denom < -1e-6 * std::sqrt(dot(dir, dir)) && nvp > 0) {
           const double t = -nvp / denom;
           q = {vp[0] + t * dir[0], vp[1] + t * dir[1], vp[2] + t * dir[2]};
         } else {
@@ -427,8 +450,8 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       const int n = sc.xy_first[k + 1] - sc.xy_first[k];
       double area, perim;
       polygons_detail::area_perimeter(sc.xy.data() + 2 * sc.xy_first[k], n, area, perim);
-      sc.tolerance[k] = std::max(settings.simplify_tolerance,
-                                 settings.simplify_tolerance_pixels * perim / n);
+      sc.tolerance[k] =
+          std::max(settings.simplify_tolerance, settings.simplify_tolerance_pixels * perim / n);
     }
     for (int attempt = 0;; ++attempt) {
       sc.keep.clear();
@@ -449,7 +472,8 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
         const int kb = sc.keep_first[k], ke = sc.keep_first[k + 1];
         const double* base = sc.xy.data() + 2 * sc.xy_first[k];
         for (int i = kb, j = ke - 1; i < ke; j = i++) {
-          const int a = sc.keep[static_cast<std::size_t>(j)], b = sc.keep[static_cast<std::size_t>(i)];
+          const int a = sc.keep[static_cast<std::size_t>(j)],
+                    b = sc.keep[static_cast<std::size_t>(i)];
           sc.edges.push_back({base[2 * a], base[2 * a + 1], base[2 * b], base[2 * b + 1],
                               sc.raw_idx[static_cast<std::size_t>(r.first + a)],
                               sc.raw_idx[static_cast<std::size_t>(r.first + b)],
@@ -548,7 +572,8 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
         sc.hull_xy.push_back(xy[2 * o]);
         sc.hull_xy.push_back(xy[2 * o + 1]);
       }
-      if (sp.hull_count >= 3) polygons_detail::area_perimeter(sc.hull_xy.data(), sp.hull_count, a, p);
+      if (sp.hull_count >= 3)
+        polygons_detail::area_perimeter(sc.hull_xy.data(), sp.hull_count, a, p);
       sp.hull_area = std::abs(a);
       sp.hull_perimeter = p;
     }

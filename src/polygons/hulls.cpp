@@ -33,8 +33,7 @@ void convex_hull(const std::vector<std::array<float, 2>>& points,
   for (int i : idx) hull.push_back(sorted[static_cast<std::size_t>(i)]);
 }
 
-void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha,
-                  Polygons2D& out) {
+void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha, Polygons2D& out) {
   if (!(alpha > 0) || !std::isfinite(alpha)) {
     throw std::invalid_argument("concave_hull: alpha must be finite and > 0 [m], got " +
                                 std::to_string(alpha));
@@ -77,7 +76,8 @@ void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha,
     for (int i = 1; i + 1 < cols; ++i) {
       std::uint8_t any = 0;
       for (int dj = -1; dj <= 1; ++dj)
-        for (int di = -1; di <= 1; ++di) any |= occ[static_cast<std::size_t>(j + dj) * cols + i + di];
+        for (int di = -1; di <= 1; ++di)
+          any |= occ[static_cast<std::size_t>(j + dj) * cols + i + di];
       tmp[static_cast<std::size_t>(j) * cols + i] = any;
     }
   }
@@ -85,8 +85,10 @@ void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha,
     for (int i = 1; i + 1 < cols; ++i) {
       std::uint8_t all = 1;
       for (int dj = -1; dj <= 1; ++dj)
-        for (int di = -1; di <= 1; ++di) all &= tmp[static_cast<std::size_t>(j + dj) * cols + i + di];
-      occ[static_cast<std::size_t>(j) * cols + i] = static_cast<std::uint8_t>(occ[static_cast<std::size_t>(j) * cols + i] | all);
+        for (int di = -1; di <= 1; ++di)
+          all &= tmp[static_cast<std::size_t>(j + dj) * cols + i + di];
+      occ[static_cast<std::size_t>(j) * cols + i] =
+          static_cast<std::uint8_t>(occ[static_cast<std::size_t>(j) * cols + i] | all);
     }
   }
   // Corner lattice (cols + 1) x (rows + 1); cell (i, j) is a quad with corners (i, j)..(i+1, j+1).

@@ -27,7 +27,21 @@ bool on_segment(double ax, double ay, double bx, double by, double px, double py
          py <= std::max(ay, by);
 }
 
-bool segments_touch(const CheckEdge& e, const CheckEdge& f) {
+// Squared distance of (px, py) from segment a-b.
+double dist2_point_segment(double px, double py, double ax, double ay, double bx, double by) {
+  const double p[2] = {px, py}, a[2] = {ax, ay}, b[2] = {bx, by};
+  return dist2_segment(p, a, b);
+}
+
+// Crossing, touching, or an end point within `eps` of the other edge: output coordinates are
+// rounded to float, so a vertex lying (almost) on another loop's edge must count as touching.
+bool segments_touch(const CheckEdge& e, const CheckEdge& f, double eps) {
+  const double eps2 = eps * eps;
+  if (dist2_point_segment(f.x0, f.y0, e.x0, e.y0, e.x1, e.y1) <= eps2 ||
+      dist2_point_segment(f.x1, f.y1, e.x0, e.y0, e.x1, e.y1) <= eps2 ||
+      dist2_point_segment(e.x0, e.y0, f.x0, f.y0, f.x1, f.y1) <= eps2 ||
+      dist2_point_segment(e.x1, e.y1, f.x0, f.y0, f.x1, f.y1) <= eps2)
+    return true;
   const double o1 = cross(e.x0, e.y0, e.x1, e.y1, f.x0, f.y0);
   const double o2 = cross(e.x0, e.y0, e.x1, e.y1, f.x1, f.y1);
   const double o3 = cross(f.x0, f.y0, f.x1, f.y1, e.x0, e.y0);
@@ -132,12 +146,15 @@ bool mark_crossings(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& ba
   const std::size_t n = edges.size();
   for (std::size_t i = 0; i < n; ++i) {
     const CheckEdge& e = edges[i];
-    const double ylo = std::min(e.y0, e.y1), yhi = std::max(e.y0, e.y1);
-    for (std::size_t j = i + 1; j < n && edges[j].x0 <= e.x1; ++j) {
+    const double margin = 1e-5 * (1.0 + std::abs(e.x1) + std::abs(e.y0) + std::abs(e.y1));
+    const double ylo = std::min(e.y0, e.y1) - margin, yhi = std::max(e.y0, e.y1) + margin;
+    for (std::size_t j = i + 1; j < n && edges[j].x0 <= e.x1 + margin; ++j) {
       const CheckEdge& f = edges[j];
       if (std::max(f.y0, f.y1) < ylo || std::min(f.y0, f.y1) > yhi) continue;
       if (e.id0 == f.id0 || e.id0 == f.id1 || e.id1 == f.id0 || e.id1 == f.id1) continue;
-      if (segments_touch(e, f)) {
+      const double scale =
+          1.0 + std::max({std::abs(e.x0), std::abs(e.y0), std::abs(e.x1), std::abs(e.y1)});
+      if (segments_touch(e, f, 1e-6 * scale)) {
         bad[e.loop] = 1;
         bad[f.loop] = 1;
         any = true;
@@ -151,7 +168,8 @@ void area_perimeter(const double* xy, int n, double& area, double& perimeter) {
   double a = 0, p = 0;
   for (int i = 0, j = n - 1; i < n; j = i++) {
     a += xy[2 * j] * xy[2 * i + 1] - xy[2 * i] * xy[2 * j + 1];
-    p += std::hypot(xy[2 * i] - xy[2 * j], xy[2 * i + 1] - xy[2 * j + 1]);
+    const double dx = xy[2 * i] - xy[2 * j], dy = xy[2 * i + 1] - xy[2 * j + 1];
+    p += std::sqrt(dx * dx + dy * dy);
   }
   area = 0.5 * a;
   perimeter = p;

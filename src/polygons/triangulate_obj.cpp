@@ -36,7 +36,8 @@ bool segments_cross(const P2& a, const P2& b, const P2& c, const P2& d) {
 }
 
 // Whether direction p -> m leaves vertex poly[j] into the polygon's interior (CCW polygon).
-bool in_wedge(const std::vector<int>& poly, std::size_t j, const std::vector<P2>& pts, const P2& m) {
+bool in_wedge(const std::vector<int>& poly, std::size_t j, const std::vector<P2>& pts,
+              const P2& m) {
   const std::size_t n = poly.size();
   const P2& prev = pts[static_cast<std::size_t>(poly[(j + n - 1) % n])];
   const P2& p = pts[static_cast<std::size_t>(poly[j])];
@@ -125,7 +126,8 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
       double best_d = INFINITY;
       for (std::size_t j = 0; j < poly.size(); ++j) {
         const P2& pp = pts[static_cast<std::size_t>(poly[j])];
-        const double d = std::hypot(static_cast<double>(pp[0]) - pm[0], static_cast<double>(pp[1]) - pm[1]);
+        const double d =
+            std::hypot(static_cast<double>(pp[0]) - pm[0], static_cast<double>(pp[1]) - pm[1]);
         if (d >= best_d || !in_wedge(poly, j, pts, pm)) continue;
         bool clear = true;
         for (std::size_t e = 0; e < poly.size() && clear; ++e) {
@@ -149,7 +151,8 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
       const int mo = m - hl.first;
       for (int k = 0; k <= hl.count; ++k) bridge.push_back(hl.first + (mo + k) % hl.count);
       bridge.push_back(poly[best]);
-      poly.insert(poly.begin() + static_cast<std::ptrdiff_t>(best) + 1, bridge.begin(), bridge.end());
+      poly.insert(poly.begin() + static_cast<std::ptrdiff_t>(best) + 1, bridge.begin(),
+                  bridge.end());
     }
     ear_clip(poly, pts, triangles);
   }
@@ -158,7 +161,8 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
 std::string polygons_to_obj(const PolygonSet& polygons) {
   std::vector<std::array<int, 3>> tris;
   triangulate_polygons(polygons, tris);
-  std::string text = "# rangeseg plane polygons: simplified segment outlines, metres, camera frame\n";
+  std::string text =
+      "# rangeseg plane polygons: simplified segment outlines, metres, camera frame\n";
   char line[128];
   std::size_t t = 0;
   for (std::size_t si = 0; si < polygons.segments.size(); ++si) {

@@ -16,12 +16,14 @@ namespace {
 /// of the points, oriented like the mean normal: 1-ring normals carry the full sensor noise
 /// (and range quantisation) over a one-pixel baseline, while the PCA normal averages over the
 /// region's extent, so the model stops following the noise of the first few normals.
-/// The plane used by the test is refreshed after every point while the region is small and then
-/// whenever it has grown by 1/8, since a large region's plane hardly moves.
+/// The plane used by the test is refreshed after every point while the region has fewer than
+/// kPcaMinPoints points (mean normal, cheap) and then whenever it has grown by half (PCA), since
+/// a large region's plane hardly moves.
 class PlaneModel {
  public:
   explicit PlaneModel(const SegmentationSettings& s)
       : cos_max_angle_(static_cast<float>(std::cos(s.max_normal_angle))),
+        cos_seed_angle_(static_cast<float>(std::cos(s.max_normal_angle))),
         k_(static_cast<float>(s.max_distance_sigmas)),
         a_(static_cast<float>(s.noise.a)),
         b_(static_cast<float>(s.noise.b)),
@@ -32,6 +34,21 @@ class PlaneModel {
     snx_ = sny_ = snz_ = 0.0;
     next_refresh_ = 0;
     add(f, seed);
+  }
+
+  /// Every mesh neighbour of a seed must have its normal within the angle test of the seed's
+  /// normal: a region started from a normal that its neighbours contradict would follow noise
+  /// (and noisy areas would otherwise spawn one region per pixel).
+  bool seed_ok(const Frame& f, std::int32_t seed) const {
+    const float nx = f.nx[seed], ny = f.ny[seed], nz = f.nz[seed];
+    unsigned mask = f.edges[seed];
+    while (mask != 0) {
+      const int k = std::countr_zero(mask);
+      mask &= mask - 1;
+      const std::ptrdiff_t q = seed + f.neighbour_offset[k];
+      if (!(nx * f.nx[q] + ny * f.ny[q] + nz * f.nz[q] >= cos_seed_angle_)) return false;
+    }
+    return true;
   }
 
   bool accepts(const Frame& f, std::int32_t /*from*/, std::int32_t q) const {
@@ -70,7 +87,10 @@ class PlaneModel {
     ny_ = static_cast<float>(ny);
     nz_ = static_cast<float>(nz);
     d_ = static_cast<float>(-(nx * stats_.sx + ny * stats_.sy + nz * stats_.sz) * inv_count);
-    next_refresh_ = stats_.count < 16 ? stats_.count + 1 : stats_.count + stats_.count / 8;
+    // Mean-normal updates are cheap (every point while the region is tiny); eigen-solves run at
+    // 8, 12, 18, 27, ... points, so the many tiny regions of noisy areas cost few solves.
+    next_refresh_ =
+        stats_.count < kPcaMinPoints ? stats_.count + 1 : stats_.count + stats_.count / 2;
   }
 
   /// Replaces (nx, ny, nz) by the PCA normal, oriented like it, unless the points are
@@ -97,7 +117,7 @@ class PlaneModel {
     nz = n(2);
   }
 
-  float cos_max_angle_, k_, a_, b_, z0_;
+  float cos_max_angle_, cos_seed_angle_, k_, a_, b_, z0_;
   detail::PlaneStats stats_;
   double snx_ = 0, sny_ = 0, snz_ = 0;
   std::int64_t next_refresh_ = 0;

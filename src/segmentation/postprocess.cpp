@@ -53,6 +53,22 @@ bool same_plane(const PlaneFit& a, const PlaneFit& b, const SegmentationSettings
   return on_plane(a, b) && on_plane(b, a);
 }
 
+/// The F-test view of a merge: two segments are one plane when a single plane explains the
+/// union of their points as well as the sensor noise allows, i.e. the merged fit's RMS residual
+/// is within the noise sigma(z) at its centroid (the residual of a correct plane fit is ~sigma)
+/// and not much above the pooled RMS of the two separate fits. Two planes meeting at an angle
+/// phi over a region of extent L leave a residual ~ L phi / sqrt(12), far above the noise for
+/// any crease worth a segment boundary. This also joins the strips that range quantisation
+/// terraces cut a grazing surface into, whose own fits are tilted by the staircase.
+bool fits_as_one(const PlaneFit& merged, const PlaneFit& a, const PlaneFit& b,
+                 const SegmentationSettings& s) {
+  if (std::fabs(dot(a.normal, b.normal)) < std::cos(s.merge_rms_max_angle)) return false;
+  const double sigma = s.noise.sigma(merged.centroid[2]);
+  if (!(merged.rms <= s.merge_rms_sigmas * sigma)) return false;
+  const double pooled = std::max(a.rms, b.rms);
+  return merged.rms <= 1.5 * pooled + 0.5 * sigma;
+}
+
 void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
                            Segmenter::Scratch& s) {
   const auto& regions = s.regions;
@@ -86,11 +102,18 @@ void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
     std::int32_t a = find_root(s.parent, static_cast<std::int32_t>(key >> 32));
     std::int32_t b = find_root(s.parent, static_cast<std::int32_t>(key & 0xFFFFFFFFu));
     if (a == b || !s.fits[a].ok || !s.fits[b].ok) continue;
-    if (!same_plane(s.fits[a], s.fits[b], settings)) continue;
+    PlaneStats merged = s.regions[a];
+    merged.merge(s.regions[b]);
+    const PlaneFit merged_fit = merged.fit();
+    if (!merged_fit.ok) continue;
+    if (!same_plane(s.fits[a], s.fits[b], settings) &&
+        !fits_as_one(merged_fit, s.fits[a], s.fits[b], settings)) {
+      continue;
+    }
     if (s.regions[a].count < s.regions[b].count) std::swap(a, b);
     s.parent[b] = a;
-    s.regions[a].merge(s.regions[b]);
-    s.fits[a] = s.regions[a].fit();
+    s.regions[a] = merged;
+    s.fits[a] = merged_fit;
   }
 }
 
@@ -106,7 +129,9 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
   std::size_t head = 0, size = 0;
   const auto push = [&](std::int32_t i) {
     s.queued[i] = 1;
-    ring[(head + size) % capacity] = i;
+    std::size_t slot = head + size;
+    if (slot >= capacity) slot -= capacity;
+    ring[slot] = i;
     ++size;
   };
   const auto has_labelled_neighbour = [&](std::ptrdiff_t i) {
@@ -131,7 +156,7 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
   const double k = settings.max_distance_sigmas;
   while (size > 0) {
     const std::int32_t q = ring[head];
-    head = (head + 1) % capacity;
+    if (++head == capacity) head = 0;
     --size;
     s.queued[q] = 0;
     if (f.labels[q] != 0) continue;
@@ -170,6 +195,16 @@ double triangle_area(const Frame& f, std::ptrdiff_t a, std::ptrdiff_t b, std::pt
   return 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
 }
 
+/// Area of the quad a-b-d-c (a top-left, d bottom-right) as half the norm of the cross product of
+/// its diagonals: one square root, exact for planar quads (the projected area otherwise).
+double quad_area(const Frame& f, std::ptrdiff_t a, std::ptrdiff_t b, std::ptrdiff_t c,
+                 std::ptrdiff_t d) {
+  const double ux = f.x[d] - f.x[a], uy = f.y[d] - f.y[a], uz = f.z[d] - f.z[a];
+  const double vx = f.x[c] - f.x[b], vy = f.y[c] - f.y[b], vz = f.z[c] - f.z[b];
+  const double cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
+  return 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+}
+
 /// Adds a third of every triangle's area (a quarter of every quad's) to each labelled corner.
 void accumulate_areas(const Frame& f, Segmenter::Scratch& s) {
   const std::uint8_t* const faces = f.faces;
@@ -194,7 +229,7 @@ void accumulate_areas(const Frame& f, Segmenter::Scratch& s) {
         if (corners == 4) area[l3] += share;
       };
       if (bits & face_bits::quad) {
-        credit(triangle_area(f, a, c, d) + triangle_area(f, a, d, b), 4, la, lc, ld, lb);
+        credit(quad_area(f, a, b, c, d), 4, la, lc, ld, lb);
       } else if (bits & face_bits::diag_bc) {
         if (bits & face_bits::tri0) credit(triangle_area(f, a, c, b), 3, la, lc, lb, 0);
         if (bits & face_bits::tri1) credit(triangle_area(f, b, c, d), 3, lb, lc, ld, 0);

@@ -35,6 +35,9 @@ void grow_regions(const Frame& f, Model& model, Segmenter::Scratch& s) {
   std::int32_t label = 0;
   for (const std::int32_t seed : s.seeds) {
     if (labels[seed] != 0) continue;
+    if constexpr (requires { model.seed_ok(f, seed); }) {
+      if (!model.seed_ok(f, seed)) continue;
+    }
     ++label;
     labels[seed] = label;
     model.init(f, seed);

@@ -43,6 +43,10 @@ void validate(const SegmentationSettings& s) {
   require(s.max_seed_curvature > 0, "max_seed_curvature", s.max_seed_curvature, "> 0");
   require(s.min_region_size >= 1, "min_region_size", s.min_region_size, ">= 1");
   require(s.merge_angle > 0 && s.merge_angle <= pi, "merge_angle", s.merge_angle, "in (0, pi] rad");
+  require(s.merge_rms_sigmas >= 0 && std::isfinite(s.merge_rms_sigmas), "merge_rms_sigmas",
+          s.merge_rms_sigmas, "finite and >= 0");
+  require(s.merge_rms_max_angle >= 0 && s.merge_rms_max_angle <= pi, "merge_rms_max_angle",
+          s.merge_rms_max_angle, "in [0, pi] rad");
   require(s.merge_distance_sigmas > 0 && std::isfinite(s.merge_distance_sigmas),
           "merge_distance_sigmas", s.merge_distance_sigmas, "finite and > 0");
 }
