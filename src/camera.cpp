@@ -23,7 +23,8 @@ OrganizedCloud depth_to_cloud(View<const std::uint16_t> depth, const CameraIntri
                                 std::to_string(depth_scale));
   }
   OrganizedCloud cloud(depth.width, depth.height);
-  const float inv_fx = static_cast<float>(1.0 / camera.fx), inv_fy = static_cast<float>(1.0 / camera.fy);
+  const float inv_fx = static_cast<float>(1.0 / camera.fx),
+              inv_fy = static_cast<float>(1.0 / camera.fy);
   const float cx = static_cast<float>(camera.cx), cy = static_cast<float>(camera.cy);
   const float scale = static_cast<float>(depth_scale);
   for (int v = 0; v < depth.height; ++v) {

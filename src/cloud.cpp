@@ -46,8 +46,9 @@ CloudStats cloud_stats(const OrganizedCloud& cloud) {
 
 void require_organized(const OrganizedCloud& cloud, const char* what) {
   if (!cloud.is_organized()) {
-    throw std::invalid_argument(std::string(what) + ": needs an organized cloud (height >= 2), got " +
-                                std::to_string(cloud.width()) + "x" + std::to_string(cloud.height()));
+    throw std::invalid_argument(
+        std::string(what) + ": needs an organized cloud (height >= 2), got " +
+        std::to_string(cloud.width()) + "x" + std::to_string(cloud.height()));
   }
 }
 

@@ -25,6 +25,8 @@
 #include <emmintrin.h>
 #endif
 
+#include "detail/vectorize.hpp"
+
 namespace rangeseg {
 namespace {
 
@@ -82,7 +84,7 @@ void load_row(const OrganizedCloud& cloud, const EdgeParams& p, int v, int s, in
   float* __restrict ocos = out.cos2_r2;
   float* __restrict olen = out.max_len2;
   float* __restrict ovar = out.noise_var;
-#pragma GCC ivdep
+  RANGESEG_IVDEP
   for (int i = 0; i < n; ++i) {
     const int u = kUnitStride ? i : i * s;
     const float x = xs[u] - p.vx, y = ys[u] - p.vy, z = zs[u] - p.vz;
@@ -95,7 +97,7 @@ void load_row(const OrganizedCloud& cloud, const EdgeParams& p, int v, int s, in
   }
   // NaN points need no range (their edges fail on their NaN length): they get 0.
   sqrt_clamped(orange, n);
-#pragma GCC ivdep
+  RANGESEG_IVDEP
   for (int i = 0; i < n; ++i) {
     const float r = orange[i];
     const float eps = p.a + r * (p.bs + p.c * r);

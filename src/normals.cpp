@@ -23,6 +23,8 @@
 #include <emmintrin.h>
 #endif
 
+#include "detail/vectorize.hpp"
+
 namespace rangeseg {
 namespace {
 
@@ -72,8 +74,7 @@ struct CornerRows {
 
 // Cell row between pixel rows v and v + s. Faces are selected, not multiplied by 0/1: a face
 // with an invalid corner has a NaN cross product that a multiplication would keep.
-// The row functions stay out of line: GCC honours the __restrict of their local row pointers
-// only there (once inlined into the sweep, alias checks defeat vectorisation).
+// The row functions stay out of line so that each loop is vectorised on its own.
 template <bool kUnitStride, bool kQuad>
 [[gnu::noinline]] void cell_row(const OrganizedCloud& cloud, const Mesh& mesh, int v, int s, int n,
                                 const CornerRows& out) {
@@ -96,8 +97,7 @@ template <bool kUnitStride, bool kQuad>
   float* __restrict odx = out.d.x + 1;
   float* __restrict ody = out.d.y + 1;
   float* __restrict odz = out.d.z + 1;
-  // The row pointers never overlap (GCC does not take __restrict of locals for proof).
-#pragma GCC ivdep
+  RANGESEG_IVDEP
   for (int i = 0; i + 1 < n; ++i) {
     const int u = kUnitStride ? i : i * s, w = kUnitStride ? i + 1 : (i + 1) * s;
     const int f = faces[u];
@@ -178,7 +178,7 @@ template <bool kUnitStride>
     float* __restrict sx = sum.x;
     float* __restrict sy = sum.y;
     float* __restrict sz = sum.z;
-#pragma GCC ivdep
+    RANGESEG_IVDEP
     for (int i = 0; i < n; ++i) {
       const float nx = (ax[i] + bx[i]) + (cx[i] + dx[i]);
       const float ny = (ay[i] + by[i]) + (cy[i] + dy[i]);
@@ -244,7 +244,7 @@ template <bool kUnitStride>
     ocurv[u] = pick(mask_of(ring != 0), curvature, kNaN);
   };
   vertex(0, 0, n > 1 ? 1 : 0);
-#pragma GCC ivdep
+  RANGESEG_IVDEP
   for (int i = 1; i + 1 < n; ++i) vertex(i, i - 1, i + 1);
   if (n > 1) vertex(n - 1, n - 2, n - 1);
 }

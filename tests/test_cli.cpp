@@ -54,14 +54,17 @@ int count_files(const fs::path& dir) {
 
 TEST(Cli, SynthSegmentEvalRoundTrip) {
   const fs::path dir = rangeseg::test::scratch_dir("cli_synth");
-  const CliResult synth = run("synth -o " + (dir / "scene").string() + " --scene boxes --seed 3 --noise kinect");
+  const CliResult synth =
+      run("synth -o " + (dir / "scene").string() + " --scene boxes --seed 3 --noise kinect");
   ASSERT_EQ(synth.code, 0) << synth.out;
   for (const char* f : {"cloud.pcd", "depth.png", "labels.png", "surfaces.json", "camera.json"}) {
     EXPECT_TRUE(fs::exists(dir / "scene" / f)) << f;
   }
-  const CliResult seg = run("segment " + (dir / "scene" / "cloud.pcd").string() + " -o " + (dir / "seg").string());
+  const CliResult seg =
+      run("segment " + (dir / "scene" / "cloud.pcd").string() + " -o " + (dir / "seg").string());
   ASSERT_EQ(seg.code, 0) << seg.out;
-  const rangeseg::LabelImage labels = rangeseg::io::read_label_png((dir / "seg" / "labels.png").string());
+  const rangeseg::LabelImage labels =
+      rangeseg::io::read_label_png((dir / "seg" / "labels.png").string());
   EXPECT_EQ(labels.width(), 640);
   EXPECT_EQ(labels.height(), 480);
   const auto json = nlohmann::json::parse(read_text(dir / "seg" / "segments.json"));
@@ -72,20 +75,22 @@ TEST(Cli, SynthSegmentEvalRoundTrip) {
   EXPECT_EQ(max_label, static_cast<int>(json["segments"].size()));
   const auto& first = json["segments"][0];
   EXPECT_NEAR(std::hypot(first["normal"][0].get<double>(), first["normal"][1].get<double>(),
-                         first["normal"][2].get<double>()), 1.0, 1e-6);
+                         first["normal"][2].get<double>()),
+              1.0, 1e-6);
   EXPECT_TRUE(fs::exists(dir / "seg" / "overlay.png"));
   EXPECT_TRUE(fs::exists(dir / "seg" / "mesh.ply"));
   EXPECT_TRUE(fs::exists(dir / "seg" / "polygons.obj"));
   ASSERT_TRUE(first.contains("polygon")) << first.dump();
   EXPECT_GT(first["polygon"]["area_m2"].get<double>(), 0.0);
 
-  const CliResult eval = run("eval " + (dir / "scene" / "labels.png").string() + " " + (dir / "seg" / "labels.png").string());
+  const CliResult eval = run("eval " + (dir / "scene" / "labels.png").string() + " " +
+                             (dir / "seg" / "labels.png").string());
   ASSERT_EQ(eval.code, 0) << eval.out;
   EXPECT_NE(eval.out.find("correct"), std::string::npos);
 
   // The depth PNG with the camera file gives the same grid as the PCD.
   const CliResult info = run("info " + (dir / "scene" / "depth.png").string() + " --intrinsics " +
-                       (dir / "scene" / "camera.json").string());
+                             (dir / "scene" / "camera.json").string());
   ASSERT_EQ(info.code, 0) << info.out;
   EXPECT_NE(info.out.find("640 x 480"), std::string::npos) << info.out;
 }
@@ -107,8 +112,9 @@ TEST(Cli, BenchJsonHasEveryStage) {
 TEST(Cli, BadInputExitsWithTwoAndNamesTheFile) {
   const fs::path dir = rangeseg::test::scratch_dir("cli_bad");
   const fs::path truncated = dir / "truncated.pcd";
-  std::ofstream(truncated) << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 100\n"
-                              "HEIGHT 100\nPOINTS 10000\nDATA binary\nabc";
+  std::ofstream(truncated)
+      << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 100\n"
+         "HEIGHT 100\nPOINTS 10000\nDATA binary\nabc";
   const fs::path not_png = dir / "fake.png";
   std::ofstream(not_png) << "this is not a PNG";
   for (const fs::path& f : {truncated, not_png, dir / "missing.pcd", dir / "unknown.xyz"}) {
@@ -129,11 +135,12 @@ TEST(Cli, FailedWriteLeavesNoFile) {
   ASSERT_EQ(run("synth -o " + dir.string() + " --noise none").code, 0);
   const int before = count_files(dir);
   // The target directory does not exist: the write fails and nothing is left behind.
-  const CliResult r = run("convert " + (dir / "cloud.pcd").string() + " " + (dir / "nodir" / "out.pcd").string());
+  const CliResult r =
+      run("convert " + (dir / "cloud.pcd").string() + " " + (dir / "nodir" / "out.pcd").string());
   EXPECT_EQ(r.code, 2);
   EXPECT_EQ(count_files(dir), before);
-  const CliResult ok = run("convert " + (dir / "cloud.pcd").string() + " " + (dir / "ascii.pcd").string() +
-                     " --encoding ascii");
+  const CliResult ok = run("convert " + (dir / "cloud.pcd").string() + " " +
+                           (dir / "ascii.pcd").string() + " --encoding ascii");
   ASSERT_EQ(ok.code, 0) << ok.out;
   const auto a = rangeseg::io::read_pcd((dir / "cloud.pcd").string());
   const auto b = rangeseg::io::read_pcd((dir / "ascii.pcd").string());
@@ -143,7 +150,7 @@ TEST(Cli, FailedWriteLeavesNoFile) {
 TEST(Cli, SegcompEvaluationRuns) {
   RANGESEG_REQUIRE_DATA("segcomp_abw/abw.test.3.range");
   const CliResult r = run("eval " + (data_file.parent_path() / "abw.test.3.gt-seg").string() + " " +
-                    (data_file.parent_path() / "abw.test.3.gt-seg").string());
+                          (data_file.parent_path() / "abw.test.3.gt-seg").string());
   // A .gt-seg is not a machine segmentation format: a clear error, not a crash.
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("abw.test.3.gt-seg"), std::string::npos);

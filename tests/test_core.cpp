@@ -24,7 +24,8 @@ TEST(Plane, StrideIsPaddedAndRowsAreIndependent) {
 TEST(Camera, DepthToCloudAndBackIsExact) {
   DepthImage depth(8, 6, 0);
   for (int v = 0; v < 6; ++v)
-    for (int u = 0; u < 8; ++u) depth(u, v) = static_cast<std::uint16_t>((u + v) % 4 == 0 ? 0 : 500 + 37 * u + v);
+    for (int u = 0; u < 8; ++u)
+      depth(u, v) = static_cast<std::uint16_t>((u + v) % 4 == 0 ? 0 : 500 + 37 * u + v);
   const CameraIntrinsics cam{.fx = 10, .fy = 12, .cx = 3.5, .cy = 2.5};
   const OrganizedCloud cloud = depth_to_cloud(depth.view(), cam, 0.001);
   ASSERT_EQ(cloud.width(), 8);
@@ -44,16 +45,23 @@ TEST(Camera, DepthToCloudAndBackIsExact) {
   const DepthImage back = cloud_to_depth(cloud, 0.001);
   for (int v = 0; v < 6; ++v)
     for (int u = 0; u < 8; ++u) EXPECT_EQ(back(u, v), depth(u, v));
-  EXPECT_THROW(depth_to_cloud(depth.view(), CameraIntrinsics{.fx = 0}, 0.001), std::invalid_argument);
+  EXPECT_THROW(depth_to_cloud(depth.view(), CameraIntrinsics{.fx = 0}, 0.001),
+               std::invalid_argument);
   EXPECT_THROW(depth_to_cloud(depth.view(), cam, -1.0), std::invalid_argument);
 }
 
 TEST(Cloud, StatsCountOnlyFinitePoints) {
   OrganizedCloud c(3, 2);
   EXPECT_EQ(c.count_valid(), 0u);
-  c.x(0, 0) = 0; c.y(0, 0) = 0; c.z(0, 0) = 2;
-  c.x(1, 1) = 0; c.y(1, 1) = 0; c.z(1, 1) = 1;
-  c.x(2, 1) = INFINITY; c.y(2, 1) = 0; c.z(2, 1) = 7;
+  c.x(0, 0) = 0;
+  c.y(0, 0) = 0;
+  c.z(0, 0) = 2;
+  c.x(1, 1) = 0;
+  c.y(1, 1) = 0;
+  c.z(1, 1) = 1;
+  c.x(2, 1) = INFINITY;
+  c.y(2, 1) = 0;
+  c.z(2, 1) = 7;
   const CloudStats s = cloud_stats(c);
   EXPECT_EQ(s.valid, 2u);
   EXPECT_FLOAT_EQ(s.min_z, 1);

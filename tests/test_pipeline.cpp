@@ -26,8 +26,10 @@ using namespace rangeseg;
 namespace {
 // Quarter-VGA keeps the test quick (also under sanitizers); the code paths are the same.
 synth::Rendering qvga(std::uint64_t seed) {
-  const CameraIntrinsics camera{.fx = 262.5, .fy = 262.5, .cx = 159.5, .cy = 119.5, .width = 320, .height = 240};
-  return synth::render(synth::random_scene(seed), {.camera = camera, .noise = synth::Noise::kinect, .seed = seed});
+  const CameraIntrinsics camera{
+      .fx = 262.5, .fy = 262.5, .cx = 159.5, .cy = 119.5, .width = 320, .height = 240};
+  return synth::render(synth::random_scene(seed),
+                       {.camera = camera, .noise = synth::Noise::kinect, .seed = seed});
 }
 }  // namespace
 

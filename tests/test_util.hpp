@@ -17,8 +17,9 @@ inline std::filesystem::path shared_data_dir() {
 
 /// A fresh, empty scratch directory for one test.
 inline std::filesystem::path scratch_dir(const std::string& name) {
-  auto dir = std::filesystem::temp_directory_path() / ("rangeseg_test_" + name + "_" +
-                                                       std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
+  auto dir = std::filesystem::temp_directory_path() /
+             ("rangeseg_test_" + name + "_" +
+              std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
@@ -27,9 +28,9 @@ inline std::filesystem::path scratch_dir(const std::string& name) {
 }  // namespace rangeseg::test
 
 /// Skips the current test with a clear message when a shared data file is absent.
-#define RANGESEG_REQUIRE_DATA(relpath)                                                          \
-  const std::filesystem::path data_file = ::rangeseg::test::shared_data_dir() / (relpath);      \
-  if (!std::filesystem::exists(data_file)) {                                                    \
-    GTEST_SKIP() << "shared data not found: " << data_file                                      \
-                 << " (set RANGESEG_DATA or put ../shared/data beside the repository)";         \
+#define RANGESEG_REQUIRE_DATA(relpath)                                                     \
+  const std::filesystem::path data_file = ::rangeseg::test::shared_data_dir() / (relpath); \
+  if (!std::filesystem::exists(data_file)) {                                               \
+    GTEST_SKIP() << "shared data not found: " << data_file                                 \
+                 << " (set RANGESEG_DATA or put ../shared/data beside the repository)";    \
   }

@@ -32,12 +32,14 @@ double median(std::vector<double> v) {
 
 void add_bench(CLI::App& app) {
   auto o = std::make_shared<BenchOptions>();
-  auto* cmd = app.add_subcommand("bench", "Median milliseconds per stage over repeated runs (single thread)");
+  auto* cmd = app.add_subcommand(
+      "bench", "Median milliseconds per stage over repeated runs (single thread)");
   add_input_options(*cmd, o->in);
   cmd->add_option("--preset", o->preset, "Sensor preset")->capture_default_str();
   cmd->add_option("--config", o->config, "JSON settings overriding the preset");
   cmd->add_option("--repeat", o->repeat, "Number of timed runs (after one warm-up run)")
-      ->capture_default_str()->check(CLI::Range(1, 100000));
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
   cmd->add_flag("--json", o->json, "Print one JSON object {stage: median ms} on stdout");
   cmd->callback([o] {
     const LoadedInput in = load_input(o->in);
@@ -57,19 +59,18 @@ void add_bench(CLI::App& app) {
       polygons.push_back(t.polygons);
       total.push_back(t.total);
     }
-    const nlohmann::json result{{"mesh", median(mesh)},
-                                {"normals", median(normals)},
-                                {"smoothing", median(smoothing)},
-                                {"segmentation", median(segmentation)},
-                                {"polygons", median(polygons)},
-                                {"total", median(total)}};
+    const nlohmann::json result{
+        {"mesh", median(mesh)},           {"normals", median(normals)},
+        {"smoothing", median(smoothing)}, {"segmentation", median(segmentation)},
+        {"polygons", median(polygons)},   {"total", median(total)}};
     if (o->json) {
       std::printf("%s\n", result.dump().c_str());
       return;
     }
-    std::printf("%s: %d x %d, median of %d runs, single thread\n", o->in.path.c_str(), in.cloud.width(),
-                in.cloud.height(), o->repeat);
-    for (const char* stage : {"mesh", "normals", "smoothing", "segmentation", "polygons", "total"}) {
+    std::printf("%s: %d x %d, median of %d runs, single thread\n", o->in.path.c_str(),
+                in.cloud.width(), in.cloud.height(), o->repeat);
+    for (const char* stage :
+         {"mesh", "normals", "smoothing", "segmentation", "polygons", "total"}) {
       std::printf("  %-13s %8.3f ms\n", stage, result[stage].get<double>());
     }
   });

@@ -7,12 +7,12 @@
 #include "input.hpp"
 #include "names.hpp"
 #include "output.hpp"
-#include "segment_output.hpp"
 #include "rangeseg/colorize.hpp"
 #include "rangeseg/eval.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/io/png.hpp"
 #include "rangeseg/synth.hpp"
+#include "segment_output.hpp"
 
 namespace rangeseg::cli {
 namespace {
@@ -48,12 +48,16 @@ void run_demo(const DemoOptions& o) {
   const auto dir = ensure_dir(o.out_dir);
   LoadedInput in;
   if (o.in.path.empty()) {
-    progress("rendering the built-in demo scene (Kinect-like noise, seed " + std::to_string(o.seed) + ")");
-    synth::Rendering r = synth::render(synth::demo_scene(), {.noise = synth::Noise::kinect, .seed = o.seed});
+    progress("rendering the built-in demo scene (Kinect-like noise, seed " +
+             std::to_string(o.seed) + ")");
+    synth::Rendering r =
+        synth::render(synth::demo_scene(), {.noise = synth::Noise::kinect, .seed = o.seed});
     in.cloud = std::move(r.cloud);
     in.ground_truth = std::move(r.labels);
-    io::write_rgb_png((dir / "ground_truth.png").string(), colorize_labels(in.ground_truth, &in.cloud));
-    io::write_pcd((dir / "cloud.pcd").string(), in.cloud, {.encoding = io::PcdEncoding::binary_compressed});
+    io::write_rgb_png((dir / "ground_truth.png").string(),
+                      colorize_labels(in.ground_truth, &in.cloud));
+    io::write_pcd((dir / "cloud.pcd").string(), in.cloud,
+                  {.encoding = io::PcdEncoding::binary_compressed});
   } else {
     in = load_input(o.in);
   }
@@ -66,22 +70,31 @@ void run_demo(const DemoOptions& o) {
   const RgbImage normal_colours = colorize_normals(raw.nx.view(), raw.ny.view(), raw.nz.view());
   io::write_rgb_png((dir / "normals_raw.png").string(), normal_colours);
   const NormalMap& smooth = pipeline.normals();
-  const RgbImage smooth_colours = colorize_normals(smooth.nx.view(), smooth.ny.view(), smooth.nz.view());
+  const RgbImage smooth_colours =
+      colorize_normals(smooth.nx.view(), smooth.ny.view(), smooth.nz.view());
   io::write_rgb_png((dir / "normals_smoothed.png").string(), smooth_colours);
-  io::write_rgb_png((dir / "curvature.png").string(), colorize_scalar_auto(pipeline.raw_normals().curvature.view()));
+  io::write_rgb_png((dir / "curvature.png").string(),
+                    colorize_scalar_auto(pipeline.raw_normals().curvature.view()));
   write_mesh_ply((dir / "mesh.ply").string(), input, pipeline.mesh(), &raw, &normal_colours);
   write_segmentation_folder((dir / "segmentation").string(), input, pipeline, true);
   const RgbImage overlay = colorize_labels(pipeline.segmentation().labels, &input);
-  io::write_rgb_png((dir / "summary.png").string(), montage({&depth, &normal_colours, &smooth_colours, &overlay}));
+  io::write_rgb_png((dir / "summary.png").string(),
+                    montage({&depth, &normal_colours, &smooth_colours, &overlay}));
   const StageTimes& t = pipeline.times();
-  std::printf("demo: %d x %d, %zu valid points, %zu mesh faces, %zu segments\n", input.width(), input.height(),
-              input.count_valid(), count_faces(pipeline.mesh()), pipeline.segmentation().segments.size());
-  std::printf("time: mesh %.2f ms, normals %.2f ms, smoothing %.2f ms, segmentation %.2f ms, total %.2f ms\n",
-              t.mesh, t.normals, t.smoothing, t.segmentation, t.total);
+  std::printf("demo: %d x %d, %zu valid points, %zu mesh faces, %zu segments\n", input.width(),
+              input.height(), input.count_valid(), count_faces(pipeline.mesh()),
+              pipeline.segmentation().segments.size());
+  std::printf(
+      "time: mesh %.2f ms, normals %.2f ms, smoothing %.2f ms, segmentation %.2f ms, total %.2f "
+      "ms\n",
+      t.mesh, t.normals, t.smoothing, t.segmentation, t.total);
   if (!in.ground_truth.empty()) {
-    const eval::EvalResult r = eval::evaluate(in.ground_truth, pipeline.segmentation().labels, {.tolerance = 0.8});
-    std::printf("vs ground truth (T = 0.8): %d of %d regions correct, %d over, %d under, %d missed, %d noise\n",
-                r.correct, r.gt_regions, r.over, r.under, r.missed, r.noise);
+    const eval::EvalResult r =
+        eval::evaluate(in.ground_truth, pipeline.segmentation().labels, {.tolerance = 0.8});
+    std::printf(
+        "vs ground truth (T = 0.8): %d of %d regions correct, %d over, %d under, %d missed, %d "
+        "noise\n",
+        r.correct, r.gt_regions, r.over, r.under, r.missed, r.noise);
   }
   progress("wrote pictures and files to " + dir.string() + "/");
 }
@@ -90,7 +103,8 @@ void run_demo(const DemoOptions& o) {
 
 void add_demo(CLI::App& app) {
   auto o = std::make_shared<DemoOptions>();
-  auto* cmd = app.add_subcommand("demo", "Run every stage on the built-in scene (or --input) and write pictures");
+  auto* cmd = app.add_subcommand(
+      "demo", "Run every stage on the built-in scene (or --input) and write pictures");
   cmd->add_option("-o,--output", o->out_dir, "Output directory")->capture_default_str();
   cmd->add_option("--input", o->in.path, "Use this file instead of the built-in scene");
   add_input_options(*cmd, o->in, false);

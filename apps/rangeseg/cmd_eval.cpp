@@ -10,12 +10,12 @@
 #include "input.hpp"
 #include "names.hpp"
 #include "output.hpp"
-#include "segment_output.hpp"
 #include "rangeseg/eval.hpp"
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/io/png.hpp"
 #include "rangeseg/io/rasterfile.hpp"
+#include "segment_output.hpp"
 
 namespace rangeseg::cli {
 namespace {
@@ -65,15 +65,16 @@ LabelImage load_machine(const std::string& path) {
                            "' (expected a 16-bit label .png or a SegComp .ms-seg)");
 }
 
-eval::AngleStats angles_for(const eval::EvalResult& r, const GroundTruth& gt, const LabelImage& ms) {
+eval::AngleStats angles_for(const eval::EvalResult& r, const GroundTruth& gt,
+                            const LabelImage& ms) {
   if (!gt.cloud) return {};
   return eval::angle_error(r, gt.labels, eval::fit_planes(*gt.cloud, gt.labels, gt.min_label),
                            eval::fit_planes(*gt.cloud, ms, 1));
 }
 
 void print_row(const char* name, const eval::EvalResult& r, const eval::AngleStats& a) {
-  std::printf("%-22s %5d %5d %7d %5d %6d %6d %6d %9.2f\n", name, r.gt_regions, r.ms_regions, r.correct,
-              r.over, r.under, r.missed, r.noise, a.mean_deg);
+  std::printf("%-22s %5d %5d %7d %5d %6d %6d %6d %9.2f\n", name, r.gt_regions, r.ms_regions,
+              r.correct, r.over, r.under, r.missed, r.noise, a.mean_deg);
 }
 
 void print_header() {
@@ -113,7 +114,8 @@ void write_ms_nor(const std::string& path, const Segmentation& seg) {
   char line[128];
   for (const Segment& s : seg.segments) {
     if (s.label > 255) break;
-    std::snprintf(line, sizeof line, "%d %.6f %.6f %.6f\n", s.label, s.normal[0], -s.normal[1], -s.normal[2]);
+    std::snprintf(line, sizeof line, "%d %.6f %.6f %.6f\n", s.label, s.normal[0], -s.normal[1],
+                  -s.normal[2]);
     text += line;
   }
   io::write_file_atomic(path, text);
@@ -123,11 +125,14 @@ void run_segcomp(const SegcompOptions& o) {
   std::vector<fs::path> images;
   for (const auto& e : fs::directory_iterator(o.dir)) {
     const std::string name = e.path().filename().string();
-    if (name.rfind("abw.test.", 0) == 0 && e.path().extension() == ".range") images.push_back(e.path());
+    if (name.rfind("abw.test.", 0) == 0 && e.path().extension() == ".range")
+      images.push_back(e.path());
   }
   if (images.empty()) throw std::runtime_error(o.dir + ": no abw.test.*.range files");
   std::sort(images.begin(), images.end(), [](const fs::path& a, const fs::path& b) {
-    const auto num = [](const fs::path& p) { return std::stoi(p.stem().extension().string().substr(1)); };
+    const auto num = [](const fs::path& p) {
+      return std::stoi(p.stem().extension().string().substr(1));
+    };
     return num(a) < num(b);
   });
   Pipeline pipeline(settings_from(o.preset, "plane", o.config, o.no_smooth));
@@ -141,7 +146,8 @@ void run_segcomp(const SegcompOptions& o) {
     if (!gt.cloud) gt.cloud = io::read_abw_range(range.string());
     pipeline.process(*gt.cloud);
     const LabelImage& ms = pipeline.segmentation().labels;
-    const eval::EvalResult r = eval::evaluate(gt.labels, ms, {.tolerance = o.tolerance, .min_gt_label = 10});
+    const eval::EvalResult r =
+        eval::evaluate(gt.labels, ms, {.tolerance = o.tolerance, .min_gt_label = 10});
     const eval::AngleStats a = angles_for(r, gt, ms);
     print_row(range.filename().string().c_str(), r, a);
     results.push_back(r);
@@ -155,32 +161,39 @@ void run_segcomp(const SegcompOptions& o) {
     }
   }
   const eval::EvalSummary s = eval::summarize(results, angles);
-  std::printf("%-22s %5.1f %5s %7.1f %5.1f %6.1f %6.1f %6.1f %9.2f\n", "average", s.mean_gt, "", s.mean_correct,
-              s.mean_over, s.mean_under, s.mean_missed, s.mean_noise, s.mean_angle_deg);
-  std::printf("correctly detected: %.1f%% of ground-truth regions (T = %.2f), angle error %.2f +- %.2f deg\n",
-              100.0 * s.mean_correct / s.mean_gt, o.tolerance, s.mean_angle_deg, s.std_angle_deg);
+  std::printf("%-22s %5.1f %5s %7.1f %5.1f %6.1f %6.1f %6.1f %9.2f\n", "average", s.mean_gt, "",
+              s.mean_correct, s.mean_over, s.mean_under, s.mean_missed, s.mean_noise,
+              s.mean_angle_deg);
+  std::printf(
+      "correctly detected: %.1f%% of ground-truth regions (T = %.2f), angle error %.2f +- %.2f "
+      "deg\n",
+      100.0 * s.mean_correct / s.mean_gt, o.tolerance, s.mean_angle_deg, s.std_angle_deg);
 }
 
 }  // namespace
 
 void add_eval(CLI::App& app) {
   auto o = std::make_shared<EvalOptions>();
-  auto* cmd = app.add_subcommand("eval", "Score a segmentation against ground truth (SegComp protocol)");
-  cmd->add_option("ground_truth", o->gt, "SegComp .gt-seg, 16-bit label .png, or .pcd with a label field")
+  auto* cmd =
+      app.add_subcommand("eval", "Score a segmentation against ground truth (SegComp protocol)");
+  cmd->add_option("ground_truth", o->gt,
+                  "SegComp .gt-seg, 16-bit label .png, or .pcd with a label field")
       ->required();
-  cmd->add_option("segmentation", o->pred, "16-bit label .png (e.g. labels.png) or SegComp .ms-seg")->required();
+  cmd->add_option("segmentation", o->pred, "16-bit label .png (e.g. labels.png) or SegComp .ms-seg")
+      ->required();
   cmd->add_option("--T", o->tolerance, "Overlap tolerance T, 0.5 < T <= 1")->capture_default_str();
   cmd->callback([o] {
     const GroundTruth gt = load_ground_truth(o->gt);
     const LabelImage ms = load_machine(o->pred);
-    const eval::EvalResult r = eval::evaluate(gt.labels, ms, {.tolerance = o->tolerance, .min_gt_label = gt.min_label});
+    const eval::EvalResult r =
+        eval::evaluate(gt.labels, ms, {.tolerance = o->tolerance, .min_gt_label = gt.min_label});
     print_header();
     print_row(fs::path(o->gt).filename().string().c_str(), r, angles_for(r, gt, ms));
   });
 
   auto s = std::make_shared<SegcompOptions>();
-  auto* seg = app.add_subcommand("eval-segcomp",
-                                 "Segment every abw.test.*.range in a folder and score it (paper, Table II)");
+  auto* seg = app.add_subcommand(
+      "eval-segcomp", "Segment every abw.test.*.range in a folder and score it (paper, Table II)");
   seg->add_option("dir", s->dir, "Folder with abw.test.N.range and .gt-seg files")->required();
   seg->add_option("-o,--output", s->out_dir, "Also write .ms-seg files and result folders here");
   seg->add_option("--preset", s->preset, "Sensor preset")->capture_default_str();

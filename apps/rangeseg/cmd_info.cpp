@@ -10,16 +10,19 @@ namespace rangeseg::cli {
 
 void add_info(CLI::App& app) {
   auto opts = std::make_shared<InputOptions>();
-  auto* cmd = app.add_subcommand("info", "Print size, fields, valid points and depth range of a file");
+  auto* cmd =
+      app.add_subcommand("info", "Print size, fields, valid points and depth range of a file");
   add_input_options(*cmd, *opts);
   cmd->callback([opts] {
     const LoadedInput in = load_input(*opts);
     const CloudStats s = cloud_stats(in.cloud);
-    std::printf("file:     %s\nformat:   %s\nsize:     %d x %d (%s)\nfields:   %s\n", opts->path.c_str(),
-                in.format.c_str(), in.cloud.width(), in.cloud.height(),
+    std::printf("file:     %s\nformat:   %s\nsize:     %d x %d (%s)\nfields:   %s\n",
+                opts->path.c_str(), in.format.c_str(), in.cloud.width(), in.cloud.height(),
                 in.cloud.is_organized() ? "organized" : "unorganized", in.fields.c_str());
     std::printf("valid:    %zu of %zu points (%.1f%%)\n", s.valid, in.cloud.size(),
-                in.cloud.empty() ? 0.0 : 100.0 * static_cast<double>(s.valid) / static_cast<double>(in.cloud.size()));
+                in.cloud.empty()
+                    ? 0.0
+                    : 100.0 * static_cast<double>(s.valid) / static_cast<double>(in.cloud.size()));
     if (s.valid > 0) std::printf("depth:    %.4f .. %.4f %s\n", s.min_z, s.max_z, in.units.c_str());
     if (in.cloud.has_label()) std::printf("labels:   yes\n");
   });

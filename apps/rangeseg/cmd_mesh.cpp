@@ -30,23 +30,31 @@ MeshType mesh_type_by_name(const std::string& name) {
   if (name == "quad") return MeshType::quad;
   if (name == "left") return MeshType::left_cut;
   if (name == "right") return MeshType::right_cut;
-  throw std::invalid_argument("unknown mesh type '" + name + "' (expected adaptive, quad, left or right)");
+  throw std::invalid_argument("unknown mesh type '" + name +
+                              "' (expected adaptive, quad, left or right)");
 }
 
 void add_mesh(CLI::App& app) {
   auto o = std::make_shared<MeshOptions>();
-  auto* cmd = app.add_subcommand("mesh", "Build the approximate mesh with normals; write a PLY coloured by normal");
+  auto* cmd = app.add_subcommand(
+      "mesh", "Build the approximate mesh with normals; write a PLY coloured by normal");
   add_input_options(*cmd, o->in);
   cmd->add_option("-o,--output", o->out, "Output mesh (.ply)")->required();
-  cmd->add_option("--type", o->type, "Mesh type: adaptive, quad, left or right")->capture_default_str();
-  cmd->add_option("--stride", o->stride, "Mesh every k-th pixel")->capture_default_str()->check(CLI::Range(1, 64));
+  cmd->add_option("--type", o->type, "Mesh type: adaptive, quad, left or right")
+      ->capture_default_str();
+  cmd->add_option("--stride", o->stride, "Mesh every k-th pixel")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
   cmd->add_option("--normal-png", o->normal_png, "Also write the normal map as a PNG");
-  cmd->add_option("--curvature-png", o->curvature_png, "Also write the curvature as a false-colour PNG");
+  cmd->add_option("--curvature-png", o->curvature_png,
+                  "Also write the curvature as a false-colour PNG");
   cmd->callback([o] {
     const LoadedInput in = load_input(o->in);
-    const Mesh mesh = build_mesh(in.cloud, {.type = mesh_type_by_name(o->type), .pixel_stride = o->stride});
+    const Mesh mesh =
+        build_mesh(in.cloud, {.type = mesh_type_by_name(o->type), .pixel_stride = o->stride});
     const NormalMap normals = compute_normals(in.cloud, mesh);
-    const RgbImage colours = colorize_normals(normals.nx.view(), normals.ny.view(), normals.nz.view());
+    const RgbImage colours =
+        colorize_normals(normals.nx.view(), normals.ny.view(), normals.nz.view());
     write_mesh_ply(o->out, in.cloud, mesh, &normals, &colours);
     if (!o->normal_png.empty()) io::write_rgb_png(o->normal_png, colours);
     if (!o->curvature_png.empty()) {

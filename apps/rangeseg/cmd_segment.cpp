@@ -39,12 +39,14 @@ PipelineSettings settings_from(const std::string& preset, const std::string& mod
 void add_segment(CLI::App& app) {
   auto o = std::make_shared<SegmentOptions>();
   auto* cmd = app.add_subcommand(
-      "segment", "Mesh, normals, smoothing and region-growing segmentation; writes labels.png, "
-                 "segments.json, overlay.png and mesh.ply into a folder");
+      "segment",
+      "Mesh, normals, smoothing and region-growing segmentation; writes labels.png, "
+      "segments.json, overlay.png and mesh.ply into a folder");
   add_input_options(*cmd, o->in);
   cmd->add_option("-o,--output", o->out_dir, "Output directory")->required();
   cmd->add_option("--model", o->model, "Region model: plane or smooth")->capture_default_str();
-  cmd->add_option("--preset", o->preset, "Sensor preset: kinect, abw or laser")->capture_default_str();
+  cmd->add_option("--preset", o->preset, "Sensor preset: kinect, abw or laser")
+      ->capture_default_str();
   cmd->add_option("--config", o->config, "JSON file with settings overriding the preset");
   cmd->add_flag("--no-smooth", o->no_smooth, "Skip the bilateral filter");
   cmd->add_flag("--no-mesh", o->no_mesh, "Do not write mesh.ply");
@@ -54,9 +56,11 @@ void add_segment(CLI::App& app) {
     pipeline.process(in.cloud);
     write_segmentation_folder(o->out_dir, in.cloud, pipeline, !o->no_mesh);
     const StageTimes& t = pipeline.times();
-    std::printf("%s: %zu segments in %.2f ms (mesh %.2f, normals %.2f, smoothing %.2f, segmentation %.2f, polygons %.2f)\n",
-                o->in.path.c_str(), pipeline.segmentation().segments.size(), t.total, t.mesh, t.normals,
-                t.smoothing, t.segmentation, t.polygons);
+    std::printf(
+        "%s: %zu segments in %.2f ms (mesh %.2f, normals %.2f, smoothing %.2f, segmentation %.2f, "
+        "polygons %.2f)\n",
+        o->in.path.c_str(), pipeline.segmentation().segments.size(), t.total, t.mesh, t.normals,
+        t.smoothing, t.segmentation, t.polygons);
   });
 }
 

@@ -25,7 +25,8 @@ void add_smooth(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "smooth", "Bilateral filter of points and normals over the mesh; writes a PCD with normals");
   add_input_options(*cmd, o->in);
-  cmd->add_option("-o,--output", o->out, "Output .pcd (x y z [intensity] [rgb] normal_x normal_y normal_z curvature)")
+  cmd->add_option("-o,--output", o->out,
+                  "Output .pcd (x y z [intensity] [rgb] normal_x normal_y normal_z curvature)")
       ->required();
   cmd->add_option("--preset", o->preset, "Sensor preset (noise model)")->capture_default_str();
   cmd->add_option("--config", o->config, "JSON settings overriding the preset");
@@ -40,7 +41,9 @@ void add_smooth(CLI::App& app) {
     const NormalMap& n = pipeline.normals();
     io::write_pcd(o->out, pipeline.cloud(),
                   {.encoding = io::PcdEncoding::binary_compressed,
-                   .extra_float_fields = {{"normal_x", &n.nx}, {"normal_y", &n.ny}, {"normal_z", &n.nz},
+                   .extra_float_fields = {{"normal_x", &n.nx},
+                                          {"normal_y", &n.ny},
+                                          {"normal_z", &n.nz},
                                           {"curvature", &n.curvature}}});
     progress("wrote " + o->out);
   });

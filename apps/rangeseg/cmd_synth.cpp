@@ -23,9 +23,12 @@ struct SynthOptions {
 
 const char* type_name(synth::SurfaceType t) {
   switch (t) {
-    case synth::SurfaceType::plane: return "plane";
-    case synth::SurfaceType::cylinder: return "cylinder";
-    case synth::SurfaceType::sphere: return "sphere";
+    case synth::SurfaceType::plane:
+      return "plane";
+    case synth::SurfaceType::cylinder:
+      return "cylinder";
+    case synth::SurfaceType::sphere:
+      return "sphere";
   }
   return "unknown";
 }
@@ -49,7 +52,9 @@ nlohmann::json surfaces_json(const synth::Rendering& r) {
   nlohmann::json surfaces = nlohmann::json::array();
   for (std::size_t i = 0; i < r.surfaces.size(); ++i) {
     const synth::Surface& s = r.surfaces[i];
-    nlohmann::json j{{"label", i + 1}, {"name", s.name}, {"type", type_name(s.type)},
+    nlohmann::json j{{"label", i + 1},
+                     {"name", s.name},
+                     {"type", type_name(s.type)},
                      {"pixels", r.pixel_counts[i]}};
     if (s.type == synth::SurfaceType::plane) {
       j["normal"] = s.normal;
@@ -70,27 +75,33 @@ nlohmann::json surfaces_json(const synth::Rendering& r) {
 void add_synth(CLI::App& app) {
   auto o = std::make_shared<SynthOptions>();
   auto* cmd = app.add_subcommand(
-      "synth", "Render a synthetic scene with ground truth (cloud.pcd, depth.png, labels.png, ...)");
+      "synth",
+      "Render a synthetic scene with ground truth (cloud.pcd, depth.png, labels.png, ...)");
   cmd->add_option("-o,--output", o->out_dir, "Output directory")->required();
-  cmd->add_option("--scene", o->scene, "demo, boxes (random boxes) or mixed (boxes, cylinders, spheres)")
+  cmd->add_option("--scene", o->scene,
+                  "demo, boxes (random boxes) or mixed (boxes, cylinders, spheres)")
       ->capture_default_str();
   cmd->add_option("--noise", o->noise, "Sensor noise model: none or kinect")->capture_default_str();
-  cmd->add_option("--seed", o->seed, "Seed of the random scene and the noise")->capture_default_str();
+  cmd->add_option("--seed", o->seed, "Seed of the random scene and the noise")
+      ->capture_default_str();
   cmd->callback([o] {
     const auto dir = ensure_dir(o->out_dir);
     const synth::Rendering r = synth::render(scene_by_name(o->scene, o->seed),
                                              {.noise = noise_by_name(o->noise), .seed = o->seed});
-    io::write_pcd((dir / "cloud.pcd").string(), r.cloud, {.encoding = io::PcdEncoding::binary_compressed});
+    io::write_pcd((dir / "cloud.pcd").string(), r.cloud,
+                  {.encoding = io::PcdEncoding::binary_compressed});
     io::write_depth_png((dir / "depth.png").string(), cloud_to_depth(r.cloud, 0.001).view());
     io::write_label_png((dir / "labels.png").string(), r.labels);
     io::write_rgb_png((dir / "labels_colour.png").string(), colorize_labels(r.labels, &r.cloud));
     io::write_rgb_png((dir / "depth_colour.png").string(), colorize_depth(r.cloud));
     const CameraIntrinsics cam{};
     write_json((dir / "camera.json").string(),
-               {{"width", r.cloud.width()}, {"height", r.cloud.height()},
+               {{"width", r.cloud.width()},
+                {"height", r.cloud.height()},
                 {"intrinsic_matrix", {cam.fx, 0, 0, 0, cam.fy, 0, cam.cx, cam.cy, 1}}});
     write_json((dir / "surfaces.json").string(), {{"surfaces", surfaces_json(r)}});
-    progress("wrote " + dir.string() + "/{cloud.pcd, depth.png, labels.png, labels_colour.png, "
+    progress("wrote " + dir.string() +
+             "/{cloud.pcd, depth.png, labels.png, labels_colour.png, "
              "depth_colour.png, camera.json, surfaces.json}");
   });
 }

@@ -19,7 +19,8 @@ void take(const json& obj, const char* key, T& field, const std::string& where) 
   }
 }
 
-void reject_unknown(const json& obj, std::initializer_list<const char*> known, const std::string& where) {
+void reject_unknown(const json& obj, std::initializer_list<const char*> known,
+                    const std::string& where) {
   if (!obj.is_object()) throw std::runtime_error(where + ": expected a JSON object");
   for (const auto& item : obj.items()) {
     bool ok = false;
@@ -29,7 +30,6 @@ void reject_unknown(const json& obj, std::initializer_list<const char*> known, c
 }
 
 }  // namespace
-
 
 void apply_config_file(const std::string& path, PipelineSettings& s) {
   const std::vector<std::uint8_t> bytes = io::read_file(path, 1 << 20);
@@ -54,7 +54,8 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
   if (j.contains("mesh")) {
     const json& m = j["mesh"];
     const std::string where = path + " [mesh]";
-    reject_unknown(m, {"type", "eps_theta", "max_edge_a", "max_edge_b", "max_edge_c", "pixel_stride"}, where);
+    reject_unknown(
+        m, {"type", "eps_theta", "max_edge_a", "max_edge_b", "max_edge_c", "pixel_stride"}, where);
     if (m.contains("type")) s.mesh.type = mesh_type_by_name(m["type"].get<std::string>());
     take(m, "eps_theta", s.mesh.eps_theta, where);
     take(m, "max_edge_a", s.mesh.max_edge_a, where);
@@ -65,8 +66,10 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
   if (j.contains("smoothing")) {
     const json& m = j["smoothing"];
     const std::string where = path + " [smoothing]";
-    reject_unknown(m, {"iterations", "use_distance", "distance_scale", "pixel_angle", "use_normals", "normal_scale", "use_intensity", "intensity_scale",
-                       "intensity_range", "move_along_ray", "recompute_normals"},
+    reject_unknown(m,
+                   {"iterations", "use_distance", "distance_scale", "pixel_angle", "use_normals",
+                    "normal_scale", "use_intensity", "intensity_scale", "intensity_range",
+                    "move_along_ray", "recompute_normals"},
                    where);
     auto& t = s.smoothing;
     take(m, "iterations", t.iterations, where);
@@ -84,16 +87,20 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
   if (j.contains("segmentation")) {
     const json& m = j["segmentation"];
     const std::string where = path + " [segmentation]";
-    reject_unknown(m, {"model", "max_normal_angle", "max_distance_sigmas",
-                       "max_smooth_angle", "max_curvature", "max_seed_curvature", "min_region_size",
-                       "merge_planes", "merge_angle", "merge_distance_sigmas", "reassign_boundary"},
+    reject_unknown(m,
+                   {"model", "max_normal_angle", "max_distance_sigmas", "max_smooth_angle",
+                    "max_curvature", "max_seed_curvature", "min_region_size", "merge_planes",
+                    "merge_angle", "merge_distance_sigmas", "reassign_boundary"},
                    where);
     auto& t = s.segmentation;
     if (m.contains("model")) {
       const std::string model = m["model"].get<std::string>();
-      if (model == "plane") t.model = RegionModel::plane;
-      else if (model == "smooth") t.model = RegionModel::smooth;
-      else throw std::runtime_error(where + ": unknown model '" + model + "' (plane or smooth)");
+      if (model == "plane")
+        t.model = RegionModel::plane;
+      else if (model == "smooth")
+        t.model = RegionModel::smooth;
+      else
+        throw std::runtime_error(where + ": unknown model '" + model + "' (plane or smooth)");
     }
     take(m, "max_normal_angle", t.max_normal_angle, where);
     take(m, "max_distance_sigmas", t.max_distance_sigmas, where);

@@ -32,8 +32,12 @@ void add_input_options(CLI::App& cmd, InputOptions& o, bool positional) {
 
 CameraIntrinsics intrinsics_for(const InputOptions& o, int width, int height) {
   if (!o.intrinsics.empty()) return io::read_camera_json(o.intrinsics);
-  CameraIntrinsics cam{.fx = o.fx, .fy = o.fy, .cx = o.cx_given ? o.cx : (width - 1) / 2.0,
-                       .cy = o.cy_given ? o.cy : (height - 1) / 2.0, .width = width, .height = height};
+  CameraIntrinsics cam{.fx = o.fx,
+                       .fy = o.fy,
+                       .cx = o.cx_given ? o.cx : (width - 1) / 2.0,
+                       .cy = o.cy_given ? o.cy : (height - 1) / 2.0,
+                       .width = width,
+                       .height = height};
   validate(cam);
   return cam;
 }

@@ -17,8 +17,9 @@ synth::Scene scene_by_name(const std::string& name, std::uint64_t seed);
 synth::Noise noise_by_name(const std::string& name);
 nlohmann::json surfaces_json(const synth::Rendering& rendering);
 
-/// Applies a JSON object {"noise": {a, b, z0}, "mesh": {...}, "smoothing": {...}, "segmentation": {...}, "smooth": bool}
-/// read from `path` on top of `settings`; unknown keys are errors naming the file and the key.
+/// Applies a JSON object {"noise": {a, b, z0}, "mesh": {...}, "smoothing": {...}, "segmentation":
+/// {...}, "smooth": bool} read from `path` on top of `settings`; unknown keys are errors naming the
+/// file and the key.
 void apply_config_file(const std::string& path, PipelineSettings& settings);
 
 }  // namespace rangeseg::cli

@@ -34,7 +34,8 @@ void write_mesh_ply(const std::string& path, const OrganizedCloud& cloud, const 
     const int u = pixel % w, v = pixel / w;
     ply.xyz.insert(ply.xyz.end(), {cloud.x(u, v), cloud.y(u, v), cloud.z(u, v)});
     if (normals != nullptr) {
-      ply.normals.insert(ply.normals.end(), {normals->nx(u, v), normals->ny(u, v), normals->nz(u, v)});
+      ply.normals.insert(ply.normals.end(),
+                         {normals->nx(u, v), normals->ny(u, v), normals->nz(u, v)});
     }
     if (with_colour) {
       const std::uint8_t* c = colours->pixel(u, v);

@@ -14,8 +14,11 @@ nlohmann::json loop_json(const PolygonSet& set, const PolygonLoop& loop) {
     points3d.push_back(set.points3d[static_cast<std::size_t>(i)]);
     points2d.push_back(set.points2d[static_cast<std::size_t>(i)]);
   }
-  return {{"hole", loop.is_hole}, {"area_m2", loop.area}, {"perimeter_m", loop.perimeter},
-          {"points", points3d}, {"points_2d", points2d}};
+  return {{"hole", loop.is_hole},
+          {"area_m2", loop.area},
+          {"perimeter_m", loop.perimeter},
+          {"points", points3d},
+          {"points_2d", points2d}};
 }
 
 nlohmann::json polygon_json(const PolygonSet& set, const SegmentPolygons& sp) {
@@ -31,15 +34,17 @@ nlohmann::json polygon_json(const PolygonSet& set, const SegmentPolygons& sp) {
           {"area_m2", sp.area},
           {"perimeter_m", sp.perimeter},
           {"loops", loops},
-          {"convex_hull", {{"area_m2", sp.hull_area}, {"perimeter_m", sp.hull_perimeter}, {"points", hull}}}};
+          {"convex_hull",
+           {{"area_m2", sp.hull_area}, {"perimeter_m", sp.hull_perimeter}, {"points", hull}}}};
 }
 
 void draw_polygons(RgbImage& image, const PolygonSet& set) {
   std::vector<std::array<float, 2>> pixels;
   for (std::size_t l = 0; l < set.loops.size(); ++l) {
     loop_pixels(set, static_cast<int>(l), pixels);
-    const std::array<std::uint8_t, 3> colour =
-        set.loops[l].is_hole ? std::array<std::uint8_t, 3>{255, 64, 64} : std::array<std::uint8_t, 3>{255, 255, 255};
+    const std::array<std::uint8_t, 3> colour = set.loops[l].is_hole
+                                                   ? std::array<std::uint8_t, 3>{255, 64, 64}
+                                                   : std::array<std::uint8_t, 3>{255, 255, 255};
     draw_polyline(image, pixels, colour, true);
   }
 }
@@ -50,21 +55,23 @@ nlohmann::json segments_json(const Segmentation& seg, const PolygonSet* polygons
   std::vector<const SegmentPolygons*> by_label(seg.segments.size() + 1, nullptr);
   if (polygons != nullptr) {
     for (const SegmentPolygons& sp : polygons->segments) {
-      if (sp.label > 0 && static_cast<std::size_t>(sp.label) < by_label.size()) by_label[static_cast<std::size_t>(sp.label)] = &sp;
+      if (sp.label > 0 && static_cast<std::size_t>(sp.label) < by_label.size())
+        by_label[static_cast<std::size_t>(sp.label)] = &sp;
     }
   }
   nlohmann::json list = nlohmann::json::array();
   for (const Segment& s : seg.segments) {
     nlohmann::json& item = list.emplace_back();
-    if (const SegmentPolygons* sp = by_label[static_cast<std::size_t>(s.label)]) item["polygon"] = polygon_json(*polygons, *sp);
+    if (const SegmentPolygons* sp = by_label[static_cast<std::size_t>(s.label)])
+      item["polygon"] = polygon_json(*polygons, *sp);
     item.update({{"id", s.label},
-                    {"model", s.model == RegionModel::plane ? "plane" : "smooth"},
-                    {"pixel_count", s.pixel_count},
-                    {"area_m2", s.area_m2},
-                    {"centroid", s.centroid},
-                    {"normal", s.normal},
-                    {"offset", s.offset},
-                    {"rms_residual", s.rms_residual}});
+                 {"model", s.model == RegionModel::plane ? "plane" : "smooth"},
+                 {"pixel_count", s.pixel_count},
+                 {"area_m2", s.area_m2},
+                 {"centroid", s.centroid},
+                 {"normal", s.normal},
+                 {"offset", s.offset},
+                 {"rms_residual", s.rms_residual}});
   }
   return {{"plane_equation", "normal . x + offset = 0, camera frame, metres"},
           {"width", seg.labels.width()},
@@ -78,13 +85,15 @@ void write_segmentation_folder(const std::string& dir_name, const OrganizedCloud
   const Segmentation& seg = pipeline.segmentation();
   io::write_label_png((dir / "labels.png").string(), seg.labels);
   write_json((dir / "segments.json").string(), segments_json(seg, &pipeline.polygons()));
-  if (!pipeline.polygons().segments.empty()) write_polygons_obj((dir / "polygons.obj").string(), pipeline.polygons());
+  if (!pipeline.polygons().segments.empty())
+    write_polygons_obj((dir / "polygons.obj").string(), pipeline.polygons());
   RgbImage overlay = colorize_labels(seg.labels, &input);
   draw_polygons(overlay, pipeline.polygons());
   io::write_rgb_png((dir / "overlay.png").string(), overlay);
   if (write_mesh) {
     const RgbImage flat = colorize_labels(seg.labels);
-    write_mesh_ply((dir / "mesh.ply").string(), pipeline.cloud(), pipeline.mesh(), &pipeline.normals(), &flat);
+    write_mesh_ply((dir / "mesh.ply").string(), pipeline.cloud(), pipeline.mesh(),
+                   &pipeline.normals(), &flat);
   }
 }
 

@@ -12,8 +12,8 @@ namespace rangeseg::cli {
 /// segments.json: every segment, with its polygons when `polygons` is given.
 nlohmann::json segments_json(const Segmentation& segmentation, const PolygonSet* polygons);
 
-/// Writes the results (labels.png, segments.json, polygons.obj, overlay.png with the polygons drawn,
-/// optionally mesh.ply) of the pipeline's last frame into `dir` (each file atomically).
+/// Writes the results (labels.png, segments.json, polygons.obj, overlay.png with the polygons
+/// drawn, optionally mesh.ply) of the pipeline's last frame into `dir` (each file atomically).
 /// `input` is the cloud the pipeline processed (for the overlay's shading).
 void write_segmentation_folder(const std::string& dir, const OrganizedCloud& input,
                                const Pipeline& pipeline, bool write_mesh);

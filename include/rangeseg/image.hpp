@@ -1,9 +1,9 @@
 // Images as separate planes with a row stride (structure of arrays).
 #pragma once
 
+#include <algorithm>
 #include <cassert>
 #include <cstddef>
-#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -44,7 +44,11 @@ class Plane {
   /// negative sizes.
   void resize(int width, int height, T fill = T{});
   void fill(T value) { std::fill(buffer_.begin(), buffer_.end(), value); }
-  void clear() { width_ = height_ = 0; stride_ = 0; buffer_.clear(); }
+  void clear() {
+    width_ = height_ = 0;
+    stride_ = 0;
+    buffer_.clear();
+  }
 
   int width() const { return width_; }
   int height() const { return height_; }

@@ -23,8 +23,8 @@ std::vector<std::uint8_t> read_file(const std::string& path, std::uint64_t max_b
   const std::streamoff size = in.tellg();
   if (size < 0) throw std::runtime_error(path + ": cannot determine the file size");
   if (static_cast<std::uint64_t>(size) > max_bytes) {
-    throw std::runtime_error(path + ": file of " + std::to_string(size) + " bytes exceeds the limit of " +
-                             std::to_string(max_bytes));
+    throw std::runtime_error(path + ": file of " + std::to_string(size) +
+                             " bytes exceeds the limit of " + std::to_string(max_bytes));
   }
   std::vector<std::uint8_t> bytes(static_cast<std::size_t>(size));
   in.seekg(0, std::ios::beg);

@@ -401,17 +401,17 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
     }
     // Output order: each outer loop followed by its holes, in tracing order (loop index as the
     // tie-break: std::sort, unlike std::stable_sort, never allocates).
-    std::sort(
-        sc.kept.begin() + static_cast<std::ptrdiff_t>(n_outer), sc.kept.end(), [&](int a, int b) {
-          const auto rank = [&](int li) {
-            const int parent = sc.raw[static_cast<std::size_t>(li)].parent;
-            return std::find(sc.kept.begin(),
-                             sc.kept.begin() + static_cast<std::ptrdiff_t>(n_outer), parent) -
-                   sc.kept.begin();
-          };
-          const auto ra = rank(a), rb = rank(b);
-          return ra != rb ? ra < rb : a < b;
-        });
+    std::sort(sc.kept.begin() + static_cast<std::ptrdiff_t>(n_outer), sc.kept.end(),
+              [&](int a, int b) {
+                const auto rank = [&](int li) {
+                  const int parent = sc.raw[static_cast<std::size_t>(li)].parent;
+                  return std::find(sc.kept.begin(),
+                                   sc.kept.begin() + static_cast<std::ptrdiff_t>(n_outer), parent) -
+                         sc.kept.begin();
+                };
+                const auto ra = rank(a), rb = rank(b);
+                return ra != rb ? ra < rb : a < b;
+              });
 
     // Project every kept loop onto the plane.
     const PlaneFrame& fr = sp.frame;
