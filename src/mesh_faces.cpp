@@ -58,15 +58,7 @@ void extract_faces(const Mesh& mesh, bool remove_unused_vertices, TriangleList& 
   const int per_face = mesh.type == MeshType::quad ? 4 : 3;
   out.vertices_per_face = per_face;
   out.vertex_pixel.clear();
-  // Faces per cell are its bits tri0 + tri1 + quad: a byte loop that vectorises (count_faces
-  // uses popcount, a library call without -mpopcnt).
-  std::size_t n_faces = 0;
-  for (int v = 0; v < height; ++v) {
-    const std::uint8_t* f = mesh.faces.row(v);
-    std::uint32_t row = 0;
-    for (int u = 0; u < width; ++u) row += (f[u] & 1u) + ((f[u] >> 1) & 1u) + ((f[u] >> 2) & 1u);
-    n_faces += row;
-  }
+  const std::size_t n_faces = count_faces(mesh);
   const std::size_t n_indices = n_faces * static_cast<std::size_t>(per_face);
   // Every cell writes 6 indices unconditionally and advances by what it really holds; the slack
   // keeps the last write inside the buffer.
@@ -81,7 +73,8 @@ void extract_faces(const Mesh& mesh, bool remove_unused_vertices, TriangleList& 
       const std::uint8_t* e = mesh.edges.row(v);
       for (int u = 0; u < width; u += s) used += e[u] != 0;
     }
-    out.vertex_pixel.resize(used);
+    // One slot of slack: every lattice pixel is written, unused ones are overwritten by the next.
+    out.vertex_pixel.resize(used + 1);
     std::int32_t* vp = out.vertex_pixel.data();
     std::int32_t next = 0;
     for (int v = 0; v < height; v += s) {
@@ -92,6 +85,7 @@ void extract_faces(const Mesh& mesh, bool remove_unused_vertices, TriangleList& 
         next += e[u] != 0;
       }
     }
+    out.vertex_pixel.resize(used);
     // Compact index of the first used vertex of each lattice row, advanced while scanning.
     std::int32_t row_start = 0;
     for (int v = 0; v + s < height; v += s) {

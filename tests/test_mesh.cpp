@@ -452,3 +452,23 @@ TEST(Mesh, RealKinectFrameIsWellConnected) {
 #endif
 
 }  // namespace
+
+// Regression: compaction wrote one vertex past the end when the last lattice pixel was unused
+// (heap corruption on real frames whose bottom-right corner has no measurement).
+TEST(Mesh, CompactionWithUnusedLastPixel) {
+  OrganizedCloud cloud(6, 5);
+  for (int v = 0; v < 5; ++v) {
+    for (int u = 0; u < 6; ++u) {
+      cloud.x(u, v) = (u - 2.5f) * 0.002f;
+      cloud.y(u, v) = (v - 2.0f) * 0.002f;
+      cloud.z(u, v) = 1.0f;
+    }
+  }
+  cloud.z(5, 4) = NAN;  // the last pixel
+  const Mesh mesh = rangeseg::build_mesh(cloud, {});
+  rangeseg::TriangleList list;
+  rangeseg::extract_faces(mesh, true, list);
+  ASSERT_EQ(list.vertex_pixel.size(), 29u);
+  EXPECT_EQ(list.vertex_pixel.back(), 4 * 6 + 4);
+  for (const std::int32_t i : list.indices) EXPECT_LT(i, 29);
+}
