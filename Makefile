@@ -1,11 +1,10 @@
 # The two commands of the README: `make run` and `make test`.
 BUILD      ?= build
 BUILD_ASAN ?= build-asan
-BUILD_FUZZ ?= build-fuzz
 JOBS       ?= $(shell nproc)
 OUT        ?= out
 
-.PHONY: all deps build run test test-asan fuzz-smoke bench format clean
+.PHONY: all deps build run test asan-build test-asan fuzz-smoke bench format clean
 all: build
 
 deps:
@@ -23,18 +22,18 @@ run: build
 test: build
 	ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
 
-test-asan: deps
-	cmake -S . -B $(BUILD_ASAN) -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" \
-	  -DRANGESEG_SANITIZE=ON -DRANGESEG_BUILD_BENCH=OFF
+# Sanitizer build with clang: the test suite under ASan + UBSan, and the libFuzzer targets.
+asan-build:
+	RANGESEG_WITH_CLANG=1 ./scripts/install-deps.sh
+	CC=clang CXX=clang++ cmake -S . -B $(BUILD_ASAN) -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" \
+	  -DRANGESEG_SANITIZE=ON -DRANGESEG_FUZZ=ON -DRANGESEG_BUILD_BENCH=OFF
 	cmake --build $(BUILD_ASAN) -j $(JOBS)
+
+test-asan: asan-build
 	ctest --test-dir $(BUILD_ASAN) --output-on-failure -j $(JOBS)
 
-fuzz-smoke:
-	RANGESEG_WITH_CLANG=1 ./scripts/install-deps.sh
-	CC=clang CXX=clang++ cmake -S . -B $(BUILD_FUZZ) -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" -DRANGESEG_FUZZ=ON \
-	  -DRANGESEG_BUILD_TESTS=OFF -DRANGESEG_BUILD_BENCH=OFF -DRANGESEG_BUILD_APPS=OFF
-	cmake --build $(BUILD_FUZZ) -j $(JOBS)
-	./scripts/fuzz-smoke.sh $(BUILD_FUZZ)
+fuzz-smoke: asan-build
+	./scripts/fuzz-smoke.sh $(BUILD_ASAN)
 
 bench: build
 	$(BUILD)/bench/rangeseg_bench
@@ -43,4 +42,4 @@ format:
 	find include src apps tests bench fuzz -name '*.[ch]pp' | xargs clang-format -i
 
 clean:
-	rm -rf $(BUILD) $(BUILD_ASAN) $(BUILD_FUZZ) $(OUT)
+	rm -rf $(BUILD) $(BUILD_ASAN) $(OUT)

@@ -2,7 +2,7 @@
 # Runs every fuzz target briefly on its committed seed corpus (fuzz/corpus/<target>/).
 set -euo pipefail
 build=${1:-build-fuzz}
-seconds=${FUZZ_SECONDS:-20}
+seconds=${FUZZ_SECONDS:-15}
 root=$(cd "$(dirname "$0")/.." && pwd)
 shopt -s nullglob
 for bin in "$build"/fuzz/fuzz_*; do

@@ -2,9 +2,8 @@
 // GCC does not use the __restrict of local row pointers to prove that on its own.
 #pragma once
 
-#if defined(__clang__)
-#define RANGESEG_IVDEP _Pragma("clang loop vectorize(assume_safety)")
-#elif defined(__GNUC__)
+// (clang vectorises these loops without the hint and warns where a forced hint cannot apply.)
+#if defined(__GNUC__) && !defined(__clang__)
 #define RANGESEG_IVDEP _Pragma("GCC ivdep")
 #else
 #define RANGESEG_IVDEP
