@@ -155,3 +155,19 @@ TEST(Cli, SegcompEvaluationRuns) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("abw.test.3.gt-seg"), std::string::npos);
 }
+
+TEST(Cli, ConfigFileOverridesAndRejectsUnknownKeys) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_config");
+  ASSERT_EQ(run("synth -o " + dir.string() + " --noise none --scene boxes --seed 2").code, 0);
+  std::ofstream(dir / "good.json") << R"({"noise": {"a": 0.002}, "mesh": {"jump_sigmas": 4},
+      "smoothing": {"iterations": 1}, "segmentation": {"min_region_size": 50, "merge_rms_sigmas": 1.5}})";
+  std::ofstream(dir / "bad.json") << R"({"segmentation": {"min_region_sise": 50}})";
+  const CliResult good = run("segment " + (dir / "cloud.pcd").string() + " -o " + (dir / "g").string() +
+                             " --no-mesh --config " + (dir / "good.json").string());
+  EXPECT_EQ(good.code, 0) << good.out;
+  const CliResult bad = run("segment " + (dir / "cloud.pcd").string() + " -o " + (dir / "b").string() +
+                            " --config " + (dir / "bad.json").string());
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.out.find("min_region_sise"), std::string::npos) << bad.out;
+  EXPECT_FALSE(fs::exists(dir / "b" / "labels.png"));
+}

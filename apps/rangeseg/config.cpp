@@ -55,9 +55,10 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
     const json& m = j["mesh"];
     const std::string where = path + " [mesh]";
     reject_unknown(
-        m, {"type", "eps_theta", "max_edge_a", "max_edge_b", "max_edge_c", "pixel_stride"}, where);
+        m, {"type", "eps_theta", "jump_sigmas", "max_edge_a", "max_edge_b", "max_edge_c", "pixel_stride"}, where);
     if (m.contains("type")) s.mesh.type = mesh_type_by_name(m["type"].get<std::string>());
     take(m, "eps_theta", s.mesh.eps_theta, where);
+    take(m, "jump_sigmas", s.mesh.jump_sigmas, where);
     take(m, "max_edge_a", s.mesh.max_edge_a, where);
     take(m, "max_edge_b", s.mesh.max_edge_b, where);
     take(m, "max_edge_c", s.mesh.max_edge_c, where);
@@ -90,7 +91,8 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
     reject_unknown(m,
                    {"model", "max_normal_angle", "max_distance_sigmas", "max_smooth_angle",
                     "max_curvature", "max_seed_curvature", "min_region_size", "merge_planes",
-                    "merge_angle", "merge_distance_sigmas", "reassign_boundary"},
+                    "merge_angle", "merge_distance_sigmas", "merge_rms_sigmas", "merge_rms_max_angle",
+                    "reassign_boundary"},
                    where);
     auto& t = s.segmentation;
     if (m.contains("model")) {
@@ -111,6 +113,8 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
     take(m, "merge_planes", t.merge_planes, where);
     take(m, "merge_angle", t.merge_angle, where);
     take(m, "merge_distance_sigmas", t.merge_distance_sigmas, where);
+    take(m, "merge_rms_sigmas", t.merge_rms_sigmas, where);
+    take(m, "merge_rms_max_angle", t.merge_rms_max_angle, where);
     take(m, "reassign_boundary", t.reassign_boundary, where);
   }
   validate(s.smoothing);
