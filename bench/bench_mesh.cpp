@@ -8,6 +8,9 @@
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/normals.hpp"
 
+// The bench target has no src/ include path; the header is internal (baseline switch only).
+#include "../src/detail/simd.hpp"
+
 namespace {
 
 const std::string kFrame = RANGESEG_SOURCE_DIR "/../shared/data/kinect/grabber_frame0.pcd";
@@ -43,6 +46,21 @@ void BM_Normals(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_Normals)->Unit(benchmark::kMillisecond);
+
+// The same on the baseline instruction set (SSE2 on x86-64) even where AVX2 is available.
+void BM_MeshAdaptiveBaseline(benchmark::State& state) {
+  rangeseg::detail::simd::force_baseline = true;
+  BM_MeshAdaptive(state);
+  rangeseg::detail::simd::force_baseline = false;
+}
+BENCHMARK(BM_MeshAdaptiveBaseline)->Unit(benchmark::kMillisecond);
+
+void BM_NormalsBaseline(benchmark::State& state) {
+  rangeseg::detail::simd::force_baseline = true;
+  BM_Normals(state);
+  rangeseg::detail::simd::force_baseline = false;
+}
+BENCHMARK(BM_NormalsBaseline)->Unit(benchmark::kMillisecond);
 
 void BM_ExtractFaces(benchmark::State& state) {
   rangeseg::OrganizedCloud cloud;

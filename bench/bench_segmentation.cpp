@@ -11,7 +11,8 @@
 
 namespace {
 
-void run_segmentation(benchmark::State& state, rangeseg::RegionModel model) {
+void run_segmentation(benchmark::State& state, rangeseg::RegionModel model,
+                      bool coarse_cells = true) {
   const std::string path = RANGESEG_SOURCE_DIR "/../shared/data/kinect/grabber_frame0.pcd";
   if (!std::filesystem::exists(path)) {
     state.SkipWithError(("shared data not found: " + path).c_str());
@@ -22,6 +23,7 @@ void run_segmentation(benchmark::State& state, rangeseg::RegionModel model) {
   const rangeseg::NormalMap normals = rangeseg::compute_normals(cloud, mesh);
   rangeseg::SegmentationSettings settings = rangeseg::preset("kinect");
   settings.model = model;
+  settings.coarse_cells = coarse_cells;
   rangeseg::Segmenter segmenter;
   rangeseg::Segmentation out;
   for (auto _ : state) {
@@ -34,6 +36,10 @@ void run_segmentation(benchmark::State& state, rangeseg::RegionModel model) {
 void BM_SegmentPlanes(benchmark::State& state) {
   run_segmentation(state, rangeseg::RegionModel::plane);
 }
+/// The reference without the coarse level: every pixel grown individually.
+void BM_SegmentPlanesPixelwise(benchmark::State& state) {
+  run_segmentation(state, rangeseg::RegionModel::plane, false);
+}
 void BM_SegmentSmooth(benchmark::State& state) {
   run_segmentation(state, rangeseg::RegionModel::smooth);
 }
@@ -41,4 +47,5 @@ void BM_SegmentSmooth(benchmark::State& state) {
 }  // namespace
 
 BENCHMARK(BM_SegmentPlanes)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SegmentPlanesPixelwise)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_SegmentSmooth)->Unit(benchmark::kMillisecond);

@@ -1,44 +1,57 @@
 // Stage 1: the implicit mesh as per-pixel bit masks.
 //
-// One sweep over the lattice rows, each step reading and writing whole rows through small row
-// buffers (structure of arrays, branch-free, so the compiler vectorises every pass):
-//  1. per-pixel quantities of a row (range, eps_d^2, noise variance, ...), computed once;
-//  2. edge candidates: the validity (paper, eq. 1, plus the noise gate) of the edges a-b, a-d,
-//     a-c, b-c of every cell, each geometric edge tested exactly once;
-//  3. faces per cell from the candidate bits of two rows, and the 1-ring bits each face edge
-//     contributes to the cell's four corners; a vertex's mask is the union over its <= 4 cells.
+// One sweep over the lattice rows; per row three passes over small row buffers, each on whole
+// vectors (detail/simd.hpp; compiled for SSE2 and AVX2, picked at run time):
+//  1. per-pixel quantities of the row that enters the window (range, eps_d^2, noise variance),
+//     computed once per pixel;
+//  2. edge bits: the validity (paper, eq. 1, plus the noise gate) of the edges a-b, a-d, a-c,
+//     b-c of every cell, each geometric edge tested exactly once;
+//  3. faces per cell from the edge bits of two rows, and each vertex's 1-ring as the union of
+//     what its <= 4 cells contribute, written to the output rows in one go.
+// The arithmetic is the same sequence of IEEE operations in every instruction set, and
+// contraction into fused multiply-adds is off in this file, so the mesh does not depend on the
+// CPU or the build flags.
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#elif defined(__GNUC__)
+#pragma GCC optimize("fp-contract=off")
+#endif
+
 #include "rangeseg/mesh.hpp"
 
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cassert>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
-
-#include "detail/vectorize.hpp"
+#include "detail/row_bands.hpp"
+#include "detail/simd.hpp"
 
 namespace rangeseg {
 namespace {
 
-// Scratch bits of pass 1, stored at the cell's top-left vertex a = (u, v).
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// Edge bits of pass 2, stored at the cell's top-left vertex a = (u, v).
 constexpr std::uint8_t kEdgeAB = 1;        // a -> b (right)
 constexpr std::uint8_t kEdgeAD = 2;        // a -> d (down-right)
 constexpr std::uint8_t kEdgeAC = 4;        // a -> c (down)
 constexpr std::uint8_t kEdgeBC = 8;        // b -> c (down-left, stored at a)
 constexpr std::uint8_t kAdNotLonger = 16;  // |a-d| <= |b-c|
 
-// Per-pixel quantities of one lattice row, relative to the viewpoint (structure of arrays, so
-// that the edge tests below vectorise).
+// Edge bits of Mesh::edges (kNeighbourDu/Dv order).
+constexpr std::uint8_t kR = 1, kDR = 2, kD = 4, kDL = 8, kL = 16, kUL = 32, kU = 64, kUR = 128;
+
+// Per-pixel quantities of one lattice row, relative to the viewpoint (structure of arrays).
 struct PixelRow {
   float* x;
   float* y;
@@ -48,6 +61,7 @@ struct PixelRow {
   float* max_len2;   // eps_d(range)^2
   float* noise_var;  // (jump_sigmas sigma(range))^2
 };
+constexpr int kFloatsPerPixel = 7;
 
 struct EdgeParams {
   float vx, vy, vz;   // viewpoint
@@ -57,181 +71,60 @@ struct EdgeParams {
   float k2;           // jump_sigmas^2
 };
 
-// r[i] = sqrt(max(r2[i], 0)), in place; NaN becomes 0 (maxps returns its second operand then).
-// A separate pass: with errno-setting math GCC keeps a branch around std::sqrt, which stopped
-// the whole per-pixel loop from vectorising, so SSE is used directly.
-void sqrt_clamped(float* __restrict r, int n) {
-  int i = 0;
-#if defined(__SSE2__)
-  const __m128 zero = _mm_setzero_ps();
-  for (; i + 4 <= n; i += 4) {
-    _mm_storeu_ps(r + i, _mm_sqrt_ps(_mm_max_ps(_mm_loadu_ps(r + i), zero)));
-  }
+#if RANGESEG_SIMD_X86
+namespace sse2 {
+using V = detail::simd::Sse2;
+#define RANGESEG_KERNEL
+#include "detail/mesh_simd_kernels.hpp"
+#undef RANGESEG_KERNEL
+}  // namespace sse2
+namespace avx2 {
+using V = detail::simd::Avx2;
+#define RANGESEG_KERNEL RANGESEG_SIMD_AVX2_TARGET
+#include "detail/mesh_simd_kernels.hpp"
+#undef RANGESEG_KERNEL
+}  // namespace avx2
+#else
+namespace generic {
+using V = detail::simd::Generic;
+#define RANGESEG_KERNEL
+#include "detail/mesh_simd_kernels.hpp"
+#undef RANGESEG_KERNEL
+}  // namespace generic
 #endif
-  for (; i < n; ++i) r[i] = std::sqrt(r[i] > 0.0f ? r[i] : 0.0f);
+
+// The kernels of one instruction set.
+struct Kernels {
+  int lanes;  // floats per vector; a byte vector covers 4 * lanes cells
+  void (*quantities)(const float*, const float*, const float*, int, const EdgeParams&,
+                     const PixelRow&);
+  void (*edges)(const PixelRow&, const PixelRow*, int, std::uint8_t*);
+  std::array<void (*)(const std::uint8_t*, const std::uint8_t*, const std::uint8_t*, int,
+                      std::uint8_t*, std::uint8_t*, std::uint8_t*),
+             4>
+      faces;  // per MeshType
+};
+
+#define RANGESEG_MESH_KERNELS(ns)                                                             \
+  Kernels {                                                                                   \
+    ns::kLanes, &ns::pixel_quantities, &ns::edge_bits, {                                      \
+      &ns::faces_and_rings<MeshType::quad>, &ns::faces_and_rings<MeshType::left_cut>,         \
+          &ns::faces_and_rings<MeshType::right_cut>, &ns::faces_and_rings<MeshType::adaptive> \
+    }                                                                                         \
+  }
+
+const Kernels& kernels() {
+#if RANGESEG_SIMD_X86
+  static const Kernels baseline = RANGESEG_MESH_KERNELS(sse2);
+  static const Kernels wide = RANGESEG_MESH_KERNELS(avx2);
+  const bool use_avx2 = detail::simd::cpu_has_avx2() && !detail::simd::force_baseline;
+  return use_avx2 ? wide : baseline;
+#else
+  static const Kernels baseline = RANGESEG_MESH_KERNELS(generic);
+  return baseline;
+#endif
 }
-
-template <bool kUnitStride>
-void load_row(const OrganizedCloud& cloud, const EdgeParams& p, int v, int s, int n,
-              const PixelRow& out) {
-  const float* __restrict xs = cloud.x.row(v);
-  const float* __restrict ys = cloud.y.row(v);
-  const float* __restrict zs = cloud.z.row(v);
-  float* __restrict ox = out.x;
-  float* __restrict oy = out.y;
-  float* __restrict oz = out.z;
-  float* __restrict orange = out.range;
-  float* __restrict ocos = out.cos2_r2;
-  float* __restrict olen = out.max_len2;
-  float* __restrict ovar = out.noise_var;
-  RANGESEG_IVDEP
-  for (int i = 0; i < n; ++i) {
-    const int u = kUnitStride ? i : i * s;
-    const float x = xs[u] - p.vx, y = ys[u] - p.vy, z = zs[u] - p.vz;
-    const float r2 = x * x + y * y + z * z;
-    ox[i] = x;
-    oy[i] = y;
-    oz[i] = z;
-    orange[i] = r2;
-    ocos[i] = p.cos2 * r2;
-  }
-  // NaN points need no range (their edges fail on their NaN length): they get 0.
-  sqrt_clamped(orange, n);
-  RANGESEG_IVDEP
-  for (int i = 0; i < n; ++i) {
-    const float r = orange[i];
-    const float eps = p.a + r * (p.bs + p.c * r);
-    const float dr = r - p.nz0;
-    const float sigma = p.na + p.nb * dr * dr;
-    olen[i] = eps * eps;
-    ovar[i] = p.k2 * sigma * sigma;
-  }
-}
-
-// Edge p -> q (paper, eq. 1 plus the noise gate documented in mesh.hpp). eps_d is monotonic in
-// the range, so eps_d(max range)^2 is the larger of the two per-pixel values. Branch-free; a
-// NaN end makes len2 NaN and every comparison with it false, so validity needs no extra test.
-#define RANGESEG_EDGE_OK(PX, PY, PZ, PR, PC, PL, PV, QX, QY, QZ, QR, QL, QV)        \
-  [&] {                                                                             \
-    const float ex = (QX) - (PX), ey = (QY) - (PY), ez = (QZ) - (PZ);               \
-    const float len2 = ex * ex + ey * ey + ez * ez;                                 \
-    const float dot = ex * (PX) + ey * (PY) + ez * (PZ);                            \
-    const float dr = (PR) - (QR);                                                   \
-    const float lim = (PL) > (QL) ? (PL) : (QL);                                    \
-    return (len2 <= lim) & ((dot * dot <= len2 * (PC)) | (dr * dr <= (PV) + (QV))); \
-  }()
-
-// Pass 1 for one lattice row: the edges a-b, a-d, a-c and b-c of every cell whose top-left
-// vertex is in this row, plus "a-d not longer than b-c". `below` is null on the last row.
-void edge_candidates(const PixelRow& top, const PixelRow* below, int n,
-                     std::uint8_t* __restrict out) {
-  const float* __restrict ax = top.x;
-  const float* __restrict ay = top.y;
-  const float* __restrict az = top.z;
-  const float* __restrict ar = top.range;
-  const float* __restrict ac2 = top.cos2_r2;
-  const float* __restrict al = top.max_len2;
-  const float* __restrict av = top.noise_var;
-  if (below == nullptr) {
-    for (int i = 0; i + 1 < n; ++i) {
-      const bool ab = RANGESEG_EDGE_OK(ax[i], ay[i], az[i], ar[i], ac2[i], al[i], av[i], ax[i + 1],
-                                       ay[i + 1], az[i + 1], ar[i + 1], al[i + 1], av[i + 1]);
-      out[i] = ab ? kEdgeAB : 0;
-    }
-    out[n - 1] = 0;
-    return;
-  }
-  const float* __restrict cx = below->x;
-  const float* __restrict cy = below->y;
-  const float* __restrict cz = below->z;
-  const float* __restrict cr = below->range;
-  const float* __restrict cl = below->max_len2;
-  const float* __restrict cv = below->noise_var;
-  for (int i = 0; i + 1 < n; ++i) {
-    const int j = i + 1;
-    const bool ab = RANGESEG_EDGE_OK(ax[i], ay[i], az[i], ar[i], ac2[i], al[i], av[i], ax[j], ay[j],
-                                     az[j], ar[j], al[j], av[j]);
-    const bool ad = RANGESEG_EDGE_OK(ax[i], ay[i], az[i], ar[i], ac2[i], al[i], av[i], cx[j], cy[j],
-                                     cz[j], cr[j], cl[j], cv[j]);
-    const bool acv = RANGESEG_EDGE_OK(ax[i], ay[i], az[i], ar[i], ac2[i], al[i], av[i], cx[i],
-                                      cy[i], cz[i], cr[i], cl[i], cv[i]);
-    const bool bc = RANGESEG_EDGE_OK(ax[j], ay[j], az[j], ar[j], ac2[j], al[j], av[j], cx[i], cy[i],
-                                     cz[i], cr[i], cl[i], cv[i]);
-    const float adx = cx[j] - ax[i], ady = cy[j] - ay[i], adz = cz[j] - az[i];
-    const float bcx = cx[i] - ax[j], bcy = cy[i] - ay[j], bcz = cz[i] - az[j];
-    const bool ad_not_longer =
-        adx * adx + ady * ady + adz * adz <= bcx * bcx + bcy * bcy + bcz * bcz;
-    out[i] =
-        static_cast<std::uint8_t>((ab ? kEdgeAB : 0) | (ad ? kEdgeAD : 0) | (acv ? kEdgeAC : 0) |
-                                  (bc ? kEdgeBC : 0) | (ad_not_longer ? kAdNotLonger : 0));
-  }
-  const int i = n - 1;
-  const bool acv = RANGESEG_EDGE_OK(ax[i], ay[i], az[i], ar[i], ac2[i], al[i], av[i], cx[i], cy[i],
-                                    cz[i], cr[i], cl[i], cv[i]);
-  out[i] = acv ? kEdgeAC : 0;
-}
-#undef RANGESEG_EDGE_OK
-
-// Edge bits of Mesh::edges (kNeighbourDu/Dv order).
-constexpr std::uint8_t kR = 1, kDR = 2, kD = 4, kDL = 8, kL = 16, kUL = 32, kU = 64, kUR = 128;
-
-// Passes 2 and 3 for lattice row v: the faces of its cells from the candidate bits of rows v
-// (`cand`) and v + 1 (`cand_below`), and the 1-ring bits each cell contributes to its corners:
-// as_a[i] (vertex i of row v), as_b[i + 1], as_c[i] and as_d[i + 1] (row v + 1). Branch-free
-// byte logic, one template instance per mesh type, so that it vectorises.
-template <MeshType kType>
-void faces_row(const std::uint8_t* __restrict cand, const std::uint8_t* __restrict cand_below,
-               int n, std::uint8_t* __restrict faces, std::uint8_t* __restrict as_a,
-               std::uint8_t* __restrict as_b, std::uint8_t* __restrict as_c,
-               std::uint8_t* __restrict as_d) {
-  as_b[0] = 0;
-  as_d[0] = 0;
-  // 0/1 bytes and bitwise logic (no bool conversions, no branches) vectorise.
-  using B = std::uint8_t;
-  for (int i = 0; i + 1 < n; ++i) {
-    const B e = cand[i];
-    const B ab = e & 1, ad = (e >> 1) & 1, ac = (e >> 2) & 1, bc = (e >> 3) & 1;
-    const B bd = (cand[i + 1] >> 2) & 1, cd = cand_below[i] & 1;
-    const B ad0 = ab & ad & bd, ad1 = ac & cd & ad;  // (a,d,b), (a,c,d)
-    const B bc0 = ab & ac & bc, bc1 = bc & cd & bd;  // (a,c,b), (b,c,d)
-    B t0 = 0, t1 = 0, q = 0, cut_bc = 0;
-    if constexpr (kType == MeshType::quad) {
-      q = ab & ac & bd & cd;
-    } else if constexpr (kType == MeshType::right_cut) {
-      t0 = ad0, t1 = ad1;
-    } else if constexpr (kType == MeshType::left_cut) {
-      t0 = bc0, t1 = bc1, cut_bc = bc0 | bc1;
-    } else {
-      const B n_ad = ad0 + ad1, n_bc = bc0 + bc1;
-      const B ad_not_longer = (e >> 4) & 1;
-      cut_bc = static_cast<B>(n_bc > n_ad) |
-               (static_cast<B>(n_bc == n_ad) & (ad_not_longer ^ 1) & (bc0 | bc1));
-      const B keep_ad = cut_bc ^ 1;
-      t0 = (cut_bc & bc0) | (keep_ad & ad0);
-      t1 = (cut_bc & bc1) | (keep_ad & ad1);
-    }
-    faces[i] = static_cast<B>(t0 * face_bits::tri0 | t1 * face_bits::tri1 | q * face_bits::quad |
-                              cut_bc * face_bits::diag_bc);
-    // Edges of the cell that belong to a face.
-    const B any = t0 | t1, keep_ad = cut_bc ^ 1;
-    const B e_ab = q | t0, e_cd = q | t1;
-    const B e_ac = q | (cut_bc & t0) | (keep_ad & t1), e_bd = q | (cut_bc & t1) | (keep_ad & t0);
-    const B e_ad = keep_ad & any, e_bc = cut_bc & any;
-    as_a[i] = static_cast<B>(e_ab * kR | e_ad * kDR | e_ac * kD);
-    as_b[i + 1] = static_cast<B>(e_ab * kL | e_bd * kD | e_bc * kDL);
-    as_c[i] = static_cast<B>(e_cd * kR | e_ac * kU | e_bc * kUR);
-    as_d[i + 1] = static_cast<B>(e_cd * kL | e_bd * kU | e_ad * kUL);
-  }
-  faces[n - 1] = 0;
-  as_a[n - 1] = 0;
-  as_c[n - 1] = 0;
-}
-
-using FacesRowFn = void (*)(const std::uint8_t*, const std::uint8_t*, int, std::uint8_t*,
-                            std::uint8_t*, std::uint8_t*, std::uint8_t*, std::uint8_t*);
-constexpr std::array<FacesRowFn, 4> kFacesRow{
-    faces_row<MeshType::quad>, faces_row<MeshType::left_cut>, faces_row<MeshType::right_cut>,
-    faces_row<MeshType::adaptive>};
+#undef RANGESEG_MESH_KERNELS
 
 void validate(const OrganizedCloud& cloud, const MeshSettings& s) {
   require_organized(cloud, "build_mesh");
@@ -282,19 +175,35 @@ void validate(const OrganizedCloud& cloud, const MeshSettings& s) {
 
 }  // namespace
 
-void build_mesh(const OrganizedCloud& cloud, const MeshSettings& settings, Mesh& mesh) {
+namespace detail {
+
+void prepare_mesh(const OrganizedCloud& cloud, const MeshSettings& settings, Mesh& mesh) {
   validate(cloud, settings);
   const int width = cloud.width(), height = cloud.height(), s = settings.pixel_stride;
   mesh.type = settings.type;
   mesh.pixel_stride = s;
-  // At stride 1 every element of both planes is written below, so a plane of the right size is
-  // not refilled; otherwise Plane::resize keeps the allocation and zeroes the off-lattice pixels.
+  // At stride 1 every element of both planes is written by the sweep, so a plane of the right
+  // size is not refilled; otherwise Plane::resize keeps the allocation and zeroes the
+  // off-lattice pixels.
   if (s != 1 || mesh.faces.width() != width || mesh.faces.height() != height) {
     mesh.faces.resize(width, height, 0);
   }
   if (s != 1 || mesh.edges.width() != width || mesh.edges.height() != height) {
     mesh.edges.resize(width, height, 0);
   }
+}
+
+void build_mesh_rows(const OrganizedCloud& cloud, const MeshSettings& settings, Mesh& mesh,
+                     int row_begin, int row_end) {
+  const int width = cloud.width(), height = cloud.height(), s = settings.pixel_stride;
+  assert(mesh.faces.width() == width && mesh.faces.height() == height && s >= 1);
+  // Lattice size and the band's lattice rows [j_begin, j_end).
+  const int n = (width - 1) / s + 1, m = (height - 1) / s + 1;
+  row_begin = std::max(row_begin, 0);
+  row_end = std::min(row_end, height);
+  if (row_begin >= row_end) return;
+  const int j_begin = (row_begin + s - 1) / s, j_end = std::min(m, (row_end + s - 1) / s);
+  if (j_begin >= j_end) return;
 
   const float cos_theta = std::cos(settings.eps_theta);
   const SensorNoise& noise = settings.noise;
@@ -310,82 +219,104 @@ void build_mesh(const OrganizedCloud& cloud, const MeshSettings& settings, Mesh&
                           static_cast<float>(noise.z0),
                           settings.jump_sigmas * settings.jump_sigmas};
 
-  // Lattice size; all row buffers are indexed by lattice column i (pixel u = i * s).
-  const int n = (width - 1) / s + 1, m = (height - 1) / s + 1;
+  const Kernels& k = kernels();
+  const int cells_per_block = 4 * k.lanes;
+  const int blocks = (n + cells_per_block - 1) / cells_per_block;
+  // Float rows are read up to index blocks * cells_per_block (the right neighbour of the last
+  // cell of the last block), byte rows from -1 to that index.
+  const int float_len = blocks * cells_per_block + k.lanes;
+  constexpr int kBytePad = 64;
+  const int byte_len = blocks * cells_per_block + 2 * kBytePad;
+
   // Reused across calls on the same thread: no allocation per frame.
   thread_local std::vector<float> float_buffer;
   thread_local std::vector<std::uint8_t> byte_buffer;
-  constexpr int kFloatsPerPixel = 7;
-  float_buffer.resize(static_cast<std::size_t>(3 * kFloatsPerPixel) * n);
-  byte_buffer.resize(static_cast<std::size_t>(9) * n);
+  float_buffer.resize(static_cast<std::size_t>(3 * kFloatsPerPixel + 3) * float_len);
+  byte_buffer.assign(static_cast<std::size_t>(8) * byte_len, 0);
   std::array<PixelRow, 3> rows{};
-  for (int k = 0; k < 3; ++k) {
-    float* base = float_buffer.data() + static_cast<std::size_t>(k * kFloatsPerPixel) * n;
-    rows[k] = {base,         base + n,     base + 2 * n, base + 3 * n,
-               base + 4 * n, base + 5 * n, base + 6 * n};
+  for (int r = 0; r < 3; ++r) {
+    float* base = float_buffer.data() + static_cast<std::size_t>(r * kFloatsPerPixel) * float_len;
+    rows[r] = {base,
+               base + float_len,
+               base + 2 * float_len,
+               base + 3 * float_len,
+               base + 4 * float_len,
+               base + 5 * float_len,
+               base + 6 * float_len};
   }
-  std::uint8_t* bytes = byte_buffer.data();
-  std::uint8_t* cand = bytes;
-  std::uint8_t* cand_below = bytes + n;
-  std::uint8_t* faces = bytes + 2 * n;
-  std::uint8_t* as_a = bytes + 3 * n;
-  std::uint8_t* as_b = bytes + 4 * n;
-  std::uint8_t* as_c = bytes + 5 * n;  // contributions to the next lattice row
-  std::uint8_t* as_d = bytes + 6 * n;
-  std::uint8_t* from_above_c = bytes + 7 * n;  // ... and those from the previous one
-  std::uint8_t* from_above_d = bytes + 8 * n;
-  std::fill(from_above_c, from_above_c + 2 * n, std::uint8_t{0});
+  // Gathered input row at stride > 1; all NaN first, to fill the padding of the pixel rows.
+  float* gathered = float_buffer.data() + static_cast<std::size_t>(3 * kFloatsPerPixel) * float_len;
+  float* gx = gathered;
+  float* gy = gathered + float_len;
+  float* gz = gathered + 2 * float_len;
+  std::fill(gathered, gathered + 3 * static_cast<std::size_t>(float_len), kNaN);
+  for (const PixelRow& row : rows) k.quantities(gx, gy, gz, float_len, params, row);
 
-  const auto load = [&](int lattice_row, const PixelRow& out) {
+  const auto byte_row = [&](int r) { return byte_buffer.data() + r * byte_len + kBytePad; };
+  std::uint8_t* cand = byte_row(0);
+  std::uint8_t* cand_below = byte_row(1);
+  std::uint8_t* from_above = byte_row(2);
+  std::uint8_t* to_below = byte_row(3);
+  std::uint8_t* faces = byte_row(4);
+  std::uint8_t* edges = byte_row(5);
+  const std::uint8_t* no_cells = byte_row(6);  // edge bits below the last row: none
+
+  const auto load = [&](int j, const PixelRow& out) {
+    const int v = j * s;
     if (s == 1) {
-      load_row<true>(cloud, params, lattice_row, 1, n, out);
-    } else {
-      load_row<false>(cloud, params, lattice_row * s, s, n, out);
+      k.quantities(cloud.x.row(v), cloud.y.row(v), cloud.z.row(v), n, params, out);
+      return;
     }
+    const float* xs = cloud.x.row(v);
+    const float* ys = cloud.y.row(v);
+    const float* zs = cloud.z.row(v);
+    for (int i = 0; i < n; ++i) gx[i] = xs[i * s], gy[i] = ys[i * s], gz[i] = zs[i * s];
+    k.quantities(gx, gy, gz, n, params, out);
   };
-  const FacesRowFn faces_row_fn = kFacesRow[static_cast<int>(settings.type)];
+  const auto faces_and_rings = k.faces[static_cast<int>(settings.type)];
+
+  // A band starting below row 0 first runs the lattice row above it, for what its cells
+  // contribute to the band's first row (`to_below`); that row's own output is discarded.
+  const int j_start = std::max(j_begin - 1, 0);
   PixelRow* top = &rows[0];
   PixelRow* mid = &rows[1];
   PixelRow* low = &rows[2];
-  load(0, *top);
-  if (m > 1) load(1, *mid);
-  edge_candidates(*top, m > 1 ? mid : nullptr, n, cand);
-  for (int j = 0; j < m; ++j) {
-    std::uint8_t* face_row = mesh.faces.row(j * s);
-    std::uint8_t* edge_row = mesh.edges.row(j * s);
+  load(j_start, *top);
+  if (j_start + 1 < m) load(j_start + 1, *mid);
+  k.edges(*top, j_start + 1 < m ? mid : nullptr, blocks, cand);
+  for (int j = j_start; j < j_end; ++j) {
+    // Edge bits of row j + 1 need pixel row j + 2.
+    const std::uint8_t* next = no_cells;
     if (j + 1 < m) {
-      // Candidates of row j + 1 need pixel row j + 2.
       if (j + 2 < m) load(j + 2, *low);
-      edge_candidates(*mid, j + 2 < m ? low : nullptr, n, cand_below);
-      faces_row_fn(cand, cand_below, n, faces, as_a, as_b, as_c, as_d);
-    } else {
-      std::fill(faces, faces + n, std::uint8_t{0});
-      std::fill(as_a, as_a + n, std::uint8_t{0});
-      std::fill(as_b, as_b + n, std::uint8_t{0});
-      std::fill(as_c, as_c + n, std::uint8_t{0});
-      std::fill(as_d, as_d + n, std::uint8_t{0});
+      k.edges(*mid, j + 2 < m ? low : nullptr, blocks, cand_below);
+      next = cand_below;
     }
-    if (s == 1) {
-      for (int i = 0; i < n; ++i) {
-        face_row[i] = faces[i];
-        edge_row[i] =
-            static_cast<std::uint8_t>(as_a[i] | as_b[i] | from_above_c[i] | from_above_d[i]);
-      }
-    } else {
-      for (int i = 0; i < n; ++i) {
-        face_row[i * s] = faces[i];
-        edge_row[i * s] =
-            static_cast<std::uint8_t>(as_a[i] | as_b[i] | from_above_c[i] | from_above_d[i]);
+    faces_and_rings(cand, next, from_above, blocks, faces, edges, to_below);
+    if (j >= j_begin) {
+      std::uint8_t* face_row = mesh.faces.row(j * s);
+      std::uint8_t* edge_row = mesh.edges.row(j * s);
+      if (s == 1) {
+        std::memcpy(face_row, faces, static_cast<std::size_t>(n));
+        std::memcpy(edge_row, edges, static_cast<std::size_t>(n));
+      } else {
+        for (int i = 0; i < n; ++i) face_row[i * s] = faces[i], edge_row[i * s] = edges[i];
       }
     }
     std::swap(cand, cand_below);
-    std::swap(as_c, from_above_c);
-    std::swap(as_d, from_above_d);
+    std::swap(from_above, to_below);
     PixelRow* const old_top = top;
     top = mid;
     mid = low;
     low = old_top;
   }
+}
+
+}  // namespace detail
+
+void build_mesh(const OrganizedCloud& cloud, const MeshSettings& settings, Mesh& mesh) {
+  detail::prepare_mesh(cloud, settings, mesh);
+  detail::build_mesh_rows(cloud, settings, mesh, 0, cloud.height());
 }
 
 std::size_t count_faces(const Mesh& mesh) {

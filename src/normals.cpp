@@ -1,298 +1,116 @@
 // Stage 2: vertex normals (paper, eq. 2) and curvature from the implicit mesh.
 //
-// One sweep over the lattice rows with small row buffers (structure of arrays, branch-free, so
-// that every loop vectorises): per cell row, the unnormalised face normals (cross products, i.e.
-// twice the face area times the unit normal) each cell adds to its four corners; per vertex row,
-// the sum over the <= 4 cells around each vertex, normalised and oriented towards the viewpoint,
-// and the curvature from the 1-ring given by Mesh::edges (a 0/1 select per ring neighbour).
+// One sweep over the lattice rows with small padded row buffers, two passes per row on whole
+// vectors (detail/simd.hpp; compiled for SSE2 and AVX2, picked at run time):
+//  1. cells and normals: the unnormalised face normals of each cell (cross products, twice the
+//     face area times the unit normal), computed once and added to the cell's corners (the
+//     left/right neighbours through a one-lane shift in registers), summed per vertex with the
+//     row above's share, normalised and oriented towards the viewpoint;
+//  2. curvature from the 1-ring given by Mesh::edges and the normals of pass 1.
+// Both write straight to the output planes.
+// The arithmetic is the same sequence of IEEE operations in every instruction set, and
+// contraction into fused multiply-adds is off in this file, so the results do not depend on the
+// CPU or the build flags.
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#elif defined(__GNUC__)
+#pragma GCC optimize("fp-contract=off")
+#endif
+
 #include "rangeseg/normals.hpp"
 
 #include <algorithm>
 #include <array>
-#include <bit>
+#include <cassert>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
-
-#include "detail/vectorize.hpp"
+#include "detail/row_bands.hpp"
+#include "detail/simd.hpp"
 
 namespace rangeseg {
 namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-// Branch-free selection with all-ones / all-zero masks on the float bits. Conditional
-// expressions on floats are not enough: GCC sinks the (possibly trapping) float math into the
-// taken branch and then cannot vectorise the loop.
-inline std::uint32_t mask_of(std::uint32_t bit01) { return 0u - bit01; }
-inline float keep(float x, std::uint32_t mask) {
-  return std::bit_cast<float>(std::bit_cast<std::uint32_t>(x) & mask);
-}
-inline float pick(std::uint32_t mask, float a, float b) {
-  return std::bit_cast<float>((std::bit_cast<std::uint32_t>(a) & mask) |
-                              (std::bit_cast<std::uint32_t>(b) & ~mask));
-}
+// One lattice row of points (x, y, z planes), padded: readable from index -1 to the end of
+// the last vector + 1.
+struct PointRow {
+  const float* x;
+  const float* y;
+  const float* z;
+};
 
-// out[i] = 1 / sqrt(len2[i]) for len2 > 0, else NaN. A separate pass: with errno-setting math
-// GCC neither vectorises std::sqrt nor keeps its loop branch-free, so SSE is used directly.
-void inverse_lengths(const float* __restrict len2, float* __restrict out, int n) {
-  int i = 0;
-#if defined(__SSE2__)
-  const __m128 one = _mm_set1_ps(1.0f), nan = _mm_set1_ps(kNaN), zero = _mm_setzero_ps();
-  for (; i + 4 <= n; i += 4) {
-    const __m128 l = _mm_loadu_ps(len2 + i);
-    const __m128 inv = _mm_div_ps(one, _mm_sqrt_ps(l));
-    const __m128 positive = _mm_cmpgt_ps(l, zero);
-    _mm_storeu_ps(out + i, _mm_or_ps(_mm_and_ps(positive, inv), _mm_andnot_ps(positive, nan)));
-  }
-#endif
-  for (; i < n; ++i) out[i] = len2[i] > 0.0f ? 1.0f / std::sqrt(len2[i]) : kNaN;
-}
-
-// Three float row buffers (x, y, z) of n elements.
+// Three float row buffers (x, y, z).
 struct Vec3Row {
   float* x;
   float* y;
   float* z;
 };
 
-// What the cells of one cell row add to their corners, indexed by the corner's lattice column:
-// a[i] from cell i, b[i] from cell i - 1 (row v); c[i] from cell i, d[i] from cell i - 1
-// (row v + s).
-struct CornerRows {
-  Vec3Row a, b, c, d;
+#if RANGESEG_SIMD_X86
+namespace sse2 {
+using V = detail::simd::Sse2;
+#define RANGESEG_KERNEL
+#include "detail/normals_simd_kernels.hpp"
+#undef RANGESEG_KERNEL
+}  // namespace sse2
+namespace avx2 {
+using V = detail::simd::Avx2;
+#define RANGESEG_KERNEL RANGESEG_SIMD_AVX2_TARGET
+#include "detail/normals_simd_kernels.hpp"
+#undef RANGESEG_KERNEL
+}  // namespace avx2
+#else
+namespace generic {
+using V = detail::simd::Generic;
+#define RANGESEG_KERNEL
+#include "detail/normals_simd_kernels.hpp"
+#undef RANGESEG_KERNEL
+}  // namespace generic
+#endif
+
+// The kernels of one instruction set.
+struct Kernels {
+  int lanes;
+  std::array<void (*)(PointRow, PointRow, const std::uint8_t*, const Vec3Row&, const Vec3Row&,
+                      const float*, int, float*, float*, float*),
+             2>
+      normals;  // [quad]
+  void (*curvature)(PointRow, PointRow, PointRow, const std::uint8_t*, const float*, const float*,
+                    const float*, int, float*);
 };
 
-// Cell row between pixel rows v and v + s. Faces are selected, not multiplied by 0/1: a face
-// with an invalid corner has a NaN cross product that a multiplication would keep.
-// The row functions stay out of line so that each loop is vectorised on its own.
-template <bool kUnitStride, bool kQuad>
-[[gnu::noinline]] void cell_row(const OrganizedCloud& cloud, const Mesh& mesh, int v, int s, int n,
-                                const CornerRows& out) {
-  const float* __restrict x0 = cloud.x.row(v);
-  const float* __restrict y0 = cloud.y.row(v);
-  const float* __restrict z0 = cloud.z.row(v);
-  const float* __restrict x1 = cloud.x.row(v + s);
-  const float* __restrict y1 = cloud.y.row(v + s);
-  const float* __restrict z1 = cloud.z.row(v + s);
-  const std::uint8_t* __restrict faces = mesh.faces.row(v);
-  float* __restrict oax = out.a.x;
-  float* __restrict oay = out.a.y;
-  float* __restrict oaz = out.a.z;
-  float* __restrict obx = out.b.x + 1;
-  float* __restrict oby = out.b.y + 1;
-  float* __restrict obz = out.b.z + 1;
-  float* __restrict ocx = out.c.x;
-  float* __restrict ocy = out.c.y;
-  float* __restrict ocz = out.c.z;
-  float* __restrict odx = out.d.x + 1;
-  float* __restrict ody = out.d.y + 1;
-  float* __restrict odz = out.d.z + 1;
-  RANGESEG_IVDEP
-  for (int i = 0; i + 1 < n; ++i) {
-    const int u = kUnitStride ? i : i * s, w = kUnitStride ? i + 1 : (i + 1) * s;
-    const int f = faces[u];
-    const float ax = x0[u], ay = y0[u], az = z0[u], bx = x0[w], by = y0[w], bz = z0[w];
-    const float cx = x1[u], cy = y1[u], cz = z1[u], dx = x1[w], dy = y1[w], dz = z1[w];
-    if constexpr (kQuad) {
-      // Quad (a,c,d,b): the cross product of the diagonals is twice its vector area.
-      const float ex = dx - ax, ey = dy - ay, ez = dz - az;
-      const float gx = bx - cx, gy = by - cy, gz = bz - cz;
-      const std::uint32_t q = mask_of((f >> 2) & 1);
-      // Computed unconditionally, then selected: GCC does not speculate trapping float math
-      // inside a conditional expression, which would leave a branch in the loop.
-      const float nx = ey * gz - ez * gy, ny = ez * gx - ex * gz, nz = ex * gy - ey * gx;
-      const float qx = keep(nx, q), qy = keep(ny, q), qz = keep(nz, q);
-      oax[i] = obx[i] = ocx[i] = odx[i] = qx;
-      oay[i] = oby[i] = ocy[i] = ody[i] = qy;
-      oaz[i] = obz[i] = ocz[i] = odz[i] = qz;
-    } else {
-      // Diagonal a-d: t0 = (a,d,b), t1 = (a,c,d); diagonal b-c: t0 = (a,c,b), t1 = (b,c,d).
-      const std::uint32_t bc = mask_of((f >> 3) & 1);
-      const float px = pick(bc, cx, dx), py = pick(bc, cy, dy), pz = pick(bc, cz, dz);
-      const float rx = pick(bc, bx, ax), ry = pick(bc, by, ay), rz = pick(bc, bz, az);
-      const float e0x = px - ax, e0y = py - ay, e0z = pz - az;
-      const float g0x = bx - ax, g0y = by - ay, g0z = bz - az;
-      const float e1x = cx - rx, e1y = cy - ry, e1z = cz - rz;
-      const float g1x = dx - rx, g1y = dy - ry, g1z = dz - rz;
-      const std::uint32_t k0 = mask_of(f & 1), k1 = mask_of((f >> 1) & 1);
-      // Computed unconditionally, then selected (see the quad case).
-      const float n0x = e0y * g0z - e0z * g0y, n0y = e0z * g0x - e0x * g0z;
-      const float n0z = e0x * g0y - e0y * g0x;
-      const float n1x = e1y * g1z - e1z * g1y, n1y = e1z * g1x - e1x * g1z;
-      const float n1z = e1x * g1y - e1y * g1x;
-      const float t0x = keep(n0x, k0), t0y = keep(n0y, k0), t0z = keep(n0z, k0);
-      const float t1x = keep(n1x, k1), t1y = keep(n1y, k1), t1z = keep(n1z, k1);
-      // The diagonal's ends touch both triangles, the other two corners one each.
-      const float ad_x = t0x + t1x, ad_y = t0y + t1y, ad_z = t0z + t1z;
-      oax[i] = pick(bc, t0x, ad_x), oay[i] = pick(bc, t0y, ad_y), oaz[i] = pick(bc, t0z, ad_z);
-      obx[i] = pick(bc, ad_x, t0x), oby[i] = pick(bc, ad_y, t0y), obz[i] = pick(bc, ad_z, t0z);
-      ocx[i] = pick(bc, ad_x, t1x), ocy[i] = pick(bc, ad_y, t1y), ocz[i] = pick(bc, ad_z, t1z);
-      odx[i] = pick(bc, t1x, ad_x), ody[i] = pick(bc, t1y, ad_y), odz[i] = pick(bc, t1z, ad_z);
-    }
+#define RANGESEG_NORMAL_KERNELS(ns)                                                           \
+  Kernels {                                                                                   \
+    ns::kLanes, {&ns::cell_normal_row<false>, &ns::cell_normal_row<true>}, &ns::curvature_row \
   }
-  const int last = n - 1;
-  oax[last] = oay[last] = oaz[last] = ocx[last] = ocy[last] = ocz[last] = 0.0f;
-  out.b.x[0] = out.b.y[0] = out.b.z[0] = out.d.x[0] = out.d.y[0] = out.d.z[0] = 0.0f;
-}
 
-void zero(const Vec3Row& r, int n) {
-  std::fill(r.x, r.x + n, 0.0f);
-  std::fill(r.y, r.y + n, 0.0f);
-  std::fill(r.z, r.z + n, 0.0f);
+const Kernels& kernels() {
+#if RANGESEG_SIMD_X86
+  static const Kernels baseline = RANGESEG_NORMAL_KERNELS(sse2);
+  static const Kernels wide = RANGESEG_NORMAL_KERNELS(avx2);
+  const bool use_avx2 = detail::simd::cpu_has_avx2() && !detail::simd::force_baseline;
+  return use_avx2 ? wide : baseline;
+#else
+  static const Kernels baseline = RANGESEG_NORMAL_KERNELS(generic);
+  return baseline;
+#endif
 }
-
-// Vertex row v: normal sums from the cells below (`cells.a`, `cells.b`) and above (`above.c`,
-// `above.d`), normalised, oriented, and the curvature
-//   2 |(centroid - p) . n| / mean |q - p|^2 = 2 |sum (q - p) . n| / sum |q - p|^2
-// over the ring neighbours q in Mesh::edges. `up`/`down` are the pixel rows v - s and v + s
-// (clamped to v at the border, where the edge bits are 0).
-template <bool kUnitStride>
-[[gnu::noinline]] void vertex_row(const OrganizedCloud& cloud, const Mesh& mesh,
-                                  const NormalSettings& settings, int v, int up, int down, int s,
-                                  int n, const CornerRows& cells, const CornerRows& above,
-                                  const Vec3Row& sum, float* __restrict len2, float* __restrict inv,
-                                  NormalMap& out) {
-  {
-    const float* __restrict ax = cells.a.x;
-    const float* __restrict ay = cells.a.y;
-    const float* __restrict az = cells.a.z;
-    const float* __restrict bx = cells.b.x;
-    const float* __restrict by = cells.b.y;
-    const float* __restrict bz = cells.b.z;
-    const float* __restrict cx = above.c.x;
-    const float* __restrict cy = above.c.y;
-    const float* __restrict cz = above.c.z;
-    const float* __restrict dx = above.d.x;
-    const float* __restrict dy = above.d.y;
-    const float* __restrict dz = above.d.z;
-    float* __restrict sx = sum.x;
-    float* __restrict sy = sum.y;
-    float* __restrict sz = sum.z;
-    RANGESEG_IVDEP
-    for (int i = 0; i < n; ++i) {
-      const float nx = (ax[i] + bx[i]) + (cx[i] + dx[i]);
-      const float ny = (ay[i] + by[i]) + (cy[i] + dy[i]);
-      const float nz = (az[i] + bz[i]) + (cz[i] + dz[i]);
-      sx[i] = nx, sy[i] = ny, sz[i] = nz;
-      len2[i] = nx * nx + ny * ny + nz * nz;
-    }
-  }
-  inverse_lengths(len2, inv, n);
-
-  const float vx = settings.viewpoint[0], vy = settings.viewpoint[1], vz = settings.viewpoint[2];
-  const float* __restrict sx = sum.x;
-  const float* __restrict sy = sum.y;
-  const float* __restrict sz = sum.z;
-  const float* __restrict xu = cloud.x.row(up);
-  const float* __restrict yu = cloud.y.row(up);
-  const float* __restrict zu = cloud.z.row(up);
-  const float* __restrict xm = cloud.x.row(v);
-  const float* __restrict ym = cloud.y.row(v);
-  const float* __restrict zm = cloud.z.row(v);
-  const float* __restrict xd = cloud.x.row(down);
-  const float* __restrict yd = cloud.y.row(down);
-  const float* __restrict zd = cloud.z.row(down);
-  const std::uint8_t* __restrict edges = mesh.edges.row(v);
-  float* __restrict onx = out.nx.row(v);
-  float* __restrict ony = out.ny.row(v);
-  float* __restrict onz = out.nz.row(v);
-  float* __restrict ocurv = out.curvature.row(v);
-  // Lattice column i with neighbour columns l and r (clamped at the border, where the edge
-  // bits are 0, so that no read leaves the row).
-  const auto vertex = [&](int i, int l, int r) __attribute__((always_inline)) {
-    const int u = kUnitStride ? i : i * s;
-    const int ul = kUnitStride ? l : l * s, ur = kUnitStride ? r : r * s;
-    const float px = xm[u], py = ym[u], pz = zm[u];
-    float nx = sx[i] * inv[i], ny = sy[i] * inv[i], nz = sz[i] * inv[i];
-    const float facing = nx * (vx - px) + ny * (vy - py) + nz * (vz - pz);
-    const std::uint32_t flip = std::bit_cast<std::uint32_t>(facing) & 0x80000000u;
-    const auto flipped = [flip](float c) {
-      return std::bit_cast<float>(std::bit_cast<std::uint32_t>(c) ^ flip);
-    };
-    nx = flipped(nx), ny = flipped(ny), nz = flipped(nz);
-    onx[u] = nx, ony[u] = ny, onz[u] = nz;
-    const std::uint32_t ring = edges[u];
-    float ax = 0.0f, ay = 0.0f, az = 0.0f, spread = 0.0f;
-    const auto add = [&](int k, float qx, float qy, float qz) __attribute__((always_inline)) {
-      const std::uint32_t on = mask_of((ring >> k) & 1);
-      const float ex = qx - px, ey = qy - py, ez = qz - pz;
-      const float dx = keep(ex, on), dy = keep(ey, on), dz = keep(ez, on);
-      ax += dx, ay += dy, az += dz;
-      spread += dx * dx + dy * dy + dz * dz;
-    };
-    // kNeighbourDu/Dv order: right, down-right, down, down-left, left, up-left, up, up-right.
-    add(0, xm[ur], ym[ur], zm[ur]);
-    add(1, xd[ur], yd[ur], zd[ur]);
-    add(2, xd[u], yd[u], zd[u]);
-    add(3, xd[ul], yd[ul], zd[ul]);
-    add(4, xm[ul], ym[ul], zm[ul]);
-    add(5, xu[ul], yu[ul], zu[ul]);
-    add(6, xu[u], yu[u], zu[u]);
-    add(7, xu[ur], yu[ur], zu[ur]);
-    const float along = ax * nx + ay * ny + az * nz;
-    const float curvature = 2.0f * std::abs(along) / spread;
-    ocurv[u] = pick(mask_of(ring != 0), curvature, kNaN);
-  };
-  vertex(0, 0, n > 1 ? 1 : 0);
-  RANGESEG_IVDEP
-  for (int i = 1; i + 1 < n; ++i) vertex(i, i - 1, i + 1);
-  if (n > 1) vertex(n - 1, n - 2, n - 1);
-}
-
-template <bool kUnitStride>
-void sweep(const OrganizedCloud& cloud, const Mesh& mesh, const NormalSettings& settings,
-           NormalMap& out) {
-  const int width = cloud.width(), height = cloud.height(), s = mesh.pixel_stride;
-  const int n = (width - 1) / s + 1, m = (height - 1) / s + 1;
-  // Reused across calls on the same thread: no allocation per frame.
-  thread_local std::vector<float> buffer;
-  constexpr int kRows = 23;
-  buffer.resize(static_cast<std::size_t>(kRows) * (n + 1));
-  const auto row = [&](int k) { return buffer.data() + static_cast<std::size_t>(k) * (n + 1); };
-  const auto vec3 = [&](int k) { return Vec3Row{row(k), row(k + 1), row(k + 2)}; };
-  CornerRows cells{vec3(0), vec3(3), vec3(6), vec3(9)};
-  CornerRows above{vec3(12), vec3(15), vec3(12), vec3(15)};  // only c and d are read
-  const Vec3Row sum = vec3(18);
-  float* len2 = row(21);
-  float* inv = row(22);
-  zero(above.c, n);
-  zero(above.d, n);
-  const bool quad = mesh.type == MeshType::quad;
-  for (int j = 0; j < m; ++j) {
-    const int v = j * s;
-    if (j + 1 < m) {
-      if (quad) {
-        cell_row<kUnitStride, true>(cloud, mesh, v, s, n, cells);
-      } else {
-        cell_row<kUnitStride, false>(cloud, mesh, v, s, n, cells);
-      }
-    } else {
-      zero(cells.a, n);
-      zero(cells.b, n);
-      zero(cells.c, n);
-      zero(cells.d, n);
-    }
-    vertex_row<kUnitStride>(cloud, mesh, settings, v, j > 0 ? v - s : v, j + 1 < m ? v + s : v, s,
-                            n, cells, above, sum, len2, inv, out);
-    // This row's bottom corners are the next row's cells from above.
-    std::swap(cells.c, above.c);
-    std::swap(cells.d, above.d);
-  }
-}
+#undef RANGESEG_NORMAL_KERNELS
 
 }  // namespace
 
-void compute_normals(const OrganizedCloud& cloud, const Mesh& mesh, const NormalSettings& settings,
+namespace detail {
+
+void prepare_normals(const OrganizedCloud& cloud, const Mesh& mesh, const NormalSettings& settings,
                      NormalMap& out) {
   require_organized(cloud, "compute_normals");
   const int width = cloud.width(), height = cloud.height(), s = mesh.pixel_stride;
@@ -313,11 +131,123 @@ void compute_normals(const OrganizedCloud& cloud, const Mesh& mesh, const Normal
       plane->resize(width, height, kNaN);
     }
   }
-  if (s == 1) {
-    sweep<true>(cloud, mesh, settings, out);
-  } else {
-    sweep<false>(cloud, mesh, settings, out);
+}
+
+void compute_normals_rows(const OrganizedCloud& cloud, const Mesh& mesh,
+                          const NormalSettings& settings, NormalMap& out, int row_begin,
+                          int row_end) {
+  const int width = cloud.width(), height = cloud.height(), s = mesh.pixel_stride;
+  assert(out.nz.width() == width && out.nz.height() == height && s >= 1);
+  const int n = (width - 1) / s + 1, m = (height - 1) / s + 1;
+  row_begin = std::max(row_begin, 0);
+  row_end = std::min(row_end, height);
+  if (row_begin >= row_end) return;
+  const int j_begin = (row_begin + s - 1) / s, j_end = std::min(m, (row_end + s - 1) / s);
+  if (j_begin >= j_end) return;
+
+  const Kernels& k = kernels();
+  const int lanes = k.lanes;
+  const int blocks = (n + lanes - 1) / lanes;
+  // Every float row: `lanes` elements of padding on the left (index -1 is read), the vectors,
+  // and one more vector on the right (index blocks * lanes is read).
+  const int row_len = (blocks + 2) * lanes;
+  constexpr int kPointRows = 3 * 3;  // ring of 3 lattice rows of x, y, z
+  constexpr int kSumRows = 2 * 3;    // c + d sums of the cell rows above and below
+  constexpr int kOutRows = 4;        // compact nx, ny, nz, curvature at stride > 1
+  constexpr int kFloatRows = kPointRows + kSumRows + kOutRows;
+
+  // Reused across calls on the same thread: no allocation per frame.
+  thread_local std::vector<float> float_buffer;
+  thread_local std::vector<std::uint8_t> byte_buffer;
+  float_buffer.resize(static_cast<std::size_t>(kFloatRows) * row_len);
+  std::fill(float_buffer.begin(), float_buffer.begin() + kPointRows * row_len, kNaN);
+  std::fill(float_buffer.begin() + kPointRows * row_len, float_buffer.end(), 0.0f);
+  byte_buffer.assign(static_cast<std::size_t>(3) * row_len, 0);
+  const auto row = [&](int r) { return float_buffer.data() + r * row_len + lanes; };
+  const auto vec3 = [&](int r) { return Vec3Row{row(r), row(r + 1), row(r + 2)}; };
+  std::uint8_t* faces = byte_buffer.data();
+  std::uint8_t* edges = byte_buffer.data() + row_len;
+  const std::uint8_t* no_faces = byte_buffer.data() + 2 * row_len;
+
+  // Lattice row j of the cloud lives in point slot j % 3.
+  std::array<Vec3Row, 3> point_slots{vec3(0), vec3(3), vec3(6)};
+  const auto point_row = [&](int j) {
+    const Vec3Row& r = point_slots[j % 3];
+    return PointRow{r.x, r.y, r.z};
+  };
+  const auto load_points = [&](int j) {
+    const Vec3Row& dst = point_slots[j % 3];
+    const float* xs = cloud.x.row(j * s);
+    const float* ys = cloud.y.row(j * s);
+    const float* zs = cloud.z.row(j * s);
+    if (s == 1) {
+      std::memcpy(dst.x, xs, sizeof(float) * n);
+      std::memcpy(dst.y, ys, sizeof(float) * n);
+      std::memcpy(dst.z, zs, sizeof(float) * n);
+    } else {
+      for (int i = 0; i < n; ++i) dst.x[i] = xs[i * s], dst.y[i] = ys[i * s], dst.z[i] = zs[i * s];
+    }
+  };
+  const auto load_bytes = [&](const BytePlane& plane, int j, std::uint8_t* dst) {
+    const std::uint8_t* src = plane.row(j * s);
+    if (s == 1) {
+      std::memcpy(dst, src, static_cast<std::size_t>(n));
+    } else {
+      for (int i = 0; i < n; ++i) dst[i] = src[i * s];
+    }
+  };
+
+  // c + d sums of the cell row above the current lattice row (zero above row 0) and of the one
+  // below it.
+  Vec3Row sums_above = vec3(9), sums_below = vec3(12);
+  float* compact = row(15);
+  const auto cells_and_normals = k.normals[mesh.type == MeshType::quad ? 1 : 0];
+
+  // A band starting below row 0 first runs the lattice row above it, for the c + d sums of its
+  // cells; that row's normals are discarded.
+  const int j_start = std::max(j_begin - 1, 0);
+  load_points(j_start);
+  for (int j = j_start; j < j_end; ++j) {
+    const bool has_cells = j + 1 < m;
+    if (has_cells) {
+      load_points(j + 1);
+      load_bytes(mesh.faces, j, faces);
+    }
+    const int v = j * s;
+    const bool direct = s == 1 && j >= j_begin;  // else through compact rows
+    float* nx = direct ? out.nx.row(v) : compact;
+    float* ny = direct ? out.ny.row(v) : compact + row_len;
+    float* nz = direct ? out.nz.row(v) : compact + 2 * row_len;
+    // Without a cell row below, the cells have no faces; their corners are never read as points.
+    cells_and_normals(point_row(j), point_row(has_cells ? j + 1 : j), has_cells ? faces : no_faces,
+                      sums_above, sums_below, settings.viewpoint.data(), n, nx, ny, nz);
+    if (j >= j_begin) {
+      // Neighbours outside the lattice have no edge bits; their rows are never read as points.
+      const PointRow up = point_row(j > 0 ? j - 1 : j);
+      const PointRow down = point_row(has_cells ? j + 1 : j);
+      load_bytes(mesh.edges, j, edges);
+      float* curvature = direct ? out.curvature.row(v) : compact + 3 * row_len;
+      k.curvature(up, point_row(j), down, edges, nx, ny, nz, n, curvature);
+      if (!direct) {
+        float* ox = out.nx.row(v);
+        float* oy = out.ny.row(v);
+        float* oz = out.nz.row(v);
+        float* oc = out.curvature.row(v);
+        for (int i = 0; i < n; ++i) {
+          ox[i * s] = nx[i], oy[i * s] = ny[i], oz[i * s] = nz[i], oc[i * s] = curvature[i];
+        }
+      }
+    }
+    std::swap(sums_above, sums_below);
   }
+}
+
+}  // namespace detail
+
+void compute_normals(const OrganizedCloud& cloud, const Mesh& mesh, const NormalSettings& settings,
+                     NormalMap& out) {
+  detail::prepare_normals(cloud, mesh, settings, out);
+  detail::compute_normals_rows(cloud, mesh, settings, out, 0, cloud.height());
 }
 
 }  // namespace rangeseg

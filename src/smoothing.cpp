@@ -1,5 +1,7 @@
 #include "rangeseg/smoothing.hpp"
 
+#include "detail/smoothing_rows.hpp"
+
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -121,16 +123,19 @@ struct RowBuffers {
   float* scale(int slot, int a) const {
     return base + (2 * 4 * kEdgeArrays + static_cast<std::size_t>(slot) * 2 + a) * row_len + pad;
   }
+  /// 1 + the sum of the weights of the current row's pixels (points loop -> normals loop).
+  float* sum_w() const { return base + (2 * 4 * kEdgeArrays + 4) * row_len + pad; }
   static std::size_t floats_needed(int width, int pad) {
-    return (2 * 4 * kEdgeArrays + 4) * (static_cast<std::size_t>(width) + 2 * pad);
+    return (2 * 4 * kEdgeArrays + 5) * (static_cast<std::size_t>(width) + 2 * pad);
   }
 };
 
 template <bool kDistance, bool kNormal>
-RANGESEG_INLINE void compute_scales(const float* __restrict z, int width, const PassParams& prm,
-                                    float* __restrict half_inv2sd2, float* __restrict half_inv_sn) {
+RANGESEG_INLINE void compute_scales(const float* __restrict z, int lo, int hi,
+                                    const PassParams& prm, float* __restrict half_inv2sd2,
+                                    float* __restrict half_inv_sn) {
   RANGESEG_VECTORIZE
-  for (int u = 0; u < width; ++u) {
+  for (int u = lo; u < hi; ++u) {
     const float zu = z[u], dz = zu - prm.noise_z0;
     const float sigma = prm.noise_a + prm.noise_b * dz * dz;
     const float spacing = prm.spacing * std::fabs(zu);
@@ -145,15 +150,16 @@ RANGESEG_INLINE void compute_scales(const float* __restrict z, int width, const 
   }
 }
 
-/// The edges of lattice row v in direction k (du, dv) into the slot's edge rows.
+/// The edges of lattice row v in direction k (du, dv) that start in columns [lo, hi) into the
+/// slot's edge rows.
 template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals>
 RANGESEG_INLINE void edge_row(const OrganizedCloud& src, const NormalMap& nm, const Mesh& mesh,
                               const PassParams& prm, const RowBuffers& rb, int v, int k,
-                              int cur_slot, int next_slot) {
+                              int cur_slot, int next_slot, int lo, int hi) {
   const int width = src.width(), s = prm.stride;
   const int du = s * kNeighbourDu[k], vn = v + s * kNeighbourDv[k];
   // Edges leaving the grid are absent from the mask; the pad (and here the unused range) is 0.
-  const int u_begin = std::max(0, -du), u_end = std::min(width, width - du);
+  const int u_begin = std::max(lo, -du), u_end = std::min(hi, width - du);
   float* __restrict ew = rb.edge(cur_slot, k, 0);
   float* __restrict e1 = rb.edge(cur_slot, k, 1);
   float* __restrict e2 = rb.edge(cur_slot, k, 2);
@@ -161,17 +167,29 @@ RANGESEG_INLINE void edge_row(const OrganizedCloud& src, const NormalMap& nm, co
   float* __restrict en0 = rb.edge(cur_slot, k, 4);
   float* __restrict en1 = rb.edge(cur_slot, k, 5);
   float* __restrict en2 = rb.edge(cur_slot, k, 6);
+  // Only the arrays the gather reads; the ranges are a few elements (edges leaving the grid),
+  // so plain loops rather than a memset call per array.
   auto clear = [&](int from, int to) {
-    for (int a = 0; a < RowBuffers::kEdgeArrays; ++a) {
-      std::fill(rb.edge(cur_slot, k, a) + from, rb.edge(cur_slot, k, a) + to, 0.0f);
+    for (int u = from; u < to; ++u) {
+      ew[u] = 0.0f;
+      e1[u] = 0.0f;
+      if constexpr (!kAlongRay) {
+        e2[u] = 0.0f;
+        e3[u] = 0.0f;
+      }
+      if constexpr (kFilterNormals) {
+        en0[u] = 0.0f;
+        en1[u] = 0.0f;
+        en2[u] = 0.0f;
+      }
     }
   };
   if (vn >= src.height()) {
-    clear(0, width);
+    clear(lo, hi);
     return;
   }
-  clear(0, u_begin);
-  clear(u_end, width);
+  clear(lo, u_begin);
+  clear(u_end, hi);
 
   const float* __restrict xc = src.x.row(v);
   const float* __restrict yc = src.y.row(v);
@@ -228,27 +246,56 @@ RANGESEG_INLINE void edge_row(const OrganizedCloud& src, const NormalMap& nm, co
   }
 }
 
-/// One pass. Each edge's weight is computed once (edge_row, forward directions only) and
-/// gathered by both ends: pixel (u, v) reads the forward edges of its own row and, negated
-/// where antisymmetric, the forward edges of row v - s that end in it.
+/// Output rows [v0, v1), columns [u0, u1) of one pass. Each edge's weight is computed once per
+/// block (edge_row, forward directions only) and gathered by both ends: pixel (u, v) reads the
+/// forward edges of its own row and, negated where antisymmetric, the forward edges of row
+/// v - s that end in it. A block computes the edges of columns [u0 - s, u1 + s) (and of the
+/// lattice row above v0), so blocks are independent, and every edge and every pixel's sum is
+/// evaluated by the same operations in the same order whatever the blocks: the output is
+/// bit-identical to one block covering the image (row bands for threads, see
+/// detail/smoothing_rows.hpp).
 template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals>
-RANGESEG_INLINE void smooth_pass_body(const OrganizedCloud& src, const NormalMap& nm,
-                                      const Mesh& mesh, const PassParams& prm, RowBuffers rb,
-                                      OrganizedCloud& dst, NormalMap& dst_normals) {
+RANGESEG_INLINE void smooth_block(const OrganizedCloud& src, const NormalMap& nm, const Mesh& mesh,
+                                  const PassParams& prm, const RowBuffers& rb, OrganizedCloud& dst,
+                                  NormalMap& dst_normals, int u0, int u1, int v0, int v1) {
   const int width = src.width(), height = src.height(), s = prm.stride;
   const float ox = prm.origin[0], oy = prm.origin[1], oz = prm.origin[2];
   constexpr bool kScales = kDistance || kNormal;
+  const int edge_lo = std::max(0, u0 - s), edge_hi = std::min(width, u1 + s);
+  // Edge (u, u + du) needs the scales of both ends.
+  const int scale_lo = std::max(0, u0 - 2 * s), scale_hi = std::min(width, u1 + 2 * s);
+  const int v_first = (v0 + s - 1) / s * s;  // first lattice row of the block
   int slot = 0;
-  if constexpr (kScales) {
-    compute_scales<kDistance, kNormal>(src.z.row(0), width, prm, rb.scale(0, 0), rb.scale(0, 1));
-  }
-  // The previous-row slot starts as zeros: no edges come from above row 0.
-  for (int k = 1; k < 4; ++k) {
-    for (int a = 0; a < RowBuffers::kEdgeArrays; ++a) {
-      std::fill(rb.edge(1, k, a), rb.edge(1, k, a) + width, 0.0f);
+  if (v0 > 0 && v_first - s < height) {
+    // The lattice row above the block: its edges into slot 1, the previous-row slot of v_first.
+    const int vp = v_first - s;
+    if constexpr (kScales) {
+      compute_scales<kDistance, kNormal>(src.z.row(vp), scale_lo, scale_hi, prm, rb.scale(1, 0),
+                                         rb.scale(1, 1));
+      if (v_first < height) {
+        compute_scales<kDistance, kNormal>(src.z.row(v_first), scale_lo, scale_hi, prm,
+                                           rb.scale(0, 0), rb.scale(0, 1));
+      }
+    }
+    for (int k = 0; k < 4; ++k) {
+      edge_row<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(
+          src, nm, mesh, prm, rb, vp, k, 1, 0, edge_lo, edge_hi);
+    }
+  } else {
+    if constexpr (kScales) {
+      if (v_first < height) {
+        compute_scales<kDistance, kNormal>(src.z.row(v_first), scale_lo, scale_hi, prm,
+                                           rb.scale(0, 0), rb.scale(0, 1));
+      }
+    }
+    // The previous-row slot starts as zeros: no edges come from above row 0.
+    for (int k = 1; k < 4; ++k) {
+      for (int a = 0; a < RowBuffers::kEdgeArrays; ++a) {
+        std::fill(rb.edge(1, k, a) + edge_lo, rb.edge(1, k, a) + edge_hi, 0.0f);
+      }
     }
   }
-  for (int v = 0; v < height; ++v) {
+  for (int v = v0; v < v1; ++v) {
     const float* __restrict xc = src.x.row(v);
     const float* __restrict yc = src.y.row(v);
     const float* __restrict zc = src.z.row(v);
@@ -263,28 +310,28 @@ RANGESEG_INLINE void smooth_pass_body(const OrganizedCloud& src, const NormalMap
     float* __restrict nzo = dst_normals.nz.row(v);
     if (v % s != 0) {  // no vertex in this row: copied
       RANGESEG_VECTORIZE
-      for (int u = 0; u < width; ++u) {
+      for (int u = u0; u < u1; ++u) {
         xo[u] = xc[u] + ox;
         yo[u] = yc[u] + oy;
         zo[u] = zc[u] + oz;
       }
       if constexpr (kFilterNormals) {
-        std::copy(nxc, nxc + width, nxo);
-        std::copy(nyc, nyc + width, nyo);
-        std::copy(nzc, nzc + width, nzo);
+        std::copy(nxc + u0, nxc + u1, nxo + u0);
+        std::copy(nyc + u0, nyc + u1, nyo + u0);
+        std::copy(nzc + u0, nzc + u1, nzo + u0);
       }
       continue;
     }
     const int next = 1 - slot;
     if constexpr (kScales) {
       if (v + s < height) {
-        compute_scales<kDistance, kNormal>(src.z.row(v + s), width, prm, rb.scale(next, 0),
-                                           rb.scale(next, 1));
+        compute_scales<kDistance, kNormal>(src.z.row(v + s), scale_lo, scale_hi, prm,
+                                           rb.scale(next, 0), rb.scale(next, 1));
       }
     }
     for (int k = 0; k < 4; ++k) {
-      edge_row<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(src, nm, mesh, prm, rb, v,
-                                                                          k, slot, next);
+      edge_row<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(
+          src, nm, mesh, prm, rb, v, k, slot, next, edge_lo, edge_hi);
     }
 
     // Pixel u gathers the forward edges of this row (F) and the forward edges ending in it (B):
@@ -307,15 +354,17 @@ RANGESEG_INLINE void smooth_pass_body(const OrganizedCloud& src, const NormalMap
   (((name##f0[u] - name##b0[u]) + (name##f1[u] - name##b1[u])) + \
    ((name##f2[u] - name##b2[u]) + (name##f3[u] - name##b3[u])))
     RANGESEG_EDGES(w, 0)
+    float* __restrict sum_w_row = rb.sum_w();
     if constexpr (kAlongRay) {
       RANGESEG_EDGES(t, 1)
       RANGESEG_VECTORIZE
-      for (int u = 0; u < width; ++u) {
+      for (int u = u0; u < u1; ++u) {
         // p' = o + q (q . m) / (q . q) with m the weighted mean of the origin-relative points:
         // the mean projected onto the viewing ray; the centre's own term of the sum is q . q.
         const float qx = xc[u], qy = yc[u], qz = zc[u];
         const float qq = qx * qx + qy * qy + qz * qz;
         const float sum_w = 1.0f + RANGESEG_SYM(w);
+        sum_w_row[u] = sum_w;
         const float sum_t = qq + RANGESEG_SYM(t);
         const float scale = select(qq > 0.0f, sum_t / (sum_w * qq), 1.0f);
         xo[u] = ox + qx * scale;
@@ -327,9 +376,11 @@ RANGESEG_INLINE void smooth_pass_body(const OrganizedCloud& src, const NormalMap
       RANGESEG_EDGES(py, 2)
       RANGESEG_EDGES(pz, 3)
       RANGESEG_VECTORIZE
-      for (int u = 0; u < width; ++u) {
+      for (int u = u0; u < u1; ++u) {
         // sum_j w_j p_j / sum_j w_j = p + sum_j w_j (p_j - p) / sum_j w_j.
-        const float inv = 1.0f / (1.0f + RANGESEG_SYM(w));
+        const float sum_w = 1.0f + RANGESEG_SYM(w);
+        sum_w_row[u] = sum_w;
+        const float inv = 1.0f / sum_w;
         xo[u] = ox + xc[u] + RANGESEG_ANTI(px) * inv;
         yo[u] = oy + yc[u] + RANGESEG_ANTI(py) * inv;
         zo[u] = oz + zc[u] + RANGESEG_ANTI(pz) * inv;
@@ -340,10 +391,10 @@ RANGESEG_INLINE void smooth_pass_body(const OrganizedCloud& src, const NormalMap
       RANGESEG_EDGES(ny, 5)
       RANGESEG_EDGES(nz, 6)
       RANGESEG_VECTORIZE
-      for (int u = 0; u < width; ++u) {
+      for (int u = u0; u < u1; ++u) {
         // sum_j w_j n_j = n sum_j w_j + sum_j w_j (n_j - n). Without the normal term, a
         // neighbour without a normal keeps its weight on the pixel's own normal.
-        const float sum_w = 1.0f + RANGESEG_SYM(w);
+        const float sum_w = sum_w_row[u];
         const float ax = nxc[u] * sum_w + RANGESEG_ANTI(nx);
         const float ay = nyc[u] * sum_w + RANGESEG_ANTI(ny);
         const float az = nzc[u] * sum_w + RANGESEG_ANTI(nz);
@@ -363,12 +414,22 @@ RANGESEG_INLINE void smooth_pass_body(const OrganizedCloud& src, const NormalMap
   }
 }
 
+/// Output rows [v0, v1) of one pass. (Column strips of 128 pixels, which keep a strip's edge
+/// rows in L1, measured 1.4 times slower: the loops get short and the per-row overhead grows.)
+template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals>
+RANGESEG_INLINE void smooth_pass_body(const OrganizedCloud& src, const NormalMap& nm,
+                                      const Mesh& mesh, const PassParams& prm, RowBuffers rb,
+                                      OrganizedCloud& dst, NormalMap& dst_normals, int v0, int v1) {
+  smooth_block<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(
+      src, nm, mesh, prm, rb, dst, dst_normals, 0, src.width(), v0, v1);
+}
+
 template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals>
 void smooth_pass(const OrganizedCloud& src, const NormalMap& nm, const Mesh& mesh,
-                 const PassParams& prm, RowBuffers rb, OrganizedCloud& dst,
-                 NormalMap& dst_normals) {
-  smooth_pass_body<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(src, nm, mesh, prm,
-                                                                              rb, dst, dst_normals);
+                 const PassParams& prm, RowBuffers rb, OrganizedCloud& dst, NormalMap& dst_normals,
+                 int v0, int v1) {
+  smooth_pass_body<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(
+      src, nm, mesh, prm, rb, dst, dst_normals, v0, v1);
 }
 
 #if RANGESEG_SMOOTH_AVX2
@@ -377,9 +438,9 @@ __attribute__((target("avx2,fma"))) void smooth_pass_avx2(const OrganizedCloud& 
                                                           const NormalMap& nm, const Mesh& mesh,
                                                           const PassParams& prm, RowBuffers rb,
                                                           OrganizedCloud& dst,
-                                                          NormalMap& dst_normals) {
-  smooth_pass_body<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(src, nm, mesh, prm,
-                                                                              rb, dst, dst_normals);
+                                                          NormalMap& dst_normals, int v0, int v1) {
+  smooth_pass_body<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(
+      src, nm, mesh, prm, rb, dst, dst_normals, v0, v1);
 }
 
 bool cpu_has_avx2_fma() {
@@ -389,7 +450,7 @@ bool cpu_has_avx2_fma() {
 #endif
 
 using PassFn = void (*)(const OrganizedCloud&, const NormalMap&, const Mesh&, const PassParams&,
-                        RowBuffers, OrganizedCloud&, NormalMap&);
+                        RowBuffers, OrganizedCloud&, NormalMap&, int, int);
 
 template <int kFlags, bool kAvx2>
 constexpr PassFn pass_for() {
@@ -421,14 +482,13 @@ void require_same_size(const FloatPlane& plane, const OrganizedCloud& cloud, con
   }
 }
 
-/// Grey value of every pixel from RGB (ITU-R BT.601 luma), into `grey`.
-void rgb_to_grey(const OrganizedCloud& cloud, FloatPlane& grey) {
-  ensure_size(grey, cloud.width(), cloud.height());
+/// Grey value of every pixel from RGB (ITU-R BT.601 luma), into `grey` (sized by the caller).
+RANGESEG_INLINE void rgb_to_grey_body(const OrganizedCloud& cloud, FloatPlane& grey) {
   for (int v = 0; v < cloud.height(); ++v) {
-    const std::uint8_t* r = cloud.r.row(v);
-    const std::uint8_t* g = cloud.g.row(v);
-    const std::uint8_t* b = cloud.b.row(v);
-    float* out = grey.row(v);
+    const std::uint8_t* __restrict r = cloud.r.row(v);
+    const std::uint8_t* __restrict g = cloud.g.row(v);
+    const std::uint8_t* __restrict b = cloud.b.row(v);
+    float* __restrict out = grey.row(v);
     for (int u = 0; u < cloud.width(); ++u) {
       out[u] = 0.299f * static_cast<float>(r[u]) + 0.587f * static_cast<float>(g[u]) +
                0.114f * static_cast<float>(b[u]);
@@ -436,22 +496,78 @@ void rgb_to_grey(const OrganizedCloud& cloud, FloatPlane& grey) {
   }
 }
 
+void rgb_to_grey_generic(const OrganizedCloud& cloud, FloatPlane& grey) {
+  rgb_to_grey_body(cloud, grey);
+}
+
+#if RANGESEG_SMOOTH_AVX2
+// AVX2 without FMA: products and sums stay separately rounded, so the grey values equal the
+// generic build's bit for bit.
+__attribute__((target("avx2"))) void rgb_to_grey_avx2(const OrganizedCloud& cloud,
+                                                      FloatPlane& grey) {
+  rgb_to_grey_body(cloud, grey);
+}
+#endif
+
+void rgb_to_grey(const OrganizedCloud& cloud, FloatPlane& grey) {
+  ensure_size(grey, cloud.width(), cloud.height());
+#if RANGESEG_SMOOTH_AVX2
+  if (cpu_has_avx2_fma()) {
+    rgb_to_grey_avx2(cloud, grey);
+    return;
+  }
+#endif
+  rgb_to_grey_generic(cloud, grey);
+}
+
 /// max - min of `intensity` over the valid points of `cloud` (0 when none). Branch-free, so
-/// that it vectorises: x - x == 0 is false exactly for NaN and infinities.
-float intensity_range(const OrganizedCloud& cloud, const FloatPlane& intensity) {
+/// that it vectorises: x - x == 0 is false exactly for NaN and infinities. kLanes independent
+/// running minima and maxima (min and max are exact, so the order does not change the result)
+/// let the compiler keep them in vector registers instead of one serial scalar chain.
+RANGESEG_INLINE float intensity_range_body(const OrganizedCloud& cloud,
+                                           const FloatPlane& intensity) {
   constexpr float kInf = std::numeric_limits<float>::infinity();
-  float lo = kInf, hi = -kInf;
+  constexpr int kLanes = 16;
+  std::array<float, kLanes> lo, hi;
+  lo.fill(kInf);
+  hi.fill(-kInf);
+  const int width = cloud.width();
   for (int v = 0; v < cloud.height(); ++v) {
     const float* __restrict z = cloud.z.row(v);
     const float* __restrict in = intensity.row(v);
-    for (int u = 0; u < cloud.width(); ++u) {
+    int u = 0;
+    for (; u + kLanes <= width; u += kLanes) {
+      for (int i = 0; i < kLanes; ++i) {
+        const float zi = z[u + i], ii = in[u + i];
+        const bool ok = ((zi - zi) == 0.0f) & ((ii - ii) == 0.0f);
+        lo[i] = std::min(lo[i], select(ok, ii, kInf));
+        hi[i] = std::max(hi[i], select(ok, ii, -kInf));
+      }
+    }
+    for (; u < width; ++u) {
       const bool ok = ((z[u] - z[u]) == 0.0f) & ((in[u] - in[u]) == 0.0f);
-      lo = std::min(lo, select(ok, in[u], kInf));
-      hi = std::max(hi, select(ok, in[u], -kInf));
+      lo[0] = std::min(lo[0], select(ok, in[u], kInf));
+      hi[0] = std::max(hi[0], select(ok, in[u], -kInf));
     }
   }
-  return hi >= lo ? hi - lo : 0.0f;
+  float low = kInf, high = -kInf;
+  for (int i = 0; i < kLanes; ++i) {
+    low = std::min(low, lo[i]);
+    high = std::max(high, hi[i]);
+  }
+  return high >= low ? high - low : 0.0f;
 }
+
+float intensity_range_generic(const OrganizedCloud& cloud, const FloatPlane& intensity) {
+  return intensity_range_body(cloud, intensity);
+}
+
+#if RANGESEG_SMOOTH_AVX2
+__attribute__((target("avx2,fma"))) float intensity_range_avx2(const OrganizedCloud& cloud,
+                                                               const FloatPlane& intensity) {
+  return intensity_range_body(cloud, intensity);
+}
+#endif
 
 void check_positive(float value, const char* name) {
   if (!(value > 0.0f) || !std::isfinite(value)) {
@@ -467,7 +583,83 @@ void check_finite(float value, const char* name) {
   }
 }
 
+/// A pass function and its per-frame constants.
+struct PassSetup {
+  PassParams prm;
+  PassFn pass = nullptr;
+};
+
+/// The pass for `st` on a mesh of stride `stride`, with the intensity term on `intensity` of
+/// range c_I = `range` (off for nullptr or range <= 0: a constant intensity carries no edge).
+PassSetup make_pass(const SmoothingSettings& st, int stride, const FloatPlane* intensity,
+                    float range) {
+  PassSetup setup;
+  PassParams& prm = setup.prm;
+  prm.stride = stride;
+  prm.origin = st.viewpoint;
+  prm.kd2 = st.distance_scale * st.distance_scale;
+  prm.spacing = static_cast<float>(stride) * st.pixel_angle;
+  prm.noise_a = static_cast<float>(st.noise.a);
+  prm.noise_b = static_cast<float>(st.noise.b);
+  prm.noise_z0 = static_cast<float>(st.noise.z0);
+  prm.inv_normal_scale = 1.0f / st.normal_scale;
+  const bool use_intensity = st.use_intensity && intensity != nullptr && range > 0.0f;
+  if (use_intensity) {
+    prm.intensity = intensity;
+    prm.inv_intensity_scale = 1.0f / (range * st.intensity_scale);
+  }
+  const bool filter_normals = !st.recompute_normals;
+  const int flags = (st.use_distance ? 1 : 0) | (st.use_normals ? 2 : 0) | (use_intensity ? 4 : 0) |
+                    (st.move_along_ray ? 8 : 0) | (filter_normals ? 16 : 0);
+  setup.pass = kPassTable[static_cast<std::size_t>(flags)];
+#if RANGESEG_SMOOTH_AVX2
+  if (cpu_has_avx2_fma()) setup.pass = kPassTableAvx2[static_cast<std::size_t>(flags)];
+#endif
+  return setup;
+}
+
+/// Row buffers for rows of `width` pixels in `rows`; `layout` remembers the row length the zero
+/// pads were laid out for (a new layout starts from a zeroed buffer; passes write inside only).
+RowBuffers layout_rows(std::vector<float>& rows, std::size_t& layout, int width, int stride) {
+  RowBuffers rb;
+  rb.pad = stride;
+  rb.row_len = static_cast<std::size_t>(width) + 2 * static_cast<std::size_t>(rb.pad);
+  const std::size_t needed = RowBuffers::floats_needed(width, rb.pad);
+  if (rows.size() != needed || layout != rb.row_len) {
+    rows.assign(needed, 0.0f);
+    layout = rb.row_len;
+  }
+  rb.base = rows.data();
+  return rb;
+}
+
 }  // namespace
+
+namespace detail {
+
+float frame_intensity_range(const OrganizedCloud& cloud, const FloatPlane& intensity) {
+#if RANGESEG_SMOOTH_AVX2
+  if (cpu_has_avx2_fma()) return intensity_range_avx2(cloud, intensity);
+#endif
+  return intensity_range_generic(cloud, intensity);
+}
+
+void smooth_rows(const SmoothRowsInput& in, const SmoothingSettings& settings, int v0, int v1,
+                 SmoothRowsScratch& scratch, OrganizedCloud& out_cloud, NormalMap& out_normals) {
+  assert(in.cloud != nullptr && in.mesh != nullptr && in.normals != nullptr);
+  const OrganizedCloud& cloud = *in.cloud;
+  const int width = cloud.width(), height = cloud.height();
+  assert(0 <= v0 && v0 <= v1 && v1 <= height);
+  assert(out_cloud.z.width() == width && out_cloud.z.height() == height);
+  assert(out_normals.nz.width() == width && out_normals.nz.height() == height);
+  (void)height;
+  const PassSetup setup =
+      make_pass(settings, in.mesh->pixel_stride, in.intensity, in.intensity_range);
+  const RowBuffers rb = layout_rows(scratch.rows, scratch.layout, width, in.mesh->pixel_stride);
+  setup.pass(cloud, *in.normals, *in.mesh, setup.prm, rb, out_cloud, out_normals, v0, v1);
+}
+
+}  // namespace detail
 
 void validate(const SmoothingSettings& settings) {
   if (settings.iterations < 0) {
@@ -544,53 +736,24 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
     return;
   }
 
-  PassParams prm;
-  prm.stride = mesh.pixel_stride;
-  prm.origin = st.viewpoint;
-  prm.kd2 = st.distance_scale * st.distance_scale;
-  const float spacing = static_cast<float>(mesh.pixel_stride) * st.pixel_angle;
-  prm.spacing = spacing;
-  prm.noise_a = static_cast<float>(st.noise.a);
-  prm.noise_b = static_cast<float>(st.noise.b);
-  prm.noise_z0 = static_cast<float>(st.noise.z0);
-  prm.inv_normal_scale = 1.0f / st.normal_scale;
-
-  bool use_intensity = false;
+  const FloatPlane* intensity = nullptr;
+  float range = 0.0f;
   if (st.use_intensity && (cloud.has_intensity() || cloud.has_rgb())) {
     if (cloud.has_intensity()) {
       require_same_size(cloud.intensity, cloud, "intensity");
-      prm.intensity = &cloud.intensity;
+      intensity = &cloud.intensity;
     } else {
       rgb_to_grey(cloud, grey_);
-      prm.intensity = &grey_;
+      intensity = &grey_;
     }
-    const float range =
-        st.intensity_range > 0.0f ? st.intensity_range : intensity_range(cloud, *prm.intensity);
-    // A constant intensity carries no edge: the term is left out.
-    if (range > 0.0f) {
-      use_intensity = true;
-      prm.inv_intensity_scale = 1.0f / (range * st.intensity_scale);
-    }
+    range = st.intensity_range > 0.0f ? st.intensity_range
+                                      : detail::frame_intensity_range(cloud, *intensity);
   }
-
+  const PassSetup setup = make_pass(st, mesh.pixel_stride, intensity, range);
+  const PassParams& prm = setup.prm;
+  const PassFn pass = setup.pass;
   const bool filter_normals = !st.recompute_normals;
-  const int flags = (st.use_distance ? 1 : 0) | (st.use_normals ? 2 : 0) | (use_intensity ? 4 : 0) |
-                    (st.move_along_ray ? 8 : 0) | (filter_normals ? 16 : 0);
-  PassFn pass = kPassTable[static_cast<std::size_t>(flags)];
-#if RANGESEG_SMOOTH_AVX2
-  if (cpu_has_avx2_fma()) pass = kPassTableAvx2[static_cast<std::size_t>(flags)];
-#endif
-
-  RowBuffers rb;
-  rb.pad = mesh.pixel_stride;
-  rb.row_len = static_cast<std::size_t>(width) + 2 * static_cast<std::size_t>(rb.pad);
-  const std::size_t needed = RowBuffers::floats_needed(width, rb.pad);
-  // The pads must be zero; a new layout starts from a zeroed buffer (passes write inside only).
-  if (rows_.size() != needed || rows_layout_ != rb.row_len) {
-    rows_.assign(needed, 0.0f);
-    rows_layout_ = rb.row_len;
-  }
-  rb.base = rows_.data();
+  const RowBuffers rb = layout_rows(rows_, rows_layout_, width, mesh.pixel_stride);
 
   // The pass works on origin-relative points (q = p - viewpoint) and adds the viewpoint back.
   const bool shifted = st.viewpoint != std::array<float, 3>{0.0f, 0.0f, 0.0f};
@@ -623,7 +786,7 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
         }
       }
     }
-    pass(shifted ? shifted_ : *src, *src_normals, mesh, prm, rb, dst, dst_normals);
+    pass(shifted ? shifted_ : *src, *src_normals, mesh, prm, rb, dst, dst_normals, 0, height);
     if (!filter_normals) compute_normals(dst, mesh, normal_settings, dst_normals);
     src = &dst;
     src_normals = &dst_normals;

@@ -12,8 +12,10 @@
 #include <sstream>
 #include <string>
 
+#include "rangeseg/camera.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/io/png.hpp"
+#include "rangeseg/synth.hpp"
 #include "test_util.hpp"
 
 namespace fs = std::filesystem;
@@ -43,6 +45,29 @@ std::string read_text(const fs::path& p) {
   s << in.rdbuf();
   return s.str();
 }
+
+/// A small noisy synthetic frame (160x120, Kinect optics scaled down) so batch tests stay fast.
+rangeseg::OrganizedCloud small_frame(std::uint64_t seed) {
+  const rangeseg::CameraIntrinsics camera{
+      .fx = 131.25, .fy = 131.25, .cx = 79.5, .cy = 59.5, .width = 160, .height = 120};
+  return rangeseg::synth::render(
+             rangeseg::synth::random_scene(seed, false),
+             {.camera = camera, .noise = rangeseg::synth::Noise::kinect, .seed = seed})
+      .cloud;
+}
+
+void write_small_pcd(const fs::path& path, std::uint64_t seed) {
+  fs::create_directories(path.parent_path());
+  rangeseg::io::write_pcd(path.string(), small_frame(seed),
+                          {.encoding = rangeseg::io::PcdEncoding::binary_compressed});
+}
+
+void write_truncated_pcd(const fs::path& path) {
+  std::ofstream(path) << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                         "WIDTH 100\nHEIGHT 100\nPOINTS 10000\nDATA binary\nabc";
+}
+
+nlohmann::json read_json(const fs::path& p) { return nlohmann::json::parse(read_text(p)); }
 
 int count_files(const fs::path& dir) {
   int n = 0;
@@ -162,12 +187,192 @@ TEST(Cli, ConfigFileOverridesAndRejectsUnknownKeys) {
   std::ofstream(dir / "good.json") << R"({"noise": {"a": 0.002}, "mesh": {"jump_sigmas": 4},
       "smoothing": {"iterations": 1}, "segmentation": {"min_region_size": 50, "merge_rms_sigmas": 1.5}})";
   std::ofstream(dir / "bad.json") << R"({"segmentation": {"min_region_sise": 50}})";
-  const CliResult good = run("segment " + (dir / "cloud.pcd").string() + " -o " + (dir / "g").string() +
-                             " --no-mesh --config " + (dir / "good.json").string());
+  const CliResult good =
+      run("segment " + (dir / "cloud.pcd").string() + " -o " + (dir / "g").string() +
+          " --no-mesh --config " + (dir / "good.json").string());
   EXPECT_EQ(good.code, 0) << good.out;
-  const CliResult bad = run("segment " + (dir / "cloud.pcd").string() + " -o " + (dir / "b").string() +
-                            " --config " + (dir / "bad.json").string());
+  const CliResult bad = run("segment " + (dir / "cloud.pcd").string() + " -o " +
+                            (dir / "b").string() + " --config " + (dir / "bad.json").string());
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.out.find("min_region_sise"), std::string::npos) << bad.out;
   EXPECT_FALSE(fs::exists(dir / "b" / "labels.png"));
+}
+
+TEST(CliBatch, DirectorySkipsACorruptFrameAndCountsIt) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_batch_dir");
+  write_small_pcd(dir / "in" / "a.pcd", 1);
+  write_small_pcd(dir / "in" / "b.pcd", 2);
+  write_truncated_pcd(dir / "in" / "c.pcd");
+  std::ofstream(dir / "in" / "notes.txt") << "not a frame";
+  const CliResult r = run("segment " + (dir / "in").string() + " -o " + (dir / "out").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "out" / "a" / "labels.png"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "b" / "segments.json"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "b" / "mesh.ply"));
+  EXPECT_FALSE(fs::exists(dir / "out" / "c" / "labels.png"));
+  EXPECT_FALSE(fs::exists(dir / "out" / "notes"));
+  EXPECT_NE(r.out.find("c.pcd"), std::string::npos) << r.out;
+  const auto summary = read_json(dir / "out" / "summary.json");
+  EXPECT_EQ(summary["frames"], 3);
+  EXPECT_EQ(summary["succeeded"], 2);
+  EXPECT_EQ(summary["failed"], 1);
+  ASSERT_EQ(summary["failures"].size(), 1u);
+  EXPECT_EQ(fs::path(summary["failures"][0]["input"].get<std::string>()).filename(), "c.pcd");
+  EXPECT_FALSE(summary["failures"][0]["error"].get<std::string>().empty());
+  for (const char* key : {"mesh", "normals", "smoothing", "segmentation", "polygons", "total"}) {
+    ASSERT_TRUE(summary["median_ms"].contains(key)) << key;
+    EXPECT_GT(summary["median_ms"][key].get<double>(), 0.0) << key;
+  }
+  // The per-frame segment counts match the folders written.
+  for (const auto& f : summary["per_frame"]) {
+    if (!f["ok"].get<bool>()) continue;
+    const auto seg = read_json(dir / "out" / f["name"].get<std::string>() / "segments.json");
+    EXPECT_EQ(f["segments"].get<std::size_t>(), seg["segments"].size());
+  }
+
+  // Nothing readable: exit code 2, but the failures are still listed.
+  fs::create_directories(dir / "bad");
+  write_truncated_pcd(dir / "bad" / "x.pcd");
+  std::ofstream(dir / "bad" / "y.png") << "not a png";
+  const CliResult bad = run("segment " + (dir / "bad").string() + " -o " + (dir / "out2").string());
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_NE(bad.out.find("x.pcd"), std::string::npos) << bad.out;
+  EXPECT_NE(bad.out.find("y.png"), std::string::npos) << bad.out;
+  EXPECT_EQ(read_json(dir / "out2" / "summary.json")["succeeded"], 0);
+  // A directory without frames is an argument error.
+  fs::create_directories(dir / "empty");
+  EXPECT_EQ(run("segment " + (dir / "empty").string() + " -o " + (dir / "out3").string()).code, 2);
+}
+
+TEST(CliBatch, ListOfFilesGetsUniqueFolderNames) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_batch_list");
+  write_small_pcd(dir / "a.pcd", 3);
+  write_small_pcd(dir / "b.pcd", 4);
+  write_small_pcd(dir / "sub" / "a.pcd", 5);
+  const CliResult r =
+      run("segment " + (dir / "a.pcd").string() + " " + (dir / "b.pcd").string() + " " +
+          (dir / "sub" / "a.pcd").string() + " " + (dir / "missing.pcd").string() +
+          " --no-mesh -o " + (dir / "out").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* name : {"a", "b", "a_2"}) {
+    EXPECT_TRUE(fs::exists(dir / "out" / name / "labels.png")) << name;
+    EXPECT_FALSE(fs::exists(dir / "out" / name / "mesh.ply")) << name;
+  }
+  EXPECT_NE(r.out.find("missing.pcd"), std::string::npos) << r.out;
+  const auto summary = read_json(dir / "out" / "summary.json");
+  EXPECT_EQ(summary["frames"], 4);
+  EXPECT_EQ(summary["failed"], 1);
+  // Frames are listed in input order: sub/a.pcd is the third.
+  EXPECT_EQ(summary["per_frame"][2]["name"], "a_2");
+  EXPECT_EQ(fs::path(summary["per_frame"][2]["input"].get<std::string>()).parent_path().filename(),
+            "sub");
+}
+
+TEST(CliBatch, TumSequenceUsesTimestampsAndFiveThousandUnitsPerMetre) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_batch_tum");
+  const fs::path seq = dir / "rgbd_dataset_test";
+  fs::create_directories(seq / "depth");
+  std::ofstream list(seq / "depth.txt");
+  list << "# depth maps\n# file: 'test.bag'\n# timestamp filename\n";
+  double mean_z = 0;
+  int valid = 0;
+  const char* stamps[] = {"1305031102.160407", "1305031102.194330"};
+  for (int i = 0; i < 2; ++i) {
+    const rangeseg::OrganizedCloud cloud = small_frame(10 + static_cast<std::uint64_t>(i));
+    rangeseg::io::write_depth_png((seq / "depth" / (std::string(stamps[i]) + ".png")).string(),
+                                  rangeseg::cloud_to_depth(cloud, 1.0 / 5000.0).view());
+    list << stamps[i] << " depth/" << stamps[i] << ".png\n";
+    for (int v = 0; v < cloud.height(); ++v)
+      for (int u = 0; u < cloud.width(); ++u)
+        if (cloud.valid(u, v)) mean_z += cloud.z(u, v), ++valid;
+  }
+  mean_z /= valid;
+  list << "1305031102.226738 depth/1305031102.226738.png\n";  // listed but absent
+  list.close();
+  // The frames were rendered with a 160x120 camera; the TUM default (525 pixels) is for 640x480.
+  const CliResult r = run("segment " + seq.string() + " --fx 131.25 --fy 131.25 --no-mesh -o " +
+                          (dir / "out").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("1305031102.226738.png"), std::string::npos) << r.out;
+  double seg_z = 0, pixels = 0;
+  for (const char* stamp : stamps) {
+    const fs::path folder = dir / "out" / stamp;
+    ASSERT_TRUE(fs::exists(folder / "labels.png")) << stamp;
+    EXPECT_EQ(rangeseg::io::read_label_png((folder / "labels.png").string()).width(), 160);
+    const auto json = read_json(folder / "segments.json");
+    for (const auto& s : json["segments"]) {
+      seg_z += s["centroid"][2].get<double>() * s["pixel_count"].get<double>();
+      pixels += s["pixel_count"].get<double>();
+    }
+  }
+  ASSERT_GT(pixels, 0.0);
+  // Depth in metres only with 5000 units per metre; the millimetre default would give 5x.
+  EXPECT_NEAR(seg_z / pixels, mean_z, 0.25 * mean_z);
+  const auto summary = read_json(dir / "out" / "summary.json");
+  EXPECT_EQ(summary["frames"], 3);
+  EXPECT_EQ(summary["succeeded"], 2);
+}
+
+TEST(CliBatch, TwoThreadsWriteTheSameBytesAsOne) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_batch_threads");
+  for (int i = 0; i < 5; ++i) write_small_pcd(dir / "in" / (std::to_string(i) + ".pcd"), 20 + i);
+  write_truncated_pcd(dir / "in" / "9.pcd");
+  for (const std::string threads : {"1", "2"}) {
+    const fs::path out = dir / ("out" + threads);
+    const CliResult r =
+        run("segment " + (dir / "in").string() + " --threads " + threads + " -o " + out.string());
+    ASSERT_EQ(r.code, 0) << r.out;
+  }
+  int compared = 0;
+  for (const auto& e : fs::recursive_directory_iterator(dir / "out1")) {
+    if (!e.is_regular_file() || e.path().filename() == "summary.json") continue;
+    const fs::path other = dir / "out2" / fs::relative(e.path(), dir / "out1");
+    ASSERT_TRUE(fs::exists(other)) << other;
+    EXPECT_EQ(read_text(e.path()), read_text(other)) << other;
+    ++compared;
+  }
+  EXPECT_GE(compared, 5 * 4);  // labels, segments, overlay, mesh (+ polygons) per good frame
+  EXPECT_EQ(count_files(dir / "out1"), count_files(dir / "out2"));
+  const auto s1 = read_json(dir / "out1" / "summary.json");
+  const auto s2 = read_json(dir / "out2" / "summary.json");
+  EXPECT_EQ(s2["threads"], 2);
+  EXPECT_EQ(s1["failed"], 1);
+  EXPECT_EQ(s2["failed"], 1);
+  for (std::size_t i = 0; i < s1["per_frame"].size(); ++i) {
+    EXPECT_EQ(s1["per_frame"][i]["name"], s2["per_frame"][i]["name"]);
+    EXPECT_EQ(s1["per_frame"][i].value("segments", -1), s2["per_frame"][i].value("segments", -1));
+  }
+}
+
+TEST(CliBatch, BenchSizesJson) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_bench_sizes");
+  write_small_pcd(dir / "f.pcd", 7);
+  const CliResult r = run("bench " + (dir / "f.pcd").string() +
+                          " --sizes 40x30,80x60,160x120 --repeat 2 --threads 2 --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto json = nlohmann::json::parse(r.out.substr(r.out.find('{')));
+  ASSERT_EQ(json["sizes"].size(), 3u) << json.dump();
+  EXPECT_EQ(json["threads"], 2);
+  const int widths[] = {40, 80, 160}, scales[] = {4, 2, 1};
+  for (std::size_t i = 0; i < 3; ++i) {
+    const auto& size = json["sizes"][i];
+    EXPECT_EQ(size["width"], widths[i]);
+    EXPECT_EQ(size["height"], widths[i] * 3 / 4);
+    EXPECT_EQ(size["scale"], scales[i]);
+    for (const char* key : {"mesh", "normals", "smoothing", "segmentation", "polygons", "total",
+                            "frames_per_second", "frames_per_second_threads"}) {
+      ASSERT_TRUE(size.contains(key)) << key;
+      EXPECT_GE(size[key].get<double>(), 0.0) << key;
+    }
+    EXPECT_GT(size["frames_per_second"].get<double>(), 0.0);
+  }
+  // --scales gives the same sizes; a size that every-k-th-pixel cannot make is an error.
+  const CliResult scales_run =
+      run("bench " + (dir / "f.pcd").string() + " --scales 4,2,1 --repeat 1 --json");
+  ASSERT_EQ(scales_run.code, 0) << scales_run.out;
+  const auto by_scale = nlohmann::json::parse(scales_run.out.substr(scales_run.out.find('{')));
+  ASSERT_EQ(by_scale["sizes"].size(), 3u);
+  EXPECT_EQ(by_scale["sizes"][0]["size"], "40x30");
+  EXPECT_EQ(run("bench " + (dir / "f.pcd").string() + " --sizes 50x50 --repeat 1").code, 2);
+  EXPECT_EQ(run("bench " + (dir / "f.pcd").string() + " --sizes 40x30 --scales 2").code, 2);
 }

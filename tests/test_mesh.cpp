@@ -472,3 +472,120 @@ TEST(Mesh, CompactionWithUnusedLastPixel) {
   EXPECT_EQ(list.vertex_pixel.back(), 4 * 6 + 4);
   for (const std::int32_t i : list.indices) EXPECT_LT(i, 29);
 }
+
+// Row bands (detail/row_bands.hpp) and the instruction-set paths (detail/simd.hpp).
+#include "detail/row_bands.hpp"
+#include "detail/simd.hpp"
+
+namespace {
+
+// A tilted plane with noise, holes and a depth step, of odd size: rows end inside a vector, and
+// band boundaries fall between lattice rows.
+OrganizedCloud rough_cloud(int w, int h, unsigned seed) {
+  OrganizedCloud cloud = plane(w, h, 0.3, -0.2, 1.0, 1.5);
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> noise(0.0f, 0.004f);
+  std::uniform_real_distribution<float> uni(0.0f, 1.0f);
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      const float k = (u > w / 2 ? 1.3f : 1.0f) + noise(rng);
+      cloud.x(u, v) *= k, cloud.y(u, v) *= k, cloud.z(u, v) *= k;
+      if (uni(rng) < 0.08f) cloud.x(u, v) = cloud.y(u, v) = cloud.z(u, v) = NAN;
+    }
+  }
+  return cloud;
+}
+
+::testing::AssertionResult same_bytes(const rangeseg::BytePlane& a, const rangeseg::BytePlane& b) {
+  if (a.width() != b.width() || a.height() != b.height()) {
+    return ::testing::AssertionFailure() << "sizes differ";
+  }
+  for (int v = 0; v < a.height(); ++v) {
+    for (int u = 0; u < a.width(); ++u) {
+      if (a(u, v) != b(u, v)) {
+        return ::testing::AssertionFailure()
+               << "pixel (" << u << ", " << v << "): " << int(a(u, v)) << " vs " << int(b(u, v));
+      }
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
+// Bands [k h / bands, (k + 1) h / bands), computed last band first into a mesh whose planes
+// start out as garbage (at stride 1 prepare_mesh keeps planes of the right size as they are).
+Mesh mesh_in_bands(const OrganizedCloud& cloud, const MeshSettings& settings, int bands) {
+  Mesh mesh;
+  mesh.faces.resize(cloud.width(), cloud.height(), 0xA5);
+  mesh.edges.resize(cloud.width(), cloud.height(), 0x5A);
+  rangeseg::detail::prepare_mesh(cloud, settings, mesh);
+  for (int k = bands - 1; k >= 0; --k) {
+    rangeseg::detail::build_mesh_rows(cloud, settings, mesh, k * cloud.height() / bands,
+                                      (k + 1) * cloud.height() / bands);
+  }
+  return mesh;
+}
+
+}  // namespace
+
+TEST(Mesh, RowBandsAreBitIdentical) {
+  const OrganizedCloud cloud = rough_cloud(45, 31, 11);
+  for (MeshType type : kAllTypes) {
+    for (int s : {1, 2, 3}) {
+      const MeshSettings settings{.type = type, .pixel_stride = s};
+      const Mesh whole = rangeseg::build_mesh(cloud, settings);
+      ASSERT_GT(rangeseg::count_faces(whole), 0u);
+      for (int bands : {1, 2, 3}) {
+        const Mesh banded = mesh_in_bands(cloud, settings, bands);
+        EXPECT_TRUE(same_bytes(banded.faces, whole.faces))
+            << "type " << int(type) << " stride " << s << " bands " << bands;
+        EXPECT_TRUE(same_bytes(banded.edges, whole.edges))
+            << "type " << int(type) << " stride " << s << " bands " << bands;
+      }
+    }
+  }
+  // Empty and out-of-range bands write nothing.
+  Mesh mesh = rangeseg::build_mesh(cloud, {});
+  const Mesh before = mesh;
+  rangeseg::detail::build_mesh_rows(cloud, {}, mesh, 10, 10);
+  rangeseg::detail::build_mesh_rows(cloud, {}, mesh, -5, 0);
+  rangeseg::detail::build_mesh_rows(cloud, {}, mesh, cloud.height(), cloud.height() + 4);
+  EXPECT_TRUE(same_bytes(mesh.edges, before.edges));
+}
+
+// The kernels run on 4 lanes (SSE2) or 8 (AVX2): the same IEEE operations in the same order,
+// so the meshes are identical.
+TEST(Mesh, InstructionSetsAgree) {
+  for (const auto& [w, h] : {std::pair{45, 31}, std::pair{8, 2}, std::pair{1, 3}}) {
+    const OrganizedCloud cloud = rough_cloud(w, h, 5);
+    for (MeshType type : kAllTypes) {
+      for (int s : {1, 2}) {
+        const MeshSettings settings{
+            .type = type, .viewpoint = {0.02f, 0.0f, -0.01f}, .pixel_stride = s};
+        rangeseg::detail::simd::force_baseline = true;
+        const Mesh baseline = rangeseg::build_mesh(cloud, settings);
+        rangeseg::detail::simd::force_baseline = false;
+        const Mesh best = rangeseg::build_mesh(cloud, settings);
+        EXPECT_TRUE(same_bytes(baseline.faces, best.faces))
+            << w << "x" << h << " type " << int(type) << " stride " << s;
+        EXPECT_TRUE(same_bytes(baseline.edges, best.edges))
+            << w << "x" << h << " type " << int(type) << " stride " << s;
+      }
+    }
+  }
+}
+
+#ifdef RANGESEG_HAVE_PCD
+TEST(Mesh, RealFrameRowBandsAndInstructionSets) {
+  RANGESEG_REQUIRE_DATA("kinect/grabber_frame0.pcd");
+  const OrganizedCloud cloud = rangeseg::io::read_pcd(data_file.string());
+  const Mesh whole = rangeseg::build_mesh(cloud, {});
+  const Mesh banded = mesh_in_bands(cloud, {}, 3);
+  EXPECT_TRUE(same_bytes(banded.faces, whole.faces));
+  EXPECT_TRUE(same_bytes(banded.edges, whole.edges));
+  rangeseg::detail::simd::force_baseline = true;
+  const Mesh baseline = rangeseg::build_mesh(cloud, {});
+  rangeseg::detail::simd::force_baseline = false;
+  EXPECT_TRUE(same_bytes(baseline.faces, whole.faces));
+  EXPECT_TRUE(same_bytes(baseline.edges, whole.edges));
+}
+#endif

@@ -376,3 +376,108 @@ TEST(Normals, MatchesSlowReferenceForAllMeshTypes) {
     }
   }
 }
+
+// Row bands (detail/row_bands.hpp) and the instruction-set paths (detail/simd.hpp).
+#include <cstring>
+
+#include "detail/row_bands.hpp"
+#include "detail/simd.hpp"
+
+namespace {
+
+// Equal bits, or both NaN, per element of the four planes.
+::testing::AssertionResult same_normals(const NormalMap& a, const NormalMap& b) {
+  const std::array<std::pair<const rangeseg::FloatPlane*, const rangeseg::FloatPlane*>, 4> planes{
+      {{&a.nx, &b.nx}, {&a.ny, &b.ny}, {&a.nz, &b.nz}, {&a.curvature, &b.curvature}}};
+  for (std::size_t k = 0; k < planes.size(); ++k) {
+    const auto& [pa, pb] = planes[k];
+    if (pa->width() != pb->width() || pa->height() != pb->height()) {
+      return ::testing::AssertionFailure() << "plane " << k << ": sizes differ";
+    }
+    for (int v = 0; v < pa->height(); ++v) {
+      for (int u = 0; u < pa->width(); ++u) {
+        const float x = (*pa)(u, v), y = (*pb)(u, v);
+        if (std::isnan(x) && std::isnan(y)) continue;
+        if (std::bit_cast<std::uint32_t>(x) != std::bit_cast<std::uint32_t>(y)) {
+          return ::testing::AssertionFailure()
+                 << "plane " << k << " pixel (" << u << ", " << v << "): " << x << " vs " << y;
+        }
+      }
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
+// Bands [k h / bands, (k + 1) h / bands), computed last band first into planes that start out
+// holding another frame's values.
+NormalMap normals_in_bands(const OrganizedCloud& cloud, const Mesh& mesh, int bands) {
+  NormalMap out;
+  for (rangeseg::FloatPlane* plane : {&out.nx, &out.ny, &out.nz, &out.curvature}) {
+    plane->resize(cloud.width(), cloud.height(), 12345.0f);
+  }
+  rangeseg::detail::prepare_normals(cloud, mesh, {}, out);
+  for (int k = bands - 1; k >= 0; --k) {
+    rangeseg::detail::compute_normals_rows(cloud, mesh, {}, out, k * cloud.height() / bands,
+                                           (k + 1) * cloud.height() / bands);
+  }
+  return out;
+}
+
+Scene holed_sphere(int w, int h) {
+  Scene s = sphere_scene(w, h, Vec(0.02, -0.01, 0.8), 0.25);
+  std::mt19937 rng(9);
+  for (int k = 0; k < w * h / 20; ++k) s.cloud.z(rng() % s.w, rng() % s.h) = NAN;
+  return s;
+}
+
+}  // namespace
+
+TEST(Normals, RowBandsAreBitIdentical) {
+  const Scene s = holed_sphere(45, 31);
+  for (MeshType type :
+       {MeshType::quad, MeshType::left_cut, MeshType::right_cut, MeshType::adaptive}) {
+    for (int stride : {1, 2, 3}) {
+      const Mesh mesh = rangeseg::build_mesh(s.cloud, {.type = type, .pixel_stride = stride});
+      const NormalMap whole = rangeseg::compute_normals(s.cloud, mesh);
+      for (int bands : {1, 2, 3}) {
+        EXPECT_TRUE(same_normals(normals_in_bands(s.cloud, mesh, bands), whole))
+            << "type " << int(type) << " stride " << stride << " bands " << bands;
+      }
+    }
+  }
+}
+
+// The kernels run on 4 lanes (SSE2) or 8 (AVX2): the same IEEE operations in the same order,
+// so the results are identical.
+TEST(Normals, InstructionSetsAgree) {
+  for (const auto& [w, h] : {std::pair{45, 31}, std::pair{9, 2}, std::pair{1, 4}}) {
+    const Scene s = holed_sphere(w, h);
+    for (MeshType type : {MeshType::quad, MeshType::adaptive}) {
+      for (int stride : {1, 2}) {
+        const Mesh mesh = rangeseg::build_mesh(s.cloud, {.type = type, .pixel_stride = stride});
+        const rangeseg::NormalSettings settings{.viewpoint = {0.01f, 0.02f, -0.03f}};
+        rangeseg::detail::simd::force_baseline = true;
+        const NormalMap baseline = rangeseg::compute_normals(s.cloud, mesh, settings);
+        rangeseg::detail::simd::force_baseline = false;
+        const NormalMap best = rangeseg::compute_normals(s.cloud, mesh, settings);
+        EXPECT_TRUE(same_normals(baseline, best))
+            << w << "x" << h << " type " << int(type) << " stride " << stride;
+      }
+    }
+  }
+}
+
+#if __has_include("rangeseg/io/pcd.hpp")
+#include "rangeseg/io/pcd.hpp"
+TEST(Normals, RealFrameRowBandsAndInstructionSets) {
+  RANGESEG_REQUIRE_DATA("kinect/grabber_frame0.pcd");
+  const OrganizedCloud cloud = rangeseg::io::read_pcd(data_file.string());
+  const Mesh mesh = rangeseg::build_mesh(cloud);
+  const NormalMap whole = rangeseg::compute_normals(cloud, mesh);
+  EXPECT_TRUE(same_normals(normals_in_bands(cloud, mesh, 3), whole));
+  rangeseg::detail::simd::force_baseline = true;
+  const NormalMap baseline = rangeseg::compute_normals(cloud, mesh);
+  rangeseg::detail::simd::force_baseline = false;
+  EXPECT_TRUE(same_normals(baseline, whole));
+}
+#endif

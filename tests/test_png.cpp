@@ -17,19 +17,9 @@
 #include <zlib.h>
 
 using namespace rangeseg;
+using rangeseg::test::expect_runtime_error_with;
 
 namespace {
-
-// Expects `f` to throw std::runtime_error whose message contains `needle`.
-template <class F>
-void expect_runtime_error_with(F&& f, const std::string& needle) {
-  try {
-    f();
-    ADD_FAILURE() << "no exception; expected one mentioning " << needle;
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
-  }
-}
 
 DepthImage pattern(int w, int h) {
   DepthImage d(w, h);

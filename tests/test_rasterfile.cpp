@@ -14,18 +14,9 @@
 #include "test_util.hpp"
 
 using namespace rangeseg;
+using rangeseg::test::expect_runtime_error_with;
 
 namespace {
-
-template <class F>
-void expect_runtime_error_with(F&& f, const std::string& needle) {
-  try {
-    f();
-    ADD_FAILURE() << "no exception; expected one mentioning " << needle;
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
-  }
-}
 
 void put32(std::vector<std::uint8_t>& b, int field, std::uint32_t v) {
   for (int k = 0; k < 4; ++k) b[4 * field + k] = static_cast<std::uint8_t>(v >> (24 - 8 * k));

@@ -5,13 +5,17 @@
 
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <random>
 #include <stdexcept>
+#include <tuple>
 
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/normals.hpp"
 #include "rangeseg/smoothing.hpp"
+
+#include "detail/smoothing_rows.hpp"
 
 namespace rangeseg {
 namespace {
@@ -460,6 +464,73 @@ TEST_P(AgainstReference, OnePassMatches) {
 INSTANTIATE_TEST_SUITE_P(Modes, AgainstReference,
                          ::testing::Combine(::testing::Bool(), ::testing::Bool(),
                                             ::testing::Values(1, 2)));
+
+// --- Row bands (detail/smoothing_rows.hpp) ---------------------------------------------------
+
+class RowBands : public ::testing::TestWithParam<std::tuple<bool, int>> {};
+
+/// Bands covering the image, run in reverse order with one scratch, reproduce the whole-image
+/// pass bit for bit (including band borders off the stride lattice and the intensity term).
+TEST_P(RowBands, BandsAreBitIdenticalToTheWholeImage) {
+  const auto [along_ray, stride] = GetParam();
+  const TestPlane plane = make_plane(1.5, 0.4);
+  OrganizedCloud cloud =
+      render([&](double a, double b) { return plane_depth(plane, a, b) + (a > 0.02 ? 0.3 : 0.0); },
+             1.0, 5);
+  cloud.add_intensity();
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> in(0.0f, 50.0f);
+  for (int v = 0; v < kHeight; ++v) {
+    for (int u = 0; u < kWidth; ++u) {
+      cloud.intensity(u, v) = in(rng);
+      if ((u * 7 + v * 13) % 97 == 0) cloud.z(u, v) = NAN;  // holes: cut edges, NaN normals
+    }
+  }
+  Frame f{std::move(cloud), {}, {}};
+  build_mesh(f.cloud, {.pixel_stride = stride}, f.mesh);
+  compute_normals(f.cloud, f.mesh, {}, f.normals);
+  const SmoothingSettings st{.iterations = 1, .move_along_ray = along_ray};
+  const SmoothedCloud whole = smooth(f.cloud, f.mesh, f.normals, st);
+
+  const detail::SmoothRowsInput input{
+      .cloud = &f.cloud,
+      .mesh = &f.mesh,
+      .normals = &f.normals,
+      .intensity = &f.cloud.intensity,
+      .intensity_range = detail::frame_intensity_range(f.cloud, f.cloud.intensity)};
+  ASSERT_GT(input.intensity_range, 0.0f);
+  detail::SmoothRowsScratch scratch;
+  for (int bands : {1, 2, 3}) {
+    OrganizedCloud out(kWidth, kHeight);
+    NormalMap out_normals;
+    for (FloatPlane* plane : {&out_normals.nx, &out_normals.ny, &out_normals.nz}) {
+      plane->resize(kWidth, kHeight);
+    }
+    for (int b = bands - 1; b >= 0; --b) {
+      detail::smooth_rows(input, st, kHeight * b / bands, kHeight * (b + 1) / bands, scratch, out,
+                          out_normals);
+    }
+    int moved = 0;
+    for (int v = 0; v < kHeight; ++v) {
+      for (int u = 0; u < kWidth; ++u) {
+        const auto same = [](float a, float b) {
+          return std::memcmp(&a, &b, sizeof a) == 0;  // bit-identical, NaN included
+        };
+        ASSERT_TRUE(same(out.x(u, v), whole.cloud.x(u, v))) << bands << " bands " << u << "," << v;
+        ASSERT_TRUE(same(out.y(u, v), whole.cloud.y(u, v))) << bands << " bands " << u << "," << v;
+        ASSERT_TRUE(same(out.z(u, v), whole.cloud.z(u, v))) << bands << " bands " << u << "," << v;
+        ASSERT_TRUE(same(out_normals.nx(u, v), whole.normals.nx(u, v))) << bands << " " << u;
+        ASSERT_TRUE(same(out_normals.ny(u, v), whole.normals.ny(u, v))) << bands << " " << u;
+        ASSERT_TRUE(same(out_normals.nz(u, v), whole.normals.nz(u, v))) << bands << " " << u;
+        moved += out.z(u, v) != f.cloud.z(u, v);
+      }
+    }
+    EXPECT_GT(moved, kWidth * kHeight / (4 * stride * stride));  // the pass did filter
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Modes, RowBands,
+                         ::testing::Combine(::testing::Bool(), ::testing::Values(1, 2)));
 
 // --- API
 // ------------------------------------------------------------------------------------------

@@ -1,11 +1,16 @@
 #include <nlohmann/json.hpp>
 
-#include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <memory>
+#include <sstream>
+#include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "batch.hpp"
 #include "commands.hpp"
 #include "input.hpp"
 #include "names.hpp"
@@ -20,12 +25,99 @@ struct BenchOptions {
   std::string config;
   int repeat = 50;
   bool json = false;
+  std::string sizes;        ///< "160x120,320x240,640x480"
+  std::vector<int> scales;  ///< take every k-th pixel, e.g. 4,2,1
+  int threads = 1;
 };
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n == 0 ? 0.0 : (n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]));
+constexpr const char* kStages[] = {"mesh",         "normals",  "smoothing",
+                                   "segmentation", "polygons", "total"};
+
+struct SizeResult {
+  int scale = 1, width = 0, height = 0;
+  double median_ms[6] = {};
+  double fps_single = 0;   ///< frames/s of the timed single-thread runs
+  double fps_threads = 0;  ///< frames/s of `threads` pipelines in parallel (0 if threads == 1)
+};
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+/// Per-stage medians of one pipeline over `repeat` runs, then (threads > 1) the frame rate of
+/// `threads` pipelines sharing repeat * threads frames.
+SizeResult measure(const OrganizedCloud& cloud, const PipelineSettings& settings, int repeat,
+                   int threads) {
+  SizeResult r;
+  r.width = cloud.width();
+  r.height = cloud.height();
+  Pipeline pipeline(settings);
+  pipeline.process(cloud);  // warm-up: buffers are allocated here
+  std::vector<std::vector<double>> times(6);
+  const Clock::time_point start = Clock::now();
+  for (int i = 0; i < repeat; ++i) {
+    pipeline.process(cloud);
+    const StageTimes& t = pipeline.times();
+    const double values[] = {t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons, t.total};
+    for (int s = 0; s < 6; ++s) times[static_cast<std::size_t>(s)].push_back(values[s]);
+  }
+  r.fps_single = repeat / seconds_since(start);
+  for (int s = 0; s < 6; ++s) r.median_ms[s] = median(times[static_cast<std::size_t>(s)]);
+  if (threads <= 1) return r;
+
+  std::vector<std::unique_ptr<Pipeline>> pipelines;
+  for (int t = 0; t < threads; ++t) {
+    pipelines.push_back(std::make_unique<Pipeline>(settings));
+    pipelines.back()->process(cloud);  // warm-up outside the timed part
+  }
+  const int frames = repeat * threads;
+  std::atomic<int> next{0};
+  const Clock::time_point parallel_start = Clock::now();
+  {
+    std::vector<std::jthread> workers;
+    for (int t = 0; t < threads; ++t) {
+      workers.emplace_back([&, t] {
+        while (next++ < frames) pipelines[static_cast<std::size_t>(t)]->process(cloud);
+      });
+    }
+  }
+  r.fps_threads = frames / seconds_since(parallel_start);
+  return r;
+}
+
+/// Scales (every k-th pixel) from --scales or --sizes, for an input of w x h pixels.
+std::vector<int> scales_for(const BenchOptions& o, int w, int h) {
+  if (!o.sizes.empty()) {
+    std::vector<int> scales;
+    std::stringstream list(o.sizes);
+    std::string item;
+    while (std::getline(list, item, ',')) {
+      int sw = 0, sh = 0;
+      char x = 0;
+      std::istringstream parse(item);
+      if (!(parse >> sw >> x >> sh) || x != 'x' || sw < 1 || sh < 1) {
+        throw std::invalid_argument("--sizes: expected WIDTHxHEIGHT, got '" + item + "'");
+      }
+      const int k = w / sw;
+      if (k < 1 || (w + k - 1) / k != sw || (h + k - 1) / k != sh) {
+        throw std::invalid_argument("--sizes: " + std::to_string(w) + "x" + std::to_string(h) +
+                                    " cannot be reduced to " + item +
+                                    " by taking every k-th pixel");
+      }
+      scales.push_back(k);
+    }
+    if (scales.empty()) throw std::invalid_argument("--sizes: no size given");
+    return scales;
+  }
+  return o.scales.empty() ? std::vector<int>{1} : o.scales;
+}
+
+nlohmann::json stages_json(const SizeResult& r) {
+  nlohmann::json j;
+  for (int s = 0; s < 6; ++s) j[kStages[s]] = r.median_ms[s];
+  return j;
 }
 
 }  // namespace
@@ -41,37 +133,94 @@ void add_bench(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));
   cmd->add_flag("--json", o->json, "Print one JSON object {stage: median ms} on stdout");
+  auto* sizes = cmd->add_option(
+      "--sizes", o->sizes,
+      "Comma-separated sizes WxH to time, made by taking every k-th pixel of the input "
+      "(e.g. 160x120,320x240,640x480); --json then prints {\"sizes\": [{size, width, height, "
+      "scale, <stage>..., frames_per_second}]}");
+  cmd->add_option("--scales", o->scales,
+                  "Like --sizes, as pixel steps k (e.g. 4,2,1 = every 4th, 2nd, every pixel)")
+      ->delimiter(',')
+      ->check(CLI::Range(1, 1024))
+      ->excludes(sizes);
+  cmd->add_option("--threads", o->threads,
+                  "Also measure the frame rate of N pipelines in parallel (one per thread); the "
+                  "per-stage medians stay single-threaded")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 256));
   cmd->callback([o] {
     const LoadedInput in = load_input(o->in);
     PipelineSettings settings = settings_from(o->preset, "plane", o->config, false);
     // One smoothing iteration is the unit the stage is measured in.
     settings.smoothing.iterations = 1;
-    Pipeline pipeline(settings);
-    pipeline.process(in.cloud);  // warm-up: buffers are allocated here
-    std::vector<double> mesh, normals, smoothing, segmentation, polygons, total;
-    for (int i = 0; i < o->repeat; ++i) {
-      pipeline.process(in.cloud);
-      const StageTimes& t = pipeline.times();
-      mesh.push_back(t.mesh);
-      normals.push_back(t.normals);
-      smoothing.push_back(t.smoothing);
-      segmentation.push_back(t.segmentation);
-      polygons.push_back(t.polygons);
-      total.push_back(t.total);
+    const bool multi_size = !o->sizes.empty() || !o->scales.empty();
+    std::vector<SizeResult> results;
+    for (const int k : scales_for(*o, in.cloud.width(), in.cloud.height())) {
+      PipelineSettings scaled = settings;
+      // Every k-th pixel: neighbouring rays are k times further apart.
+      scaled.smoothing.pixel_angle *= static_cast<float>(k);
+      SizeResult r = k == 1 ? measure(in.cloud, scaled, o->repeat, o->threads)
+                            : measure(downsample(in.cloud, k), scaled, o->repeat, o->threads);
+      r.scale = k;
+      results.push_back(r);
     }
-    const nlohmann::json result{
-        {"mesh", median(mesh)},           {"normals", median(normals)},
-        {"smoothing", median(smoothing)}, {"segmentation", median(segmentation)},
-        {"polygons", median(polygons)},   {"total", median(total)}};
-    if (o->json) {
-      std::printf("%s\n", result.dump().c_str());
+
+    if (!multi_size) {
+      const SizeResult& r = results.front();
+      nlohmann::json result = stages_json(r);
+      if (o->threads > 1) {
+        result["threads"] = o->threads;
+        result["frames_per_second"] = r.fps_threads;
+        result["frames_per_second_single_thread"] = r.fps_single;
+      }
+      if (o->json) {
+        std::printf("%s\n", result.dump().c_str());
+        return;
+      }
+      std::printf("%s: %d x %d, median of %d runs, single thread\n", o->in.path.c_str(),
+                  in.cloud.width(), in.cloud.height(), o->repeat);
+      for (int s = 0; s < 6; ++s) std::printf("  %-13s %8.3f ms\n", kStages[s], r.median_ms[s]);
+      if (o->threads > 1) {
+        std::printf("  throughput    %8.1f frames/s with %d threads (%.1f with one, x%.2f)\n",
+                    r.fps_threads, o->threads, r.fps_single, r.fps_threads / r.fps_single);
+      }
       return;
     }
-    std::printf("%s: %d x %d, median of %d runs, single thread\n", o->in.path.c_str(),
-                in.cloud.width(), in.cloud.height(), o->repeat);
-    for (const char* stage :
-         {"mesh", "normals", "smoothing", "segmentation", "polygons", "total"}) {
-      std::printf("  %-13s %8.3f ms\n", stage, result[stage].get<double>());
+
+    if (o->json) {
+      nlohmann::json list = nlohmann::json::array();
+      for (const SizeResult& r : results) {
+        nlohmann::json j = stages_json(r);
+        j["size"] = std::to_string(r.width) + "x" + std::to_string(r.height);
+        j["width"] = r.width;
+        j["height"] = r.height;
+        j["scale"] = r.scale;
+        j["frames_per_second"] = r.fps_single;
+        if (o->threads > 1) j["frames_per_second_threads"] = r.fps_threads;
+        list.push_back(std::move(j));
+      }
+      std::printf("%s\n", nlohmann::json{{"input", o->in.path},
+                                         {"repeat", o->repeat},
+                                         {"threads", o->threads},
+                                         {"sizes", list}}
+                              .dump()
+                              .c_str());
+      return;
+    }
+    std::printf("%s: median ms of %d runs per stage, single thread%s\n", o->in.path.c_str(),
+                o->repeat,
+                o->threads > 1 ? "; frames/s with one thread and in parallel" : "; frames/s");
+    std::printf("%-9s", "size");
+    for (const char* stage : kStages) std::printf(" %12s", stage);
+    std::printf(" %10s", "frames/s");
+    if (o->threads > 1) std::printf(" %14s", ("frames/s x" + std::to_string(o->threads)).c_str());
+    std::printf("\n");
+    for (const SizeResult& r : results) {
+      std::printf("%-9s", (std::to_string(r.width) + "x" + std::to_string(r.height)).c_str());
+      for (const double ms : r.median_ms) std::printf(" %12.3f", ms);
+      std::printf(" %10.1f", r.fps_single);
+      if (o->threads > 1) std::printf(" %14.1f", r.fps_threads);
+      std::printf("\n");
     }
   });
 }

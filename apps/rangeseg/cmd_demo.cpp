@@ -44,6 +44,34 @@ RgbImage montage(const std::vector<const RgbImage*>& panels) {
   return out;
 }
 
+/// The built-in scene (which has a pillar and a ball) with a can lying on the floor, so the
+/// demo shows planes, spheres, standing and lying cylinders.
+synth::Scene demo_scene_with_curves() {
+  synth::Scene scene = synth::demo_scene();
+  scene.cylinders.push_back({.base = {0.75, 0.8 - 0.12, 2.1},
+                             .axis = {1.0, 0.0, -0.5},
+                             .radius = 0.12,
+                             .height = 0.45,
+                             .name = "can"});
+  return scene;
+}
+
+void print_surface_types(const Segmentation& seg) {
+  int counts[4] = {0, 0, 0, 0};
+  for (const Segment& s : seg.segments) {
+    ++counts[static_cast<int>(s.kind)];
+    if (s.kind == SurfaceKind::sphere) {
+      std::printf("  segment %d: sphere, radius %.3f m, centre (%.2f, %.2f, %.2f) m\n", s.label,
+                  s.radius, s.centre[0], s.centre[1], s.centre[2]);
+    } else if (s.kind == SurfaceKind::cylinder) {
+      std::printf("  segment %d: cylinder, radius %.3f m, axis (%.2f, %.2f, %.2f), extent %.2f m\n",
+                  s.label, s.radius, s.axis[0], s.axis[1], s.axis[2], s.extent);
+    }
+  }
+  std::printf("surface types: %d planes, %d cylinders, %d spheres, %d smooth\n", counts[0],
+              counts[1], counts[2], counts[3]);
+}
+
 void run_demo(const DemoOptions& o) {
   const auto dir = ensure_dir(o.out_dir);
   LoadedInput in;
@@ -51,7 +79,7 @@ void run_demo(const DemoOptions& o) {
     progress("rendering the built-in demo scene (Kinect-like noise, seed " +
              std::to_string(o.seed) + ")");
     synth::Rendering r =
-        synth::render(synth::demo_scene(), {.noise = synth::Noise::kinect, .seed = o.seed});
+        synth::render(demo_scene_with_curves(), {.noise = synth::Noise::kinect, .seed = o.seed});
     in.cloud = std::move(r.cloud);
     in.ground_truth = std::move(r.labels);
     io::write_rgb_png((dir / "ground_truth.png").string(),
@@ -61,7 +89,9 @@ void run_demo(const DemoOptions& o) {
   } else {
     in = load_input(o.in);
   }
-  Pipeline pipeline(pipeline_preset(o.preset));
+  PipelineSettings settings = pipeline_preset(o.preset);
+  settings.segmentation.model = RegionModel::automatic;
+  Pipeline pipeline(settings);
   pipeline.process(in.cloud);
   const OrganizedCloud& input = in.cloud;
   const RgbImage depth = colorize_depth(input);
@@ -78,8 +108,9 @@ void run_demo(const DemoOptions& o) {
   write_mesh_ply((dir / "mesh.ply").string(), input, pipeline.mesh(), &raw, &normal_colours);
   write_segmentation_folder((dir / "segmentation").string(), input, pipeline, true);
   const RgbImage overlay = colorize_labels(pipeline.segmentation().labels, &input);
+  const RgbImage types = colorize_surface_types(pipeline.segmentation(), input);
   io::write_rgb_png((dir / "summary.png").string(),
-                    montage({&depth, &normal_colours, &smooth_colours, &overlay}));
+                    montage({&depth, &normal_colours, &smooth_colours, &overlay, &types}));
   const StageTimes& t = pipeline.times();
   std::printf("demo: %d x %d, %zu valid points, %zu mesh faces, %zu segments\n", input.width(),
               input.height(), input.count_valid(), count_faces(pipeline.mesh()),
@@ -88,6 +119,7 @@ void run_demo(const DemoOptions& o) {
       "time: mesh %.2f ms, normals %.2f ms, smoothing %.2f ms, segmentation %.2f ms, total %.2f "
       "ms\n",
       t.mesh, t.normals, t.smoothing, t.segmentation, t.total);
+  print_surface_types(pipeline.segmentation());
   if (!in.ground_truth.empty()) {
     const eval::EvalResult r =
         eval::evaluate(in.ground_truth, pipeline.segmentation().labels, {.tolerance = 0.8});
@@ -104,7 +136,9 @@ void run_demo(const DemoOptions& o) {
 void add_demo(CLI::App& app) {
   auto o = std::make_shared<DemoOptions>();
   auto* cmd = app.add_subcommand(
-      "demo", "Run every stage on the built-in scene (or --input) and write pictures");
+      "demo",
+      "Run every stage (region model auto) on the built-in scene (or --input) and write "
+      "pictures; summary.png ends with the segments coloured by surface type");
   cmd->add_option("-o,--output", o->out_dir, "Output directory")->capture_default_str();
   cmd->add_option("--input", o->in.path, "Use this file instead of the built-in scene");
   add_input_options(*cmd, o->in, false);

@@ -1,7 +1,9 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 
+#include "batch.hpp"
 #include "commands.hpp"
 #include "input.hpp"
 #include "names.hpp"
@@ -13,7 +15,9 @@ namespace {
 
 struct SegmentOptions {
   InputOptions in;
+  std::vector<std::string> inputs;
   std::string out_dir;
+  int threads = 1;
   std::string model = "plane";
   std::string preset = "kinect";
   std::string config;
@@ -23,14 +27,19 @@ struct SegmentOptions {
 
 }  // namespace
 
+RegionModel region_model_by_name(const std::string& model) {
+  if (model == "plane") return RegionModel::plane;
+  if (model == "smooth") return RegionModel::smooth;
+  if (model == "incremental_plane" || model == "incremental") return RegionModel::incremental_plane;
+  if (model == "auto") return RegionModel::automatic;
+  throw std::invalid_argument("unknown model '" + model +
+                              "' (expected plane, smooth, incremental_plane or auto)");
+}
+
 PipelineSettings settings_from(const std::string& preset, const std::string& model,
                                const std::string& config, bool no_smooth) {
   PipelineSettings s = pipeline_preset(preset);
-  if (model == "smooth") {
-    s.segmentation.model = RegionModel::smooth;
-  } else if (model != "plane") {
-    throw std::invalid_argument("unknown model '" + model + "' (expected plane or smooth)");
-  }
+  s.segmentation.model = region_model_by_name(model);
   if (!config.empty()) apply_config_file(config, s);
   if (no_smooth) s.smooth = false;
   return s;
@@ -42,15 +51,41 @@ void add_segment(CLI::App& app) {
       "segment",
       "Mesh, normals, smoothing and region-growing segmentation; writes labels.png, "
       "segments.json, overlay.png and mesh.ply into a folder");
-  add_input_options(*cmd, o->in);
-  cmd->add_option("-o,--output", o->out_dir, "Output directory")->required();
+  cmd->add_option("input", o->inputs,
+                  "Input file (.pcd, 16-bit depth .png, SegComp .range), several files, a "
+                  "directory of them, or a TUM RGB-D sequence folder (with depth.txt)")
+      ->required();
+  add_input_options(*cmd, o->in, /*positional=*/false);
+  cmd->add_option("-o,--output", o->out_dir,
+                  "Output directory (one input file: the results; otherwise one folder per frame "
+                  "and summary.json)")
+      ->required();
+  cmd->add_option("--threads", o->threads, "Frames processed in parallel (one pipeline each)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 256));
   cmd->add_option("--model", o->model, "Region model: plane or smooth")->capture_default_str();
   cmd->add_option("--preset", o->preset, "Sensor preset: kinect, abw or laser")
       ->capture_default_str();
   cmd->add_option("--config", o->config, "JSON file with settings overriding the preset");
   cmd->add_flag("--no-smooth", o->no_smooth, "Skip the bilateral filter");
   cmd->add_flag("--no-mesh", o->no_mesh, "Do not write mesh.ply");
+  cmd->footer(
+      "Several inputs, a directory or a TUM sequence run as a batch: a frame that cannot be read "
+      "or processed is reported and skipped. Folders are named after the file stem (TUM: the "
+      "timestamp). TUM depth PNGs default to 5000 units per metre and fx = fy = 525, cx = 319.5, "
+      "cy = 239.5.\nExit codes: 0 = done (a batch with at least one frame written; failed frames "
+      "are listed), 2 = bad arguments, unreadable single input, or no frame of a batch "
+      "succeeded.");
   cmd->callback([o] {
+    if (o->inputs.size() > 1 || is_batch_input(o->inputs.front())) {
+      const FrameList frames = gather_frames(o->inputs, o->in);
+      const std::size_t ok =
+          segment_batch(frames, settings_from(o->preset, o->model, o->config, o->no_smooth),
+                        {.out_dir = o->out_dir, .write_mesh = !o->no_mesh, .threads = o->threads});
+      if (ok == 0) set_exit_code(kExitInput);
+      return;
+    }
+    o->in.path = o->inputs.front();
     const LoadedInput in = load_input(o->in);
     Pipeline pipeline(settings_from(o->preset, o->model, o->config, o->no_smooth));
     pipeline.process(in.cloud);

@@ -54,8 +54,10 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
   if (j.contains("mesh")) {
     const json& m = j["mesh"];
     const std::string where = path + " [mesh]";
-    reject_unknown(
-        m, {"type", "eps_theta", "jump_sigmas", "max_edge_a", "max_edge_b", "max_edge_c", "pixel_stride"}, where);
+    reject_unknown(m,
+                   {"type", "eps_theta", "jump_sigmas", "max_edge_a", "max_edge_b", "max_edge_c",
+                    "pixel_stride"},
+                   where);
     if (m.contains("type")) s.mesh.type = mesh_type_by_name(m["type"].get<std::string>());
     take(m, "eps_theta", s.mesh.eps_theta, where);
     take(m, "jump_sigmas", s.mesh.jump_sigmas, where);
@@ -88,21 +90,19 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
   if (j.contains("segmentation")) {
     const json& m = j["segmentation"];
     const std::string where = path + " [segmentation]";
-    reject_unknown(m,
-                   {"model", "max_normal_angle", "max_distance_sigmas", "max_smooth_angle",
-                    "max_curvature", "max_seed_curvature", "min_region_size", "merge_planes",
-                    "merge_angle", "merge_distance_sigmas", "merge_rms_sigmas", "merge_rms_max_angle",
-                    "reassign_boundary"},
-                   where);
+    reject_unknown(
+        m,
+        {"model", "max_normal_angle", "max_distance_sigmas", "max_smooth_angle", "max_curvature",
+         "max_seed_curvature", "min_region_size", "merge_planes", "merge_angle",
+         "merge_distance_sigmas", "merge_rms_sigmas", "merge_rms_max_angle", "reassign_boundary"},
+        where);
     auto& t = s.segmentation;
     if (m.contains("model")) {
-      const std::string model = m["model"].get<std::string>();
-      if (model == "plane")
-        t.model = RegionModel::plane;
-      else if (model == "smooth")
-        t.model = RegionModel::smooth;
-      else
-        throw std::runtime_error(where + ": unknown model '" + model + "' (plane or smooth)");
+      try {
+        t.model = region_model_by_name(m["model"].get<std::string>());
+      } catch (const std::invalid_argument& e) {
+        throw std::runtime_error(where + ": " + e.what());
+      }
     }
     take(m, "max_normal_angle", t.max_normal_angle, where);
     take(m, "max_distance_sigmas", t.max_distance_sigmas, where);

@@ -1,6 +1,10 @@
 #include "input.hpp"
 
+#include <algorithm>
 #include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
 #include <stdexcept>
 
 #include "rangeseg/camera.hpp"
@@ -26,8 +30,10 @@ void add_input_options(CLI::App& cmd, InputOptions& o, bool positional) {
       ->each([&o](const std::string&) { o.cx_given = true; });
   cmd.add_option("--cy", o.cy, "Principal point y [pixel] for depth PNGs (default (height-1)/2)")
       ->each([&o](const std::string&) { o.cy_given = true; });
-  cmd.add_option("--depth-scale", o.depth_scale, "Metres per depth PNG unit (0.001 = millimetres)")
-      ->capture_default_str();
+  cmd.add_option("--depth-scale", o.depth_scale,
+                 "Metres per depth PNG unit (0.001 = millimetres; TUM sequences: 0.0002)")
+      ->capture_default_str()
+      ->each([&o](const std::string&) { o.depth_scale_given = true; });
 }
 
 CameraIntrinsics intrinsics_for(const InputOptions& o, int width, int height) {
@@ -71,6 +77,112 @@ LoadedInput load_input(const InputOptions& o) {
   }
   if (in.cloud.empty()) throw std::runtime_error(o.path + ": the cloud has no points");
   return in;
+}
+
+namespace {
+
+namespace fs = std::filesystem;
+
+/// TUM RGB-D depth PNGs: 5000 units per metre.
+constexpr double kTumDepthScale = 1.0 / 5000.0;
+
+bool is_tum_list(const fs::path& p) { return p.filename() == "depth.txt"; }
+
+bool is_frame_file(const fs::path& p) {
+  const std::string ext = io::extension(p.string());
+  return ext == ".pcd" || ext == ".png" || ext == ".range";
+}
+
+/// Frames of a TUM sequence from its depth.txt: "timestamp path" per line, '#' comments. A
+/// malformed line becomes a frame that fails with the reason, so the batch goes on.
+void add_tum_frames(const fs::path& list, std::vector<FrameSource>& frames) {
+  std::ifstream in(list);
+  if (!in) throw std::runtime_error(list.string() + ": cannot open the TUM depth list");
+  const fs::path folder = list.parent_path();
+  std::string line;
+  int line_number = 0;
+  const std::size_t first = frames.size();
+  while (std::getline(in, line)) {
+    ++line_number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const std::size_t start = line.find_first_not_of(" \t");
+    if (start == std::string::npos || line[start] == '#') continue;
+    std::istringstream fields(line);
+    std::string timestamp, file;
+    fields >> timestamp >> file;
+    if (file.empty()) {
+      frames.push_back({.path = list.string(),
+                        .name = "line" + std::to_string(line_number),
+                        .error = list.string() + ":" + std::to_string(line_number) +
+                                 ": expected 'timestamp path', got '" + line + "'"});
+      continue;
+    }
+    frames.push_back({.path = (folder / file).string(), .name = timestamp, .error = {}});
+  }
+  if (frames.size() == first) throw std::runtime_error(list.string() + ": lists no depth images");
+}
+
+void add_directory_frames(const fs::path& dir, std::vector<FrameSource>& frames) {
+  std::vector<fs::path> files;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir)) {
+    if (e.is_regular_file() && is_frame_file(e.path())) files.push_back(e.path());
+  }
+  if (files.empty()) {
+    throw std::runtime_error(dir.string() + ": no .pcd, .png or .range files in the directory");
+  }
+  std::sort(files.begin(), files.end());
+  for (const fs::path& f : files) {
+    frames.push_back({.path = f.string(), .name = f.stem().string(), .error = {}});
+  }
+}
+
+}  // namespace
+
+bool is_batch_input(const std::string& input) {
+  return is_tum_list(input) || fs::is_directory(input);
+}
+
+FrameList gather_frames(const std::vector<std::string>& inputs, const InputOptions& base) {
+  FrameList list;
+  list.options = base;
+  bool tum = false;
+  for (const std::string& input : inputs) {
+    const fs::path p = input;
+    if (is_tum_list(p)) {
+      add_tum_frames(p, list.frames);
+      tum = true;
+    } else if (fs::is_directory(p)) {
+      if (fs::exists(p / "depth.txt")) {
+        add_tum_frames(p / "depth.txt", list.frames);
+        tum = true;
+      } else {
+        add_directory_frames(p, list.frames);
+      }
+    } else if (fs::exists(p)) {
+      list.frames.push_back({.path = input, .name = p.stem().string(), .error = {}});
+    } else {
+      // Reported with the other failures instead of stopping the batch.
+      list.frames.push_back({.path = input,
+                             .name = p.stem().string(),
+                             .error = input + ": no such file or directory"});
+    }
+  }
+  // TUM documents one conversion for all its sequences (the depth images are registered to the
+  // colour camera by the factory calibration): fx = fy = 525, cx = 319.5, cy = 239.5, which are
+  // the defaults of InputOptions at 640x480, and 5000 depth units per metre.
+  if (tum && !base.depth_scale_given) list.options.depth_scale = kTumDepthScale;
+  // Unique folder names in input order: the second "a" becomes "a_2".
+  std::map<std::string, int> seen;
+  for (FrameSource& f : list.frames) {
+    if (f.name.empty() || f.name == "." || f.name == "..") f.name = "frame";
+    int& count = seen[f.name];
+    if (++count == 1) continue;
+    std::string candidate = f.name + "_" + std::to_string(count);
+    while (seen.contains(candidate)) candidate = f.name + "_" + std::to_string(++count);
+    seen[candidate] = 1;
+    f.name = candidate;
+  }
+  return list;
 }
 
 }  // namespace rangeseg::cli

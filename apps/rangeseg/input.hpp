@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 
 #include <string>
+#include <vector>
 
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/image.hpp"
@@ -16,6 +17,7 @@ struct InputOptions {
   double fx = 525, fy = 525, cx = 319.5, cy = 239.5;
   bool cx_given = false, cy_given = false;
   double depth_scale = 0.001;  ///< metres per raw depth unit
+  bool depth_scale_given = false;
 };
 
 struct LoadedInput {
@@ -28,5 +30,34 @@ struct LoadedInput {
 
 void add_input_options(CLI::App& cmd, InputOptions& opts, bool positional = true);
 LoadedInput load_input(const InputOptions& opts);
+
+/// One frame of a batch: the file to read and the name of its result folder.
+struct FrameSource {
+  std::string path;
+  std::string name;   ///< file stem, or the TUM timestamp; unique within the batch
+  std::string error;  ///< set when the frame is known to be unreadable before loading
+};
+
+/// The frames of a batch and the options to load them with.
+struct FrameList {
+  std::vector<FrameSource> frames;
+  /// `base`, with the TUM depth scale when a TUM sequence is among the inputs and no
+  /// --depth-scale was given; `path` is unused.
+  InputOptions options;
+};
+
+/// Expands the positional inputs of a batch, in order: a file is one frame; a directory holding
+/// `depth.txt` (or a path to a depth.txt) is a TUM RGB-D sequence: its frames in the order of
+/// the lines "timestamp path" ('#' comments), named by the timestamp, depth PNGs at 5000 units
+/// per metre unless --depth-scale is given, and the intrinsics TUM documents for all its
+/// sequences (fx = fy = 525, cx = 319.5, cy = 239.5: the defaults) unless --intrinsics / --fx..
+/// are given; any other directory contributes its .pcd, .png and .range files sorted by name
+/// (not recursive). Missing files and malformed depth.txt lines become frames with `error` set,
+/// so the batch reports them and goes on. Duplicate names get "_2", "_3", ...
+/// Throws std::runtime_error naming the input if a directory or depth.txt yields no frames.
+FrameList gather_frames(const std::vector<std::string>& inputs, const InputOptions& base);
+
+/// True if the input is a directory or a TUM depth.txt, i.e. it needs batch processing.
+bool is_batch_input(const std::string& input);
 
 }  // namespace rangeseg::cli

@@ -13,6 +13,9 @@
 namespace rangeseg::cli {
 
 MeshType mesh_type_by_name(const std::string& name);
+/// "plane", "smooth", "incremental_plane" (or "incremental") or "auto"; throws
+/// std::invalid_argument naming the valid models otherwise.
+RegionModel region_model_by_name(const std::string& name);
 synth::Scene scene_by_name(const std::string& name, std::uint64_t seed);
 synth::Noise noise_by_name(const std::string& name);
 nlohmann::json surfaces_json(const synth::Rendering& rendering);

@@ -1,5 +1,8 @@
 #include "output.hpp"
 
+#include <unistd.h>
+
+#include <algorithm>
 #include <cstdio>
 #include <stdexcept>
 
@@ -50,5 +53,47 @@ void write_json(const std::string& path, const nlohmann::json& value) {
 }
 
 void progress(const std::string& what) { std::fprintf(stderr, "rangeseg: %s\n", what.c_str()); }
+
+ProgressBar::ProgressBar(std::size_t total)
+    : total_(total), terminal_(::isatty(::fileno(stderr)) == 1) {}
+
+ProgressBar::~ProgressBar() { finish(); }
+
+void ProgressBar::draw(const std::string& item) {
+  constexpr int kWidth = 30;
+  const std::size_t filled = total_ == 0 ? kWidth : done_ * kWidth / total_;
+  std::string bar(filled, '=');
+  bar.resize(kWidth, ' ');
+  // \33[K clears the rest of the line left by a longer item name.
+  std::fprintf(stderr, "\rrangeseg: [%s] %zu/%zu %.40s\33[K", bar.c_str(), done_, total_,
+               item.c_str());
+  std::fflush(stderr);
+  drawn_ = true;
+}
+
+void ProgressBar::advance(const std::string& item) {
+  const std::lock_guard lock(mutex_);
+  ++done_;
+  if (terminal_) {
+    draw(item);
+  } else if (const std::size_t tenth = done_ * 10 / std::max<std::size_t>(total_, 1);
+             tenth > last_line_ || done_ == total_) {
+    last_line_ = tenth;
+    std::fprintf(stderr, "rangeseg: %zu/%zu frames done\n", done_, total_);
+  }
+}
+
+void ProgressBar::message(const std::string& line) {
+  const std::lock_guard lock(mutex_);
+  std::fprintf(stderr, "%srangeseg: %s\n", terminal_ && drawn_ ? "\r\33[K" : "", line.c_str());
+  if (terminal_ && drawn_) draw("");
+}
+
+void ProgressBar::finish() {
+  const std::lock_guard lock(mutex_);
+  if (finished_) return;
+  finished_ = true;
+  if (terminal_ && drawn_) std::fputc('\n', stderr);
+}
 
 }  // namespace rangeseg::cli

@@ -3,7 +3,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstddef>
 #include <filesystem>
+#include <mutex>
 #include <string>
 
 #include "rangeseg/colorize.hpp"
@@ -25,5 +27,29 @@ void write_json(const std::string& path, const nlohmann::json& value);
 
 /// Prints a progress line on stderr ("rangeseg: <what>").
 void progress(const std::string& what);
+
+/// Progress of `total` items on stderr: a bar redrawn in place on a terminal, otherwise a line at
+/// every tenth of the items (logs stay short). Thread-safe.
+class ProgressBar {
+ public:
+  explicit ProgressBar(std::size_t total);
+  ~ProgressBar();
+  ProgressBar(const ProgressBar&) = delete;
+  ProgressBar& operator=(const ProgressBar&) = delete;
+
+  /// One more item is done; `item` names it on the bar.
+  void advance(const std::string& item);
+  /// Prints a whole line (e.g. a failure) without breaking the bar.
+  void message(const std::string& line);
+  /// Ends the bar with a newline (also done by the destructor).
+  void finish();
+
+ private:
+  void draw(const std::string& item);  // caller holds mutex_
+
+  std::mutex mutex_;
+  std::size_t total_, done_ = 0, last_line_ = 0;
+  bool terminal_, drawn_ = false, finished_ = false;
+};
 
 }  // namespace rangeseg::cli

@@ -1,5 +1,8 @@
 #include "segment_output.hpp"
 
+#include <algorithm>
+#include <array>
+
 #include "output.hpp"
 #include "rangeseg/colorize.hpp"
 #include "rangeseg/io/png.hpp"
@@ -49,7 +52,42 @@ void draw_polygons(RgbImage& image, const PolygonSet& set) {
   }
 }
 
+/// The fitted surface of a segment: type, RMS residual and the type's parameters.
+nlohmann::json surface_json(const Segment& s) {
+  nlohmann::json j{{"type", to_string(s.kind)}, {"rms_residual", s.surface_rms}};
+  if (s.kind == SurfaceKind::sphere) {
+    j["centre"] = s.centre;
+    j["radius"] = s.radius;
+  } else if (s.kind == SurfaceKind::cylinder) {
+    j["axis_point"] = s.centre;
+    j["axis"] = s.axis;
+    j["radius"] = s.radius;
+    j["extent"] = s.extent;
+  }
+  return j;
+}
+
 }  // namespace
+
+RgbImage colorize_surface_types(const Segmentation& seg, const OrganizedCloud& input) {
+  RgbImage image = colorize_labels(seg.labels, &input);
+  // Per type a tint, scaled by the shaded segment colour's brightness: planes grey, cylinders
+  // blue, spheres red, smooth surfaces green.
+  constexpr std::array<std::array<float, 3>, 4> tint{
+      {{0.8f, 0.8f, 0.8f}, {0.3f, 0.6f, 1.0f}, {1.0f, 0.35f, 0.25f}, {0.35f, 1.0f, 0.35f}}};
+  for (int v = 0; v < image.height; ++v) {
+    for (int u = 0; u < image.width; ++u) {
+      const int label = seg.labels(u, v);
+      if (label <= 0 || static_cast<std::size_t>(label) > seg.segments.size()) continue;
+      const auto kind = static_cast<std::size_t>(seg.segments[label - 1].kind);
+      std::uint8_t* px = image.pixel(u, v);
+      const float luma = 0.299f * px[0] + 0.587f * px[1] + 0.114f * px[2];
+      const float level = std::min(255.0f, 60.0f + 1.2f * luma);
+      for (int c = 0; c < 3; ++c) px[c] = static_cast<std::uint8_t>(level * tint[kind][c]);
+    }
+  }
+  return image;
+}
 
 nlohmann::json segments_json(const Segmentation& seg, const PolygonSet* polygons) {
   std::vector<const SegmentPolygons*> by_label(seg.segments.size() + 1, nullptr);
@@ -65,15 +103,20 @@ nlohmann::json segments_json(const Segmentation& seg, const PolygonSet* polygons
     if (const SegmentPolygons* sp = by_label[static_cast<std::size_t>(s.label)])
       item["polygon"] = polygon_json(*polygons, *sp);
     item.update({{"id", s.label},
-                 {"model", s.model == RegionModel::plane ? "plane" : "smooth"},
+                 {"model", to_string(s.model)},
                  {"pixel_count", s.pixel_count},
                  {"area_m2", s.area_m2},
                  {"centroid", s.centroid},
                  {"normal", s.normal},
                  {"offset", s.offset},
-                 {"rms_residual", s.rms_residual}});
+                 {"rms_residual", s.rms_residual},
+                 {"surface", surface_json(s)}});
   }
   return {{"plane_equation", "normal . x + offset = 0, camera frame, metres"},
+          {"surface",
+           "type plane, cylinder, sphere or smooth; rms_residual: RMS distance to it [m]; "
+           "sphere: centre, radius; cylinder: axis_point (start of the extent), unit axis, "
+           "radius, extent along the axis [m]"},
           {"width", seg.labels.width()},
           {"height", seg.labels.height()},
           {"segments", list}};
@@ -90,6 +133,7 @@ void write_segmentation_folder(const std::string& dir_name, const OrganizedCloud
   RgbImage overlay = colorize_labels(seg.labels, &input);
   draw_polygons(overlay, pipeline.polygons());
   io::write_rgb_png((dir / "overlay.png").string(), overlay);
+  io::write_rgb_png((dir / "types.png").string(), colorize_surface_types(seg, input));
   if (write_mesh) {
     const RgbImage flat = colorize_labels(seg.labels);
     write_mesh_ply((dir / "mesh.ply").string(), pipeline.cloud(), pipeline.mesh(),

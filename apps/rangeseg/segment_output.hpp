@@ -5,6 +5,7 @@
 
 #include <string>
 
+#include "rangeseg/colorize.hpp"
 #include "rangeseg/pipeline.hpp"
 
 namespace rangeseg::cli {
@@ -12,9 +13,13 @@ namespace rangeseg::cli {
 /// segments.json: every segment, with its polygons when `polygons` is given.
 nlohmann::json segments_json(const Segmentation& segmentation, const PolygonSet* polygons);
 
+/// The segments coloured by surface type (planes grey, cylinders blue, spheres red, smooth
+/// green), shaded like colorize_labels(labels, &input).
+RgbImage colorize_surface_types(const Segmentation& segmentation, const OrganizedCloud& input);
+
 /// Writes the results (labels.png, segments.json, polygons.obj, overlay.png with the polygons
-/// drawn, optionally mesh.ply) of the pipeline's last frame into `dir` (each file atomically).
-/// `input` is the cloud the pipeline processed (for the overlay's shading).
+/// drawn, types.png, optionally mesh.ply) of the pipeline's last frame into `dir` (each file
+/// atomically). `input` is the cloud the pipeline processed (for the overlay's shading).
 void write_segmentation_folder(const std::string& dir, const OrganizedCloud& input,
                                const Pipeline& pipeline, bool write_mesh);
 

@@ -57,4 +57,10 @@ CloudStats cloud_stats(const OrganizedCloud& cloud);
 /// Throws std::invalid_argument naming `what` if the cloud is not organized (height < 2).
 void require_organized(const OrganizedCloud& cloud, const char* what);
 
+/// Every `factor`-th pixel along both axes: pixel (u, v) of the result is pixel
+/// (factor * u, factor * v) of `cloud`, with the optional planes that `cloud` has. The result is
+/// ceil(width / factor) x ceil(height / factor) pixels; its angular pixel spacing is `factor`
+/// times the input's. Defined in src/cloud_ops.cpp. Throws std::invalid_argument if factor < 1.
+OrganizedCloud downsample(const OrganizedCloud& cloud, int factor);
+
 }  // namespace rangeseg

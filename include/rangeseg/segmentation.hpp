@@ -27,7 +27,21 @@ enum class RegionModel : std::uint8_t {
   /// `max_smooth_angle` of the current point's normal and its curvature is at most
   /// `max_curvature`. There is no global model, so curved surfaces form one segment.
   smooth,
+  /// Planes grown incrementally (Poppinga et al. 2008): a point joins when its distance to the
+  /// region's least-squares plane (running moments) is at most `max_distance_sigmas` * sigma(z)
+  /// and the region's mean squared residual, in units of sigma(z)^2 of its points, stays <= 1.
+  /// Post-processing as for `plane`.
+  incremental_plane,
+  /// Planes, cylinders and spheres: plane segmentation, then adjacent segments whose union a
+  /// cylinder or sphere explains within the noise are merged, and every segment is labelled
+  /// with the simplest surface that explains it (`Segment::kind`).
+  automatic,
 };
+
+/// The surface a segment's points are explained by (see `Segment`).
+enum class SurfaceKind : std::uint8_t { plane, cylinder, sphere, smooth };
+const char* to_string(SurfaceKind kind);
+const char* to_string(RegionModel model);
 using SegmentModel = RegionModel;
 
 /// Settings of `segment`. Distances scale with the sensor noise, so one setting serves the whole
@@ -48,6 +62,11 @@ struct SegmentationSettings {
   double max_curvature = 50.0;
   /// Pixels with larger curvature are not used as seeds [1/m] (both models; inf = all).
   double max_seed_curvature = 1e30;
+  /// plane: grow over 8x8-vertex cells first (cf. CAPE): a cell whose points and normals pass
+  /// the region tests as a whole (from its moments) joins as a unit, the rest of the region is
+  /// grown pixel by pixel from the border of its cells. Same model, ~10x fewer per-pixel tests;
+  /// false grows every pixel individually (the reference).
+  bool coarse_cells = true;
 
   // --- post-processing ---
   /// Segments with fewer pixels are removed (their pixels become unlabelled and may then be
@@ -90,6 +109,20 @@ struct Segment {
   std::array<double, 3> normal{};    ///< unit, facing the camera (normal . centroid <= 0)
   double offset = 0;                 ///< normal . x + offset = 0 [m], offset >= 0
   double rms_residual = 0;           ///< RMS point-to-plane distance [m]
+
+  /// The surface that explains the points: plane for the plane models, smooth for `smooth`;
+  /// with `automatic` cylinder or sphere when one explains the points within the noise much
+  /// better than a plane, else plane (`automatic` does not produce smooth segments yet; its
+  /// `model` is plane for plane segments and automatic for curved ones).
+  SurfaceKind kind = SurfaceKind::plane;
+  /// RMS geometric distance of the points to the surface of `kind` [m] (= rms_residual for
+  /// planes and smooth segments).
+  double surface_rms = 0;
+  /// sphere: centre; cylinder: the point of the axis at the start of the points' extent [m].
+  std::array<double, 3> centre{};
+  std::array<double, 3> axis{};  ///< cylinder: unit axis direction (pointing up, y < 0)
+  double radius = 0;             ///< sphere / cylinder radius [m]
+  double extent = 0;  ///< cylinder: length of the points along the axis from `centre` [m]
 };
 
 struct Segmentation {

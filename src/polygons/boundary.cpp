@@ -53,6 +53,9 @@ constexpr std::array<std::uint8_t, 16> make_side_table() {
 }
 constexpr std::array<std::uint8_t, 16> kSides = make_side_table();
 
+// Cells per block of the uniform-label fast path of the cell pass (stride 1).
+constexpr int kBlock = 8;
+
 // Outgoing boundary edges of a vertex from the coverage bits of its four cells: c00 up-left
 // (vertex is its d), c01 up-right (its c), c10 down-left (its b), c11 down-right (its a).
 inline std::uint8_t vertex_mask(unsigned c00, unsigned c01, unsigned c10, unsigned c11) {
@@ -107,19 +110,69 @@ struct RawLoop {
   double area_px;  // area in the image, counter-clockwise on the image positive [pixel^2]
   int seg;         // index into out.segments
   int parent;      // holes: raw loop index of the enclosing outer loop
+  int u_min, u_max, v_min, v_max;  // bounding box of the vertices [pixel]
 };
 
-// Even-odd test of image point (px, py) against a raw loop (vertex indices in plane layout).
-bool inside_px(const std::int32_t* idx, int n, std::ptrdiff_t stride, double px, double py) {
-  bool in = false;
+// Even-odd test of image point (px, py) against a raw loop (its vertices' pixel coordinates):
+// whether px < the x of the crossing of edge j-i with the line y = py, multiplied out by
+// (yj - yi) so that the loop has no division and no branch. Coordinates are integers and
+// half-integers, so both products are exact and the decisions equal the divided form's.
+bool inside_px(const std::array<std::int32_t, 2>* uv, int n, double px, double py) {
+  unsigned crossings = 0;
   for (int i = 0, j = n - 1; i < n; j = i++) {
-    const double yi = static_cast<double>(idx[i] / stride),
-                 xi = static_cast<double>(idx[i] % stride);
-    const double yj = static_cast<double>(idx[j] / stride),
-                 xj = static_cast<double>(idx[j] % stride);
-    if ((yi > py) != (yj > py) && px < (xj - xi) * (py - yi) / (yj - yi) + xi) in = !in;
+    const double xi = uv[i][0], yi = uv[i][1], xj = uv[j][0], yj = uv[j][1];
+    const double d = yj - yi;
+    const double a = (px - xi) * d, b = (xj - xi) * (py - yi);
+    const bool straddles = (yi > py) != (yj > py);
+    const bool left = (d > 0 && a < b) || (d < 0 && a > b);
+    crossings += static_cast<unsigned>(straddles & left);
   }
-  return in;
+  return (crossings & 1u) != 0;
+}
+
+// The points xy[0..n) (x, y interleaved) that may be convex hull vertices, into `out`: all but
+// those strictly inside the polygon of the extreme points in 8 directions (Akl-Toussaint), which
+// are interior to the hull by a margin far above rounding, so the hull is unchanged. Boundary
+// loops have most of their vertices inside, and the sort before the hull is the costly part.
+void hull_candidates(const double* xy, int n, std::vector<int>& out) {
+  out.clear();
+  // Extreme points in the directions 0, 45, ..., 315 degrees, in counter-clockwise order.
+  std::array<int, 8> ext{};
+  std::array<double, 8> best{};
+  best.fill(-std::numeric_limits<double>::infinity());
+  double extent = 0;
+  for (int i = 0; i < n; ++i) {
+    const double x = xy[2 * i], y = xy[2 * i + 1];
+    const double d[8] = {x, x + y, y, y - x, -x, -x - y, -y, x - y};
+    for (int k = 0; k < 8; ++k) {
+      if (d[k] > best[k]) {
+        best[k] = d[k];
+        ext[k] = i;
+      }
+    }
+    extent = std::max({extent, std::abs(x), std::abs(y)});
+  }
+  // A point is dropped when it is to the left of every (non-degenerate) octagon edge by more
+  // than eps (cross products are in m^2; rounding is ~1e-16 (1 + extent)^2).
+  const double eps = 1e-9 * (1 + extent) * (1 + extent);
+  std::array<double, 8> ax{}, ay{}, ex{}, ey{};
+  int edges = 0;
+  for (int k = 0; k < 8 && n > 0; ++k) {
+    const int a = ext[k], b = ext[(k + 1) & 7];
+    if (a == b) continue;
+    ax[edges] = xy[2 * a];
+    ay[edges] = xy[2 * a + 1];
+    ex[edges] = xy[2 * b] - ax[edges];
+    ey[edges] = xy[2 * b + 1] - ay[edges];
+    ++edges;
+  }
+  for (int i = 0; i < n; ++i) {
+    bool inside = edges >= 3;
+    for (int e = 0; e < edges && inside; ++e) {
+      inside = ex[e] * (xy[2 * i + 1] - ay[e]) - ey[e] * (xy[2 * i] - ax[e]) > eps;
+    }
+    if (!inside) out.push_back(i);
+  }
 }
 
 }  // namespace
@@ -132,6 +185,7 @@ struct PolygonExtractor::Scratch {
   std::vector<std::int32_t> starts, walk, stack;
   std::vector<RawLoop> raw;
   std::vector<std::int32_t> raw_idx;
+  std::vector<std::array<std::int32_t, 2>> raw_uv;  // (u, v) of each raw_idx entry
   std::vector<std::uint8_t> enabled;
   std::vector<int> seg_of_label;
   std::vector<int> bucket_start, bucket_loops;  // raw loops grouped by segment
@@ -246,6 +300,26 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       const std::int32_t* l1 = segmentation.labels.row(v + s);
       const std::uint8_t* f = mesh.faces.row(v);
       for (int u = 0; u + s < width; u += s) {
+        if (s == 1 && u + kBlock < width) {
+          // Most cells lie inside one segment (or outside all): kBlock cells whose kBlock + 1
+          // corner columns in both rows carry one label take their faces' sides or nothing,
+          // decided once for the block instead of per cell with branches on the labels.
+          const std::int32_t label = l0[u];
+          unsigned differ = 0;
+          for (int i = 0; i <= kBlock; ++i) {
+            differ |=
+                static_cast<unsigned>(l0[u + i] ^ label) | static_cast<unsigned>(l1[u + i] ^ label);
+          }
+          if (differ == 0) {
+            if (enabled(label)) {
+              for (int i = 0; i < kBlock; ++i) cur[u + i] = kSides[f[u + i] & 15u];
+            } else {
+              std::memset(cur + u, 0, kBlock);
+            }
+            u += kBlock - 1;
+            continue;
+          }
+        }
         const unsigned fb = f[u] & 15u;
         if (fb == 0) {
           cur[u] = 0;
@@ -307,27 +381,45 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
   // --- loops ---
   sc.raw.clear();
   sc.raw_idx.clear();
-  polygons_detail::trace_loops(
-      orig, sc.rem.row(0), sc.pos.row(0), stride, s, sc.starts, sc.walk, sc.stack,
-      [&](const std::int32_t* idx, int n) {
-        const std::int32_t first_v = static_cast<std::int32_t>(idx[0] / stride);
-        const int label = segmentation.labels.row(first_v)[idx[0] - first_v * stride];
-        // Shoelace on the image (y down): counter-clockwise on the image is negative there.
-        std::int64_t twice = 0;
-        for (int i = 0, j = n - 1; i < n; j = i++) {
-          const std::int64_t yi = idx[i] / stride, xi = idx[i] - yi * stride;
-          const std::int64_t yj = idx[j] / stride, xj = idx[j] - yj * stride;
-          twice += xj * yi - xi * yj;
-        }
-        RawLoop r{label,
-                  static_cast<int>(sc.raw_idx.size()),
-                  n,
-                  -0.5 * static_cast<double>(twice),
-                  sc.seg_of_label[static_cast<std::size_t>(label)],
-                  -1};
-        sc.raw.push_back(r);
-        sc.raw_idx.insert(sc.raw_idx.end(), idx, idx + n);
-      });
+  sc.raw_uv.clear();
+  polygons_detail::trace_loops(orig, sc.rem.row(0), sc.pos.row(0), stride, s, sc.starts, sc.walk,
+                               sc.stack, [&](const std::int32_t* idx, int n) {
+                                 // Pixel coordinates once per vertex (one 32-bit division; the
+                                 // index fits).
+                                 const std::int32_t row_len = static_cast<std::int32_t>(stride);
+                                 const std::size_t first = sc.raw_uv.size();
+                                 int u_min = width, u_max = -1, v_min = height, v_max = -1;
+                                 for (int i = 0; i < n; ++i) {
+                                   const std::int32_t v = idx[i] / row_len,
+                                                      u = idx[i] - v * row_len;
+                                   sc.raw_uv.push_back({u, v});
+                                   u_min = std::min(u_min, u);
+                                   u_max = std::max(u_max, u);
+                                   v_min = std::min(v_min, v);
+                                   v_max = std::max(v_max, v);
+                                 }
+                                 const std::array<std::int32_t, 2>* uv = sc.raw_uv.data() + first;
+                                 const int label = segmentation.labels.row(uv[0][1])[uv[0][0]];
+                                 // Shoelace on the image (y down): counter-clockwise on the image
+                                 // is negative there.
+                                 std::int64_t twice = 0;
+                                 for (int i = 0, j = n - 1; i < n; j = i++) {
+                                   twice += static_cast<std::int64_t>(uv[j][0]) * uv[i][1] -
+                                            static_cast<std::int64_t>(uv[i][0]) * uv[j][1];
+                                 }
+                                 RawLoop r{label,
+                                           static_cast<int>(sc.raw_idx.size()),
+                                           n,
+                                           -0.5 * static_cast<double>(twice),
+                                           sc.seg_of_label[static_cast<std::size_t>(label)],
+                                           -1,
+                                           u_min,
+                                           u_max,
+                                           v_min,
+                                           v_max};
+                                 sc.raw.push_back(r);
+                                 sc.raw_idx.insert(sc.raw_idx.end(), idx, idx + n);
+                               });
   for (std::int32_t p : sc.starts) orig[p] = 0;
   sc.dirty = false;
 
@@ -386,12 +478,13 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
         r.parent = sc.kept[0];
       } else {
         // Midpoint of the hole's first edge: never on another loop's edge (edges are unique).
-        const std::int32_t* idx = sc.raw_idx.data() + r.first;
-        const double px = 0.5 * static_cast<double>(idx[0] % stride + idx[1] % stride);
-        const double py = 0.5 * static_cast<double>(idx[0] / stride + idx[1] / stride);
+        const std::array<std::int32_t, 2>* uv = sc.raw_uv.data() + r.first;
+        const double px = 0.5 * static_cast<double>(uv[0][0] + uv[1][0]);
+        const double py = 0.5 * static_cast<double>(uv[0][1] + uv[1][1]);
         for (std::size_t k = n_outer; k-- > 0;) {  // smallest enclosing outer loop
           const RawLoop& o = sc.raw[static_cast<std::size_t>(sc.kept[k])];
-          if (inside_px(sc.raw_idx.data() + o.first, o.count, stride, px, py)) {
+          if (px < o.u_min || px > o.u_max || py < o.v_min || py > o.v_max) continue;
+          if (inside_px(sc.raw_uv.data() + o.first, o.count, px, py)) {
             r.parent = sc.kept[k];
             break;
           }
@@ -422,8 +515,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       const RawLoop& r = sc.raw[static_cast<std::size_t>(li)];
       sc.xy_first.push_back(static_cast<int>(sc.xy.size() / 2));
       for (int i = 0; i < r.count; ++i) {
-        const std::int32_t idx = sc.raw_idx[static_cast<std::size_t>(r.first + i)];
-        const int v = static_cast<int>(idx / stride), u = static_cast<int>(idx - v * stride);
+        const auto [u, v] = sc.raw_uv[static_cast<std::size_t>(r.first + i)];
         const Vec p{cloud.x.row(v)[u], cloud.y.row(v)[u], cloud.z.row(v)[u]};
         const Vec dir{p[0] - vp[0], p[1] - vp[1], p[2] - vp[2]};
         const double denom = dot(fr.normal, dir);
@@ -519,8 +611,8 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
         out.points3d.push_back({static_cast<float>(fr.origin[0] + x * fr.e1[0] + y * fr.e2[0]),
                                 static_cast<float>(fr.origin[1] + x * fr.e1[1] + y * fr.e2[1]),
                                 static_cast<float>(fr.origin[2] + x * fr.e1[2] + y * fr.e2[2])});
-        const std::int32_t idx = sc.raw_idx[static_cast<std::size_t>(r.first + vi)];
-        out.pixels.push_back({static_cast<float>(idx % stride), static_cast<float>(idx / stride)});
+        const auto [pu, pv] = sc.raw_uv[static_cast<std::size_t>(r.first + vi)];
+        out.pixels.push_back({static_cast<float>(pu), static_cast<float>(pv)});
       }
       polygons_detail::area_perimeter(sc.hull_xy.data(), lp.count, a, p);
       lp.area = std::abs(a);
@@ -534,12 +626,14 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
 
     // Convex hull of the outer loops' mesh boundary vertices.
     if (settings.convex_hull) {
-      const int n_pts = sc.xy_first[n_outer];
-      sc.hull_order.resize(static_cast<std::size_t>(n_pts));
-      for (int i = 0; i < n_pts; ++i) sc.hull_order[static_cast<std::size_t>(i)] = i;
       const double* xy = sc.xy.data();
+      hull_candidates(xy, sc.xy_first[n_outer], sc.hull_order);
+      const int n_pts = static_cast<int>(sc.hull_order.size());
+      // (x, y), then the vertex index: equal points keep a deterministic order.
       std::sort(sc.hull_order.begin(), sc.hull_order.end(), [xy](int a, int b) {
-        return xy[2 * a] != xy[2 * b] ? xy[2 * a] < xy[2 * b] : xy[2 * a + 1] < xy[2 * b + 1];
+        if (xy[2 * a] != xy[2 * b]) return xy[2 * a] < xy[2 * b];
+        if (xy[2 * a + 1] != xy[2 * b + 1]) return xy[2 * a + 1] < xy[2 * b + 1];
+        return a < b;
       });
       sc.hull_xy.resize(2 * static_cast<std::size_t>(n_pts));
       for (int i = 0; i < n_pts; ++i) {
@@ -554,15 +648,14 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
         std::size_t k = 0;
         while (sc.xy_first[k + 1] <= o) ++k;
         const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.kept[k])];
-        const std::int32_t idx = sc.raw_idx[static_cast<std::size_t>(r.first + o - sc.xy_first[k])];
+        const auto [pu, pv] = sc.raw_uv[static_cast<std::size_t>(r.first + o - sc.xy_first[k])];
         const double x = xy[2 * o], y = xy[2 * o + 1];
         out.hull_points2d.push_back({static_cast<float>(x), static_cast<float>(y)});
         out.hull_points3d.push_back(
             {static_cast<float>(fr.origin[0] + x * fr.e1[0] + y * fr.e2[0]),
              static_cast<float>(fr.origin[1] + x * fr.e1[1] + y * fr.e2[1]),
              static_cast<float>(fr.origin[2] + x * fr.e1[2] + y * fr.e2[2])});
-        out.hull_pixels.push_back(
-            {static_cast<float>(idx % stride), static_cast<float>(idx / stride)});
+        out.hull_pixels.push_back({static_cast<float>(pu), static_cast<float>(pv)});
       }
       sp.hull_count = static_cast<int>(sc.hull_idx.size());
       double a = 0, p = 0;

@@ -31,6 +31,20 @@ struct Frame {
   std::array<std::ptrdiff_t, 8> neighbour_offset{};
 };
 
+/// Side of the square cells of the coarse growing level [lattice steps] (8 x 8 vertices).
+inline constexpr int kCellSide = 8;
+
+/// Statistics of one kCellSide x kCellSide cell of mesh vertices, for growing whole cells at a
+/// time (cf. CAPE / PEAC). `complete` cells have every vertex valid (point and normal) and every
+/// mesh edge between horizontally and vertically adjacent vertices inside the cell, so the cell
+/// is one connected piece of surface; only complete cells are grown as units.
+struct Cell {
+  detail::PlaneStats stats;          ///< points [m]
+  double snx = 0, sny = 0, snz = 0;  ///< sum of the vertex normals
+  float curvature = 0;               ///< sum of the vertex curvatures [1/m]
+  bool complete = false;
+};
+
 }  // namespace rangeseg::seg
 
 namespace rangeseg {
@@ -44,11 +58,18 @@ struct Segmenter::Scratch {
   // region growing
   std::vector<std::int32_t> queue;
   std::vector<detail::PlaneStats> regions;  ///< per raw region label; [0] unused
+  // coarse level (models with a cell interface)
+  std::vector<seg::Cell> cells;  ///< row-major, cell_cols x cell_rows
+  int cell_cols = 0, cell_rows = 0;
+  std::vector<std::int32_t> cell_label;  ///< raw label of a cell grown as a unit; -1 = broken
+  std::vector<std::int32_t> cell_order;
+  std::vector<std::int32_t> cell_queue;
   // post-processing
   std::vector<detail::PlaneFit> fits;
   std::vector<std::int32_t> parent;  ///< union-find over raw labels
   std::vector<std::uint64_t> adjacency;
   std::vector<std::int32_t> remap;
+  std::vector<std::int32_t> compact;
   std::vector<std::uint8_t> queued;
   std::vector<double> area;
   std::vector<std::int32_t> order;
@@ -58,9 +79,15 @@ struct Segmenter::Scratch {
 
 namespace rangeseg::seg {
 
-/// Fills scratch.seeds with the seed pixels in ascending curvature order (counting sort).
+/// Fills scratch.seeds with the unlabelled seed pixels in ascending curvature order (counting
+/// sort).
 void collect_seeds(const Frame& frame, const SegmentationSettings& settings,
                    Segmenter::Scratch& scratch);
+
+/// Fills scratch.cells (cell_cols x cell_rows cells of kCellSide x kCellSide lattice vertices
+/// covering the image from the top-left; a partial last column/row of cells is left out) and
+/// resets scratch.cell_label to 0.
+void compute_cells(const Frame& frame, Segmenter::Scratch& scratch);
 
 /// Grows regions from the seeds; writes raw labels 1..R into frame.labels and their point
 /// statistics into scratch.regions[1..R].

@@ -1,6 +1,7 @@
 // The plane region model (paper, Sec. III-D): running centroids in point and normal space.
 #include <Eigen/Eigenvalues>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
@@ -27,7 +28,8 @@ class PlaneModel {
         k_(static_cast<float>(s.max_distance_sigmas)),
         a_(static_cast<float>(s.noise.a)),
         b_(static_cast<float>(s.noise.b)),
-        z0_(static_cast<float>(s.noise.z0)) {}
+        z0_(static_cast<float>(s.noise.z0)),
+        max_seed_curvature_(static_cast<float>(std::fmin(s.max_seed_curvature, 3e38))) {}
 
   void init(const Frame& f, std::int32_t seed) {
     stats_.clear();
@@ -70,8 +72,73 @@ class PlaneModel {
 
   const detail::PlaneStats& stats() const { return stats_; }
 
+  // --- coarse level: whole cells ---
+
+  /// A cell seeds a region when it is a plane by the region test itself: consistent normals
+  /// (the resultant of its unit normals, |sum n| / count, is at least cos(max_normal_angle),
+  /// which every normal within that angle of the mean guarantees) and points within the
+  /// distance bound of the plane through its centroid with its mean normal.
+  bool cell_seed_ok(const Cell& c) const {
+    if (!(c.curvature <= max_seed_curvature_ * static_cast<float>(c.stats.count))) return false;
+    double nx, ny, nz;
+    if (!cell_normal(c, nx, ny, nz)) return false;
+    const double inv = 1.0 / static_cast<double>(c.stats.count);
+    const double d = -(nx * c.stats.sx + ny * c.stats.sy + nz * c.stats.sz) * inv;
+    return cell_within(c, nx, ny, nz, d);
+  }
+
+  void init_cell(const Cell& c) {
+    stats_ = c.stats;
+    snx_ = c.snx;
+    sny_ = c.sny;
+    snz_ = c.snz;
+    next_refresh_ = 0;
+    refresh();
+  }
+
+  /// A neighbouring cell joins as a unit when its mean normal passes the angle test and its
+  /// points pass the distance test against the region's plane (see `cell_within`).
+  bool accepts_cell(const Cell& c) const {
+    double nx, ny, nz;
+    if (!cell_normal(c, nx, ny, nz)) return false;
+    if (!(nx * nx_ + ny * ny_ + nz * nz_ >= cos_max_angle_)) return false;
+    return cell_within(c, nx_, ny_, nz_, d_);
+  }
+
+  void add_cell(const Cell& c) {
+    stats_.merge(c.stats);
+    snx_ += c.snx;
+    sny_ += c.sny;
+    snz_ += c.snz;
+    if (stats_.count >= next_refresh_) refresh();
+  }
+
  private:
   static constexpr std::int64_t kPcaMinPoints = 8;
+
+  /// The cell's mean normal, if its normals are consistent (resultant length test).
+  bool cell_normal(const Cell& c, double& nx, double& ny, double& nz) const {
+    const double norm = std::sqrt(c.snx * c.snx + c.sny * c.sny + c.snz * c.snz);
+    if (!(norm >= cos_max_angle_ * static_cast<double>(c.stats.count))) return false;
+    nx = c.snx / norm;
+    ny = c.sny / norm;
+    nz = c.snz / norm;
+    return true;
+  }
+
+  /// The distance test for a whole cell from its moments: with mean mu and standard deviation
+  /// sd of its points' distances to the plane, mu + 2 sd within k sigma(z) at the cell's
+  /// centroid, i.e. all but the two-sided ~5% tail of a Gaussian cell would pass the pixel test.
+  bool cell_within(const Cell& c, double nx, double ny, double nz, double d) const {
+    const auto& s = c.stats;
+    const double inv = 1.0 / static_cast<double>(s.count);
+    const double mean = (nx * s.sx + ny * s.sy + nz * s.sz) * inv + d;
+    const double rms = s.rms_distance({nx, ny, nz}, d);
+    const double sd = std::sqrt(std::max(0.0, rms * rms - mean * mean));
+    const double dz = s.sz * inv - z0_;
+    const double bound = k_ * (a_ + b_ * dz * dz);
+    return std::fabs(mean) + 2.0 * sd <= bound;
+  }
 
   void refresh() {
     const double norm = std::sqrt(snx_ * snx_ + sny_ * sny_ + snz_ * snz_);
@@ -117,21 +184,38 @@ class PlaneModel {
     nz = n(2);
   }
 
-  float cos_max_angle_, cos_seed_angle_, k_, a_, b_, z0_;
+  float cos_max_angle_, cos_seed_angle_, k_, a_, b_, z0_, max_seed_curvature_;
   detail::PlaneStats stats_;
   double snx_ = 0, sny_ = 0, snz_ = 0;
   std::int64_t next_refresh_ = 0;
   float nx_ = 0, ny_ = 0, nz_ = 1, d_ = 0;
 };
 
-static_assert(RegionGrowingModel<PlaneModel>);
+static_assert(CellGrowingModel<PlaneModel>);
+
+/// The plane model without its cell interface: every pixel is grown individually.
+struct PixelPlaneModel {
+  PlaneModel& m;
+  void init(const Frame& f, std::int32_t seed) { m.init(f, seed); }
+  bool seed_ok(const Frame& f, std::int32_t seed) const { return m.seed_ok(f, seed); }
+  bool accepts(const Frame& f, std::int32_t p, std::int32_t q) const { return m.accepts(f, p, q); }
+  void add(const Frame& f, std::int32_t q) { m.add(f, q); }
+  const detail::PlaneStats& stats() const { return m.stats(); }
+};
+
+static_assert(RegionGrowingModel<PixelPlaneModel> && !CellGrowingModel<PixelPlaneModel>);
 
 }  // namespace
 
 void grow_planes(const Frame& frame, const SegmentationSettings& settings,
                  Segmenter::Scratch& scratch) {
   PlaneModel model(settings);
-  grow_regions(frame, model, scratch);
+  if (settings.coarse_cells) {
+    grow_regions(frame, model, scratch, &settings);
+  } else {
+    PixelPlaneModel pixels{model};
+    grow_regions(frame, pixels, scratch, &settings);
+  }
 }
 
 }  // namespace rangeseg::seg

@@ -75,11 +75,19 @@ void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
   s.adjacency.clear();
   std::uint64_t last = 0;
   const int step = f.pixel_stride;
+  const std::ptrdiff_t right = f.neighbour_offset[0], down = f.neighbour_offset[2];
   for (int v = 0; v < f.height; v += step) {
     const std::ptrdiff_t row = v * f.stride;
+    const bool inner_row = v + step < f.height;
     for (int u = 0; u < f.width; u += step) {
       const std::ptrdiff_t i = row + u;
       const std::int32_t a = f.labels[i];
+      // Inside a segment (nearly every pixel) all forward neighbours share the label.
+      if (inner_row && u >= step && u + step < f.width && f.labels[i + right] == a &&
+          f.labels[i + down] == a && f.labels[i + down - right] == a &&
+          f.labels[i + down + right] == a) {
+        continue;
+      }
       // Directions 0..3 (right, down-right, down, down-left) visit every undirected edge once.
       unsigned mask = f.edges[i] & 0x0Fu;
       if (a == 0 || mask == 0 || regions[a].count < kMinFitPixels) continue;
@@ -188,30 +196,28 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
   }
 }
 
-double triangle_area(const Frame& f, std::ptrdiff_t a, std::ptrdiff_t b, std::ptrdiff_t c) {
-  const double ux = f.x[b] - f.x[a], uy = f.y[b] - f.y[a], uz = f.z[b] - f.z[a];
-  const double vx = f.x[c] - f.x[a], vy = f.y[c] - f.y[a], vz = f.z[c] - f.z[a];
-  const double cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
-  return 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
-}
-
-/// Area of the quad a-b-d-c (a top-left, d bottom-right) as half the norm of the cross product of
-/// its diagonals: one square root, exact for planar quads (the projected area otherwise).
-double quad_area(const Frame& f, std::ptrdiff_t a, std::ptrdiff_t b, std::ptrdiff_t c,
-                 std::ptrdiff_t d) {
-  const double ux = f.x[d] - f.x[a], uy = f.y[d] - f.y[a], uz = f.z[d] - f.z[a];
-  const double vx = f.x[c] - f.x[b], vy = f.y[c] - f.y[b], vz = f.z[c] - f.z[b];
-  const double cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
-  return 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+/// Twice the area of the triangle a-b-c, or of the quad a-b-d-c when (a, b, c) is replaced by
+/// its diagonals (d - a, c - b): the norm of a cross product. Float is plenty for one face
+/// (sub-millimetre edges at 6 m keep ~1e-4 relative precision); sums are kept in double.
+inline float cross_norm(const Frame& f, std::ptrdiff_t a, std::ptrdiff_t b, std::ptrdiff_t c,
+                        std::ptrdiff_t d) {
+  const float ux = f.x[b] - f.x[a], uy = f.y[b] - f.y[a], uz = f.z[b] - f.z[a];
+  const float vx = f.x[d] - f.x[c], vy = f.y[d] - f.y[c], vz = f.z[d] - f.z[c];
+  const float cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
+  return std::sqrt(cx * cx + cy * cy + cz * cz);
 }
 
 /// Adds a third of every triangle's area (a quarter of every quad's) to each labelled corner.
+/// Cells whose four corners share one label (nearly all) are summed in a running total that is
+/// flushed when the label changes, so the per-label array is not hit four times per face.
 void accumulate_areas(const Frame& f, Segmenter::Scratch& s) {
   const std::uint8_t* const faces = f.faces;
   const int step = f.pixel_stride;
   const std::ptrdiff_t right = step, down = step * f.stride;
   double* const area = s.area.data();
   const std::int32_t* const labels = f.labels;
+  std::int32_t run_label = 0;
+  double run_area = 0;  // twice the area of the faces of the current run
   for (int v = 0; v + step < f.height; v += step) {
     const std::ptrdiff_t row = v * f.stride;
     for (int u = 0; u + step < f.width; u += step) {
@@ -220,25 +226,47 @@ void accumulate_areas(const Frame& f, Segmenter::Scratch& s) {
       if (bits == 0) continue;
       const std::int32_t la = labels[a], lb = labels[b], lc = labels[c], ld = labels[d];
       if ((la | lb | lc | ld) == 0) continue;
-      const auto credit = [&](double face_area, int corners, std::int32_t l0, std::int32_t l1,
-                              std::int32_t l2, std::int32_t l3) {
-        const double share = face_area / corners;
+      // One label on all four corners (nearly every cell): add the cell's faces to the run.
+      if (la == lb && la == lc && la == ld) {
+        float twice_area = 0;
+        if (bits & face_bits::quad) {
+          twice_area = cross_norm(f, a, d, b, c);
+        } else if (bits & face_bits::diag_bc) {
+          if (bits & face_bits::tri0) twice_area += cross_norm(f, a, c, a, b);
+          if (bits & face_bits::tri1) twice_area += cross_norm(f, b, c, b, d);
+        } else {
+          if (bits & face_bits::tri0) twice_area += cross_norm(f, a, d, a, b);
+          if (bits & face_bits::tri1) twice_area += cross_norm(f, a, c, a, d);
+        }
+        if (la != run_label) {
+          area[run_label] += 0.5 * run_area;
+          run_label = la;
+          run_area = 0;
+        }
+        run_area += twice_area;
+        continue;
+      }
+      // Twice the face area and its corners (l3 < 0: a triangle).
+      const auto credit = [&](float twice_area, std::int32_t l0, std::int32_t l1, std::int32_t l2,
+                              std::int32_t l3) {
+        const double share = 0.5 * twice_area / (l3 < 0 ? 3 : 4);
         area[l0] += share;
         area[l1] += share;
         area[l2] += share;
-        if (corners == 4) area[l3] += share;
+        if (l3 >= 0) area[l3] += share;
       };
       if (bits & face_bits::quad) {
-        credit(quad_area(f, a, b, c, d), 4, la, lc, ld, lb);
+        credit(cross_norm(f, a, d, b, c), la, lc, ld, lb);
       } else if (bits & face_bits::diag_bc) {
-        if (bits & face_bits::tri0) credit(triangle_area(f, a, c, b), 3, la, lc, lb, 0);
-        if (bits & face_bits::tri1) credit(triangle_area(f, b, c, d), 3, lb, lc, ld, 0);
+        if (bits & face_bits::tri0) credit(cross_norm(f, a, c, a, b), la, lc, lb, -1);
+        if (bits & face_bits::tri1) credit(cross_norm(f, b, c, b, d), lb, lc, ld, -1);
       } else {
-        if (bits & face_bits::tri0) credit(triangle_area(f, a, d, b), 3, la, ld, lb, 0);
-        if (bits & face_bits::tri1) credit(triangle_area(f, a, c, d), 3, la, lc, ld, 0);
+        if (bits & face_bits::tri0) credit(cross_norm(f, a, d, a, b), la, ld, lb, -1);
+        if (bits & face_bits::tri1) credit(cross_norm(f, a, c, a, d), la, lc, ld, -1);
       }
     }
   }
+  area[run_label] += 0.5 * run_area;
   area[0] = 0;  // unlabelled corners collected here
 }
 
@@ -273,13 +301,11 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
       if (s.remap[r] == r) s.fits[r] = s.regions[r].fit();
     }
     merge_adjacent_planes(f, settings, s);
-    for (std::int32_t r = 1; r < region_count; ++r) {
-      if (s.remap[r] == r) s.remap[r] = find_root(s.parent, r);
-    }
-    for (std::size_t i = 0; i < pixels; ++i) labels[i] = remap[labels[i]];
-    for (std::int32_t r = 1; r < region_count; ++r) {
-      if (s.remap[r] != r) s.remap[r] = 0;
-    }
+  }
+  // Surviving regions are the union-find roots among the kept ones; the labels go through the
+  // composition root -> compact label in one pass below.
+  for (std::int32_t r = 1; r < region_count; ++r) {
+    s.remap[r] = s.remap[r] == r ? find_root(s.parent, r) : 0;
   }
 
   // Compact labels 1..N by size, descending (ties by raw label for determinism).
@@ -287,14 +313,15 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
   for (std::int32_t r = 1; r < region_count; ++r) {
     if (s.remap[r] == r) s.order.push_back(r);
   }
+  s.compact.assign(region_count, 0);
   std::sort(s.order.begin(), s.order.end(), [&](std::int32_t a, std::int32_t b) {
     const auto ca = s.regions[a].count, cb = s.regions[b].count;
     return ca != cb ? ca > cb : a < b;
   });
-  std::fill(s.remap.begin(), s.remap.end(), 0);
   for (std::size_t j = 0; j < s.order.size(); ++j) {
-    s.remap[s.order[j]] = static_cast<std::int32_t>(j + 1);
+    s.compact[s.order[j]] = static_cast<std::int32_t>(j + 1);
   }
+  for (std::int32_t r = 1; r < region_count; ++r) s.remap[r] = s.compact[s.remap[r]];
   for (std::size_t i = 0; i < pixels; ++i) labels[i] = remap[labels[i]];
 
   const std::size_t n = s.order.size();

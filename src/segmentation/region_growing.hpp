@@ -1,6 +1,7 @@
 // Internal: the region-growing engine of the paper (Sec. III-D), generic over the region model.
 #pragma once
 
+#include <algorithm>
 #include <bit>
 #include <cassert>
 #include <concepts>
@@ -13,6 +14,7 @@ namespace rangeseg::seg {
 /// What the engine needs from a region model. `init` starts a region at a seed pixel (already
 /// added), `accepts(frame, from, candidate)` tests a mesh neighbour `candidate` of the region
 /// point `from`, `add` adds an accepted pixel, `stats` gives the region's point statistics.
+/// An optional `seed_ok(frame, seed)` vetoes seed pixels.
 /// Models are plain structs; the engine is instantiated per model (no virtual call per point).
 template <class M>
 concept RegionGrowingModel = requires(M m, const M cm, const Frame& f, std::int32_t i) {
@@ -22,17 +24,211 @@ concept RegionGrowingModel = requires(M m, const M cm, const Frame& f, std::int3
   { cm.stats() } -> std::convertible_to<const detail::PlaneStats&>;
 };
 
-/// Outer loop over the seeds (ascending curvature), inner loop over a flat processing queue.
-/// A pixel is labelled when it is accepted, so it enters the queue at most once per frame.
+/// Optional coarse level: a model that can judge a whole `Cell` from its statistics is grown
+/// over cells first. `cell_seed_ok(c)` says whether a complete cell may start a region,
+/// `init_cell(c)` starts one from it, `accepts_cell(c)` tests a complete neighbouring cell
+/// against the region as a unit and `add_cell(c)` adds it. A cell the model does not accept as a
+/// unit is not lost: the region continues pixel by pixel (`accepts`) from its cells' border, so
+/// cells only shortcut the pixel-wise growing where the whole cell passes.
+template <class M>
+concept CellGrowingModel = RegionGrowingModel<M> && requires(M m, const M cm, const Cell& c) {
+  { cm.cell_seed_ok(c) } -> std::convertible_to<bool>;
+  m.init_cell(c);
+  { cm.accepts_cell(c) } -> std::convertible_to<bool>;
+  m.add_cell(c);
+};
+
+namespace detail_engine {
+
+/// Index of the top-left vertex of cell (cu, cv).
+inline std::ptrdiff_t cell_origin(const Frame& f, int cu, int cv) {
+  return static_cast<std::ptrdiff_t>(cv) * kCellSide * f.pixel_stride * f.stride +
+         static_cast<std::ptrdiff_t>(cu) * kCellSide * f.pixel_stride;
+}
+
+/// True when no vertex of the cell is labelled.
+inline bool cell_free(const Frame& f, std::ptrdiff_t origin) {
+  const int s = f.pixel_stride;
+  std::int32_t any = 0;
+  for (int j = 0; j < kCellSide; ++j) {
+    const std::int32_t* row = f.labels + origin + static_cast<std::ptrdiff_t>(j) * s * f.stride;
+    for (int i = 0; i < kCellSide; ++i) any |= row[i * s];
+  }
+  return any == 0;
+}
+
+inline void label_cell(const Frame& f, std::ptrdiff_t origin, std::int32_t label) {
+  const int s = f.pixel_stride;
+  for (int j = 0; j < kCellSide; ++j) {
+    std::int32_t* row = f.labels + origin + static_cast<std::ptrdiff_t>(j) * s * f.stride;
+    for (int i = 0; i < kCellSide; ++i) row[i * s] = label;
+  }
+}
+
+/// Whether the mesh connects the border of cell (cu, cv) to its neighbour in direction k.
+inline bool cells_connected(const Frame& f, std::ptrdiff_t origin, int k) {
+  const int last = (kCellSide - 1) * f.pixel_stride;
+  const std::ptrdiff_t down = f.pixel_stride * f.stride;
+  const unsigned bit = 1u << k;
+  const int du = kNeighbourDu[k], dv = kNeighbourDv[k];
+  if (du != 0 && dv != 0) {  // diagonal: the corner vertex
+    const std::ptrdiff_t corner =
+        origin + (du > 0 ? last : 0) + (dv > 0 ? (kCellSide - 1) * down : 0);
+    return (f.edges[corner] & bit) != 0;
+  }
+  unsigned any = 0;
+  for (int t = 0; t < kCellSide; ++t) {
+    const std::ptrdiff_t p = du > 0   ? origin + last + t * down
+                             : du < 0 ? origin + t * down
+                             : dv > 0 ? origin + (kCellSide - 1) * down + t * f.pixel_stride
+                                      : origin + t * f.pixel_stride;
+    any |= f.edges[p];
+  }
+  return (any & bit) != 0;
+}
+
+}  // namespace detail_engine
+
+/// The pixel-wise inner loop: pops the processing queue [head, tail) and adds accepted unlabelled
+/// mesh neighbours. Returns the new tail.
 template <RegionGrowingModel Model>
-void grow_regions(const Frame& f, Model& model, Segmenter::Scratch& s) {
+std::int32_t grow_pixels(const Frame& f, Model& model, std::int32_t label, std::int32_t* queue,
+                         std::int32_t head, std::int32_t tail,
+                         [[maybe_unused]] std::size_t capacity) {
   std::int32_t* const labels = f.labels;
-  std::int32_t* const queue = s.queue.data();
   const std::uint8_t* const edges = f.edges;
   const auto offsets = f.neighbour_offset;
+  while (head < tail) {
+    const std::int32_t p = queue[head++];
+    unsigned mask = edges[p];
+    while (mask != 0) {
+      const int k = std::countr_zero(mask);
+      mask &= mask - 1;
+      const std::int32_t q = static_cast<std::int32_t>(p + offsets[k]);
+      if (labels[q] != 0 || !model.accepts(f, p, q)) continue;
+      labels[q] = label;
+      model.add(f, q);
+      assert(static_cast<std::size_t>(tail) < capacity);
+      queue[tail++] = q;
+    }
+  }
+  return tail;
+}
+
+/// Coarse level of `grow_regions`: complete cells in ascending curvature order seed regions that
+/// grow over neighbouring cells the model accepts as units; each region then continues pixel by
+/// pixel from the border of its cells. Raw labels continue from `label`.
+template <CellGrowingModel Model>
+void grow_cells(const Frame& f, Model& model, Segmenter::Scratch& s, std::int32_t& label) {
+  using namespace detail_engine;
+  compute_cells(f, s);
+  const int cols = s.cell_cols, rows = s.cell_rows;
+  const auto& cells = s.cells;
+  auto& cell_label = s.cell_label;
+  s.cell_order.clear();
+  for (std::int32_t c = 0; c < cols * rows; ++c) {
+    if (cells[c].complete && model.cell_seed_ok(cells[c])) s.cell_order.push_back(c);
+  }
+  std::sort(s.cell_order.begin(), s.cell_order.end(), [&](std::int32_t a, std::int32_t b) {
+    return cells[a].curvature != cells[b].curvature ? cells[a].curvature < cells[b].curvature
+                                                    : a < b;
+  });
+  s.cell_queue.resize(static_cast<std::size_t>(cols) * rows);
+  std::int32_t* const cell_queue = s.cell_queue.data();
+  std::int32_t* const queue = s.queue.data();
+  const int step = f.pixel_stride;
+  const std::ptrdiff_t down = step * f.stride;
+  for (const std::int32_t seed : s.cell_order) {
+    if (cell_label[seed] != 0) continue;
+    const int su = seed % cols, sv = seed / cols;
+    if (!cell_free(f, cell_origin(f, su, sv))) {
+      cell_label[seed] = -1;
+      continue;
+    }
+    ++label;
+    cell_label[seed] = label;
+    label_cell(f, cell_origin(f, su, sv), label);
+    model.init_cell(cells[seed]);
+    std::int32_t head = 0, tail = 0;
+    cell_queue[tail++] = seed;
+    while (head < tail) {
+      const std::int32_t c = cell_queue[head++];
+      const int cu = c % cols, cv = c / cols;
+      const std::ptrdiff_t origin = cell_origin(f, cu, cv);
+      for (int k = 0; k < 8; ++k) {
+        const int nu = cu + kNeighbourDu[k], nv = cv + kNeighbourDv[k];
+        if (nu < 0 || nv < 0 || nu >= cols || nv >= rows) continue;
+        const std::int32_t n = nv * cols + nu;
+        if (cell_label[n] != 0 || !cells[n].complete) continue;
+        if (!cells_connected(f, origin, k) || !model.accepts_cell(cells[n])) continue;
+        const std::ptrdiff_t n_origin = cell_origin(f, nu, nv);
+        if (!cell_free(f, n_origin)) {
+          cell_label[n] = -1;
+          continue;
+        }
+        cell_label[n] = label;
+        label_cell(f, n_origin, label);
+        model.add_cell(cells[n]);
+        cell_queue[tail++] = n;
+      }
+    }
+    // Continue pixel-wise from the border vertices of the region's cells that face a cell with
+    // free vertices (not grown as a unit) or the image's partial border cells.
+    std::int32_t ptail = 0;
+    for (std::int32_t j = 0; j < tail; ++j) {
+      const std::int32_t c = cell_queue[j];
+      const int cu = c % cols, cv = c / cols;
+      unsigned outside = 0;  // bit k: neighbour cell k is not in the region
+      for (int k = 0; k < 8; ++k) {
+        const int nu = cu + kNeighbourDu[k], nv = cv + kNeighbourDv[k];
+        // A cell grown as a unit (by this or an earlier region) has no free vertex.
+        const bool done =
+            nu >= 0 && nv >= 0 && nu < cols && nv < rows && cell_label[nv * cols + nu] > 0;
+        if (!done) outside |= 1u << k;
+      }
+      if (outside == 0) continue;
+      const std::ptrdiff_t origin = cell_origin(f, cu, cv);
+      const int last = kCellSide - 1;
+      for (int jv = 0; jv < kCellSide; ++jv) {
+        const bool top = jv == 0, bottom = jv == last;
+        for (int iu = 0; iu < kCellSide; iu += (top || bottom) ? 1 : last) {
+          const bool left = iu == 0, right = iu == last;
+          unsigned touches = 0;
+          if (right) touches |= 1u << 0;
+          if (bottom) touches |= 1u << 2;
+          if (left) touches |= 1u << 4;
+          if (top) touches |= 1u << 6;
+          if (right && bottom) touches |= 1u << 1;
+          if (left && bottom) touches |= 1u << 3;
+          if (left && top) touches |= 1u << 5;
+          if (right && top) touches |= 1u << 7;
+          if (touches & outside) {
+            queue[ptail++] = static_cast<std::int32_t>(origin + jv * down + iu * step);
+          }
+        }
+      }
+    }
+    grow_pixels(f, model, label, queue, 0, ptail, s.queue.size());
+    s.regions.push_back(model.stats());
+  }
+}
+
+/// Outer loop over the seeds (ascending curvature), inner loop over a flat processing queue.
+/// A pixel is labelled when it is accepted, so it enters the queue at most once per frame.
+/// Models with the cell interface are first grown over cells (`grow_cells`); the pixel seeds
+/// then only start regions in what the cells left unlabelled. The pixel seeds are
+/// scratch.seeds as the caller filled them (`collect_seeds`), or, given `seed_settings`, are
+/// collected here after the coarse level (only the pixels it left unlabelled).
+template <RegionGrowingModel Model>
+void grow_regions(const Frame& f, Model& model, Segmenter::Scratch& s,
+                  const SegmentationSettings* seed_settings = nullptr) {
+  std::int32_t* const labels = f.labels;
+  std::int32_t* const queue = s.queue.data();
   s.regions.clear();
   s.regions.emplace_back();  // raw label 0: none
   std::int32_t label = 0;
+  if constexpr (CellGrowingModel<Model>) grow_cells(f, model, s, label);
+  if (seed_settings != nullptr) collect_seeds(f, *seed_settings, s);
   for (const std::int32_t seed : s.seeds) {
     if (labels[seed] != 0) continue;
     if constexpr (requires { model.seed_ok(f, seed); }) {
@@ -41,22 +237,8 @@ void grow_regions(const Frame& f, Model& model, Segmenter::Scratch& s) {
     ++label;
     labels[seed] = label;
     model.init(f, seed);
-    std::int32_t head = 0, tail = 0;
-    queue[tail++] = seed;
-    while (head < tail) {
-      const std::int32_t p = queue[head++];
-      unsigned mask = edges[p];
-      while (mask != 0) {
-        const int k = std::countr_zero(mask);
-        mask &= mask - 1;
-        const std::int32_t q = static_cast<std::int32_t>(p + offsets[k]);
-        if (labels[q] != 0 || !model.accepts(f, p, q)) continue;
-        labels[q] = label;
-        model.add(f, q);
-        assert(tail < static_cast<std::int32_t>(s.queue.size()));
-        queue[tail++] = q;
-      }
-    }
+    queue[0] = seed;
+    grow_pixels(f, model, label, queue, 0, 1, s.queue.size());
     s.regions.push_back(model.stats());
   }
 }

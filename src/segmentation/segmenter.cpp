@@ -7,6 +7,7 @@
 #include <string>
 
 #include "segmentation/internal.hpp"
+#include "segmentation/primitive_internal.hpp"
 
 namespace rangeseg {
 namespace {
@@ -79,7 +80,9 @@ void collect_seeds(const Frame& f, const SegmentationSettings& settings, Segment
       const std::ptrdiff_t i = row + u;
       const float c = f.curvature[i];
       // A seed needs a point and a normal; NaN curvature fails the comparison.
-      if (!(c <= max_curvature) || !std::isfinite(f.nz[i]) || !std::isfinite(f.z[i])) continue;
+      if (f.labels[i] != 0 || !(c <= max_curvature) || !std::isfinite(f.nz[i]) ||
+          !std::isfinite(f.z[i]))
+        continue;
       const std::uint32_t key = float_key(std::fabs(c));
       const std::uint32_t bucket =
           key <= floor_key ? 0u : std::min<std::uint32_t>(key - floor_key, kSeedBuckets - 1);
@@ -151,13 +154,38 @@ void Segmenter::segment(const OrganizedCloud& cloud, const Mesh& mesh, const Nor
 
   Scratch& s = *scratch_;
   s.queue.resize(static_cast<std::size_t>(f.stride) * f.height);
-  seg::collect_seeds(f, settings, s);
-  if (settings.model == RegionModel::plane) {
+  // The plane model collects its pixel seeds itself, after growing over cells.
+  const bool cell_seeds =
+      settings.model == RegionModel::plane || settings.model == RegionModel::automatic;
+  if (!cell_seeds) seg::collect_seeds(f, settings, s);
+  if (settings.model == RegionModel::plane || settings.model == RegionModel::automatic) {
     seg::grow_planes(f, settings, s);
+  } else if (settings.model == RegionModel::incremental_plane) {
+    seg::grow_incremental_planes(f, settings, s);
   } else {
     seg::grow_smooth(f, settings, s);
   }
-  seg::postprocess(f, settings, s, out);
+  if (settings.model == RegionModel::plane || settings.model == RegionModel::smooth) {
+    seg::postprocess(f, settings, s, out);
+  } else {
+    // Both post-process their regions as planes (merging, boundary re-assignment).
+    SegmentationSettings as_planes = settings;
+    as_planes.model = RegionModel::plane;
+    seg::postprocess(f, as_planes, s, out);
+    if (settings.model == RegionModel::incremental_plane) {
+      for (Segment& segment : out.segments) segment.model = settings.model;
+    }
+  }
+  if (settings.model == RegionModel::automatic) {
+    seg::fit_primitives(f, settings, out);
+  } else {
+    const SurfaceKind kind =
+        settings.model == RegionModel::smooth ? SurfaceKind::smooth : SurfaceKind::plane;
+    for (Segment& segment : out.segments) {
+      segment.kind = kind;
+      segment.surface_rms = segment.rms_residual;
+    }
+  }
 }
 
 void segment(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,

@@ -1,0 +1,293 @@
+// Sphere and cylinder fits: closed-form initial estimates from the normals (and an algebraic
+// circle fit), refined by Levenberg-Marquardt on the geometric point-to-surface distances.
+#include "rangeseg/primitives.hpp"
+
+#include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace rangeseg {
+namespace {
+
+using Eigen::Vector3d;
+
+Vector3d vec(const Point3& p) { return {p[0], p[1], p[2]}; }
+Point3 arr(const Vector3d& v) { return {v(0), v(1), v(2)}; }
+
+bool finite(const Vector3d& v) {
+  return std::isfinite(v(0)) && std::isfinite(v(1)) && std::isfinite(v(2));
+}
+
+void require_same_length(const char* what, std::size_t points, std::size_t normals) {
+  if (points != normals) {
+    throw std::invalid_argument(std::string(what) + ": " + std::to_string(points) + " points but " +
+                                std::to_string(normals) + " normals");
+  }
+}
+
+Vector3d centroid_of(std::span<const Point3> points) {
+  Vector3d c = Vector3d::Zero();
+  for (const Point3& p : points) c += vec(p);
+  return c / static_cast<double>(points.size());
+}
+
+/// Two unit vectors completing `a` (unit) to an orthonormal basis.
+void complete_basis(const Vector3d& a, Vector3d& e1, Vector3d& e2) {
+  const Vector3d helper = std::fabs(a(0)) < 0.9 ? Vector3d::UnitX() : Vector3d::UnitY();
+  e1 = a.cross(helper).normalized();
+  e2 = a.cross(e1);
+}
+
+/// Levenberg-Marquardt over N parameters. `evaluate(params, JtJ*, Jtr*)` returns the sum of
+/// squared residuals at params (and accumulates the normal equations when the pointers are
+/// non-null); `update(params, delta)` returns the parameters moved by delta.
+template <int N, class Params, class Evaluate, class Update>
+double levenberg_marquardt(Params& params, int max_iterations, Evaluate&& evaluate,
+                           Update&& update) {
+  using Mat = Eigen::Matrix<double, N, N>;
+  using Vec = Eigen::Matrix<double, N, 1>;
+  Mat jtj;
+  Vec jtr;
+  double cost = evaluate(params, &jtj, &jtr);
+  double lambda = 1e-3;
+  for (int it = 0; it < max_iterations && std::isfinite(cost); ++it) {
+    bool improved = false;
+    for (int attempt = 0; attempt < 8 && !improved; ++attempt) {
+      Mat damped = jtj;
+      for (int k = 0; k < N; ++k) damped(k, k) += lambda * std::max(jtj(k, k), 1e-12);
+      const Vec delta = damped.ldlt().solve(-jtr);
+      if (!delta.allFinite()) break;
+      Params trial = update(params, delta);
+      const double trial_cost = evaluate(trial, nullptr, nullptr);
+      if (trial_cost < cost) {
+        const double gain = cost - trial_cost;
+        params = trial;
+        lambda = std::max(lambda * 0.1, 1e-9);
+        improved = true;
+        if (gain <= 1e-12 * cost) return trial_cost;
+        cost = evaluate(params, &jtj, &jtr);
+      } else {
+        lambda *= 10.0;
+      }
+    }
+    if (!improved) break;
+  }
+  return cost;
+}
+
+struct SphereParams {
+  Vector3d centre = Vector3d::Zero();
+  double radius = 0;
+};
+
+struct CylinderParams {
+  Vector3d point = Vector3d::Zero();  ///< on the axis
+  Vector3d axis = Vector3d::UnitY();  ///< unit
+  double radius = 0;
+};
+
+/// Closest point to the lines x_i + t m_i (m_i unit) in the least-squares sense; false when the
+/// lines are (nearly) parallel.
+template <int D>
+bool closest_to_lines(const Eigen::Matrix<double, D, Eigen::Dynamic>& x,
+                      const Eigen::Matrix<double, D, Eigen::Dynamic>& m,
+                      Eigen::Matrix<double, D, 1>& out) {
+  using Mat = Eigen::Matrix<double, D, D>;
+  Mat a = Mat::Zero();
+  Eigen::Matrix<double, D, 1> b = Eigen::Matrix<double, D, 1>::Zero();
+  int used = 0;
+  for (Eigen::Index i = 0; i < x.cols(); ++i) {
+    const auto n = m.col(i);
+    if (!n.allFinite() || n.squaredNorm() < 0.25) continue;
+    const Mat p = Mat::Identity() - n * n.transpose() / n.squaredNorm();
+    a += p;
+    b += p * x.col(i);
+    ++used;
+  }
+  if (used < D) return false;
+  Eigen::SelfAdjointEigenSolver<Mat> solver(a / used);
+  // Normals spanning less than ~3 degrees do not locate a centre.
+  if (!(solver.eigenvalues()(0) > 2e-3)) return false;
+  out = a.ldlt().solve(b);
+  return out.allFinite();
+}
+
+}  // namespace
+
+SphereFit fit_sphere(std::span<const Point3> points, std::span<const Point3> normals,
+                     const PrimitiveFitSettings& settings) {
+  require_same_length("fit_sphere", points.size(), normals.size());
+  SphereFit fit;
+  const auto n = static_cast<Eigen::Index>(points.size());
+  if (n < 4) return fit;
+  const Vector3d origin = centroid_of(points);
+  Eigen::Matrix3Xd x(3, n), m(3, n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    x.col(i) = vec(points[static_cast<std::size_t>(i)]) - origin;
+    m.col(i) = vec(normals[static_cast<std::size_t>(i)]);
+  }
+  SphereParams params{};
+  if (!closest_to_lines<3>(x, m, params.centre)) {
+    // Algebraic fit |x|^2 + D.x + E = 0 (Kasa): linear in (D, E).
+    Eigen::Matrix4d a = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d b = Eigen::Vector4d::Zero();
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Eigen::Vector4d row(x(0, i), x(1, i), x(2, i), 1.0);
+      a += row * row.transpose();
+      b -= row * x.col(i).squaredNorm();
+    }
+    const Eigen::Vector4d s = a.ldlt().solve(b);
+    if (!s.allFinite()) return fit;
+    params.centre = -0.5 * s.head<3>();
+  }
+  double sum = 0;
+  for (Eigen::Index i = 0; i < n; ++i) sum += (x.col(i) - params.centre).norm();
+  params.radius = sum / static_cast<double>(n);
+
+  const auto evaluate = [&](const SphereParams& p, Eigen::Matrix4d* jtj, Eigen::Vector4d* jtr) {
+    double cost = 0;
+    if (jtj) {
+      jtj->setZero();
+      jtr->setZero();
+    }
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Vector3d w = x.col(i) - p.centre;
+      const double dist = w.norm();
+      const double r = dist - p.radius;
+      cost += r * r;
+      if (jtj && dist > 0) {
+        Eigen::Vector4d j;
+        j << -w / dist, -1.0;
+        *jtj += j * j.transpose();
+        *jtr += j * r;
+      }
+    }
+    return cost;
+  };
+  const auto update = [](const SphereParams& p, const Eigen::Vector4d& d) {
+    return SphereParams{p.centre + d.head<3>(), p.radius + d(3)};
+  };
+  const double cost = levenberg_marquardt<4>(params, settings.max_iterations, evaluate, update);
+  if (!std::isfinite(cost) || !finite(params.centre) || !(params.radius > 0)) return fit;
+  fit.centre = arr(params.centre + origin);
+  fit.radius = params.radius;
+  fit.rms = std::sqrt(cost / static_cast<double>(n));
+  fit.ok = true;
+  return fit;
+}
+
+CylinderFit fit_cylinder(std::span<const Point3> points, std::span<const Point3> normals,
+                         const PrimitiveFitSettings& settings) {
+  require_same_length("fit_cylinder", points.size(), normals.size());
+  CylinderFit fit;
+  const auto n = static_cast<Eigen::Index>(points.size());
+  if (n < 5) return fit;
+  const Vector3d origin = centroid_of(points);
+  Eigen::Matrix3Xd x(3, n);
+  Eigen::Matrix3d normal_scatter = Eigen::Matrix3d::Zero();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    x.col(i) = vec(points[static_cast<std::size_t>(i)]) - origin;
+    const Vector3d nv = vec(normals[static_cast<std::size_t>(i)]);
+    if (finite(nv)) normal_scatter += nv * nv.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> normal_solver(normal_scatter);
+  const Vector3d ev = normal_solver.eigenvalues();
+
+  const auto evaluate = [&](const CylinderParams& p, Eigen::Matrix<double, 5, 5>* jtj,
+                            Eigen::Matrix<double, 5, 1>* jtr) {
+    Vector3d e1, e2;
+    complete_basis(p.axis, e1, e2);
+    double cost = 0;
+    if (jtj) {
+      jtj->setZero();
+      jtr->setZero();
+    }
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Vector3d w = x.col(i) - p.point;
+      const double along = w.dot(p.axis);
+      const Vector3d q = w - along * p.axis;
+      const double rho = q.norm();
+      const double r = rho - p.radius;
+      cost += r * r;
+      if (jtj && rho > 0) {
+        const Vector3d g = q / rho;
+        Eigen::Matrix<double, 5, 1> j;
+        // d rho / d(axis tilt along e1, e2), d rho / d(point shift along e1, e2), d / d radius.
+        j << -along * g.dot(e1), -along * g.dot(e2), -g.dot(e1), -g.dot(e2), -1.0;
+        *jtj += j * j.transpose();
+        *jtr += j * r;
+      }
+    }
+    return cost;
+  };
+  const auto update = [](const CylinderParams& p, const Eigen::Matrix<double, 5, 1>& d) {
+    Vector3d e1, e2;
+    complete_basis(p.axis, e1, e2);
+    CylinderParams out;
+    out.axis = (p.axis + d(0) * e1 + d(1) * e2).normalized();
+    out.point = p.point + d(2) * e1 + d(3) * e2;
+    out.point -= out.point.dot(out.axis) * out.axis;  // closest to the centroid (origin)
+    out.radius = p.radius + d(4);
+    return out;
+  };
+
+  // Candidate axes: the direction most perpendicular to the normals, and, when the normals span
+  // only a narrow arc (a thin strip of a cylinder, or a nearly flat patch), also the second one.
+  int candidates = 1;
+  if (!(ev(1) > 0.05 * ev(2))) candidates = 2;
+  double best_cost = INFINITY;
+  CylinderParams best{};
+  for (int c = 0; c < candidates; ++c) {
+    CylinderParams p;
+    p.axis = normal_solver.eigenvectors().col(c);
+    if (!finite(p.axis)) continue;
+    Vector3d e1, e2;
+    complete_basis(p.axis, e1, e2);
+    // Algebraic circle fit of the projected points (Kasa): u^2 + v^2 + D u + E v + F = 0.
+    Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+    Vector3d b = Vector3d::Zero();
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double u = x.col(i).dot(e1), v = x.col(i).dot(e2);
+      const Vector3d row(u, v, 1.0);
+      a += row * row.transpose();
+      b -= row * (u * u + v * v);
+    }
+    const Vector3d s = a.ldlt().solve(b);
+    if (!s.allFinite()) continue;
+    const double cu = -0.5 * s(0), cv = -0.5 * s(1);
+    const double r2 = cu * cu + cv * cv - s(2);
+    if (!(r2 > 0)) continue;
+    p.point = cu * e1 + cv * e2;
+    p.radius = std::sqrt(r2);
+    const double cost = levenberg_marquardt<5>(p, settings.max_iterations, evaluate, update);
+    if (cost < best_cost && finite(p.axis) && finite(p.point) && p.radius > 0) {
+      best_cost = cost;
+      best = p;
+    }
+  }
+  if (!std::isfinite(best_cost)) return fit;
+  // Sign convention: the axis points up in the camera frame (y down), ties towards +x / +z.
+  Vector3d axis = best.axis;
+  if (axis(1) > 0 || (axis(1) == 0 && (axis(0) < 0 || (axis(0) == 0 && axis(2) < 0)))) {
+    axis = -axis;
+  }
+  double lo = INFINITY, hi = -INFINITY;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double t = (x.col(i) - best.point).dot(axis);
+    lo = std::min(lo, t);
+    hi = std::max(hi, t);
+  }
+  fit.axis = arr(axis);
+  fit.axis_point = arr(best.point + lo * axis + origin);
+  fit.radius = best.radius;
+  fit.extent = hi - lo;
+  fit.rms = std::sqrt(best_cost / static_cast<double>(n));
+  fit.ok = true;
+  return fit;
+}
+
+}  // namespace rangeseg

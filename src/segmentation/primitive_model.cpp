@@ -1,0 +1,564 @@
+// RegionModel::automatic: plane segmentation, then curved surfaces put back together. The plane
+// model cuts a cylinder or sphere into facets (each within k sigma of a plane); adjacent facets
+// whose union one cylinder or sphere explains within the sensor noise, with the measured normals
+// agreeing with the model's, are merged, and every segment is labelled with the simplest surface
+// that explains it.
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <numeric>
+#include <vector>
+
+#include "rangeseg/primitives.hpp"
+#include "segmentation/primitive_internal.hpp"
+
+namespace rangeseg {
+
+const char* to_string(SurfaceKind kind) {
+  switch (kind) {
+    case SurfaceKind::plane:
+      return "plane";
+    case SurfaceKind::cylinder:
+      return "cylinder";
+    case SurfaceKind::sphere:
+      return "sphere";
+    case SurfaceKind::smooth:
+      return "smooth";
+  }
+  return "unknown";
+}
+
+const char* to_string(RegionModel model) {
+  switch (model) {
+    case RegionModel::plane:
+      return "plane";
+    case RegionModel::smooth:
+      return "smooth";
+    case RegionModel::incremental_plane:
+      return "incremental_plane";
+    case RegionModel::automatic:
+      return "auto";
+  }
+  return "unknown";
+}
+
+}  // namespace rangeseg
+
+namespace rangeseg::seg {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+/// Points per merge test and per classification of a single segment; enough to tell a
+/// cylinder from a sphere from a plane at a few hundred microseconds per test.
+constexpr int kTestSample = 250;
+/// Points for the reported parameters of a curved segment.
+constexpr int kFinalSample = 4000;
+/// Levenberg-Marquardt steps per test fit (they converge in 3-6 from the closed-form start).
+constexpr int kTestIterations = 8;
+/// A curved model explains points when their RMS distance, in units of each point's sigma(z),
+/// is at most this (the points are the bilaterally smoothed ones in the pipeline, so their real
+/// noise is below sigma; 1.5 leaves room for raw input and the model's own noise mismatch) ...
+constexpr double kMaxSurfaceSigmas = 1.5;
+/// ... and the mean angle between measured normals and the model's normals is at most this: two
+/// planes meeting at a crease can be approximated by a cylinder within the noise when they are
+/// far away, but their normals cluster in two directions instead of turning continuously.
+/// (Normals of the smoothed Kinect points at 2-3 m scatter by ~15 degrees about the truth.)
+constexpr double kMaxMeanNormalAngle = 25.0 * kDeg;
+/// Adjacent plane segments are merge candidates when their normals differ by at most this.
+constexpr double kMaxPairAngle = 60.0 * kDeg;
+/// Curved models with radii outside this range are planes or noise [m].
+constexpr double kMinRadius = 0.01, kMaxRadius = 1.5;
+/// ... and so are patches covering less than a ~30 degree arc of their model (Model::spread):
+/// a slightly bent board is not a cylinder.
+constexpr double kMinSpread = 0.01;
+/// A plane explains a segment when its RMS residual is within this many sigma(z); a single
+/// segment is relabelled curved only if the curved fit is also this much better than the plane.
+constexpr double kPlaneSigmas = 1.0;
+constexpr double kCurvedGain = 0.6;
+/// Unions of segments whose plane residual is below this many sigma(z) are not tested.
+constexpr double kMinCurvatureSigmas = 0.3;
+
+struct Model {
+  SurfaceKind kind = SurfaceKind::plane;
+  SphereFit sphere;
+  CylinderFit cylinder;
+  double nrms = INFINITY;          ///< RMS residual / sigma(z) on the sample
+  double normal_angle = INFINITY;  ///< mean angle between measured and model normals [rad]
+  /// 1 - |mean of the model's unit normals at the points|: 0 for a flat patch, 0.011 for a
+  /// 30 degree arc of a cylinder, 0.36 for a half cylinder.
+  double spread = 0;
+
+  /// Signed distance to the surface and the surface's unit normal direction at p.
+  double distance(const Point3& p, Point3* normal) const {
+    if (kind == SurfaceKind::sphere) {
+      const double dx = p[0] - sphere.centre[0], dy = p[1] - sphere.centre[1],
+                   dz = p[2] - sphere.centre[2];
+      const double r = std::sqrt(dx * dx + dy * dy + dz * dz);
+      if (normal && r > 0) *normal = {dx / r, dy / r, dz / r};
+      return r - sphere.radius;
+    }
+    const auto& a = cylinder.axis;
+    const double wx = p[0] - cylinder.axis_point[0], wy = p[1] - cylinder.axis_point[1],
+                 wz = p[2] - cylinder.axis_point[2];
+    const double t = wx * a[0] + wy * a[1] + wz * a[2];
+    const double qx = wx - t * a[0], qy = wy - t * a[1], qz = wz - t * a[2];
+    const double r = std::sqrt(qx * qx + qy * qy + qz * qz);
+    if (normal && r > 0) *normal = {qx / r, qy / r, qz / r};
+    return r - cylinder.radius;
+  }
+  double radius() const { return kind == SurfaceKind::sphere ? sphere.radius : cylinder.radius; }
+};
+
+struct Scratch {
+  std::vector<std::int32_t> start;   ///< per label: first entry in `pixels`; size labels + 2
+  std::vector<std::int32_t> pixels;  ///< lattice pixel indices grouped by label
+  std::vector<std::uint64_t> pairs;
+  std::vector<std::int32_t> parent, next_member, last_member, group_pixels;
+  std::vector<detail::PlaneStats> stats;
+  std::vector<Model> models;
+  std::vector<Point3> points, normals;
+  std::vector<std::int32_t> queue, remap, order;
+  std::vector<std::uint8_t> queued, changed, final_changed;
+  std::vector<Segment> segments;
+};
+
+/// Reused across frames by each thread (Segmenter is not thread-safe, so one thread per
+/// Segmenter; a member of Segmenter::Scratch would be the cleaner home).
+thread_local Scratch tls_scratch;
+
+std::int32_t find_root(std::vector<std::int32_t>& parent, std::int32_t a) {
+  while (parent[a] != a) {
+    parent[a] = parent[parent[a]];
+    a = parent[a];
+  }
+  return a;
+}
+
+class PrimitivePass {
+ public:
+  PrimitivePass(const Frame& f, const SegmentationSettings& settings, Segmentation& out, Scratch& s)
+      : f_(f),
+        settings_(settings),
+        out_(out),
+        s_(s),
+        n_(static_cast<std::int32_t>(out.segments.size())) {}
+
+  void run() {
+    if (n_ == 0) return;
+    group_pixels_by_label();
+    collect_adjacent_pairs();
+    init_groups();
+    merge_pairs();
+    classify_groups();
+    reassign_to_curved();
+    relabel();
+  }
+
+ private:
+  double sigma(double z) const { return settings_.noise.sigma(z); }
+
+  void group_pixels_by_label() {
+    s_.start.assign(static_cast<std::size_t>(n_) + 2, 0);
+    const int step = f_.pixel_stride;
+    for (int v = 0; v < f_.height; v += step) {
+      const std::int32_t* row = f_.labels + v * f_.stride;
+      for (int u = 0; u < f_.width; u += step) ++s_.start[static_cast<std::size_t>(row[u]) + 1];
+    }
+    // start[l] = first slot of label l (label 0 included, then ignored).
+    std::int32_t total = 0;
+    for (std::size_t l = 0; l <= static_cast<std::size_t>(n_); ++l) {
+      const std::int32_t c = s_.start[l + 1];
+      s_.start[l + 1] = total;
+      total += c;
+    }
+    s_.pixels.resize(static_cast<std::size_t>(total));
+    for (int v = 0; v < f_.height; v += step) {
+      const std::ptrdiff_t row = v * f_.stride;
+      for (int u = 0; u < f_.width; u += step) {
+        const std::int32_t l = f_.labels[row + u];
+        s_.pixels[static_cast<std::size_t>(s_.start[static_cast<std::size_t>(l) + 1]++)] =
+            static_cast<std::int32_t>(row + u);
+      }
+    }
+    // Now start[l + 1] is the end of label l, i.e. start[l] is the beginning of label l.
+  }
+  std::int32_t begin(std::int32_t l) const { return s_.start[static_cast<std::size_t>(l)]; }
+  std::int32_t end(std::int32_t l) const { return s_.start[static_cast<std::size_t>(l) + 1]; }
+
+  void collect_adjacent_pairs() {
+    s_.pairs.clear();
+    std::uint64_t last = 0;
+    const int step = f_.pixel_stride;
+    for (int v = 0; v < f_.height; v += step) {
+      const std::ptrdiff_t row = v * f_.stride;
+      for (int u = 0; u < f_.width; u += step) {
+        const std::ptrdiff_t i = row + u;
+        const std::int32_t a = f_.labels[i];
+        // Right and down neighbours (mesh directions 0 and 2): 4-connected adjacency suffices
+        // to find the facets of one surface and halves the work.
+        unsigned mask = f_.edges[i] & 0x05u;
+        if (a == 0 || mask == 0) continue;
+        while (mask != 0) {
+          const int k = std::countr_zero(mask);
+          mask &= mask - 1;
+          const std::int32_t b = f_.labels[i + f_.neighbour_offset[k]];
+          if (b == 0 || b == a) continue;
+          const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) |
+                                    static_cast<std::uint32_t>(std::max(a, b));
+          if (key != last) s_.pairs.push_back(key);
+          last = key;
+        }
+      }
+    }
+    std::sort(s_.pairs.begin(), s_.pairs.end());
+    s_.pairs.erase(std::unique(s_.pairs.begin(), s_.pairs.end()), s_.pairs.end());
+  }
+
+  void init_groups() {
+    const auto size = static_cast<std::size_t>(n_) + 1;
+    s_.parent.resize(size);
+    std::iota(s_.parent.begin(), s_.parent.end(), 0);
+    s_.next_member.assign(size, 0);
+    s_.last_member.resize(size);
+    std::iota(s_.last_member.begin(), s_.last_member.end(), 0);
+    s_.group_pixels.assign(size, 0);
+    s_.stats.assign(size, detail::PlaneStats{});
+    s_.changed.assign(size, 0);
+    s_.models.assign(size, Model{});
+    for (std::int32_t l = 1; l <= n_; ++l) s_.group_pixels[l] = end(l) - begin(l);
+  }
+
+  /// Plane statistics of a segment that is still its own group, computed when first needed.
+  const detail::PlaneStats& stats_of(std::int32_t root) {
+    detail::PlaneStats& st = s_.stats[root];
+    if (st.count == 0) {
+      for (std::int32_t j = begin(root); j < end(root); ++j) {
+        const std::int32_t i = s_.pixels[static_cast<std::size_t>(j)];
+        st.add(f_.x[i], f_.y[i], f_.z[i]);
+      }
+    }
+    return st;
+  }
+
+  /// Every k-th point (and normal) of a group's member segments, about max_points in all.
+  void gather(std::int32_t root, int max_points) {
+    s_.points.clear();
+    s_.normals.clear();
+    const std::int64_t total = s_.group_pixels[root];
+    const std::int64_t step = std::max<std::int64_t>(1, (total + max_points - 1) / max_points);
+    std::int64_t phase = 0;
+    for (std::int32_t l = root; l != 0; l = s_.next_member[l]) {
+      std::int32_t j = begin(l) + static_cast<std::int32_t>(phase);
+      for (; j < end(l); j += static_cast<std::int32_t>(step)) {
+        const std::int32_t i = s_.pixels[static_cast<std::size_t>(j)];
+        s_.points.push_back({f_.x[i], f_.y[i], f_.z[i]});
+        s_.normals.push_back({f_.nx[i], f_.ny[i], f_.nz[i]});
+      }
+      phase = j - end(l);
+    }
+  }
+
+  /// RMS residual in units of sigma(z) and mean normal angle of a model on the gathered sample.
+  void score(Model& m) const {
+    double sum = 0, angle = 0;
+    double mx = 0, my = 0, mz = 0;
+    int angles = 0;
+    for (std::size_t j = 0; j < s_.points.size(); ++j) {
+      const Point3& p = s_.points[j];
+      Point3 normal{};
+      const double d = m.distance(p, &normal) / sigma(p[2]);
+      sum += d * d;
+      mx += normal[0];
+      my += normal[1];
+      mz += normal[2];
+      const Point3& n = s_.normals[j];
+      const double c = std::fabs(n[0] * normal[0] + n[1] * normal[1] + n[2] * normal[2]);
+      if (std::isfinite(c)) {
+        angle += std::acos(std::min(c, 1.0));
+        ++angles;
+      }
+    }
+    m.nrms = std::sqrt(sum / static_cast<double>(std::max<std::size_t>(1, s_.points.size())));
+    m.normal_angle = angles > 0 ? angle / angles : INFINITY;
+    const double count = static_cast<double>(std::max<std::size_t>(1, s_.points.size()));
+    m.spread = 1.0 - std::sqrt(mx * mx + my * my + mz * mz) / count;
+  }
+
+  double plane_nrms(const detail::PlaneStats& stats) const {
+    const detail::PlaneFit fit = stats.fit();
+    if (!fit.ok) return INFINITY;
+    double sum = 0;
+    for (const Point3& p : s_.points) {
+      const double d = fit.distance(p[0], p[1], p[2]) / sigma(p[2]);
+      sum += d * d;
+    }
+    return std::sqrt(sum / static_cast<double>(std::max<std::size_t>(1, s_.points.size())));
+  }
+
+  static bool plausible(const Model& m) {
+    return m.nrms <= kMaxSurfaceSigmas && m.normal_angle <= kMaxMeanNormalAngle &&
+           m.radius() >= kMinRadius && m.radius() <= kMaxRadius && m.spread >= kMinSpread;
+  }
+
+  /// The better of sphere and cylinder on the gathered sample (the sphere, with one parameter
+  /// fewer, unless the cylinder is clearly better).
+  Model fit_curved(int iterations) const {
+    const PrimitiveFitSettings fs{.max_iterations = iterations};
+    Model sphere, cylinder;
+    sphere.kind = SurfaceKind::sphere;
+    sphere.sphere = fit_sphere(s_.points, s_.normals, fs);
+    if (sphere.sphere.ok) score(sphere);
+    cylinder.kind = SurfaceKind::cylinder;
+    cylinder.cylinder = fit_cylinder(s_.points, s_.normals, fs);
+    if (cylinder.cylinder.ok) score(cylinder);
+    const bool sphere_ok = sphere.sphere.ok && plausible(sphere);
+    const bool cylinder_ok = cylinder.cylinder.ok && plausible(cylinder);
+    if (sphere_ok && (!cylinder_ok || sphere.nrms <= 1.1 * cylinder.nrms)) return sphere;
+    if (cylinder_ok) return cylinder;
+    return Model{};  // kind plane: nothing curved fits
+  }
+
+  static double normal_angle(const Segment& a, const Segment& b) {
+    const double c = std::fabs(a.normal[0] * b.normal[0] + a.normal[1] * b.normal[1] +
+                               a.normal[2] * b.normal[2]);
+    return std::acos(std::min(c, 1.0));
+  }
+
+  void merge_pairs() {
+    for (const std::uint64_t key : s_.pairs) {
+      const auto la = static_cast<std::int32_t>(key >> 32);
+      const auto lb = static_cast<std::int32_t>(key & 0xFFFFFFFFu);
+      std::int32_t a = find_root(s_.parent, la), b = find_root(s_.parent, lb);
+      if (a == b) continue;
+      if (normal_angle(out_.segments[la - 1], out_.segments[lb - 1]) > kMaxPairAngle) continue;
+      detail::PlaneStats merged = stats_of(a);
+      merged.merge(stats_of(b));
+      // Link b's members after a's temporarily to sample the union.
+      const std::int32_t a_last = s_.last_member[a];
+      s_.next_member[a_last] = b;
+      const std::int32_t saved_pixels = s_.group_pixels[a];
+      s_.group_pixels[a] += s_.group_pixels[b];
+      gather(a, kTestSample);
+      const double union_plane = plane_nrms(merged);
+      Model model;
+      // A union that is flat within a fraction of the noise is post-processing's business.
+      if (union_plane > kMinCurvatureSigmas) model = fit_curved(kTestIterations);
+      // The curved model must explain the union clearly better than one plane does.
+      bool accept = model.kind != SurfaceKind::plane && model.nrms <= kCurvedGain * union_plane;
+      if (accept) {
+        // A part's plane residual is its noise plus its curvature, so a model of the true
+        // surface fits the union about as well as the flatter part's plane: a cylinder bent
+        // over a crease between two planes (each fitting its plane at the noise level) does not.
+        const double pa = part_residual(a), pb = part_residual(b);
+        accept = model.nrms <= 1.5 * std::min(pa, pb) + 0.15;
+      }
+      if (!accept) {
+        s_.next_member[a_last] = 0;
+        s_.group_pixels[a] = saved_pixels;
+        continue;
+      }
+      s_.last_member[a] = s_.last_member[b];
+      s_.parent[b] = a;
+      s_.stats[a] = merged;
+      s_.models[a] = model;
+      s_.changed[a] = 1;
+    }
+  }
+
+  /// The residual of a group in units of sigma: its curved model's, else its plane's.
+  double part_residual(std::int32_t root) {
+    if (s_.models[root].kind != SurfaceKind::plane) return s_.models[root].nrms;
+    const detail::PlaneFit fit = stats_of(root).fit();
+    if (!fit.ok) return INFINITY;
+    return fit.rms / sigma(fit.centroid[2]);
+  }
+
+  void classify_groups() {
+    for (std::int32_t l = 1; l <= n_; ++l) {
+      if (s_.parent[l] != l) continue;
+      Model& m = s_.models[l];
+      if (m.kind == SurfaceKind::plane) {
+        // A single facet: curved only if a plane does not explain it and a curved model does,
+        // much better.
+        const Segment& seg = out_.segments[static_cast<std::size_t>(l - 1)];
+        if (seg.rms_residual <= kPlaneSigmas * sigma(seg.centroid[2])) continue;
+        gather(l, kTestSample);
+        const double plane = plane_nrms(stats_of(l));
+        if (plane <= kPlaneSigmas) continue;
+        Model curved = fit_curved(kTestIterations);
+        if (curved.kind == SurfaceKind::plane || curved.nrms > kCurvedGain * plane) continue;
+        m = curved;
+      }
+      // The reported parameters: a larger sample, the same kind.
+      gather(l, kFinalSample);
+      Model final_model;
+      final_model.kind = m.kind;
+      if (m.kind == SurfaceKind::sphere) {
+        final_model.sphere = fit_sphere(s_.points, s_.normals);
+        if (!final_model.sphere.ok) continue;
+      } else {
+        final_model.cylinder = fit_cylinder(s_.points, s_.normals);
+        if (!final_model.cylinder.ok) continue;
+      }
+      score(final_model);
+      m = final_model;
+    }
+  }
+
+  /// Unlabelled points next to a curved segment join it when within k sigma(z) of its surface
+  /// (the plane model's boundary re-assignment measured them against the facets' planes).
+  void reassign_to_curved() {
+    const std::size_t pixels = static_cast<std::size_t>(f_.stride) * f_.height;
+    s_.queued.assign(pixels, 0);
+    s_.queue.clear();
+    const auto curved_root = [&](std::int32_t label) {
+      if (label == 0) return 0;
+      const std::int32_t r = find_root(s_.parent, label);
+      return s_.models[r].kind != SurfaceKind::plane ? r : 0;
+    };
+    bool any_curved = false;
+    for (std::int32_t l = 1; l <= n_ && !any_curved; ++l)
+      any_curved = s_.parent[l] == l && s_.models[l].kind != SurfaceKind::plane;
+    if (!any_curved) return;
+    const auto push_unlabelled_neighbours = [&](std::ptrdiff_t i) {
+      unsigned mask = f_.edges[i];
+      while (mask != 0) {
+        const int k = std::countr_zero(mask);
+        mask &= mask - 1;
+        const std::ptrdiff_t q = i + f_.neighbour_offset[k];
+        if (f_.labels[q] == 0 && !s_.queued[q] && std::isfinite(f_.z[q])) {
+          s_.queued[q] = 1;
+          s_.queue.push_back(static_cast<std::int32_t>(q));
+        }
+      }
+    };
+    for (std::int32_t l = 1; l <= n_; ++l) {
+      if (curved_root(l) == 0) continue;
+      for (std::int32_t j = begin(l); j < end(l); ++j)
+        push_unlabelled_neighbours(s_.pixels[static_cast<std::size_t>(j)]);
+    }
+    const double k = settings_.max_distance_sigmas;
+    for (std::size_t head = 0; head < s_.queue.size(); ++head) {
+      const std::int32_t q = s_.queue[head];
+      const Point3 p{f_.x[q], f_.y[q], f_.z[q]};
+      double best_distance = k * sigma(p[2]);
+      std::int32_t best = 0;
+      unsigned mask = f_.edges[q];
+      while (mask != 0) {
+        const int n = std::countr_zero(mask);
+        mask &= mask - 1;
+        const std::int32_t label = f_.labels[q + f_.neighbour_offset[n]];
+        const std::int32_t r = curved_root(label);
+        if (r == 0) continue;
+        const double d = std::fabs(s_.models[r].distance(p, nullptr));
+        if (d <= best_distance) {
+          best_distance = d;
+          best = label;
+        }
+      }
+      if (best == 0) continue;
+      f_.labels[q] = best;
+      ++reassigned_;
+      const std::int32_t root = find_root(s_.parent, best);
+      s_.group_pixels[root] += 1;
+      s_.changed[root] = 1;
+      push_unlabelled_neighbours(q);
+    }
+  }
+
+  void relabel() {
+    // Groups by size, descending (ties by old label), as post-processing orders segments.
+    s_.order.clear();
+    for (std::int32_t l = 1; l <= n_; ++l) {
+      if (s_.parent[l] == l) s_.order.push_back(l);
+    }
+    std::sort(s_.order.begin(), s_.order.end(), [&](std::int32_t a, std::int32_t b) {
+      const auto ca = s_.group_pixels[a], cb = s_.group_pixels[b];
+      return ca != cb ? ca > cb : a < b;
+    });
+    s_.remap.assign(static_cast<std::size_t>(n_) + 1, 0);
+    for (std::size_t j = 0; j < s_.order.size(); ++j)
+      s_.remap[s_.order[j]] = static_cast<std::int32_t>(j + 1);
+    for (std::int32_t l = 1; l <= n_; ++l) s_.remap[l] = s_.remap[find_root(s_.parent, l)];
+    const int step = f_.pixel_stride;
+    // Plane statistics of the changed segments (merged, or with re-assigned points).
+    const std::size_t m = s_.order.size();
+    s_.final_changed.assign(m + 1, 0);
+    for (std::size_t j = 0; j < m; ++j) s_.final_changed[j + 1] = s_.changed[s_.order[j]];
+    s_.stats.assign(m + 1, detail::PlaneStats{});
+    const bool identity = m == static_cast<std::size_t>(n_) && reassigned_ == 0;
+    for (int v = 0; v < f_.height && !identity; v += step) {
+      const std::ptrdiff_t row = v * f_.stride;
+      for (int u = 0; u < f_.width; u += step) {
+        std::int32_t& label = f_.labels[row + u];
+        if (label == 0) continue;
+        label = s_.remap[label];
+        if (s_.final_changed[label])
+          s_.stats[label].add(f_.x[row + u], f_.y[row + u], f_.z[row + u]);
+      }
+    }
+    s_.segments.resize(m);
+    for (std::size_t j = 0; j < m; ++j) {
+      const std::int32_t root = s_.order[j];
+      Segment seg = out_.segments[root - 1];
+      if (s_.final_changed[j + 1]) {
+        double area = 0;
+        for (std::int32_t l = root; l != 0; l = s_.next_member[l])
+          area += out_.segments[l - 1].area_m2;
+        fill_plane(s_.stats[j + 1], seg);
+        seg.area_m2 = area;
+      }
+      seg.label = static_cast<int>(j + 1);
+      const Model& model = s_.models[root];
+      seg.kind = model.kind;
+      seg.model = model.kind == SurfaceKind::plane ? RegionModel::plane : RegionModel::automatic;
+      seg.surface_rms = seg.rms_residual;
+      if (model.kind == SurfaceKind::sphere) {
+        seg.centre = model.sphere.centre;
+        seg.radius = model.sphere.radius;
+        seg.surface_rms = model.sphere.rms;
+      } else if (model.kind == SurfaceKind::cylinder) {
+        seg.centre = model.cylinder.axis_point;
+        seg.axis = model.cylinder.axis;
+        seg.radius = model.cylinder.radius;
+        seg.extent = model.cylinder.extent;
+        seg.surface_rms = model.cylinder.rms;
+      }
+      s_.segments[j] = seg;
+    }
+    out_.segments.swap(s_.segments);
+  }
+
+  static void fill_plane(const detail::PlaneStats& stats, Segment& seg) {
+    const detail::PlaneFit fit = stats.fit();
+    seg.pixel_count = static_cast<int>(stats.count);
+    seg.centroid = stats.mean();
+    if (fit.ok) {
+      seg.normal = fit.normal;
+      seg.offset = fit.offset;
+      seg.rms_residual = fit.rms;
+    } else {
+      const double dist = std::hypot(seg.centroid[0], seg.centroid[1], seg.centroid[2]);
+      seg.normal = {-seg.centroid[0] / dist, -seg.centroid[1] / dist, -seg.centroid[2] / dist};
+      seg.offset = dist;
+      seg.rms_residual = stats.rms_distance(seg.normal, seg.offset);
+    }
+  }
+
+  const Frame& f_;
+  const SegmentationSettings& settings_;
+  Segmentation& out_;
+  Scratch& s_;
+  std::int32_t n_;
+  std::int64_t reassigned_ = 0;
+};
+
+}  // namespace
+
+void fit_primitives(const Frame& frame, const SegmentationSettings& settings, Segmentation& out) {
+  PrimitivePass(frame, settings, out, tls_scratch).run();
+}
+
+}  // namespace rangeseg::seg
