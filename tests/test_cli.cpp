@@ -12,6 +12,7 @@
 #include <sstream>
 #include <string>
 
+#include "cli_util.hpp"
 #include "rangeseg/camera.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/io/png.hpp"
@@ -22,22 +23,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct CliResult {
-  int code = -1;
-  std::string out;  ///< stdout and stderr together
-};
-
-CliResult run(const std::string& args) {
-  const std::string cmd = std::string(RANGESEG_CLI) + " " + args + " 2>&1";
-  CliResult r;
-  FILE* pipe = popen(cmd.c_str(), "r");
-  if (pipe == nullptr) return r;
-  char buffer[4096];
-  while (const std::size_t n = fread(buffer, 1, sizeof buffer, pipe)) r.out.append(buffer, n);
-  const int status = pclose(pipe);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+using rangeseg::test::CliResult;
+CliResult run(const std::string& args) { return rangeseg::test::run_cli(args); }
 
 std::string read_text(const fs::path& p) {
   std::ifstream in(p);

@@ -8,28 +8,15 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "cli_util.hpp"
 #include "test_util.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct CliResult {
-  int code = -1;
-  std::string out;  ///< stdout and stderr together
-};
-
-CliResult run(const std::string& args) {
-  const std::string cmd = std::string(RANGESEG_CLI) + " " + args + " 2>&1";
-  CliResult r;
-  FILE* pipe = popen(cmd.c_str(), "r");
-  if (pipe == nullptr) return r;
-  char buffer[4096];
-  while (const std::size_t n = fread(buffer, 1, sizeof buffer, pipe)) r.out.append(buffer, n);
-  const int status = pclose(pipe);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+using rangeseg::test::CliResult;
+CliResult run(const std::string& args) { return rangeseg::test::run_cli(args); }
 
 nlohmann::json read_json(const fs::path& p) {
   std::ifstream in(p);

@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -48,6 +49,42 @@ TEST(Ply, RoundTripAllLayouts) {
   const io::PlyMesh back = io::decode_ply(bytes.data(), bytes.size(), "q.ply");
   EXPECT_EQ(back.vertices_per_face, 4);
   EXPECT_EQ(back.faces, quads.faces);
+}
+
+TEST(Ply, StreamedFileEqualsTheInMemoryEncodingAcrossChunks) {
+  // ~3.5 MB of vertices and faces: several 1 MB chunks, with a chunk border inside a record.
+  io::PlyMesh m;
+  const int n = 100003;
+  for (int i = 0; i < n; ++i) {
+    m.xyz.insert(m.xyz.end(), {0.001f * i, -0.002f * i, 1.0f + 1e-6f * i});
+    m.normals.insert(m.normals.end(), {0.0f, 0.6f, -0.8f});
+    m.rgb.insert(m.rgb.end(), {static_cast<std::uint8_t>(i), 1, 2});
+  }
+  for (int i = 0; i + 2 < n; ++i) m.faces.insert(m.faces.end(), {i, i + 1, i + 2});
+  const auto dir = test::scratch_dir("ply_stream");
+  const std::string path = (dir / "big.ply").string();
+  io::write_ply(path, m);
+  EXPECT_EQ(io::read_file(path), io::encode_ply(m));
+  int files = 0;
+  for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir)) ++files;
+  EXPECT_EQ(files, 1) << "a temporary file was left behind";
+}
+
+TEST(Ply, AtomicFileWithoutCommitLeavesNothing) {
+  const auto dir = test::scratch_dir("ply_atomic");
+  const std::string path = (dir / "never.ply").string();
+  {
+    io::AtomicFile file(path);
+    file.write("ply\n", 4);
+  }
+  EXPECT_FALSE(std::filesystem::exists(path));
+  EXPECT_TRUE(std::filesystem::is_empty(dir));
+  io::AtomicFile file(path);
+  file.write("abc", 3);
+  file.commit();
+  EXPECT_EQ(io::read_file(path).size(), 3u);
+  EXPECT_THROW(file.commit(), std::runtime_error);
+  EXPECT_THROW(file.write("x", 1), std::runtime_error);
 }
 
 TEST(Ply, HeaderAndBinaryLayoutAreExactlyAsDocumented) {

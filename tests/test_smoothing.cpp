@@ -140,7 +140,12 @@ TEST_P(NoisyPlane, DefaultSmoothingHalvesPointAndNormalErrors) {
 INSTANTIATE_TEST_SUITE_P(Depths, NoisyPlane,
                          ::testing::Values(PlaneCase{1.0, 0.0}, PlaneCase{2.0, 0.0},
                                            PlaneCase{4.0, 0.0}, PlaneCase{1.0, 40.0},
-                                           PlaneCase{2.0, 40.0}, PlaneCase{4.0, 40.0}));
+                                           PlaneCase{2.0, 40.0}, PlaneCase{4.0, 40.0}),
+                         [](const ::testing::TestParamInfo<PlaneCase>& info) {
+                           const PlaneCase& c = info.param;
+                           return std::to_string(static_cast<int>(c.distance * 10)) + "dm_tilt" +
+                                  std::to_string(static_cast<int>(c.tilt_deg)) + "deg";
+                         });
 
 // --- Edge preservation
 // ----------------------------------------------------------------------------

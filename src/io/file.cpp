@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
+#include <utility>
 
 namespace rangeseg::io {
 
@@ -34,21 +35,46 @@ std::vector<std::uint8_t> read_file(const std::string& path, std::uint64_t max_b
   return bytes;
 }
 
-void write_file_atomic(const std::string& path, const void* bytes, std::size_t size) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  std::FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (f == nullptr) throw std::runtime_error(path + ": cannot create: " + std::strerror(errno));
-  const bool ok = (size == 0 || std::fwrite(bytes, 1, size, f) == size);
-  const bool closed = std::fclose(f) == 0;
-  if (!ok || !closed) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error(path + ": write error (disk full?)");
+AtomicFile::AtomicFile(std::string path)
+    : path_(std::move(path)), tmp_(path_ + ".tmp." + std::to_string(::getpid())) {
+  file_ = std::fopen(tmp_.c_str(), "wb");
+  if (file_ == nullptr)
+    throw std::runtime_error(path_ + ": cannot create: " + std::strerror(errno));
+}
+
+AtomicFile::~AtomicFile() {
+  if (file_ != nullptr) {
+    std::fclose(file_);
+    std::remove(tmp_.c_str());
   }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+}
+
+void AtomicFile::write(const void* bytes, std::size_t size) {
+  if (file_ == nullptr) throw std::runtime_error(path_ + ": write after commit");
+  if (size != 0 && std::fwrite(bytes, 1, size, file_) != size) {
+    throw std::runtime_error(path_ + ": write error (disk full?)");
+  }
+}
+
+void AtomicFile::commit() {
+  if (file_ == nullptr) throw std::runtime_error(path_ + ": committed twice");
+  const bool closed = std::fclose(file_) == 0;
+  file_ = nullptr;
+  if (!closed) {
+    std::remove(tmp_.c_str());
+    throw std::runtime_error(path_ + ": write error (disk full?)");
+  }
+  if (std::rename(tmp_.c_str(), path_.c_str()) != 0) {
     const int err = errno;
-    std::remove(tmp.c_str());
-    throw std::runtime_error(path + ": cannot rename temporary file: " + std::strerror(err));
+    std::remove(tmp_.c_str());
+    throw std::runtime_error(path_ + ": cannot rename temporary file: " + std::strerror(err));
   }
+}
+
+void write_file_atomic(const std::string& path, const void* bytes, std::size_t size) {
+  AtomicFile file(path);
+  file.write(bytes, size);
+  file.commit();
 }
 
 std::string extension(const std::string& path) {

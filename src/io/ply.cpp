@@ -50,8 +50,12 @@ void validate(const PlyMesh& mesh) {
 
 }  // namespace
 
-std::vector<std::uint8_t> encode_ply(const PlyMesh& mesh) {
-  validate(mesh);
+namespace {
+
+/// Encodes a validated `mesh` in chunks of about 1 MB handed to `sink(data, size)`, so a file
+/// writer never holds the whole encoding (a 640x480 mesh is ~14 MB) next to the mesh arrays.
+template <class Sink>
+void encode_ply_chunks(const PlyMesh& mesh, Sink&& sink) {
   const std::size_t n = mesh.vertex_count();
   const std::size_t faces = mesh.face_count();
   const bool has_normals = !mesh.normals.empty() && n > 0;
@@ -66,10 +70,15 @@ std::vector<std::uint8_t> encode_ply(const PlyMesh& mesh) {
          << "property list uchar int vertex_indices\nend_header\n";
   const std::string text = header.str();
 
-  const std::size_t vertex_bytes = 12 + (has_normals ? 12 : 0) + (has_rgb ? 3 : 0);
-  const std::size_t face_bytes = 1 + 4 * static_cast<std::size_t>(mesh.vertices_per_face);
+  constexpr std::size_t kChunk = std::size_t{1} << 20;
   std::vector<std::uint8_t> out;
-  out.reserve(text.size() + n * vertex_bytes + faces * face_bytes);
+  out.reserve(kChunk + 1024);
+  const auto flush_if_full = [&] {
+    if (out.size() >= kChunk) {
+      sink(out.data(), out.size());
+      out.clear();
+    }
+  };
   out.insert(out.end(), text.begin(), text.end());
   for (std::size_t i = 0; i < n; ++i) {
     for (int k = 0; k < 3; ++k) append(out, mesh.xyz[3 * i + k]);
@@ -77,23 +86,38 @@ std::vector<std::uint8_t> encode_ply(const PlyMesh& mesh) {
       for (int k = 0; k < 3; ++k) append(out, mesh.normals[3 * i + k]);
     if (has_rgb)
       for (int k = 0; k < 3; ++k) out.push_back(mesh.rgb[3 * i + k]);
+    flush_if_full();
   }
   const std::size_t m = static_cast<std::size_t>(mesh.vertices_per_face);
   for (std::size_t f = 0; f < faces; ++f) {
     out.push_back(static_cast<std::uint8_t>(m));
     for (std::size_t k = 0; k < m; ++k) append(out, mesh.faces[f * m + k]);
+    flush_if_full();
   }
-  return out;
+  if (!out.empty()) sink(out.data(), out.size());
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> encode_ply(const PlyMesh& mesh) {
+  validate(mesh);
+  std::vector<std::uint8_t> bytes;
+  encode_ply_chunks(mesh, [&](const std::uint8_t* data, std::size_t size) {
+    bytes.insert(bytes.end(), data, data + size);
+  });
+  return bytes;
 }
 
 void write_ply(const std::string& path, const PlyMesh& mesh) {
-  std::vector<std::uint8_t> bytes;
   try {
-    bytes = encode_ply(mesh);
+    validate(mesh);
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument("writing '" + path + "': " + e.what());
   }
-  write_file_atomic(path, bytes);
+  AtomicFile file(path);
+  encode_ply_chunks(mesh,
+                    [&](const std::uint8_t* data, std::size_t size) { file.write(data, size); });
+  file.commit();
 }
 
 PlyMesh decode_ply(const std::uint8_t* data, std::size_t size, const std::string& name) {

@@ -66,15 +66,7 @@ class IncrementalPlaneModel {
   }
 
   bool seed_ok(const Frame& f, std::int32_t seed) const {
-    const float nx = f.nx[seed], ny = f.ny[seed], nz = f.nz[seed];
-    unsigned mask = f.edges[seed];
-    while (mask != 0) {
-      const int k = std::countr_zero(mask);
-      mask &= mask - 1;
-      const std::ptrdiff_t q = seed + f.neighbour_offset[k];
-      if (!(nx * f.nx[q] + ny * f.ny[q] + nz * f.nz[q] >= cos_max_angle_)) return false;
-    }
-    return true;
+    return ring_normals_agree(f, seed, cos_max_angle_);
   }
 
   bool accepts(const Frame& f, std::int32_t /*from*/, std::int32_t q) const {

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <array>
+#include <bit>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -78,6 +79,21 @@ struct Segmenter::Scratch {
 }  // namespace rangeseg
 
 namespace rangeseg::seg {
+
+/// True when every mesh neighbour of `seed` has its normal within the angle whose cosine is
+/// `cos_angle` of the seed's normal (NaN normals fail): a region started from a normal that its
+/// neighbours contradict would follow noise, and noisy areas would spawn one region per pixel.
+inline bool ring_normals_agree(const Frame& f, std::int32_t seed, float cos_angle) {
+  const float nx = f.nx[seed], ny = f.ny[seed], nz = f.nz[seed];
+  unsigned mask = f.edges[seed];
+  while (mask != 0) {
+    const int k = std::countr_zero(mask);
+    mask &= mask - 1;
+    const std::ptrdiff_t q = seed + f.neighbour_offset[k];
+    if (!(nx * f.nx[q] + ny * f.ny[q] + nz * f.nz[q] >= cos_angle)) return false;
+  }
+  return true;
+}
 
 /// Fills scratch.seeds with the unlabelled seed pixels in ascending curvature order (counting
 /// sort).

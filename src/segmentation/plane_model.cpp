@@ -38,19 +38,8 @@ class PlaneModel {
     add(f, seed);
   }
 
-  /// Every mesh neighbour of a seed must have its normal within the angle test of the seed's
-  /// normal: a region started from a normal that its neighbours contradict would follow noise
-  /// (and noisy areas would otherwise spawn one region per pixel).
   bool seed_ok(const Frame& f, std::int32_t seed) const {
-    const float nx = f.nx[seed], ny = f.ny[seed], nz = f.nz[seed];
-    unsigned mask = f.edges[seed];
-    while (mask != 0) {
-      const int k = std::countr_zero(mask);
-      mask &= mask - 1;
-      const std::ptrdiff_t q = seed + f.neighbour_offset[k];
-      if (!(nx * f.nx[q] + ny * f.ny[q] + nz * f.nz[q] >= cos_seed_angle_)) return false;
-    }
-    return true;
+    return ring_normals_agree(f, seed, cos_seed_angle_);
   }
 
   bool accepts(const Frame& f, std::int32_t /*from*/, std::int32_t q) const {

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -11,6 +12,26 @@ namespace rangeseg::io {
 /// or if it is larger than `max_bytes`.
 std::vector<std::uint8_t> read_file(const std::string& path,
                                     std::uint64_t max_bytes = std::uint64_t{1} << 32);
+
+/// A file written in pieces under a temporary name beside `path` and renamed over `path` by
+/// `commit()`, so a reader never sees a half-written file; destroyed without a commit (e.g. by an
+/// exception while encoding), it removes the temporary. Errors throw std::runtime_error naming
+/// the file. For outputs too large to encode in memory first.
+class AtomicFile {
+ public:
+  explicit AtomicFile(std::string path);
+  ~AtomicFile();
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+
+  void write(const void* bytes, std::size_t size);
+  /// Closes the temporary and renames it to `path`.
+  void commit();
+
+ private:
+  std::string path_, tmp_;
+  std::FILE* file_ = nullptr;
+};
 
 /// Writes `bytes` to a temporary file beside `path`, then renames it over `path`, so a reader
 /// never sees a half-written file. Throws std::runtime_error naming the file on failure and

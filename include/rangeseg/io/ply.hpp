@@ -29,7 +29,7 @@ struct PlyMesh {
 /// of it, or an index is outside 0..vertex_count-1.
 std::vector<std::uint8_t> encode_ply(const PlyMesh& mesh);
 
-/// encode_ply, then io::write_file_atomic.
+/// The encoding of encode_ply, streamed into an io::AtomicFile (never half-written).
 void write_ply(const std::string& path, const PlyMesh& mesh);
 
 /// Reads a PLY of exactly the layout encode_ply writes (binary_little_endian; vertex x y z as
