@@ -95,6 +95,11 @@ inline bool ring_normals_agree(const Frame& f, std::int32_t seed, float cos_angl
   return true;
 }
 
+/// Sets a segment's pixel count, centroid and least-squares plane (normal, offset, RMS) from its
+/// point statistics. Collinear points (a one-pixel strip) have no plane: the plane facing the
+/// sensor through the centroid is reported instead.
+void set_plane_fields(const detail::PlaneStats& stats, Segment& segment);
+
 /// Fills scratch.seeds with the unlabelled seed pixels in ascending curvature order (counting
 /// sort).
 void collect_seeds(const Frame& frame, const SegmentationSettings& settings,

@@ -330,25 +330,27 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
 
   out.segments.resize(n);
   for (std::size_t j = 0; j < n; ++j) {
-    const PlaneStats& stats = s.regions[s.order[j]];
-    const PlaneFit fit = stats.fit();
     Segment& seg = out.segments[j];
     seg.label = static_cast<int>(j + 1);
     seg.model = settings.model;
-    seg.pixel_count = static_cast<int>(stats.count);
     seg.area_m2 = s.area[j + 1];
-    seg.centroid = stats.mean();
-    if (fit.ok) {
-      seg.normal = fit.normal;
-      seg.offset = fit.offset;
-      seg.rms_residual = fit.rms;
-    } else {
-      // Collinear points (a one-pixel strip) have no plane: report the plane facing the sensor.
-      const double dist = std::hypot(seg.centroid[0], seg.centroid[1], seg.centroid[2]);
-      seg.normal = {-seg.centroid[0] / dist, -seg.centroid[1] / dist, -seg.centroid[2] / dist};
-      seg.offset = dist;
-      seg.rms_residual = stats.rms_distance(seg.normal, seg.offset);
-    }
+    set_plane_fields(s.regions[s.order[j]], seg);
+  }
+}
+
+void set_plane_fields(const PlaneStats& stats, Segment& seg) {
+  const PlaneFit fit = stats.fit();
+  seg.pixel_count = static_cast<int>(stats.count);
+  seg.centroid = stats.mean();
+  if (fit.ok) {
+    seg.normal = fit.normal;
+    seg.offset = fit.offset;
+    seg.rms_residual = fit.rms;
+  } else {
+    const double dist = std::hypot(seg.centroid[0], seg.centroid[1], seg.centroid[2]);
+    seg.normal = {-seg.centroid[0] / dist, -seg.centroid[1] / dist, -seg.centroid[2] / dist};
+    seg.offset = dist;
+    seg.rms_residual = stats.rms_distance(seg.normal, seg.offset);
   }
 }
 

@@ -507,7 +507,7 @@ class PrimitivePass {
         double area = 0;
         for (std::int32_t l = root; l != 0; l = s_.next_member[l])
           area += out_.segments[l - 1].area_m2;
-        fill_plane(s_.stats[j + 1], seg);
+        set_plane_fields(s_.stats[j + 1], seg);
         seg.area_m2 = area;
       }
       seg.label = static_cast<int>(j + 1);
@@ -529,22 +529,6 @@ class PrimitivePass {
       s_.segments[j] = seg;
     }
     out_.segments.swap(s_.segments);
-  }
-
-  static void fill_plane(const detail::PlaneStats& stats, Segment& seg) {
-    const detail::PlaneFit fit = stats.fit();
-    seg.pixel_count = static_cast<int>(stats.count);
-    seg.centroid = stats.mean();
-    if (fit.ok) {
-      seg.normal = fit.normal;
-      seg.offset = fit.offset;
-      seg.rms_residual = fit.rms;
-    } else {
-      const double dist = std::hypot(seg.centroid[0], seg.centroid[1], seg.centroid[2]);
-      seg.normal = {-seg.centroid[0] / dist, -seg.centroid[1] / dist, -seg.centroid[2] / dist};
-      seg.offset = dist;
-      seg.rms_residual = stats.rms_distance(seg.normal, seg.offset);
-    }
   }
 
   const Frame& f_;
