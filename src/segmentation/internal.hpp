@@ -100,6 +100,11 @@ inline bool ring_normals_agree(const Frame& f, std::int32_t seed, float cos_angl
 /// sensor through the centroid is reported instead.
 void set_plane_fields(const detail::PlaneStats& stats, Segment& segment);
 
+/// Flat views of the cloud, mesh, normal and label planes (all of the cloud's size, checked by
+/// the caller); throws std::invalid_argument when their row strides differ.
+Frame make_frame(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
+                 LabelImage& labels);
+
 /// Fills scratch.seeds with the unlabelled seed pixels in ascending curvature order (counting
 /// sort).
 void collect_seeds(const Frame& frame, const SegmentationSettings& settings,

@@ -99,6 +99,39 @@ void collect_seeds(const Frame& f, const SegmentationSettings& settings, Segment
   }
 }
 
+Frame make_frame(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
+                 LabelImage& labels) {
+  Frame f;
+  f.x = cloud.x.row(0);
+  f.y = cloud.y.row(0);
+  f.z = cloud.z.row(0);
+  f.nx = normals.nx.row(0);
+  f.ny = normals.ny.row(0);
+  f.nz = normals.nz.row(0);
+  f.curvature = normals.curvature.row(0);
+  f.edges = mesh.edges.row(0);
+  f.faces = mesh.faces.row(0);
+  f.labels = labels.row(0);
+  f.width = cloud.width();
+  f.height = cloud.height();
+  f.stride = cloud.z.stride();
+  f.pixel_stride = mesh.pixel_stride;
+  for (const std::ptrdiff_t stride :
+       {cloud.x.stride(), cloud.y.stride(), normals.nx.stride(), normals.ny.stride(),
+        normals.nz.stride(), normals.curvature.stride(), mesh.edges.stride(), mesh.faces.stride(),
+        labels.stride()}) {
+    if (stride != f.stride) {
+      throw std::invalid_argument("segment: planes of equal width have different row strides (" +
+                                  std::to_string(stride) + " vs " + std::to_string(f.stride) + ")");
+    }
+  }
+  for (int k = 0; k < 8; ++k) {
+    f.neighbour_offset[k] = static_cast<std::ptrdiff_t>(f.pixel_stride) *
+                            (kNeighbourDv[k] * f.stride + kNeighbourDu[k]);
+  }
+  return f;
+}
+
 }  // namespace seg
 
 Segmenter::Segmenter() : scratch_(std::make_unique<Scratch>()) {}
@@ -123,34 +156,7 @@ void Segmenter::segment(const OrganizedCloud& cloud, const Mesh& mesh, const Nor
   if (!scratch_) scratch_ = std::make_unique<Scratch>();
 
   out.labels.resize(cloud.width(), cloud.height(), 0);
-  seg::Frame f;
-  f.x = cloud.x.row(0);
-  f.y = cloud.y.row(0);
-  f.z = cloud.z.row(0);
-  f.nx = normals.nx.row(0);
-  f.ny = normals.ny.row(0);
-  f.nz = normals.nz.row(0);
-  f.curvature = normals.curvature.row(0);
-  f.edges = mesh.edges.row(0);
-  f.faces = mesh.faces.row(0);
-  f.labels = out.labels.row(0);
-  f.width = cloud.width();
-  f.height = cloud.height();
-  f.stride = cloud.z.stride();
-  f.pixel_stride = mesh.pixel_stride;
-  for (const std::ptrdiff_t stride :
-       {cloud.x.stride(), cloud.y.stride(), normals.nx.stride(), normals.ny.stride(),
-        normals.nz.stride(), normals.curvature.stride(), mesh.edges.stride(), mesh.faces.stride(),
-        out.labels.stride()}) {
-    if (stride != f.stride) {
-      throw std::invalid_argument("segment: planes of equal width have different row strides (" +
-                                  std::to_string(stride) + " vs " + std::to_string(f.stride) + ")");
-    }
-  }
-  for (int k = 0; k < 8; ++k) {
-    f.neighbour_offset[k] = static_cast<std::ptrdiff_t>(f.pixel_stride) *
-                            (kNeighbourDv[k] * f.stride + kNeighbourDu[k]);
-  }
+  const seg::Frame f = seg::make_frame(cloud, mesh, normals, out.labels);
 
   Scratch& s = *scratch_;
   s.queue.resize(static_cast<std::size_t>(f.stride) * f.height);
