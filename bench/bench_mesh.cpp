@@ -47,20 +47,23 @@ void BM_Normals(benchmark::State& state) {
 }
 BENCHMARK(BM_Normals)->Unit(benchmark::kMillisecond);
 
-// The same on the baseline instruction set (SSE2 on x86-64) even where AVX2 is available.
-void BM_MeshAdaptiveBaseline(benchmark::State& state) {
-  rangeseg::detail::simd::force_baseline = true;
+// The same with the kernels capped at an instruction set (0 = baseline, SSE2 on x86-64; 1 = AVX2;
+// 2 = AVX-512), where the CPU has it.
+void BM_MeshAdaptiveIsa(benchmark::State& state) {
+  using rangeseg::detail::simd::Isa;
+  rangeseg::detail::simd::isa_limit = static_cast<Isa>(state.range(0));
   BM_MeshAdaptive(state);
-  rangeseg::detail::simd::force_baseline = false;
+  rangeseg::detail::simd::isa_limit = Isa::avx512;
 }
-BENCHMARK(BM_MeshAdaptiveBaseline)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_MeshAdaptiveIsa)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
-void BM_NormalsBaseline(benchmark::State& state) {
-  rangeseg::detail::simd::force_baseline = true;
+void BM_NormalsIsa(benchmark::State& state) {
+  using rangeseg::detail::simd::Isa;
+  rangeseg::detail::simd::isa_limit = static_cast<Isa>(state.range(0));
   BM_Normals(state);
-  rangeseg::detail::simd::force_baseline = false;
+  rangeseg::detail::simd::isa_limit = Isa::avx512;
 }
-BENCHMARK(BM_NormalsBaseline)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_NormalsIsa)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
 void BM_ExtractFaces(benchmark::State& state) {
   rangeseg::OrganizedCloud cloud;

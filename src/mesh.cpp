@@ -84,6 +84,12 @@ using V = detail::simd::Avx2;
 #include "detail/mesh_simd_kernels.hpp"
 #undef RANGESEG_KERNEL
 }  // namespace avx2
+namespace avx512 {
+using V = detail::simd::Avx512;
+#define RANGESEG_KERNEL RANGESEG_SIMD_AVX512_TARGET
+#include "detail/mesh_simd_kernels.hpp"
+#undef RANGESEG_KERNEL
+}  // namespace avx512
 #else
 namespace generic {
 using V = detail::simd::Generic;
@@ -117,8 +123,16 @@ const Kernels& kernels() {
 #if RANGESEG_SIMD_X86
   static const Kernels baseline = RANGESEG_MESH_KERNELS(sse2);
   static const Kernels wide = RANGESEG_MESH_KERNELS(avx2);
-  const bool use_avx2 = detail::simd::cpu_has_avx2() && !detail::simd::force_baseline;
-  return use_avx2 ? wide : baseline;
+  static const Kernels widest = RANGESEG_MESH_KERNELS(avx512);
+  switch (detail::simd::chosen_isa()) {
+    case detail::simd::Isa::avx512:
+      return widest;
+    case detail::simd::Isa::avx2:
+      return wide;
+    case detail::simd::Isa::baseline:
+      break;
+  }
+  return baseline;
 #else
   static const Kernels baseline = RANGESEG_MESH_KERNELS(generic);
   return baseline;

@@ -68,6 +68,12 @@ using V = detail::simd::Avx2;
 #include "detail/normals_simd_kernels.hpp"
 #undef RANGESEG_KERNEL
 }  // namespace avx2
+namespace avx512 {
+using V = detail::simd::Avx512;
+#define RANGESEG_KERNEL RANGESEG_SIMD_AVX512_TARGET
+#include "detail/normals_simd_kernels.hpp"
+#undef RANGESEG_KERNEL
+}  // namespace avx512
 #else
 namespace generic {
 using V = detail::simd::Generic;
@@ -97,8 +103,16 @@ const Kernels& kernels() {
 #if RANGESEG_SIMD_X86
   static const Kernels baseline = RANGESEG_NORMAL_KERNELS(sse2);
   static const Kernels wide = RANGESEG_NORMAL_KERNELS(avx2);
-  const bool use_avx2 = detail::simd::cpu_has_avx2() && !detail::simd::force_baseline;
-  return use_avx2 ? wide : baseline;
+  static const Kernels widest = RANGESEG_NORMAL_KERNELS(avx512);
+  switch (detail::simd::chosen_isa()) {
+    case detail::simd::Isa::avx512:
+      return widest;
+    case detail::simd::Isa::avx2:
+      return wide;
+    case detail::simd::Isa::baseline:
+      break;
+  }
+  return baseline;
 #else
   static const Kernels baseline = RANGESEG_NORMAL_KERNELS(generic);
   return baseline;
@@ -169,13 +183,22 @@ void compute_normals_rows(const OrganizedCloud& cloud, const Mesh& mesh,
   std::uint8_t* edges = byte_buffer.data() + row_len;
   const std::uint8_t* no_faces = byte_buffer.data() + 2 * row_len;
 
-  // Lattice row j of the cloud lives in point slot j % 3.
+  // Lattice row j of the cloud lives in point slot j % 3. At stride 1 the kernels read the
+  // interior rows in place: their reads from index -1 to blocks * lanes stay inside the planes
+  // (the neighbouring rows' ends), and whatever they read outside [0, n) is masked by the face
+  // and edge bits, which are 0 there.
   std::array<Vec3Row, 3> point_slots{vec3(0), vec3(3), vec3(6)};
+  const std::ptrdiff_t plane_stride = cloud.x.stride();
+  const bool in_place = s == 1 && cloud.y.stride() == plane_stride &&
+                        cloud.z.stride() == plane_stride && blocks * lanes + 1 <= 2 * plane_stride;
+  const auto interior = [&](int j) { return in_place && j >= 1 && j + 1 < m; };
   const auto point_row = [&](int j) {
+    if (interior(j)) return PointRow{cloud.x.row(j), cloud.y.row(j), cloud.z.row(j)};
     const Vec3Row& r = point_slots[j % 3];
     return PointRow{r.x, r.y, r.z};
   };
   const auto load_points = [&](int j) {
+    if (interior(j)) return;
     const Vec3Row& dst = point_slots[j % 3];
     const float* xs = cloud.x.row(j * s);
     const float* ys = cloud.y.row(j * s);

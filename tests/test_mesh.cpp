@@ -552,23 +552,26 @@ TEST(Mesh, RowBandsAreBitIdentical) {
   EXPECT_TRUE(same_bytes(mesh.edges, before.edges));
 }
 
-// The kernels run on 4 lanes (SSE2) or 8 (AVX2): the same IEEE operations in the same order,
-// so the meshes are identical.
+// The kernels run on 4 lanes (SSE2), 8 (AVX2) or 16 (AVX-512), whichever the CPU has up to the
+// limit: the same IEEE operations in the same order, so the meshes are identical.
 TEST(Mesh, InstructionSetsAgree) {
+  using rangeseg::detail::simd::Isa;
   for (const auto& [w, h] : {std::pair{45, 31}, std::pair{8, 2}, std::pair{1, 3}}) {
     const OrganizedCloud cloud = rough_cloud(w, h, 5);
     for (MeshType type : kAllTypes) {
       for (int s : {1, 2}) {
         const MeshSettings settings{
             .type = type, .viewpoint = {0.02f, 0.0f, -0.01f}, .pixel_stride = s};
-        rangeseg::detail::simd::force_baseline = true;
+        rangeseg::detail::simd::isa_limit = Isa::baseline;
         const Mesh baseline = rangeseg::build_mesh(cloud, settings);
-        rangeseg::detail::simd::force_baseline = false;
-        const Mesh best = rangeseg::build_mesh(cloud, settings);
-        EXPECT_TRUE(same_bytes(baseline.faces, best.faces))
-            << w << "x" << h << " type " << int(type) << " stride " << s;
-        EXPECT_TRUE(same_bytes(baseline.edges, best.edges))
-            << w << "x" << h << " type " << int(type) << " stride " << s;
+        for (Isa isa : {Isa::avx2, Isa::avx512}) {
+          rangeseg::detail::simd::isa_limit = isa;
+          const Mesh wide = rangeseg::build_mesh(cloud, settings);
+          EXPECT_TRUE(same_bytes(baseline.faces, wide.faces))
+              << w << "x" << h << " type " << int(type) << " stride " << s << " isa " << int(isa);
+          EXPECT_TRUE(same_bytes(baseline.edges, wide.edges))
+              << w << "x" << h << " type " << int(type) << " stride " << s << " isa " << int(isa);
+        }
       }
     }
   }
@@ -576,16 +579,19 @@ TEST(Mesh, InstructionSetsAgree) {
 
 #ifdef RANGESEG_HAVE_PCD
 TEST(Mesh, RealFrameRowBandsAndInstructionSets) {
+  using rangeseg::detail::simd::Isa;
   RANGESEG_REQUIRE_DATA("kinect/grabber_frame0.pcd");
   const OrganizedCloud cloud = rangeseg::io::read_pcd(data_file.string());
   const Mesh whole = rangeseg::build_mesh(cloud, {});
   const Mesh banded = mesh_in_bands(cloud, {}, 3);
   EXPECT_TRUE(same_bytes(banded.faces, whole.faces));
   EXPECT_TRUE(same_bytes(banded.edges, whole.edges));
-  rangeseg::detail::simd::force_baseline = true;
-  const Mesh baseline = rangeseg::build_mesh(cloud, {});
-  rangeseg::detail::simd::force_baseline = false;
-  EXPECT_TRUE(same_bytes(baseline.faces, whole.faces));
-  EXPECT_TRUE(same_bytes(baseline.edges, whole.edges));
+  for (Isa isa : {Isa::baseline, Isa::avx2}) {
+    rangeseg::detail::simd::isa_limit = isa;
+    const Mesh narrow = rangeseg::build_mesh(cloud, {});
+    EXPECT_TRUE(same_bytes(narrow.faces, whole.faces)) << "isa " << int(isa);
+    EXPECT_TRUE(same_bytes(narrow.edges, whole.edges)) << "isa " << int(isa);
+  }
+  rangeseg::detail::simd::isa_limit = Isa::avx512;
 }
 #endif

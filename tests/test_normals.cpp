@@ -447,21 +447,24 @@ TEST(Normals, RowBandsAreBitIdentical) {
   }
 }
 
-// The kernels run on 4 lanes (SSE2) or 8 (AVX2): the same IEEE operations in the same order,
-// so the results are identical.
+// The kernels run on 4 lanes (SSE2), 8 (AVX2) or 16 (AVX-512), whichever the CPU has up to the
+// limit: the same IEEE operations in the same order, so the results are identical.
 TEST(Normals, InstructionSetsAgree) {
+  using rangeseg::detail::simd::Isa;
   for (const auto& [w, h] : {std::pair{45, 31}, std::pair{9, 2}, std::pair{1, 4}}) {
     const Scene s = holed_sphere(w, h);
     for (MeshType type : {MeshType::quad, MeshType::adaptive}) {
       for (int stride : {1, 2}) {
         const Mesh mesh = rangeseg::build_mesh(s.cloud, {.type = type, .pixel_stride = stride});
         const rangeseg::NormalSettings settings{.viewpoint = {0.01f, 0.02f, -0.03f}};
-        rangeseg::detail::simd::force_baseline = true;
+        rangeseg::detail::simd::isa_limit = Isa::baseline;
         const NormalMap baseline = rangeseg::compute_normals(s.cloud, mesh, settings);
-        rangeseg::detail::simd::force_baseline = false;
-        const NormalMap best = rangeseg::compute_normals(s.cloud, mesh, settings);
-        EXPECT_TRUE(same_normals(baseline, best))
-            << w << "x" << h << " type " << int(type) << " stride " << stride;
+        for (Isa isa : {Isa::avx2, Isa::avx512}) {
+          rangeseg::detail::simd::isa_limit = isa;
+          const NormalMap wide = rangeseg::compute_normals(s.cloud, mesh, settings);
+          EXPECT_TRUE(same_normals(baseline, wide)) << w << "x" << h << " type " << int(type)
+                                                    << " stride " << stride << " isa " << int(isa);
+        }
       }
     }
   }
@@ -470,14 +473,16 @@ TEST(Normals, InstructionSetsAgree) {
 #if __has_include("rangeseg/io/pcd.hpp")
 #include "rangeseg/io/pcd.hpp"
 TEST(Normals, RealFrameRowBandsAndInstructionSets) {
+  using rangeseg::detail::simd::Isa;
   RANGESEG_REQUIRE_DATA("kinect/grabber_frame0.pcd");
   const OrganizedCloud cloud = rangeseg::io::read_pcd(data_file.string());
   const Mesh mesh = rangeseg::build_mesh(cloud);
   const NormalMap whole = rangeseg::compute_normals(cloud, mesh);
   EXPECT_TRUE(same_normals(normals_in_bands(cloud, mesh, 3), whole));
-  rangeseg::detail::simd::force_baseline = true;
-  const NormalMap baseline = rangeseg::compute_normals(cloud, mesh);
-  rangeseg::detail::simd::force_baseline = false;
-  EXPECT_TRUE(same_normals(baseline, whole));
+  for (Isa isa : {Isa::baseline, Isa::avx2}) {
+    rangeseg::detail::simd::isa_limit = isa;
+    EXPECT_TRUE(same_normals(rangeseg::compute_normals(cloud, mesh), whole)) << "isa " << int(isa);
+  }
+  rangeseg::detail::simd::isa_limit = Isa::avx512;
 }
 #endif

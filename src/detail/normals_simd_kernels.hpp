@@ -135,7 +135,7 @@ template <int kBit>
 RANGESEG_KERNEL RANGESEG_SIMD_INLINE void ring_add(M ring, F px, F py, F pz, const float* qx,
                                                    const float* qy, const float* qz, F& sx, F& sy,
                                                    F& sz, F& spread) {
-  const M on = V::template bit_selector<kBit>(ring);
+  const typename V::Selector on = V::template bit_selector<kBit>(ring);
   const F dx = V::keep_selected(V::load(qx) - px, on);
   const F dy = V::keep_selected(V::load(qy) - py, on);
   const F dz = V::keep_selected(V::load(qz) - pz, on);
@@ -161,7 +161,7 @@ RANGESEG_KERNEL RANGESEG_SIMD_INLINE void curvature_block(PointRow up, PointRow 
   // kNeighbourDu/Dv order: right, down-right, down, down-left, left, up-left, up, up-right.
   // The sums start with the first term rather than +0 + term: that differs only in the sign of
   // a zero sum, which |sum . n| does not see.
-  const M on = V::template bit_selector<0>(ring);
+  const typename V::Selector on = V::template bit_selector<0>(ring);
   F ax = V::keep_selected(V::load(mid.x + r) - px, on);
   F ay = V::keep_selected(V::load(mid.y + r) - py, on);
   F az = V::keep_selected(V::load(mid.z + r) - pz, on);

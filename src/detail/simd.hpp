@@ -10,18 +10,20 @@
 // - Sse2: 4 lanes, baseline of every x86-64 CPU.
 // - Avx2: 8 lanes; each member is compiled for AVX2, so kernels using it must be compiled for
 //   AVX2 too (see RANGESEG_SIMD_AVX2_TARGET) and run only when cpu_has_avx2() is true.
+// - Avx512: 16 lanes (AVX-512 F/BW/DQ/VL), the same way (RANGESEG_SIMD_AVX512_TARGET,
+//   cpu_has_avx512()).
 // - Generic: 4 lanes from plain vector extensions, for other architectures.
 //
 // Interface (all members static and always inlined):
-//   kLanes; F, M, B;
+//   kLanes; F, M, B, Selector;
 //   F load(const float*), store(float*, F), set1(float); M set1i(int);
 //   F sqrt(F), max(F a, F b) = a > b ? a : b per lane (NaN in a gives b, as maxps);
 //   F keep(F x, M m) = m ? x : +0 (bits); F pick(M m, F a, F b) = m ? a : b (m all-ones / zero);
-//   bit_selector<k>(M bits) and F keep_selected(F x, selector) = bit k of the lane ? x : +0;
-//   F shift_in(F previous, F x) = {previous[kLanes - 1], x[0], ..., x[kLanes - 2]};
-//   M bytes_to_lanes(const std::uint8_t*) loads kLanes bytes, zero-extended;
-//   B pack4(M, M, M, M): lanes 0..kLanes-1 of the four vectors in order, each lane 0..127;
-//   B loadb(const std::uint8_t*), storeb(std::uint8_t*, B).
+//   Selector bit_selector<k>(M bits) and F keep_selected(F x, Selector) = bit k of the lane ? x :
+//   +0; F shift_in(F previous, F x) = {previous[kLanes - 1], x[0], ..., x[kLanes - 2]}; M
+//   bytes_to_lanes(const std::uint8_t*) loads kLanes bytes, zero-extended; B pack4(M, M, M, M):
+//   lanes 0..kLanes-1 of the four vectors in order, each lane 0..127; B loadb(const std::uint8_t*),
+//   storeb(std::uint8_t*, B).
 #pragma once
 
 #include <atomic>
@@ -39,15 +41,19 @@
 #include <immintrin.h>
 /// Function attribute of kernels that use simd::Avx2.
 #define RANGESEG_SIMD_AVX2_TARGET __attribute__((target("avx2")))
+/// Function attribute of kernels that use simd::Avx512.
+#define RANGESEG_SIMD_AVX512_TARGET __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl")))
 #else
 #define RANGESEG_SIMD_X86 0
 #endif
 
 namespace rangeseg::detail::simd {
 
-/// For tests: while true, kernels chosen afterwards use the baseline instruction set (SSE2 on
-/// x86) even when the CPU has AVX2, so that both paths can be compared.
-inline std::atomic<bool> force_baseline{false};
+/// Instruction sets of the kernels, narrowest first.
+enum class Isa { baseline, avx2, avx512 };
+/// For tests and benchmarks: kernels chosen afterwards use at most this instruction set (e.g.
+/// Isa::baseline = SSE2 on x86 even when the CPU has more), so that the paths can be compared.
+inline std::atomic<Isa> isa_limit{Isa::avx512};
 
 using i32x4 = std::int32_t __attribute__((vector_size(16)));
 using u8x16 = std::uint8_t __attribute__((vector_size(16)));
@@ -71,6 +77,7 @@ struct Sse2 {
   using F = __m128;
   using M = i32x4;
   using B = u8x16;
+  using Selector = M;
   static RANGESEG_SIMD_INLINE F load(const float* p) { return _mm_loadu_ps(p); }
   static RANGESEG_SIMD_INLINE void store(float* p, F v) { _mm_storeu_ps(p, v); }
   static RANGESEG_SIMD_INLINE F set1(float x) { return _mm_set1_ps(x); }
@@ -118,6 +125,7 @@ struct Avx2 {
   using F = __m256;
   using M = i32x8;
   using B = u8x32;
+  using Selector = M;
   static RANGESEG_AVX2_INLINE F load(const float* p) { return _mm256_loadu_ps(p); }
   static RANGESEG_AVX2_INLINE void store(float* p, F v) { _mm256_storeu_ps(p, v); }
   static RANGESEG_AVX2_INLINE F set1(float x) { return _mm256_set1_ps(x); }
@@ -162,10 +170,81 @@ struct Avx2 {
 };
 #undef RANGESEG_AVX2_INLINE
 
+using i32x16 = std::int32_t __attribute__((vector_size(64)));
+using u8x64 = std::uint8_t __attribute__((vector_size(64)));
+
+#define RANGESEG_AVX512_INLINE RANGESEG_SIMD_INLINE RANGESEG_SIMD_AVX512_TARGET
+struct Avx512 {
+  static constexpr int kLanes = 16;
+  using F = __m512;
+  using M = i32x16;
+  using B = u8x64;
+  // A selector is a lane mask register: keep_selected becomes one zero-masking move that the
+  // compiler folds into the preceding subtraction.
+  using Selector = __mmask16;
+  static RANGESEG_AVX512_INLINE F load(const float* p) { return _mm512_loadu_ps(p); }
+  static RANGESEG_AVX512_INLINE void store(float* p, F v) { _mm512_storeu_ps(p, v); }
+  static RANGESEG_AVX512_INLINE F set1(float x) { return _mm512_set1_ps(x); }
+  static RANGESEG_AVX512_INLINE M set1i(int x) { return (M)_mm512_set1_epi32(x); }
+  // The maskz forms with every lane on: the plain intrinsics start from _mm512_undefined_*(),
+  // which GCC 12 reports as maybe-uninitialized.
+  static constexpr __mmask16 kAll = 0xFFFF;
+  static RANGESEG_AVX512_INLINE F sqrt(F x) { return _mm512_maskz_sqrt_ps(kAll, x); }
+  static RANGESEG_AVX512_INLINE F max(F a, F b) { return _mm512_maskz_max_ps(kAll, a, b); }
+  static RANGESEG_AVX512_INLINE F keep(F x, M m) { return (F)((M)x & m); }
+  static RANGESEG_AVX512_INLINE F pick(M m, F a, F b) {
+    return _mm512_mask_blend_ps(_mm512_movepi32_mask((__m512i)m), b, a);
+  }
+  template <int kBit>
+  static RANGESEG_AVX512_INLINE Selector bit_selector(M bits) {
+    return _mm512_test_epi32_mask((__m512i)bits, _mm512_set1_epi32(1 << kBit));
+  }
+  static RANGESEG_AVX512_INLINE F keep_selected(F x, Selector selector) {
+    return _mm512_maskz_mov_ps(selector, x);
+  }
+  static RANGESEG_AVX512_INLINE F shift_in(F previous, F x) {
+    // Lanes 15..30 of the 32-lane concatenation (previous, x).
+    return _mm512_castsi512_ps(
+        _mm512_maskz_alignr_epi32(kAll, _mm512_castps_si512(x), _mm512_castps_si512(previous), 15));
+  }
+  static RANGESEG_AVX512_INLINE M bytes_to_lanes(const std::uint8_t* p) {
+    return (M)_mm512_maskz_cvtepu8_epi32(kAll,
+                                         _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
+  }
+  static RANGESEG_AVX512_INLINE B pack4(M a, M b, M c, M d) {
+    const __m256i ab = _mm256_inserti128_si256(
+        _mm256_castsi128_si256(_mm512_maskz_cvtepi32_epi8(kAll, (__m512i)a)),
+        _mm512_maskz_cvtepi32_epi8(kAll, (__m512i)b), 1);
+    const __m256i cd = _mm256_inserti128_si256(
+        _mm256_castsi128_si256(_mm512_maskz_cvtepi32_epi8(kAll, (__m512i)c)),
+        _mm512_maskz_cvtepi32_epi8(kAll, (__m512i)d), 1);
+    return (B)_mm512_maskz_inserti64x4(0xFF, _mm512_castsi256_si512(ab), cd, 1);
+  }
+  static RANGESEG_AVX512_INLINE B loadb(const std::uint8_t* p) { return (B)_mm512_loadu_si512(p); }
+  static RANGESEG_AVX512_INLINE void storeb(std::uint8_t* p, B v) {
+    _mm512_storeu_si512(p, (__m512i)v);
+  }
+};
+#undef RANGESEG_AVX512_INLINE
+
 /// True when the CPU (and OS) support AVX2; evaluated once.
 inline bool cpu_has_avx2() {
   static const bool has = __builtin_cpu_supports("avx2");
   return has;
+}
+/// True when the CPU (and OS) support the AVX-512 subsets simd::Avx512 uses; evaluated once.
+inline bool cpu_has_avx512() {
+  static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                          __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
+  return has;
+}
+
+/// The widest kernel set to run: the best the CPU supports, capped by `isa_limit`.
+inline Isa chosen_isa() {
+  const Isa limit = isa_limit.load();
+  if (limit >= Isa::avx512 && cpu_has_avx512()) return Isa::avx512;
+  if (limit >= Isa::avx2 && cpu_has_avx2()) return Isa::avx2;
+  return Isa::baseline;
 }
 
 #else  // !RANGESEG_SIMD_X86
@@ -175,6 +254,7 @@ struct Generic {
   using F = f32x4;
   using M = i32x4;
   using B = u8x16;
+  using Selector = M;
   static RANGESEG_SIMD_INLINE F load(const float* p) { return load_bytes<F>(p); }
   static RANGESEG_SIMD_INLINE void store(float* p, F v) { store_bytes(p, v); }
   static RANGESEG_SIMD_INLINE F set1(float x) { return F{x, x, x, x}; }
