@@ -1,5 +1,16 @@
+// Stage 3: bilateral filter of points and normals over the mesh 1-ring (paper, eqs. 3 and 4).
+// The pass itself is in detail/smoothing_simd_kernels.hpp, compiled per instruction set and
+// picked at run time. Contraction into fused multiply-adds is off in this file, so the results
+// do not depend on the CPU or the build flags.
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#elif defined(__GNUC__)
+#pragma GCC optimize("fp-contract=off")
+#endif
+
 #include "rangeseg/smoothing.hpp"
 
+#include "detail/simd.hpp"
 #include "detail/smoothing_rows.hpp"
 
 #include <algorithm>
@@ -8,10 +19,12 @@
 #include <cassert>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace rangeseg {
 
@@ -33,33 +46,9 @@ namespace {
 #define RANGESEG_INLINE inline
 #endif
 
-// The pass is compiled twice, for the baseline ISA and for AVX2 + FMA, and chosen at run time:
-// the build does not assume -march=native, and 8-lane vectors halve the filter's time.
-#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
-#define RANGESEG_SMOOTH_AVX2 1
-#else
-#define RANGESEG_SMOOTH_AVX2 0
-#endif
-
 /// Weights exp(-a) with a >= kMaxExponent are treated as 0 (e^-30 ~ 1e-13, far below the
 /// centre's weight 1).
 constexpr float kMaxExponent = 30.0f;
-
-/// exp(-a) for a in [0, kMaxExponent]: 2^y = 2^n 2^f with n = round(y), |f| <= 1/2, and 2^f from
-/// its degree-4 Taylor polynomial in g = f ln 2 (|g| <= 0.347, relative error <= g^5 / 120 <
-/// 5e-5, far below what a weight needs; checked in tests against std::exp through the filter
-/// output). Branch-free and integer-free except for bit casts, so the row loops vectorise.
-RANGESEG_INLINE float exp_neg(float a) {
-  constexpr float kRound = 12582912.0f;  // 1.5 * 2^23: adding it rounds to an integer
-  const float y = a * -1.44269504f;      // -a log2(e), in [-43.3, 0]
-  const float t = y + kRound;
-  const float n = t - kRound;
-  const float g = (y - n) * 0.693147181f;
-  const float p = 1.0f + g * (1.0f + g * (0.5f + g * (1.0f / 6 + g * (1.0f / 24))));
-  const std::int32_t exponent =
-      std::bit_cast<std::int32_t>(t) - std::bit_cast<std::int32_t>(kRound);
-  return std::bit_cast<float>(std::bit_cast<std::int32_t>(p) + exponent * (1 << 23));
-}
 
 /// c ? a : b on the bits. A plain ?: on floats lets the compiler sink the arithmetic that
 /// computes `a` into a branch, which (floating-point ops may trap) it then cannot vectorise.
@@ -67,18 +56,6 @@ RANGESEG_INLINE float select(bool c, float a, float b) {
   const std::uint32_t mask = 0u - static_cast<std::uint32_t>(c);
   return std::bit_cast<float>((std::bit_cast<std::uint32_t>(a) & mask) |
                               (std::bit_cast<std::uint32_t>(b) & ~mask));
-}
-
-/// 1 / sqrt(x) for finite x > 0: the classic bit-level first guess and three Newton steps
-/// (relative error ~1e-7, float rounding). std::sqrt keeps the loop scalar: with errno
-/// semantics it has a branch to the library call for negative arguments.
-RANGESEG_INLINE float inverse_sqrt(float x) {
-  float r = std::bit_cast<float>(0x5f375a86 - (std::bit_cast<std::int32_t>(x) >> 1));
-  const float half_x = 0.5f * x;
-  r = r * (1.5f - half_x * r * r);
-  r = r * (1.5f - half_x * r * r);
-  r = r * (1.5f - half_x * r * r);
-  return r;
 }
 
 template <class T>
@@ -103,375 +80,240 @@ struct PassParams {
   float inv_intensity_scale = 0;  // 1 / (c_I s_I)
   std::array<float, 3> origin{};  // added to the output points (inputs are origin-relative)
   const FloatPlane* intensity = nullptr;
+  /// When set, the pass also copies these rows of the curvature plane (passed through
+  /// unchanged), while the rows are in cache.
+  const FloatPlane* curvature_in = nullptr;
+  FloatPlane* curvature_out = nullptr;
 };
 
-/// Row buffers of one pass. Edge rows hold, per forward direction k = 0..3 (right, down-right,
-/// down, down-left) and per lattice row, the quantities of edge (i, j = i + d_k): weight w,
-/// w q_i.q_j (along the ray) or w (p_j - p_i) (mean), w (n_j - n_i). Two slots alternate between
-/// the current and the previous lattice row. Every edge row has `pad` zero floats on both sides,
-/// so that the gather reads zeros for edges leaving the grid.
-struct RowBuffers {
-  static constexpr int kEdgeArrays = 7;  // w, t or dp (3), dn (3): at most 1 + 3 + 3
+/// Lattice row of the pass inputs, readable from index 0 to blocks * lanes inclusive (values
+/// outside [0, n) are masked by the edge bits, which are 0 there).
+struct InRow {
+  const float *x, *y, *z, *nx, *ny, *nz, *in;
+};
+/// Per-pixel sums of one lattice row: weight, along-ray term t (or the three components of
+/// w (p_j - p_i)), and w (n_j - n_i), interleaved per vector block (block b holds the seven
+/// quantities of its lanes one vector after the other from base + 7 b lanes): one pointer per
+/// row keeps the kernels' row pointers in registers.
+struct SumRow {
+  float* base;
+};
+
+/// The row buffers of a pass inside the scratch vectors: every float row has `lanes` elements
+/// of padding on each side of `len` (whole vectors) columns.
+struct PassLayout {
+  static constexpr int kInputRows = 7;  // x, y, z, nx, ny, nz, intensity
+  static constexpr int kSumRows = 7;
   float* base = nullptr;
-  std::size_t row_len = 0;  // width + 2 pad
+  std::uint8_t* bytes = nullptr;
+  std::size_t row_len = 0;
   int pad = 0;
-  /// Array a (0: w, 1..3: t / dp, 4..6: dn) of direction k in slot s.
-  float* edge(int slot, int k, int a) const {
-    return base + ((static_cast<std::size_t>(slot) * 4 + k) * kEdgeArrays + a) * row_len + pad;
+
+  float* row(std::size_t r) const { return base + r * row_len + pad; }
+  float* input(int slot, int a) const {
+    return row(static_cast<std::size_t>(slot) * kInputRows + a);
   }
-  /// Per-pixel half inverse scales of slot s: 0 = 1 / (4 s_d^2), 1 = 1 / (2 s_n).
-  float* scale(int slot, int a) const {
-    return base + (2 * 4 * kEdgeArrays + static_cast<std::size_t>(slot) * 2 + a) * row_len + pad;
+  float* hd(int slot) const { return row(2 * kInputRows + static_cast<std::size_t>(slot)); }
+  float* hn(int slot) const { return row(2 * kInputRows + 2 + static_cast<std::size_t>(slot)); }
+  SumRow sums(int slot) const {
+    return {base + (2 * kInputRows + 4 + static_cast<std::size_t>(slot) * kSumRows) * row_len};
   }
-  /// 1 + the sum of the weights of the current row's pixels (points loop -> normals loop).
-  float* sum_w() const { return base + (2 * 4 * kEdgeArrays + 4) * row_len + pad; }
-  static std::size_t floats_needed(int width, int pad) {
-    return (2 * 4 * kEdgeArrays + 5) * (static_cast<std::size_t>(width) + 2 * pad);
+  void clear_sums(int slot) const {
+    std::fill(sums(slot).base, sums(slot).base + kSumRows * row_len, 0.0f);
+  }
+  /// Six rows for the outputs at stride > 1.
+  float* compact() const { return row(2 * kInputRows + 4 + 2 * kSumRows); }
+  static std::size_t rows() { return 2 * kInputRows + 4 + 2 * kSumRows + 6; }
+
+  /// Edge bytes of lattice row j (pixel row j s), zero-padded.
+  const std::uint8_t* edge_bytes(const Mesh& mesh, int j, int s, int n) const {
+    const std::uint8_t* src = mesh.edges.row(j * s);
+    std::uint8_t* dst = bytes + pad;
+    if (s == 1) {
+      std::memcpy(dst, src, static_cast<std::size_t>(n));
+    } else {
+      for (int i = 0; i < n; ++i) dst[i] = src[i * s];
+    }
+    return dst;
   }
 };
 
-template <bool kDistance, bool kNormal>
-RANGESEG_INLINE void compute_scales(const float* __restrict z, int lo, int hi,
-                                    const PassParams& prm, float* __restrict half_inv2sd2,
-                                    float* __restrict half_inv_sn) {
-  RANGESEG_VECTORIZE
-  for (int u = lo; u < hi; ++u) {
-    const float zu = z[u], dz = zu - prm.noise_z0;
-    const float sigma = prm.noise_a + prm.noise_b * dz * dz;
-    const float spacing = prm.spacing * std::fabs(zu);
-    if constexpr (kDistance) {
-      half_inv2sd2[u] = 0.25f / (prm.kd2 * (spacing * spacing + 2.0f * sigma * sigma));
+/// The scratch of a pass: float rows and one byte row, laid out for a row length and vector
+/// width, reused while they stay the same.
+struct PassScratch {
+  std::vector<float>& floats;
+  std::vector<std::uint8_t>& bytes;
+  std::size_t& layout;  // row length the buffers were laid out for
+
+  PassLayout lay_out(int len, int lanes) {
+    PassLayout lay;
+    lay.pad = lanes;
+    lay.row_len = static_cast<std::size_t>(len) + 2 * static_cast<std::size_t>(lanes);
+    const std::size_t key = lay.row_len * 64 + static_cast<std::size_t>(lanes);
+    if (layout != key || floats.size() != PassLayout::rows() * lay.row_len) {
+      floats.assign(PassLayout::rows() * lay.row_len, 0.0f);
+      bytes.assign(lay.row_len, 0);
+      layout = key;
     }
-    // Normal noise grows with sigma / spacing: 1 / s_n = min(1, spacing / sigma) / normal_scale.
-    if constexpr (kNormal) {
-      const float ratio = spacing / sigma;
-      half_inv_sn[u] = 0.5f * prm.inv_normal_scale * select(ratio < 1.0f, ratio, 1.0f);
-    }
+    lay.base = floats.data();
+    lay.bytes = bytes.data();
+    return lay;
   }
+};
+
+/// The row stride shared by every input plane of a pass, or 0 if they differ.
+inline std::ptrdiff_t common_stride(const OrganizedCloud& src, const NormalMap& nm,
+                                    const PassParams& prm) {
+  const std::ptrdiff_t stride = src.x.stride();
+  for (const FloatPlane* p : {&src.y, &src.z, &nm.nx, &nm.ny, &nm.nz, prm.intensity}) {
+    if (p != nullptr && p->stride() != stride) return 0;
+  }
+  return stride;
 }
 
-/// The edges of lattice row v in direction k (du, dv) that start in columns [lo, hi) into the
-/// slot's edge rows.
-template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals>
-RANGESEG_INLINE void edge_row(const OrganizedCloud& src, const NormalMap& nm, const Mesh& mesh,
-                              const PassParams& prm, const RowBuffers& rb, int v, int k,
-                              int cur_slot, int next_slot, int lo, int hi) {
-  const int width = src.width(), s = prm.stride;
-  const int du = s * kNeighbourDu[k], vn = v + s * kNeighbourDv[k];
-  // Edges leaving the grid are absent from the mask; the pad (and here the unused range) is 0.
-  const int u_begin = std::max(lo, -du), u_end = std::min(hi, width - du);
-  float* __restrict ew = rb.edge(cur_slot, k, 0);
-  float* __restrict e1 = rb.edge(cur_slot, k, 1);
-  float* __restrict e2 = rb.edge(cur_slot, k, 2);
-  float* __restrict e3 = rb.edge(cur_slot, k, 3);
-  float* __restrict en0 = rb.edge(cur_slot, k, 4);
-  float* __restrict en1 = rb.edge(cur_slot, k, 5);
-  float* __restrict en2 = rb.edge(cur_slot, k, 6);
-  // Only the arrays the gather reads; the ranges are a few elements (edges leaving the grid),
-  // so plain loops rather than a memset call per array.
-  auto clear = [&](int from, int to) {
-    for (int u = from; u < to; ++u) {
-      ew[u] = 0.0f;
-      e1[u] = 0.0f;
-      if constexpr (!kAlongRay) {
-        e2[u] = 0.0f;
-        e3[u] = 0.0f;
-      }
-      if constexpr (kFilterNormals) {
-        en0[u] = 0.0f;
-        en1[u] = 0.0f;
-        en2[u] = 0.0f;
-      }
-    }
-  };
-  if (vn >= src.height()) {
-    clear(lo, hi);
-    return;
-  }
-  clear(lo, u_begin);
-  clear(u_end, hi);
+/// Pixel row j of the input planes, read in place (stride 1).
+inline InRow plane_row(const OrganizedCloud& src, const NormalMap& nm, const PassParams& prm,
+                       int j) {
+  return {src.x.row(j),
+          src.y.row(j),
+          src.z.row(j),
+          nm.nx.row(j),
+          nm.ny.row(j),
+          nm.nz.row(j),
+          prm.intensity != nullptr ? prm.intensity->row(j) : nullptr};
+}
 
-  const float* __restrict xc = src.x.row(v);
-  const float* __restrict yc = src.y.row(v);
-  const float* __restrict zc = src.z.row(v);
-  const float* __restrict nxc = nm.nx.row(v);
-  const float* __restrict nyc = nm.ny.row(v);
-  const float* __restrict nzc = nm.nz.row(v);
-  const float* __restrict ic = kIntensity ? prm.intensity->row(v) : nullptr;
-  const float* __restrict hd_c = rb.scale(cur_slot, 0);
-  const float* __restrict hn_c = rb.scale(cur_slot, 1);
-  const std::uint8_t* __restrict edges = mesh.edges.row(v);
-  const float* __restrict xn = src.x.row(vn) + du;
-  const float* __restrict yn = src.y.row(vn) + du;
-  const float* __restrict zn = src.z.row(vn) + du;
-  const float* __restrict nxn = nm.nx.row(vn) + du;
-  const float* __restrict nyn = nm.ny.row(vn) + du;
-  const float* __restrict nzn = nm.nz.row(vn) + du;
-  const float* __restrict in = kIntensity ? prm.intensity->row(vn) + du : nullptr;
-  const int scale_slot = vn == v ? cur_slot : next_slot;
-  const float* __restrict hd_n = rb.scale(scale_slot, 0) + du;
-  const float* __restrict hn_n = rb.scale(scale_slot, 1) + du;
-  const float inv_intensity_scale = prm.inv_intensity_scale;
-  const unsigned bit = 1u << k;
-
-  RANGESEG_VECTORIZE
-  for (int u = u_begin; u < u_end; ++u) {
-    const float dx = xn[u] - xc[u], dy = yn[u] - yc[u], dz = zn[u] - zc[u];
-    const float dnx = nxn[u] - nxc[u], dny = nyn[u] - nyc[u], dnz = nzn[u] - nzc[u];
-    const float l1 = std::fabs(dnx) + std::fabs(dny) + std::fabs(dnz);
-    float arg = 0.0f;
-    // Symmetric scales (the mean of both ends' inverse scales), so that w_ij = w_ji.
-    if constexpr (kDistance) arg += (dx * dx + dy * dy + dz * dz) * (hd_c[u] + hd_n[u]);
-    if constexpr (kNormal) arg += l1 * (hn_c[u] + hn_n[u]);
-    if constexpr (kIntensity) arg += std::fabs(in[u] - ic[u]) * inv_intensity_scale;
-    // Everything is evaluated for every lane and then selected, so that the loop has no
-    // branches and vectorises. NaN (a NaN normal or intensity) fails the comparison.
-    const bool use = ((edges[u] & bit) != 0) & (arg < kMaxExponent);
-    const float w = select(use, exp_neg(select(arg < kMaxExponent, arg, kMaxExponent)), 0.0f);
-    ew[u] = w;
-    if constexpr (kAlongRay) {
-      e1[u] = select(use, w * (xn[u] * xc[u] + yn[u] * yc[u] + zn[u] * zc[u]), 0.0f);
+/// Lattice row j gathered into the slot's padded rows (unless `already` there).
+inline InRow copy_lattice_row(const OrganizedCloud& src, const NormalMap& nm, const PassParams& prm,
+                              const PassLayout& lay, int j, int s, int n, int slot, bool already) {
+  const int v = j * s;
+  const FloatPlane* planes[7] = {&src.x, &src.y, &src.z, &nm.nx, &nm.ny, &nm.nz, prm.intensity};
+  float* rows[7];
+  for (int a = 0; a < 7; ++a) {
+    rows[a] = lay.input(slot, a);
+    if (already || planes[a] == nullptr) continue;
+    const float* from = planes[a]->row(v);
+    if (s == 1) {
+      std::copy(from, from + n, rows[a]);
     } else {
-      e1[u] = select(use, w * dx, 0.0f);
-      e2[u] = select(use, w * dy, 0.0f);
-      e3[u] = select(use, w * dz, 0.0f);
+      for (int i = 0; i < n; ++i) rows[a][i] = from[i * s];
     }
-    if constexpr (kFilterNormals) {
-      // Without the normal term a NaN normal at either end must be skipped explicitly.
-      const bool use_n = kNormal ? use : (use & (l1 == l1));
-      en0[u] = select(use_n, w * dnx, 0.0f);
-      en1[u] = select(use_n, w * dny, 0.0f);
-      en2[u] = select(use_n, w * dnz, 0.0f);
-    }
+  }
+  return {rows[0], rows[1], rows[2], rows[3], rows[4], rows[5], rows[6]};
+}
+
+/// Row v of the inputs into the outputs (the points plus the origin): pixels without a vertex
+/// at stride > 1.
+template <bool kFilterNormals>
+void copy_row(const OrganizedCloud& src, const NormalMap& nm, const PassParams& prm, int v,
+              OrganizedCloud& dst, NormalMap& dst_normals) {
+  const int width = src.width();
+  const float* xc = src.x.row(v);
+  const float* yc = src.y.row(v);
+  const float* zc = src.z.row(v);
+  float* xo = dst.x.row(v);
+  float* yo = dst.y.row(v);
+  float* zo = dst.z.row(v);
+  for (int u = 0; u < width; ++u) {
+    xo[u] = xc[u] + prm.origin[0];
+    yo[u] = yc[u] + prm.origin[1];
+    zo[u] = zc[u] + prm.origin[2];
+  }
+  if constexpr (kFilterNormals) {
+    std::copy(nm.nx.row(v), nm.nx.row(v) + width, dst_normals.nx.row(v));
+    std::copy(nm.ny.row(v), nm.ny.row(v) + width, dst_normals.ny.row(v));
+    std::copy(nm.nz.row(v), nm.nz.row(v) + width, dst_normals.nz.row(v));
   }
 }
 
-/// Output rows [v0, v1), columns [u0, u1) of one pass. Each edge's weight is computed once per
-/// block (edge_row, forward directions only) and gathered by both ends: pixel (u, v) reads the
-/// forward edges of its own row and, negated where antisymmetric, the forward edges of row
-/// v - s that end in it. A block computes the edges of columns [u0 - s, u1 + s) (and of the
-/// lattice row above v0), so blocks are independent, and every edge and every pixel's sum is
-/// evaluated by the same operations in the same order whatever the blocks: the output is
-/// bit-identical to one block covering the image (row bands for threads, see
-/// detail/smoothing_rows.hpp).
-template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals>
-RANGESEG_INLINE void smooth_block(const OrganizedCloud& src, const NormalMap& nm, const Mesh& mesh,
-                                  const PassParams& prm, const RowBuffers& rb, OrganizedCloud& dst,
-                                  NormalMap& dst_normals, int u0, int u1, int v0, int v1) {
-  const int width = src.width(), height = src.height(), s = prm.stride;
-  const float ox = prm.origin[0], oy = prm.origin[1], oz = prm.origin[2];
-  constexpr bool kScales = kDistance || kNormal;
-  const int edge_lo = std::max(0, u0 - s), edge_hi = std::min(width, u1 + s);
-  // Edge (u, u + du) needs the scales of both ends.
-  const int scale_lo = std::max(0, u0 - 2 * s), scale_hi = std::min(width, u1 + 2 * s);
-  const int v_first = (v0 + s - 1) / s * s;  // first lattice row of the block
-  int slot = 0;
-  if (v0 > 0 && v_first - s < height) {
-    // The lattice row above the block: its edges into slot 1, the previous-row slot of v_first.
-    const int vp = v_first - s;
-    if constexpr (kScales) {
-      compute_scales<kDistance, kNormal>(src.z.row(vp), scale_lo, scale_hi, prm, rb.scale(1, 0),
-                                         rb.scale(1, 1));
-      if (v_first < height) {
-        compute_scales<kDistance, kNormal>(src.z.row(v_first), scale_lo, scale_hi, prm,
-                                           rb.scale(0, 0), rb.scale(0, 1));
-      }
-    }
-    for (int k = 0; k < 4; ++k) {
-      edge_row<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(
-          src, nm, mesh, prm, rb, vp, k, 1, 0, edge_lo, edge_hi);
-    }
-  } else {
-    if constexpr (kScales) {
-      if (v_first < height) {
-        compute_scales<kDistance, kNormal>(src.z.row(v_first), scale_lo, scale_hi, prm,
-                                           rb.scale(0, 0), rb.scale(0, 1));
-      }
-    }
-    // The previous-row slot starts as zeros: no edges come from above row 0.
-    for (int k = 1; k < 4; ++k) {
-      for (int a = 0; a < RowBuffers::kEdgeArrays; ++a) {
-        std::fill(rb.edge(1, k, a) + edge_lo, rb.edge(1, k, a) + edge_hi, 0.0f);
-      }
-    }
-  }
-  for (int v = v0; v < v1; ++v) {
-    const float* __restrict xc = src.x.row(v);
-    const float* __restrict yc = src.y.row(v);
-    const float* __restrict zc = src.z.row(v);
-    const float* __restrict nxc = nm.nx.row(v);
-    const float* __restrict nyc = nm.ny.row(v);
-    const float* __restrict nzc = nm.nz.row(v);
-    float* __restrict xo = dst.x.row(v);
-    float* __restrict yo = dst.y.row(v);
-    float* __restrict zo = dst.z.row(v);
-    float* __restrict nxo = dst_normals.nx.row(v);
-    float* __restrict nyo = dst_normals.ny.row(v);
-    float* __restrict nzo = dst_normals.nz.row(v);
-    if (v % s != 0) {  // no vertex in this row: copied
-      RANGESEG_VECTORIZE
-      for (int u = u0; u < u1; ++u) {
-        xo[u] = xc[u] + ox;
-        yo[u] = yc[u] + oy;
-        zo[u] = zc[u] + oz;
-      }
-      if constexpr (kFilterNormals) {
-        std::copy(nxc + u0, nxc + u1, nxo + u0);
-        std::copy(nyc + u0, nyc + u1, nyo + u0);
-        std::copy(nzc + u0, nzc + u1, nzo + u0);
-      }
-      continue;
-    }
-    const int next = 1 - slot;
-    if constexpr (kScales) {
-      if (v + s < height) {
-        compute_scales<kDistance, kNormal>(src.z.row(v + s), scale_lo, scale_hi, prm,
-                                           rb.scale(next, 0), rb.scale(next, 1));
-      }
-    }
-    for (int k = 0; k < 4; ++k) {
-      edge_row<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(
-          src, nm, mesh, prm, rb, v, k, slot, next, edge_lo, edge_hi);
-    }
+/// Row v of the pass-through curvature, if the pass copies it.
+inline void copy_curvature_row(const PassParams& prm, int v) {
+  if (prm.curvature_in == nullptr) return;
+  const float* from = prm.curvature_in->row(v);
+  std::copy(from, from + prm.curvature_in->width(), prm.curvature_out->row(v));
+}
 
-    // Pixel u gathers the forward edges of this row (F) and the forward edges ending in it (B):
-    // direction k's edge ending in u starts at u - s du_k, in row v for k = 0 and in the previous
-    // lattice row (slot `next`, zeros above row 0) for k = 1..3.
-    const int prev = next;
-#define RANGESEG_EDGES(name, a)                               \
-  const float* __restrict name##f0 = rb.edge(slot, 0, a);     \
-  const float* __restrict name##f1 = rb.edge(slot, 1, a);     \
-  const float* __restrict name##f2 = rb.edge(slot, 2, a);     \
-  const float* __restrict name##f3 = rb.edge(slot, 3, a);     \
-  const float* __restrict name##b0 = rb.edge(slot, 0, a) - s; \
-  const float* __restrict name##b1 = rb.edge(prev, 1, a) - s; \
-  const float* __restrict name##b2 = rb.edge(prev, 2, a);     \
-  const float* __restrict name##b3 = rb.edge(prev, 3, a) + s;
-#define RANGESEG_SYM(name)                                       \
-  (((name##f0[u] + name##b0[u]) + (name##f1[u] + name##b1[u])) + \
-   ((name##f2[u] + name##b2[u]) + (name##f3[u] + name##b3[u])))
-#define RANGESEG_ANTI(name)                                      \
-  (((name##f0[u] - name##b0[u]) + (name##f1[u] - name##b1[u])) + \
-   ((name##f2[u] - name##b2[u]) + (name##f3[u] - name##b3[u])))
-    RANGESEG_EDGES(w, 0)
-    float* __restrict sum_w_row = rb.sum_w();
-    if constexpr (kAlongRay) {
-      RANGESEG_EDGES(t, 1)
-      RANGESEG_VECTORIZE
-      for (int u = u0; u < u1; ++u) {
-        // p' = o + q (q . m) / (q . q) with m the weighted mean of the origin-relative points:
-        // the mean projected onto the viewing ray; the centre's own term of the sum is q . q.
-        const float qx = xc[u], qy = yc[u], qz = zc[u];
-        const float qq = qx * qx + qy * qy + qz * qz;
-        const float sum_w = 1.0f + RANGESEG_SYM(w);
-        sum_w_row[u] = sum_w;
-        const float sum_t = qq + RANGESEG_SYM(t);
-        const float scale = select(qq > 0.0f, sum_t / (sum_w * qq), 1.0f);
-        xo[u] = ox + qx * scale;
-        yo[u] = oy + qy * scale;
-        zo[u] = oz + qz * scale;
-      }
-    } else {
-      RANGESEG_EDGES(px, 1)
-      RANGESEG_EDGES(py, 2)
-      RANGESEG_EDGES(pz, 3)
-      RANGESEG_VECTORIZE
-      for (int u = u0; u < u1; ++u) {
-        // sum_j w_j p_j / sum_j w_j = p + sum_j w_j (p_j - p) / sum_j w_j.
-        const float sum_w = 1.0f + RANGESEG_SYM(w);
-        sum_w_row[u] = sum_w;
-        const float inv = 1.0f / sum_w;
-        xo[u] = ox + xc[u] + RANGESEG_ANTI(px) * inv;
-        yo[u] = oy + yc[u] + RANGESEG_ANTI(py) * inv;
-        zo[u] = oz + zc[u] + RANGESEG_ANTI(pz) * inv;
-      }
-    }
-    if constexpr (kFilterNormals) {
-      RANGESEG_EDGES(nx, 4)
-      RANGESEG_EDGES(ny, 5)
-      RANGESEG_EDGES(nz, 6)
-      RANGESEG_VECTORIZE
-      for (int u = u0; u < u1; ++u) {
-        // sum_j w_j n_j = n sum_j w_j + sum_j w_j (n_j - n). Without the normal term, a
-        // neighbour without a normal keeps its weight on the pixel's own normal.
-        const float sum_w = sum_w_row[u];
-        const float ax = nxc[u] * sum_w + RANGESEG_ANTI(nx);
-        const float ay = nyc[u] * sum_w + RANGESEG_ANTI(ny);
-        const float az = nzc[u] * sum_w + RANGESEG_ANTI(nz);
-        const float len2 = ax * ax + ay * ay + az * az;
-        // Opposite normals can cancel; then (and for NaN) the pixel keeps its normal.
-        const bool ok = len2 > 1e-12f;
-        const float inv = inverse_sqrt(select(ok, len2, 1.0f));
-        nxo[u] = select(ok, ax * inv, nxc[u]);
-        nyo[u] = select(ok, ay * inv, nyc[u]);
-        nzo[u] = select(ok, az * inv, nzc[u]);
-      }
-    }
-#undef RANGESEG_EDGES
-#undef RANGESEG_SYM
-#undef RANGESEG_ANTI
-    slot = next;
+/// The compact outputs (six rows of `len`) of lattice row v into every s-th pixel.
+template <bool kFilterNormals>
+void scatter_row(const float* o, std::size_t len, int n, int s, int v, OrganizedCloud& dst,
+                 NormalMap& dst_normals) {
+  float* const rows[6] = {dst.x.row(v),          dst.y.row(v),          dst.z.row(v),
+                          dst_normals.nx.row(v), dst_normals.ny.row(v), dst_normals.nz.row(v)};
+  const int count = kFilterNormals ? 6 : 3;
+  for (int a = 0; a < count; ++a) {
+    const float* from = o + static_cast<std::size_t>(a) * len;
+    for (int i = 0; i < n; ++i) rows[a][i * s] = from[i];
   }
 }
-
-/// Output rows [v0, v1) of one pass. (Column strips of 128 pixels, which keep a strip's edge
-/// rows in L1, measured 1.4 times slower: the loops get short and the per-row overhead grows.)
-template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals>
-RANGESEG_INLINE void smooth_pass_body(const OrganizedCloud& src, const NormalMap& nm,
-                                      const Mesh& mesh, const PassParams& prm, RowBuffers rb,
-                                      OrganizedCloud& dst, NormalMap& dst_normals, int v0, int v1) {
-  smooth_block<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(
-      src, nm, mesh, prm, rb, dst, dst_normals, 0, src.width(), v0, v1);
-}
-
-template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals>
-void smooth_pass(const OrganizedCloud& src, const NormalMap& nm, const Mesh& mesh,
-                 const PassParams& prm, RowBuffers rb, OrganizedCloud& dst, NormalMap& dst_normals,
-                 int v0, int v1) {
-  smooth_pass_body<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(
-      src, nm, mesh, prm, rb, dst, dst_normals, v0, v1);
-}
-
-#if RANGESEG_SMOOTH_AVX2
-template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals>
-__attribute__((target("avx2,fma"))) void smooth_pass_avx2(const OrganizedCloud& src,
-                                                          const NormalMap& nm, const Mesh& mesh,
-                                                          const PassParams& prm, RowBuffers rb,
-                                                          OrganizedCloud& dst,
-                                                          NormalMap& dst_normals, int v0, int v1) {
-  smooth_pass_body<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(
-      src, nm, mesh, prm, rb, dst, dst_normals, v0, v1);
-}
-
-bool cpu_has_avx2_fma() {
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return has;
-}
-#endif
 
 using PassFn = void (*)(const OrganizedCloud&, const NormalMap&, const Mesh&, const PassParams&,
-                        RowBuffers, OrganizedCloud&, NormalMap&, int, int);
+                        PassScratch&, OrganizedCloud&, NormalMap&, int, int);
 
-template <int kFlags, bool kAvx2>
-constexpr PassFn pass_for() {
-  constexpr bool d = (kFlags & 1) != 0, n = (kFlags & 2) != 0, i = (kFlags & 4) != 0,
-                 r = (kFlags & 8) != 0, f = (kFlags & 16) != 0;
-#if RANGESEG_SMOOTH_AVX2
-  if constexpr (kAvx2) return &smooth_pass_avx2<d, n, i, r, f>;
+// The pass, once per instruction set (fused multiply-adds are off in this file, so every width
+// computes the same).
+#if RANGESEG_SIMD_X86
+namespace sse2 {
+using V = detail::simd::Sse2;
+#define RANGESEG_KERNEL
+#include "detail/smoothing_simd_kernels.hpp"
+#undef RANGESEG_KERNEL
+}  // namespace sse2
+namespace avx2 {
+using V = detail::simd::Avx2;
+#define RANGESEG_KERNEL RANGESEG_SIMD_AVX2_TARGET
+#include "detail/smoothing_simd_kernels.hpp"
+#undef RANGESEG_KERNEL
+}  // namespace avx2
+namespace avx512 {
+using V = detail::simd::Avx512;
+#define RANGESEG_KERNEL RANGESEG_SIMD_AVX512_TARGET
+#include "detail/smoothing_simd_kernels.hpp"
+#undef RANGESEG_KERNEL
+}  // namespace avx512
+#else
+namespace generic {
+using V = detail::simd::Generic;
+#define RANGESEG_KERNEL
+#include "detail/smoothing_simd_kernels.hpp"
+#undef RANGESEG_KERNEL
+}  // namespace generic
 #endif
-  return &smooth_pass<d, n, i, r, f>;
-}
 
-template <bool kAvx2, int... kFlags>
-constexpr std::array<PassFn, sizeof...(kFlags)> make_pass_table(
-    std::integer_sequence<int, kFlags...>) {
-  return {pass_for<kFlags, kAvx2>()...};
-}
+template <int kFlags>
+struct FlagPass {
+  static constexpr bool d = (kFlags & 1) != 0, n = (kFlags & 2) != 0, i = (kFlags & 4) != 0,
+                        r = (kFlags & 8) != 0, f = (kFlags & 16) != 0;
+};
+#define RANGESEG_PASS_TABLE(ns)                                                  \
+  []<int... kFlags>(std::integer_sequence<int, kFlags...>) {                     \
+    return std::array<PassFn, sizeof...(kFlags)>{                                \
+        &ns::pass<FlagPass<kFlags>::d, FlagPass<kFlags>::n, FlagPass<kFlags>::i, \
+                  FlagPass<kFlags>::r, FlagPass<kFlags>::f>...};                 \
+  }                                                                              \
+  (std::make_integer_sequence<int, 32>{})
 
-constexpr auto kPassTable = make_pass_table<false>(std::make_integer_sequence<int, 32>{});
-#if RANGESEG_SMOOTH_AVX2
-constexpr auto kPassTableAvx2 = make_pass_table<true>(std::make_integer_sequence<int, 32>{});
+/// The pass for the flags (1 distance, 2 normal, 4 intensity, 8 along the ray, 16 normals
+/// filtered) on the widest instruction set the CPU has.
+PassFn pass_for(int flags) {
+#if RANGESEG_SIMD_X86
+  static const auto baseline = RANGESEG_PASS_TABLE(sse2);
+  static const auto wide = RANGESEG_PASS_TABLE(avx2);
+  static const auto widest = RANGESEG_PASS_TABLE(avx512);
+  switch (detail::simd::chosen_isa()) {
+    case detail::simd::Isa::avx512:
+      return widest[static_cast<std::size_t>(flags)];
+    case detail::simd::Isa::avx2:
+      return wide[static_cast<std::size_t>(flags)];
+    case detail::simd::Isa::baseline:
+      break;
+  }
+  return baseline[static_cast<std::size_t>(flags)];
+#else
+  static const auto baseline = RANGESEG_PASS_TABLE(generic);
+  return baseline[static_cast<std::size_t>(flags)];
 #endif
+}
+#undef RANGESEG_PASS_TABLE
 
 void require_same_size(const FloatPlane& plane, const OrganizedCloud& cloud, const char* what) {
   if (plane.width() != cloud.width() || plane.height() != cloud.height()) {
@@ -500,7 +342,7 @@ void rgb_to_grey_generic(const OrganizedCloud& cloud, FloatPlane& grey) {
   rgb_to_grey_body(cloud, grey);
 }
 
-#if RANGESEG_SMOOTH_AVX2
+#if RANGESEG_SIMD_X86
 // AVX2 without FMA: products and sums stay separately rounded, so the grey values equal the
 // generic build's bit for bit.
 __attribute__((target("avx2"))) void rgb_to_grey_avx2(const OrganizedCloud& cloud,
@@ -511,8 +353,8 @@ __attribute__((target("avx2"))) void rgb_to_grey_avx2(const OrganizedCloud& clou
 
 void rgb_to_grey(const OrganizedCloud& cloud, FloatPlane& grey) {
   ensure_size(grey, cloud.width(), cloud.height());
-#if RANGESEG_SMOOTH_AVX2
-  if (cpu_has_avx2_fma()) {
+#if RANGESEG_SIMD_X86
+  if (detail::simd::cpu_has_avx2()) {
     rgb_to_grey_avx2(cloud, grey);
     return;
   }
@@ -562,9 +404,9 @@ float intensity_range_generic(const OrganizedCloud& cloud, const FloatPlane& int
   return intensity_range_body(cloud, intensity);
 }
 
-#if RANGESEG_SMOOTH_AVX2
-__attribute__((target("avx2,fma"))) float intensity_range_avx2(const OrganizedCloud& cloud,
-                                                               const FloatPlane& intensity) {
+#if RANGESEG_SIMD_X86
+__attribute__((target("avx2"))) float intensity_range_avx2(const OrganizedCloud& cloud,
+                                                           const FloatPlane& intensity) {
   return intensity_range_body(cloud, intensity);
 }
 #endif
@@ -611,26 +453,8 @@ PassSetup make_pass(const SmoothingSettings& st, int stride, const FloatPlane* i
   const bool filter_normals = !st.recompute_normals;
   const int flags = (st.use_distance ? 1 : 0) | (st.use_normals ? 2 : 0) | (use_intensity ? 4 : 0) |
                     (st.move_along_ray ? 8 : 0) | (filter_normals ? 16 : 0);
-  setup.pass = kPassTable[static_cast<std::size_t>(flags)];
-#if RANGESEG_SMOOTH_AVX2
-  if (cpu_has_avx2_fma()) setup.pass = kPassTableAvx2[static_cast<std::size_t>(flags)];
-#endif
+  setup.pass = pass_for(flags);
   return setup;
-}
-
-/// Row buffers for rows of `width` pixels in `rows`; `layout` remembers the row length the zero
-/// pads were laid out for (a new layout starts from a zeroed buffer; passes write inside only).
-RowBuffers layout_rows(std::vector<float>& rows, std::size_t& layout, int width, int stride) {
-  RowBuffers rb;
-  rb.pad = stride;
-  rb.row_len = static_cast<std::size_t>(width) + 2 * static_cast<std::size_t>(rb.pad);
-  const std::size_t needed = RowBuffers::floats_needed(width, rb.pad);
-  if (rows.size() != needed || layout != rb.row_len) {
-    rows.assign(needed, 0.0f);
-    layout = rb.row_len;
-  }
-  rb.base = rows.data();
-  return rb;
 }
 
 }  // namespace
@@ -638,8 +462,8 @@ RowBuffers layout_rows(std::vector<float>& rows, std::size_t& layout, int width,
 namespace detail {
 
 float frame_intensity_range(const OrganizedCloud& cloud, const FloatPlane& intensity) {
-#if RANGESEG_SMOOTH_AVX2
-  if (cpu_has_avx2_fma()) return intensity_range_avx2(cloud, intensity);
+#if RANGESEG_SIMD_X86
+  if (detail::simd::cpu_has_avx2()) return intensity_range_avx2(cloud, intensity);
 #endif
   return intensity_range_generic(cloud, intensity);
 }
@@ -652,11 +476,11 @@ void smooth_rows(const SmoothRowsInput& in, const SmoothingSettings& settings, i
   assert(0 <= v0 && v0 <= v1 && v1 <= height);
   assert(out_cloud.z.width() == width && out_cloud.z.height() == height);
   assert(out_normals.nz.width() == width && out_normals.nz.height() == height);
-  (void)height;
+  (void)width, (void)height;
   const PassSetup setup =
       make_pass(settings, in.mesh->pixel_stride, in.intensity, in.intensity_range);
-  const RowBuffers rb = layout_rows(scratch.rows, scratch.layout, width, in.mesh->pixel_stride);
-  setup.pass(cloud, *in.normals, *in.mesh, setup.prm, rb, out_cloud, out_normals, v0, v1);
+  PassScratch ps{scratch.rows, scratch.bytes, scratch.layout};
+  setup.pass(cloud, *in.normals, *in.mesh, setup.prm, ps, out_cloud, out_normals, v0, v1);
 }
 
 }  // namespace detail
@@ -723,7 +547,7 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
   for (FloatPlane* p : {&out_normals.nx, &out_normals.ny, &out_normals.nz}) {
     ensure_size(*p, width, height);
   }
-  if (pass_curvature) copy_plane(normals.curvature, out_normals.curvature);
+  if (pass_curvature) ensure_size(out_normals.curvature, width, height);
 
   if (st.iterations == 0) {
     copy_plane(cloud.x, out_cloud.x);
@@ -732,7 +556,7 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
     copy_plane(normals.nx, out_normals.nx);
     copy_plane(normals.ny, out_normals.ny);
     copy_plane(normals.nz, out_normals.nz);
-    if (!pass_curvature) copy_plane(normals.curvature, out_normals.curvature);
+    copy_plane(normals.curvature, out_normals.curvature);
     return;
   }
 
@@ -751,9 +575,14 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
   }
   const PassSetup setup = make_pass(st, mesh.pixel_stride, intensity, range);
   const PassParams& prm = setup.prm;
+  PassParams last_prm = prm;  // the last pass also copies the curvature through
+  if (pass_curvature) {
+    last_prm.curvature_in = &normals.curvature;
+    last_prm.curvature_out = &out_normals.curvature;
+  }
   const PassFn pass = setup.pass;
   const bool filter_normals = !st.recompute_normals;
-  const RowBuffers rb = layout_rows(rows_, rows_layout_, width, mesh.pixel_stride);
+  PassScratch ps{rows_, row_bytes_, rows_layout_};
 
   // The pass works on origin-relative points (q = p - viewpoint) and adds the viewpoint back.
   const bool shifted = st.viewpoint != std::array<float, 3>{0.0f, 0.0f, 0.0f};
@@ -786,7 +615,8 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
         }
       }
     }
-    pass(shifted ? shifted_ : *src, *src_normals, mesh, prm, rb, dst, dst_normals, 0, height);
+    pass(shifted ? shifted_ : *src, *src_normals, mesh, i + 1 == st.iterations ? last_prm : prm, ps,
+         dst, dst_normals, 0, height);
     if (!filter_normals) compute_normals(dst, mesh, normal_settings, dst_normals);
     src = &dst;
     src_normals = &dst_normals;

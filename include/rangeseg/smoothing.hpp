@@ -2,6 +2,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <vector>
 
 #include "rangeseg/cloud.hpp"
@@ -108,9 +109,10 @@ class Smoother {
   OrganizedCloud scratch_cloud_;
   NormalMap scratch_normals_;
   FloatPlane grey_;
-  OrganizedCloud shifted_;       ///< points relative to a non-zero viewpoint
-  std::vector<float> rows_;      ///< per-row edge weights and per-pixel scales
-  std::size_t rows_layout_ = 0;  ///< row length the zero pads of rows_ were laid out for
+  OrganizedCloud shifted_;               ///< points relative to a non-zero viewpoint
+  std::vector<float> rows_;              ///< per-row inputs, scales and sums of a pass
+  std::vector<std::uint8_t> row_bytes_;  ///< one row of edge bytes
+  std::size_t rows_layout_ = 0;          ///< layout rows_ was made for
 };
 
 /// One-shot filter (allocates its scratch buffers per call; keep a Smoother to avoid that).

@@ -17,7 +17,8 @@
 // Interface (all members static and always inlined):
 //   kLanes; F, M, B, Selector;
 //   F load(const float*), store(float*, F), set1(float); M set1i(int);
-//   F sqrt(F), max(F a, F b) = a > b ? a : b per lane (NaN in a gives b, as maxps);
+//   F sqrt(F), max(F a, F b) = a > b ? a : b per lane (NaN in a gives b, as maxps),
+//   min(F a, F b) = a < b ? a : b (likewise);
 //   F keep(F x, M m) = m ? x : +0 (bits); F pick(M m, F a, F b) = m ? a : b (m all-ones / zero);
 //   Selector bit_selector<k>(M bits) and F keep_selected(F x, Selector) = bit k of the lane ? x :
 //   +0; F shift_in(F previous, F x) = {previous[kLanes - 1], x[0], ..., x[kLanes - 2]}; M
@@ -84,6 +85,7 @@ struct Sse2 {
   static RANGESEG_SIMD_INLINE M set1i(int x) { return (M)_mm_set1_epi32(x); }
   static RANGESEG_SIMD_INLINE F sqrt(F x) { return _mm_sqrt_ps(x); }
   static RANGESEG_SIMD_INLINE F max(F a, F b) { return _mm_max_ps(a, b); }
+  static RANGESEG_SIMD_INLINE F min(F a, F b) { return _mm_min_ps(a, b); }
   static RANGESEG_SIMD_INLINE F keep(F x, M m) { return _mm_and_ps(x, (F)m); }
   static RANGESEG_SIMD_INLINE F pick(M m, F a, F b) {
     return _mm_or_ps(_mm_and_ps((F)m, a), _mm_andnot_ps((F)m, b));
@@ -132,6 +134,7 @@ struct Avx2 {
   static RANGESEG_AVX2_INLINE M set1i(int x) { return (M)_mm256_set1_epi32(x); }
   static RANGESEG_AVX2_INLINE F sqrt(F x) { return _mm256_sqrt_ps(x); }
   static RANGESEG_AVX2_INLINE F max(F a, F b) { return _mm256_max_ps(a, b); }
+  static RANGESEG_AVX2_INLINE F min(F a, F b) { return _mm256_min_ps(a, b); }
   static RANGESEG_AVX2_INLINE F keep(F x, M m) { return _mm256_and_ps(x, (F)m); }
   // blendv reads the sign bit only; the masks here are all-ones or zero.
   static RANGESEG_AVX2_INLINE F pick(M m, F a, F b) { return _mm256_blendv_ps(b, a, (F)m); }
@@ -191,6 +194,7 @@ struct Avx512 {
   static constexpr __mmask16 kAll = 0xFFFF;
   static RANGESEG_AVX512_INLINE F sqrt(F x) { return _mm512_maskz_sqrt_ps(kAll, x); }
   static RANGESEG_AVX512_INLINE F max(F a, F b) { return _mm512_maskz_max_ps(kAll, a, b); }
+  static RANGESEG_AVX512_INLINE F min(F a, F b) { return _mm512_maskz_min_ps(kAll, a, b); }
   static RANGESEG_AVX512_INLINE F keep(F x, M m) { return (F)((M)x & m); }
   static RANGESEG_AVX512_INLINE F pick(M m, F a, F b) {
     return _mm512_mask_blend_ps(_mm512_movepi32_mask((__m512i)m), b, a);
@@ -265,6 +269,10 @@ struct Generic {
   }
   static RANGESEG_SIMD_INLINE F max(F a, F b) {
     for (int k = 0; k < kLanes; ++k) a[k] = a[k] > b[k] ? a[k] : b[k];
+    return a;
+  }
+  static RANGESEG_SIMD_INLINE F min(F a, F b) {
+    for (int k = 0; k < kLanes; ++k) a[k] = a[k] < b[k] ? a[k] : b[k];
     return a;
   }
   static RANGESEG_SIMD_INLINE F keep(F x, M m) { return (F)((M)x & m); }

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "rangeseg/smoothing.hpp"
@@ -29,6 +30,7 @@ struct SmoothRowsInput {
 /// Row buffers of one thread; reuse across calls so that nothing is allocated per band.
 struct SmoothRowsScratch {
   std::vector<float> rows;
+  std::vector<std::uint8_t> bytes;
   std::size_t layout = 0;
 };
 
