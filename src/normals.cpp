@@ -55,33 +55,9 @@ struct Vec3Row {
   float* z;
 };
 
-#if RANGESEG_SIMD_X86
-namespace sse2 {
-using V = detail::simd::Sse2;
-#define RANGESEG_KERNEL
-#include "detail/normals_simd_kernels.hpp"
-#undef RANGESEG_KERNEL
-}  // namespace sse2
-namespace avx2 {
-using V = detail::simd::Avx2;
-#define RANGESEG_KERNEL RANGESEG_SIMD_AVX2_TARGET
-#include "detail/normals_simd_kernels.hpp"
-#undef RANGESEG_KERNEL
-}  // namespace avx2
-namespace avx512 {
-using V = detail::simd::Avx512;
-#define RANGESEG_KERNEL RANGESEG_SIMD_AVX512_TARGET
-#include "detail/normals_simd_kernels.hpp"
-#undef RANGESEG_KERNEL
-}  // namespace avx512
-#else
-namespace generic {
-using V = detail::simd::Generic;
-#define RANGESEG_KERNEL
-#include "detail/normals_simd_kernels.hpp"
-#undef RANGESEG_KERNEL
-}  // namespace generic
-#endif
+#define RANGESEG_SIMD_KERNEL_FILE "detail/normals_simd_kernels.hpp"
+#include "detail/simd_instances.hpp"
+#undef RANGESEG_SIMD_KERNEL_FILE
 
 // The kernels of one instruction set.
 struct Kernels {
@@ -104,15 +80,7 @@ const Kernels& kernels() {
   static const Kernels baseline = RANGESEG_NORMAL_KERNELS(sse2);
   static const Kernels wide = RANGESEG_NORMAL_KERNELS(avx2);
   static const Kernels widest = RANGESEG_NORMAL_KERNELS(avx512);
-  switch (detail::simd::chosen_isa()) {
-    case detail::simd::Isa::avx512:
-      return widest;
-    case detail::simd::Isa::avx2:
-      return wide;
-    case detail::simd::Isa::baseline:
-      break;
-  }
-  return baseline;
+  return detail::simd::by_isa(baseline, wide, widest);
 #else
   static const Kernels baseline = RANGESEG_NORMAL_KERNELS(generic);
   return baseline;

@@ -251,33 +251,9 @@ using PassFn = void (*)(const OrganizedCloud&, const NormalMap&, const Mesh&, co
 
 // The pass, once per instruction set (fused multiply-adds are off in this file, so every width
 // computes the same).
-#if RANGESEG_SIMD_X86
-namespace sse2 {
-using V = detail::simd::Sse2;
-#define RANGESEG_KERNEL
-#include "detail/smoothing_simd_kernels.hpp"
-#undef RANGESEG_KERNEL
-}  // namespace sse2
-namespace avx2 {
-using V = detail::simd::Avx2;
-#define RANGESEG_KERNEL RANGESEG_SIMD_AVX2_TARGET
-#include "detail/smoothing_simd_kernels.hpp"
-#undef RANGESEG_KERNEL
-}  // namespace avx2
-namespace avx512 {
-using V = detail::simd::Avx512;
-#define RANGESEG_KERNEL RANGESEG_SIMD_AVX512_TARGET
-#include "detail/smoothing_simd_kernels.hpp"
-#undef RANGESEG_KERNEL
-}  // namespace avx512
-#else
-namespace generic {
-using V = detail::simd::Generic;
-#define RANGESEG_KERNEL
-#include "detail/smoothing_simd_kernels.hpp"
-#undef RANGESEG_KERNEL
-}  // namespace generic
-#endif
+#define RANGESEG_SIMD_KERNEL_FILE "detail/smoothing_simd_kernels.hpp"
+#include "detail/simd_instances.hpp"
+#undef RANGESEG_SIMD_KERNEL_FILE
 
 template <int kFlags>
 struct FlagPass {
@@ -299,15 +275,7 @@ PassFn pass_for(int flags) {
   static const auto baseline = RANGESEG_PASS_TABLE(sse2);
   static const auto wide = RANGESEG_PASS_TABLE(avx2);
   static const auto widest = RANGESEG_PASS_TABLE(avx512);
-  switch (detail::simd::chosen_isa()) {
-    case detail::simd::Isa::avx512:
-      return widest[static_cast<std::size_t>(flags)];
-    case detail::simd::Isa::avx2:
-      return wide[static_cast<std::size_t>(flags)];
-    case detail::simd::Isa::baseline:
-      break;
-  }
-  return baseline[static_cast<std::size_t>(flags)];
+  return detail::simd::by_isa(baseline, wide, widest)[static_cast<std::size_t>(flags)];
 #else
   static const auto baseline = RANGESEG_PASS_TABLE(generic);
   return baseline[static_cast<std::size_t>(flags)];

@@ -251,6 +251,20 @@ inline Isa chosen_isa() {
   return Isa::baseline;
 }
 
+/// The one of three per-instruction-set instances to run (see chosen_isa).
+template <class T>
+const T& by_isa(const T& baseline, const T& avx2, const T& avx512) {
+  switch (chosen_isa()) {
+    case Isa::avx512:
+      return avx512;
+    case Isa::avx2:
+      return avx2;
+    case Isa::baseline:
+      break;
+  }
+  return baseline;
+}
+
 #else  // !RANGESEG_SIMD_X86
 
 struct Generic {
