@@ -95,6 +95,9 @@ struct Sse2 {
     return (M)((bits & (1 << kBit)) == (1 << kBit));
   }
   static RANGESEG_SIMD_INLINE F keep_selected(F x, M selector) { return keep(x, selector); }
+  static RANGESEG_SIMD_INLINE Selector less(F a, F b) { return (M)_mm_cmplt_ps(a, b); }
+  static RANGESEG_SIMD_INLINE Selector ordered(F a) { return (M)_mm_cmpord_ps(a, a); }
+  static RANGESEG_SIMD_INLINE Selector both(Selector a, Selector b) { return a & b; }
   static RANGESEG_SIMD_INLINE F shift_in(F previous, F x) {
     return _mm_castsi128_ps(_mm_or_si128(_mm_slli_si128(_mm_castps_si128(x), 4),
                                          _mm_srli_si128(_mm_castps_si128(previous), 12)));
@@ -146,6 +149,10 @@ struct Avx2 {
   static RANGESEG_AVX2_INLINE F keep_selected(F x, M selector) {
     return _mm256_blendv_ps(_mm256_setzero_ps(), x, (F)selector);
   }
+  static RANGESEG_AVX2_INLINE Selector less(F a, F b) { return (M)_mm256_cmp_ps(a, b, _CMP_LT_OQ); }
+  static RANGESEG_AVX2_INLINE Selector ordered(F a) { return (M)_mm256_cmp_ps(a, a, _CMP_ORD_Q); }
+  // Selectors count by their sign bit only: the and of two is one.
+  static RANGESEG_AVX2_INLINE Selector both(Selector a, Selector b) { return a & b; }
   static RANGESEG_AVX2_INLINE F shift_in(F previous, F x) {
     // [previous 4-7, x 0-3], then per 128-bit half the last lane of the lower and the first
     // three of the upper: [previous 7, x 0-2 | x 3-6].
@@ -205,6 +212,15 @@ struct Avx512 {
   }
   static RANGESEG_AVX512_INLINE F keep_selected(F x, Selector selector) {
     return _mm512_maskz_mov_ps(selector, x);
+  }
+  static RANGESEG_AVX512_INLINE Selector less(F a, F b) {
+    return _mm512_cmp_ps_mask(a, b, _CMP_LT_OQ);
+  }
+  static RANGESEG_AVX512_INLINE Selector ordered(F a) {
+    return _mm512_cmp_ps_mask(a, a, _CMP_ORD_Q);
+  }
+  static RANGESEG_AVX512_INLINE Selector both(Selector a, Selector b) {
+    return static_cast<Selector>(a & b);
   }
   static RANGESEG_AVX512_INLINE F shift_in(F previous, F x) {
     // Lanes 15..30 of the 32-lane concatenation (previous, x).
@@ -296,6 +312,9 @@ struct Generic {
     return (M)((bits & (1 << kBit)) == (1 << kBit));
   }
   static RANGESEG_SIMD_INLINE F keep_selected(F x, M selector) { return keep(x, selector); }
+  static RANGESEG_SIMD_INLINE Selector less(F a, F b) { return (M)(a < b); }
+  static RANGESEG_SIMD_INLINE Selector ordered(F a) { return (M)(a == a); }
+  static RANGESEG_SIMD_INLINE Selector both(Selector a, Selector b) { return a & b; }
   static RANGESEG_SIMD_INLINE F shift_in(F previous, F x) {
     return F{previous[3], x[0], x[1], x[2]};
   }

@@ -33,9 +33,6 @@ struct Consts {
   M abs_mask;
 };
 
-RANGESEG_KERNEL RANGESEG_SIMD_INLINE M has_bit(M bits, int bit) {
-  return (M)((bits & V::set1i(bit)) == V::set1i(bit));
-}
 RANGESEG_KERNEL RANGESEG_SIMD_INLINE F abs(F x, const Consts& k) { return (F)((M)x & k.abs_mask); }
 
 /// exp(-a) for a in [0, kMaxExponent]: 2^y = 2^n 2^f with n = round(y), |f| <= 1/2, and 2^f from
@@ -74,13 +71,14 @@ RANGESEG_KERNEL void scales_row(const float* z, int blocks, const Consts& k, flo
 }
 
 /// Terms of the edges from the points of row `c` at index i to the points at index iq of the
-/// row `q_off` elements further on (in every plane of c; 0 = the same row), where bit `bit` of
+/// row `q_off` elements further on (in every plane of c; 0 = the same row), where bit kBit of
 /// `ring` (the edge byte of the edge's first end) says whether the edge exists.
-template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals>
+template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals,
+          int kBit>
 RANGESEG_KERNEL RANGESEG_SIMD_INLINE Terms edge_terms(const InRow& c, const float* hdc,
                                                       const float* hnc, int i, std::ptrdiff_t q_off,
                                                       const float* hdq, const float* hnq, int iq,
-                                                      M ring, int bit, const Consts& k) {
+                                                      M ring, const Consts& k) {
   const std::ptrdiff_t j = q_off + iq;
   const F cx = V::load(c.x + i), cy = V::load(c.y + i), cz = V::load(c.z + i);
   const F qx = V::load(c.x + j), qy = V::load(c.y + j), qz = V::load(c.z + j);
@@ -99,23 +97,22 @@ RANGESEG_KERNEL RANGESEG_SIMD_INLINE Terms edge_terms(const InRow& c, const floa
     arg = arg + abs(V::load(c.in + j) - V::load(c.in + i), k) * k.inv_intensity;
   }
   // NaN (a NaN normal or intensity) fails the comparison.
-  const M below_max = (M)(arg < k.max_exponent);
-  const M use = has_bit(ring, bit) & below_max;
+  const auto use = V::both(V::template bit_selector<kBit>(ring), V::less(arg, k.max_exponent));
   Terms t{};
-  t.w = V::keep(exp_neg(V::min(arg, k.max_exponent)), use);
+  t.w = V::keep_selected(exp_neg(V::min(arg, k.max_exponent)), use);
   if constexpr (kAlongRay) {
-    t.a0 = V::keep(t.w * (qx * cx + qy * cy + qz * cz), use);
+    t.a0 = V::keep_selected(t.w * (qx * cx + qy * cy + qz * cz), use);
   } else {
-    t.a0 = V::keep(t.w * dx, use);
-    t.a1 = V::keep(t.w * dy, use);
-    t.a2 = V::keep(t.w * dz, use);
+    t.a0 = V::keep_selected(t.w * dx, use);
+    t.a1 = V::keep_selected(t.w * dy, use);
+    t.a2 = V::keep_selected(t.w * dz, use);
   }
   if constexpr (kFilterNormals) {
     // Without the normal term a NaN normal at either end must be skipped explicitly.
-    const M use_n = kNormal ? use : (use & (M)(l1 == l1));
-    t.n0 = V::keep(t.w * dnx, use_n);
-    t.n1 = V::keep(t.w * dny, use_n);
-    t.n2 = V::keep(t.w * dnz, use_n);
+    const auto use_n = kNormal ? use : V::both(use, V::ordered(l1));
+    t.n0 = V::keep_selected(t.w * dnx, use_n);
+    t.n1 = V::keep_selected(t.w * dny, use_n);
+    t.n2 = V::keep_selected(t.w * dnz, use_n);
   }
   return t;
 }
@@ -272,9 +269,9 @@ RANGESEG_KERNEL void edges_row(const InRow& c, const float* hdc, const float* hn
                                std::ptrdiff_t q_off, const float* hdq, const float* hnq,
                                const std::uint8_t* edges, int blocks, const Consts& k,
                                const SumRow& own, const SumRow& next) {
-#define RANGESEG_TERMS(ci, off, hdq_, hnq_, qi, ring, bit)               \
-  edge_terms<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>( \
-      c, hdc, hnc, ci, off, hdq_, hnq_, qi, ring, bit, k)
+#define RANGESEG_TERMS(ci, off, hdq_, hnq_, qi, ring, bit)                    \
+  edge_terms<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals, bit>( \
+      c, hdc, hnc, ci, off, hdq_, hnq_, qi, ring, k)
   Terms prev_right = zero_terms<kAlongRay, kFilterNormals>(k);
   Terms prev_down_right = prev_right, prev_down_left = prev_right;
   for (int i = 0; i < blocks * kLanes; i += kLanes) {
@@ -284,21 +281,21 @@ RANGESEG_KERNEL void edges_row(const InRow& c, const float* hdc, const float* hn
     // right; the down-left edges are those leaving columns i + 1 .., ending in columns i ...
     Terms sums = load_sums<kAlongRay, kFilterNormals>(own, i);
     Terms below = load_sums<kAlongRay, kFilterNormals>(next, i);
-    const Terms right = RANGESEG_TERMS(i, 0, hdc, hnc, i + 1, ring, 1);
+    const Terms right = RANGESEG_TERMS(i, 0, hdc, hnc, i + 1, ring, 0);
     add_terms<kAlongRay, kFilterNormals, 1>(sums, right);
     add_terms<kAlongRay, kFilterNormals, -1>(sums,
                                              shifted<kAlongRay, kFilterNormals>(prev_right, right));
     prev_right = right;
-    const Terms down_right = RANGESEG_TERMS(i, q_off, hdq, hnq, i + 1, ring, 2);
+    const Terms down_right = RANGESEG_TERMS(i, q_off, hdq, hnq, i + 1, ring, 1);
     add_terms<kAlongRay, kFilterNormals, 1>(sums, down_right);
     add_terms<kAlongRay, kFilterNormals, -1>(
         below, shifted<kAlongRay, kFilterNormals>(prev_down_right, down_right));
     prev_down_right = down_right;
-    const Terms down = RANGESEG_TERMS(i, q_off, hdq, hnq, i, ring, 4);
+    const Terms down = RANGESEG_TERMS(i, q_off, hdq, hnq, i, ring, 2);
     add_terms<kAlongRay, kFilterNormals, 1>(sums, down);
     add_terms<kAlongRay, kFilterNormals, -1>(below, down);
     const Terms down_left =
-        RANGESEG_TERMS(i + 1, q_off, hdq, hnq, i, V::bytes_to_lanes(edges + i + 1), 8);
+        RANGESEG_TERMS(i + 1, q_off, hdq, hnq, i, V::bytes_to_lanes(edges + i + 1), 3);
     add_terms<kAlongRay, kFilterNormals, 1>(
         sums, shifted<kAlongRay, kFilterNormals>(prev_down_left, down_left));
     add_terms<kAlongRay, kFilterNormals, -1>(below, down_left);
