@@ -2,14 +2,17 @@
 // renderer's ground truth and, when present, the SegComp ABW and OSD data.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <functional>
 #include <map>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "detail/plane_stats.hpp"
+#include "detail/simd.hpp"
 #include "rangeseg/eval.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/io/rasterfile.hpp"
@@ -297,6 +300,64 @@ TEST(Segmentation, HolesAreNeverLabelledAndAreaIsCorrect) {
   const Pipeline q = run(full, settings);
   ASSERT_EQ(q.seg.segments.size(), 1u);
   EXPECT_NEAR(q.seg.segments[0].area_m2, full_area, 1e-6 * full_area);
+}
+
+/// Segment areas against a slow double sum over the explicit face list (each face split evenly
+/// among its corners' labels), on a scene with a crease, a step, holes and both triangle
+/// diagonals, and identical on every instruction set of the vectorised face areas.
+TEST(Segmentation, AreasMatchTheFaceListOnEveryInstructionSet) {
+  using rangeseg::detail::simd::Isa;
+  OrganizedCloud cloud = cast(203, 151, [](double a, double b) {
+    // (a in [-0.61, -0.22], b in [-0.46, -0.17] on this image)
+    return (a > -0.4 ? 1.2 + 2.0 * (a + 0.4) : 1.2) + (b > -0.3 ? 0.4 : 0.0) + 0.3 * a * a;
+  });
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      if ((u * 7 + v * 3) % 61 == 0) cloud.x(u, v) = cloud.y(u, v) = cloud.z(u, v) = NAN;
+    }
+  }
+  const Mesh mesh = build_mesh(cloud);
+  const NormalMap normals = compute_normals(cloud, mesh);
+  rangeseg::TriangleList faces;
+  rangeseg::extract_faces(mesh, false, faces);
+  ASSERT_EQ(faces.vertices_per_face, 3);
+
+  rangeseg::detail::simd::isa_limit = Isa::baseline;
+  Segmentation baseline;
+  segment(cloud, mesh, normals, preset("kinect"), baseline);
+  ASSERT_GE(baseline.segments.size(), 2u);
+  std::vector<double> reference(baseline.segments.size() + 1, 0.0);
+  const int w = cloud.width();
+  for (std::size_t f = 0; f < faces.indices.size(); f += 3) {
+    std::array<double, 3> p[3];
+    int label[3];
+    for (int k = 0; k < 3; ++k) {
+      const int i = faces.indices[f + static_cast<std::size_t>(k)], u = i % w, v = i / w;
+      p[k] = {cloud.x(u, v), cloud.y(u, v), cloud.z(u, v)};
+      label[k] = baseline.labels(u, v);
+    }
+    const std::array<double, 3> e{p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
+    const std::array<double, 3> g{p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
+    const double cx = e[1] * g[2] - e[2] * g[1], cy = e[2] * g[0] - e[0] * g[2],
+                 cz = e[0] * g[1] - e[1] * g[0];
+    const double area = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+    for (int k = 0; k < 3; ++k) reference[static_cast<std::size_t>(label[k])] += area / 3;
+  }
+  for (const rangeseg::Segment& seg : baseline.segments) {
+    EXPECT_NEAR(seg.area_m2, reference[static_cast<std::size_t>(seg.label)],
+                1e-5 * reference[static_cast<std::size_t>(seg.label)])
+        << "segment " << seg.label;
+  }
+  for (Isa isa : {Isa::avx2, Isa::avx512}) {
+    rangeseg::detail::simd::isa_limit = isa;
+    Segmentation wide;
+    segment(cloud, mesh, normals, preset("kinect"), wide);
+    ASSERT_EQ(wide.segments.size(), baseline.segments.size());
+    for (std::size_t j = 0; j < wide.segments.size(); ++j) {
+      EXPECT_EQ(wide.segments[j].area_m2, baseline.segments[j].area_m2) << "isa " << int(isa);
+    }
+  }
+  rangeseg::detail::simd::isa_limit = Isa::avx512;
 }
 
 TEST(Segmentation, MinRegionSizeRemovesSmallSegments) {

@@ -73,6 +73,7 @@ struct Segmenter::Scratch {
   std::vector<std::int32_t> compact;
   std::vector<std::uint8_t> queued;
   std::vector<double> area;
+  std::vector<float> cell_area;  ///< twice the mesh area of each cell of one row
   std::vector<std::int32_t> order;
 };
 

@@ -1,15 +1,39 @@
 // Post-processing of the grown regions: least-squares refit, merging of adjacent coplanar
 // segments, removal of small segments, re-assignment of boundary points, compaction.
+// Contraction into fused multiply-adds is off in this file, so that the vectorised face areas
+// equal the scalar ones on every CPU.
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#elif defined(__GNUC__)
+#pragma GCC optimize("fp-contract=off")
+#endif
+
 #include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdint>
 #include <numeric>
 
+#include "detail/simd.hpp"
 #include "segmentation/internal.hpp"
 
 namespace rangeseg::seg {
 namespace {
+
+#define RANGESEG_SIMD_KERNEL_FILE "segmentation/area_simd_kernels.hpp"
+#include "detail/simd_instances.hpp"
+#undef RANGESEG_SIMD_KERNEL_FILE
+
+using CellAreasFn = int (*)(const float*, const float*, const float*, const float*, const float*,
+                            const float*, const std::uint8_t*, int, float*);
+CellAreasFn cell_areas_kernel() {
+#if RANGESEG_SIMD_X86
+  return detail::simd::by_isa<CellAreasFn>(&sse2::cell_twice_areas, &avx2::cell_twice_areas,
+                                           &avx512::cell_twice_areas);
+#else
+  return &generic::cell_twice_areas;
+#endif
+}
 
 using detail::PlaneFit;
 using detail::PlaneStats;
@@ -218,8 +242,18 @@ void accumulate_areas(const Frame& f, Segmenter::Scratch& s) {
   const std::int32_t* const labels = f.labels;
   std::int32_t run_label = 0;
   double run_area = 0;  // twice the area of the faces of the current run
+  // At stride 1 the cells' areas come from a vector kernel, a row at a time (the last cells of
+  // a row, fewer than a vector, below).
+  const CellAreasFn cell_areas = cell_areas_kernel();
+  s.cell_area.resize(static_cast<std::size_t>(std::max(f.width, 1)));
+  float* const row_area = s.cell_area.data();
   for (int v = 0; v + step < f.height; v += step) {
     const std::ptrdiff_t row = v * f.stride;
+    int vector_end = 0;  // cells [0, vector_end) of this row are in row_area
+    if (step == 1 && f.width > 1) {
+      vector_end = cell_areas(f.x + row, f.y + row, f.z + row, f.x + row + down, f.y + row + down,
+                              f.z + row + down, faces + row, f.width - 1, row_area);
+    }
     for (int u = 0; u + step < f.width; u += step) {
       const std::ptrdiff_t a = row + u, b = a + right, c = a + down, d = c + right;
       const std::uint8_t bits = faces[a];
@@ -229,7 +263,9 @@ void accumulate_areas(const Frame& f, Segmenter::Scratch& s) {
       // One label on all four corners (nearly every cell): add the cell's faces to the run.
       if (la == lb && la == lc && la == ld) {
         float twice_area = 0;
-        if (bits & face_bits::quad) {
+        if (u < vector_end) {
+          twice_area = row_area[u];
+        } else if (bits & face_bits::quad) {
           twice_area = cross_norm(f, a, d, b, c);
         } else if (bits & face_bits::diag_bc) {
           if (bits & face_bits::tri0) twice_area += cross_norm(f, a, c, a, b);
