@@ -87,7 +87,9 @@ struct SegmentPolygons {
   int label = 0;
   PlaneFrame frame;
   int first_loop = 0;  ///< loops[first_loop] is the outer loop with the largest area
-  int loop_count = 0;  ///< loops of this segment (outer loops each followed by their holes)
+  /// Loops of this segment: the outer loops by area descending, then the holes grouped by
+  /// parent in the order of their parents (each group in tracing order).
+  int loop_count = 0;
   int hull_first = 0;  ///< range into hull_points2d / hull_points3d / hull_pixels (CCW)
   int hull_count = 0;
   double area = 0;            ///< outer loops minus holes, simplified [m^2]

@@ -1,10 +1,7 @@
 // Plane polygons: boundary edges of every segment's faces, loop tracing, projection onto the
 // plane, simplification with a simplicity check, convex hulls.
 //
-// Boundary edges are found in one pass over the cells: per cell a byte tells which of its four
-// sides (and its diagonal) are covered by a face of the cell's segment, and a side is a boundary
-// edge when exactly one of the two cells sharing it covers it. Faces of different segments
-// never share an edge (every corner of a face carries the face's label), so one outgoing-edge
+// Boundary edges are found in one pass over the cells (boundary_masks.cpp): one outgoing-edge
 // mask per vertex serves all segments at once. The masks, the "remaining" copy and the
 // revisit positions are kept all-zero between frames, so no full-image clear is needed.
 #include <algorithm>
@@ -22,54 +19,6 @@ namespace rangeseg {
 using polygons_detail::CheckEdge;
 
 namespace {
-
-// Per-cell coverage bits: sides (top a-b, bottom c-d, left a-c, right b-d) covered by a face of
-// the cell's segment, and a diagonal covered by exactly one of the two triangles, with the
-// direction in which that triangle traverses it.
-constexpr std::uint8_t kT = 1, kB = 2, kL = 4, kR = 8;
-constexpr std::uint8_t kDiagAD = 16, kDiagDA = 32, kDiagCB = 64, kDiagBC = 128;
-
-constexpr std::uint8_t side_bits(int f) {
-  if (f & face_bits::quad) return kT | kB | kL | kR;
-  const bool t0 = f & face_bits::tri0, t1 = f & face_bits::tri1;
-  int m = 0;
-  if (!(f & face_bits::diag_bc)) {  // tri0 (a,d,b), tri1 (a,c,d)
-    if (t0) m |= kT | kR;
-    if (t1) m |= kL | kB;
-    if (t0 && !t1) m |= kDiagAD;
-    if (t1 && !t0) m |= kDiagDA;
-  } else {  // tri0 (a,c,b), tri1 (b,c,d)
-    if (t0) m |= kT | kL;
-    if (t1) m |= kB | kR;
-    if (t0 && !t1) m |= kDiagCB;
-    if (t1 && !t0) m |= kDiagBC;
-  }
-  return static_cast<std::uint8_t>(m);
-}
-constexpr std::array<std::uint8_t, 16> make_side_table() {
-  std::array<std::uint8_t, 16> t{};
-  for (int f = 0; f < 16; ++f) t[f] = side_bits(f);
-  return t;
-}
-constexpr std::array<std::uint8_t, 16> kSides = make_side_table();
-
-// Cells per block of the uniform-label fast path of the cell pass (stride 1).
-constexpr int kBlock = 8;
-
-// Outgoing boundary edges of a vertex from the coverage bits of its four cells: c00 up-left
-// (vertex is its d), c01 up-right (its c), c10 down-left (its b), c11 down-right (its a).
-inline std::uint8_t vertex_mask(unsigned c00, unsigned c01, unsigned c10, unsigned c11) {
-  unsigned m = 0;
-  m |= ((c01 & kB) && !(c11 & kT)) ? 1u : 0u;   // right: bottom side of c01
-  m |= (c11 & kDiagAD) ? 2u : 0u;               // down-right: a -> d of c11
-  m |= ((c11 & kL) && !(c10 & kR)) ? 4u : 0u;   // down: left side of c11
-  m |= (c10 & kDiagBC) ? 8u : 0u;               // down-left: b -> c of c10
-  m |= ((c10 & kT) && !(c00 & kB)) ? 16u : 0u;  // left: top side of c10
-  m |= (c00 & kDiagDA) ? 32u : 0u;              // up-left: d -> a of c00
-  m |= ((c00 & kR) && !(c01 & kL)) ? 64u : 0u;  // up: right side of c00
-  m |= (c01 & kDiagCB) ? 128u : 0u;             // up-right: c -> b of c01
-  return static_cast<std::uint8_t>(m);
-}
 
 using Vec = std::array<double, 3>;
 double dot(const Vec& a, const Vec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
@@ -103,6 +52,11 @@ PlaneFrame make_frame(const Segment& seg) {
   return fr;
 }
 
+struct HullPoint {
+  double x, y;
+  int index;
+};
+
 struct RawLoop {
   int label;
   int first;  // into raw_idx
@@ -113,75 +67,13 @@ struct RawLoop {
   int u_min, u_max, v_min, v_max;  // bounding box of the vertices [pixel]
 };
 
-// Even-odd test of image point (px, py) against a raw loop (its vertices' pixel coordinates):
-// whether px < the x of the crossing of edge j-i with the line y = py, multiplied out by
-// (yj - yi) so that the loop has no division and no branch. Coordinates are integers and
-// half-integers, so both products are exact and the decisions equal the divided form's.
-bool inside_px(const std::array<std::int32_t, 2>* uv, int n, double px, double py) {
-  unsigned crossings = 0;
-  for (int i = 0, j = n - 1; i < n; j = i++) {
-    const double xi = uv[i][0], yi = uv[i][1], xj = uv[j][0], yj = uv[j][1];
-    const double d = yj - yi;
-    const double a = (px - xi) * d, b = (xj - xi) * (py - yi);
-    const bool straddles = (yi > py) != (yj > py);
-    const bool left = (d > 0 && a < b) || (d < 0 && a > b);
-    crossings += static_cast<unsigned>(straddles & left);
-  }
-  return (crossings & 1u) != 0;
-}
-
-// The points xy[0..n) (x, y interleaved) that may be convex hull vertices, into `out`: all but
-// those strictly inside the polygon of the extreme points in 8 directions (Akl-Toussaint), which
-// are interior to the hull by a margin far above rounding, so the hull is unchanged. Boundary
-// loops have most of their vertices inside, and the sort before the hull is the costly part.
-void hull_candidates(const double* xy, int n, std::vector<int>& out) {
-  out.clear();
-  // Extreme points in the directions 0, 45, ..., 315 degrees, in counter-clockwise order.
-  std::array<int, 8> ext{};
-  std::array<double, 8> best{};
-  best.fill(-std::numeric_limits<double>::infinity());
-  double extent = 0;
-  for (int i = 0; i < n; ++i) {
-    const double x = xy[2 * i], y = xy[2 * i + 1];
-    const double d[8] = {x, x + y, y, y - x, -x, -x - y, -y, x - y};
-    for (int k = 0; k < 8; ++k) {
-      if (d[k] > best[k]) {
-        best[k] = d[k];
-        ext[k] = i;
-      }
-    }
-    extent = std::max({extent, std::abs(x), std::abs(y)});
-  }
-  // A point is dropped when it is to the left of every (non-degenerate) octagon edge by more
-  // than eps (cross products are in m^2; rounding is ~1e-16 (1 + extent)^2).
-  const double eps = 1e-9 * (1 + extent) * (1 + extent);
-  std::array<double, 8> ax{}, ay{}, ex{}, ey{};
-  int edges = 0;
-  for (int k = 0; k < 8 && n > 0; ++k) {
-    const int a = ext[k], b = ext[(k + 1) & 7];
-    if (a == b) continue;
-    ax[edges] = xy[2 * a];
-    ay[edges] = xy[2 * a + 1];
-    ex[edges] = xy[2 * b] - ax[edges];
-    ey[edges] = xy[2 * b + 1] - ay[edges];
-    ++edges;
-  }
-  for (int i = 0; i < n; ++i) {
-    bool inside = edges >= 3;
-    for (int e = 0; e < edges && inside; ++e) {
-      inside = ex[e] * (xy[2 * i + 1] - ay[e]) - ey[e] * (xy[2 * i] - ax[e]) > eps;
-    }
-    if (!inside) out.push_back(i);
-  }
-}
-
 }  // namespace
 
 struct PolygonExtractor::Scratch {
-  BytePlane orig, rem;
+  Plane<std::uint16_t> edge_masks;  // outgoing boundary edges: mask | remaining << 8
   Plane<std::int32_t> pos;
   bool dirty = false;
-  std::vector<std::uint8_t> prev_sides, cur_sides;
+  polygons_detail::BoundaryMaskScratch masks;
   std::vector<std::int32_t> starts, walk, stack;
   std::vector<RawLoop> raw;
   std::vector<std::int32_t> raw_idx;
@@ -190,17 +82,99 @@ struct PolygonExtractor::Scratch {
   std::vector<int> seg_of_label;
   std::vector<int> bucket_start, bucket_loops;  // raw loops grouped by segment
   std::vector<int> kept;                        // raw loops of one segment in output order
-  std::vector<int> xy_first;                    // per kept loop: offset into xy (in points)
-  std::vector<double> xy;                       // projected plane points of the kept loops
-  std::vector<double> tolerance;
-  std::vector<int> keep, keep_first;
+  std::vector<int> outer_rank;                  // per raw outer loop: its index in `kept`
+  std::vector<int> hole_count;  // per outer loop rank: holes (prefix sums: fill cursors)
+  // Holes whose parent is searched: raw loop, doubled query point, grouped by its row.
+  std::vector<int> queries, query_x2, query_y2, row_start, row_queries, touched;
+  std::vector<std::uint8_t> parity;
+  std::vector<int> xy_first;  // per kept loop: offset into xy (in points)
+  std::vector<double> xy;     // projected plane points of the kept loops
+  std::vector<double> tolerance, raw_area, raw_perimeter;  // per kept loop
+  std::vector<int> keep, keep_first, keep_next, keep_first_next;
   std::vector<std::array<int, 2>> dp_stack;
   std::vector<CheckEdge> edges;
   std::vector<std::uint8_t> bad;
   std::vector<int> hull_order, hull_idx;
+  std::vector<HullPoint> hull_sort;
   std::vector<double> hull_xy;
   std::vector<std::int32_t> hull_pix;
 };
+
+namespace {
+
+// Parents of the holes sc.queries (raw loops, parent -1) among the outer loops sc.kept[0,
+// n_outer): the smallest outer loop (the last in `kept`) whose even-odd test counts an odd
+// number of its edges crossing the ray from the hole's query point to the left (+x is right).
+// A crossing is decided as in the divided form x_query < x of the edge at y_query, multiplied
+// out by (yj - yi) so that it has no division; coordinates are integers and half-integers, so
+// the products are exact. Instead of testing every hole against every outer loop, the query
+// points are grouped by row and each loop's edges visit only the holes of the rows they cross:
+// grid loops' edges span at most pixel_stride rows. The result equals the pairwise test.
+void find_parents(PolygonExtractor::Scratch& sc, std::size_t n_outer) {
+  const std::size_t nq = sc.queries.size();
+  sc.query_x2.resize(nq);
+  sc.query_y2.resize(nq);
+  int y2_min = std::numeric_limits<int>::max(), y2_max = std::numeric_limits<int>::min();
+  for (std::size_t q = 0; q < nq; ++q) {
+    const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.queries[q])];
+    const std::array<std::int32_t, 2>* uv = sc.raw_uv.data() + r.first;
+    sc.query_x2[q] = uv[0][0] + uv[1][0];
+    sc.query_y2[q] = uv[0][1] + uv[1][1];
+    y2_min = std::min(y2_min, sc.query_y2[q]);
+    y2_max = std::max(y2_max, sc.query_y2[q]);
+  }
+  const std::size_t rows = static_cast<std::size_t>(y2_max - y2_min) + 1;
+  sc.row_start.assign(rows + 1, 0);
+  for (std::size_t q = 0; q < nq; ++q)
+    ++sc.row_start[static_cast<std::size_t>(sc.query_y2[q] - y2_min) + 1];
+  for (std::size_t i = 0; i < rows; ++i) sc.row_start[i + 1] += sc.row_start[i];
+  sc.row_queries.resize(nq);
+  sc.touched.assign(sc.row_start.begin(), sc.row_start.end() - 1);  // fill cursors
+  for (std::size_t q = 0; q < nq; ++q) {
+    sc.row_queries[static_cast<std::size_t>(
+        sc.touched[static_cast<std::size_t>(sc.query_y2[q] - y2_min)]++)] = static_cast<int>(q);
+  }
+  sc.parity.assign(nq, 0);
+  for (std::size_t k = n_outer; k-- > 0;) {
+    const int outer = sc.kept[k];
+    const RawLoop& o = sc.raw[static_cast<std::size_t>(outer)];
+    if (2 * o.v_max < y2_min || 2 * o.v_min > y2_max) continue;
+    const std::array<std::int32_t, 2>* uv = sc.raw_uv.data() + o.first;
+    sc.touched.clear();
+    for (int i = 0, j = o.count - 1; i < o.count; j = i++) {
+      const int yi_int = uv[i][1], yj_int = uv[j][1];
+      if (yi_int == yj_int) continue;
+      // The edge straddles y_query (one end above, one at or below) for 2 lo <= y2 < 2 hi.
+      const int lo = std::max(2 * std::min(yi_int, yj_int), y2_min);
+      const int hi = std::min(2 * std::max(yi_int, yj_int) - 1, y2_max);
+      for (int y2 = lo; y2 <= hi; ++y2) {
+        const int row = y2 - y2_min;
+        for (int t = sc.row_start[static_cast<std::size_t>(row)];
+             t < sc.row_start[static_cast<std::size_t>(row) + 1]; ++t) {
+          const int q = sc.row_queries[static_cast<std::size_t>(t)];
+          if (sc.raw[static_cast<std::size_t>(sc.queries[static_cast<std::size_t>(q)])].parent >= 0)
+            continue;
+          const double px = 0.5 * static_cast<double>(sc.query_x2[static_cast<std::size_t>(q)]);
+          const double py = 0.5 * static_cast<double>(y2);
+          const double xi = uv[i][0], yi = yi_int, xj = uv[j][0], yj = yj_int;
+          const double d = yj - yi;
+          const double a = (px - xi) * d, b = (xj - xi) * (py - yi);
+          if ((d > 0 && a < b) || (d < 0 && a > b)) {
+            sc.parity[static_cast<std::size_t>(q)] ^= 1u;
+            sc.touched.push_back(q);
+          }
+        }
+      }
+    }
+    for (const int q : sc.touched) {
+      if (!sc.parity[static_cast<std::size_t>(q)]) continue;
+      sc.parity[static_cast<std::size_t>(q)] = 0;
+      sc.raw[static_cast<std::size_t>(sc.queries[static_cast<std::size_t>(q)])].parent = outer;
+    }
+  }
+}
+
+}  // namespace
 
 PolygonExtractor::PolygonExtractor() : scratch_(std::make_unique<Scratch>()) {}
 PolygonExtractor::~PolygonExtractor() = default;
@@ -271,127 +245,38 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
     sp.label = static_cast<int>(l);
     out.segments.push_back(sp);
   }
-  const std::uint8_t* en = sc.enabled.data();
-  const auto enabled = [en, n_labels](std::int32_t l) {
-    return static_cast<std::size_t>(static_cast<std::uint32_t>(l)) < n_labels && en[l];
-  };
-
   // --- per-vertex outgoing boundary edges ---
-  if (sc.orig.width() != width || sc.orig.height() != height || sc.dirty) {
-    sc.orig.resize(width, height, 0);
-    sc.rem.resize(width, height, 0);
+  if (sc.edge_masks.width() != width || sc.edge_masks.height() != height || sc.dirty) {
+    sc.edge_masks.resize(width, height, 0);
     sc.pos.resize(width, height, 0);
   }
   sc.dirty = true;  // until the planes are all-zero again
-  const std::ptrdiff_t stride = sc.orig.stride();
-  if (sc.rem.stride() != stride || sc.pos.stride() != stride) {
+  const std::ptrdiff_t stride = sc.edge_masks.stride();
+  if (sc.pos.stride() != stride) {
     throw std::logic_error("PolygonExtractor: plane strides differ");
   }
-  sc.prev_sides.assign(static_cast<std::size_t>(width), 0);
-  sc.cur_sides.assign(static_cast<std::size_t>(width), 0);
-  sc.starts.clear();
-  std::uint8_t* orig = sc.orig.row(0);
-  const int last_u = (width - 1) / s * s;
-  for (int v = 0; v < height; v += s) {
-    std::uint8_t* cur = sc.cur_sides.data();
-    const std::uint8_t* prev = sc.prev_sides.data();
-    if (v + s < height) {
-      const std::int32_t* l0 = segmentation.labels.row(v);
-      const std::int32_t* l1 = segmentation.labels.row(v + s);
-      const std::uint8_t* f = mesh.faces.row(v);
-      for (int u = 0; u + s < width; u += s) {
-        if (s == 1 && u + kBlock < width) {
-          // Most cells lie inside one segment (or outside all): kBlock cells whose kBlock + 1
-          // corner columns in both rows carry one label take their faces' sides or nothing,
-          // decided once for the block instead of per cell with branches on the labels.
-          const std::int32_t label = l0[u];
-          unsigned differ = 0;
-          for (int i = 0; i <= kBlock; ++i) {
-            differ |=
-                static_cast<unsigned>(l0[u + i] ^ label) | static_cast<unsigned>(l1[u + i] ^ label);
-          }
-          if (differ == 0) {
-            if (enabled(label)) {
-              for (int i = 0; i < kBlock; ++i) cur[u + i] = kSides[f[u + i] & 15u];
-            } else {
-              std::memset(cur + u, 0, kBlock);
-            }
-            u += kBlock - 1;
-            continue;
-          }
-        }
-        const unsigned fb = f[u] & 15u;
-        if (fb == 0) {
-          cur[u] = 0;
-          continue;
-        }
-        const std::int32_t la = l0[u], lb = l0[u + s], lc = l1[u], ld = l1[u + s];
-        unsigned fe;
-        if (la == lb && la == lc && la == ld) {
-          fe = enabled(la) ? fb : 0u;
-        } else if (fb & face_bits::quad) {
-          fe = 0;
-        } else {
-          bool t0, t1;
-          if (fb & face_bits::diag_bc) {
-            t0 = la == lc && la == lb && enabled(la);
-            t1 = lb == lc && lb == ld && enabled(lb);
-          } else {
-            t0 = la == ld && la == lb && enabled(la);
-            t1 = la == lc && la == ld && enabled(la);
-          }
-          fe = (fb & face_bits::diag_bc) | (t0 ? (fb & face_bits::tri0) : 0u) |
-               (t1 ? (fb & face_bits::tri1) : 0u);
-        }
-        cur[u] = kSides[fe];
-      }
-      cur[last_u] = 0;
-    } else {
-      for (int u = 0; u < width; u += s) cur[u] = 0;
-    }
-    std::uint8_t* mrow = orig + v * stride;
-    for (int u = 0; u < width; u += s) {
-      if (s == 1 && u >= 1 && u + 8 < width) {
-        // Interior runs: 9 cells above and below all fully covered (or all empty) give no
-        // boundary at the 8 vertices between them.
-        std::uint64_t a, b, a1, b1;
-        std::memcpy(&a, prev + u - 1, 8);
-        std::memcpy(&b, cur + u - 1, 8);
-        std::memcpy(&a1, prev + u, 8);
-        std::memcpy(&b1, cur + u, 8);
-        constexpr std::uint64_t kFull = 0x0F0F0F0F0F0F0F0Full;
-        if ((a == kFull && b == kFull && a1 == kFull && b1 == kFull) ||
-            (a == 0 && b == 0 && a1 == 0 && b1 == 0)) {
-          u += 7;
-          continue;
-        }
-      }
-      const unsigned c11 = cur[u], c01 = prev[u];
-      const unsigned c10 = u >= s ? cur[u - s] : 0u, c00 = u >= s ? prev[u - s] : 0u;
-      if ((c00 | c01 | c10 | c11) == 0) continue;
-      const std::uint8_t m = vertex_mask(c00, c01, c10, c11);
-      if (m != 0) {
-        mrow[u] = m;
-        sc.starts.push_back(static_cast<std::int32_t>(v * stride + u));
-      }
-    }
-    std::swap(sc.prev_sides, sc.cur_sides);
-  }
+  std::uint16_t* edge_masks = sc.edge_masks.row(0);
+  polygons_detail::find_boundary_vertices(segmentation.labels.view(), mesh.faces.view(), s,
+                                          sc.enabled.data(), n_labels, edge_masks, stride,
+                                          sc.starts, sc.masks);
 
   // --- loops ---
+  const std::int32_t row_len = static_cast<std::int32_t>(stride);
+  const double inv_row_len = 1.0 / static_cast<double>(row_len);
   sc.raw.clear();
   sc.raw_idx.clear();
   sc.raw_uv.clear();
-  polygons_detail::trace_loops(orig, sc.rem.row(0), sc.pos.row(0), stride, s, sc.starts, sc.walk,
-                               sc.stack, [&](const std::int32_t* idx, int n) {
-                                 // Pixel coordinates once per vertex (one 32-bit division; the
-                                 // index fits).
-                                 const std::int32_t row_len = static_cast<std::int32_t>(stride);
+  polygons_detail::trace_loops(edge_masks, sc.pos.row(0), stride, s, sc.starts, sc.walk, sc.stack,
+                               [&](const std::int32_t* idx, int n) {
+                                 // Pixel coordinates once per vertex: v = idx / stride, from
+                                 // (idx + 0.5) / stride, which is at least 0.5 / stride away
+                                 // from an integer, far above the rounding of the product.
                                  const std::size_t first = sc.raw_uv.size();
                                  int u_min = width, u_max = -1, v_min = height, v_max = -1;
                                  for (int i = 0; i < n; ++i) {
-                                   const std::int32_t v = idx[i] / row_len,
-                                                      u = idx[i] - v * row_len;
+                                   const auto v = static_cast<std::int32_t>(
+                                       (static_cast<double>(idx[i]) + 0.5) * inv_row_len);
+                                   const std::int32_t u = idx[i] - v * row_len;
                                    sc.raw_uv.push_back({u, v});
                                    u_min = std::min(u_min, u);
                                    u_max = std::max(u_max, u);
@@ -420,11 +305,12 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
                                  sc.raw.push_back(r);
                                  sc.raw_idx.insert(sc.raw_idx.end(), idx, idx + n);
                                });
-  for (std::int32_t p : sc.starts) orig[p] = 0;
+  for (std::int32_t p : sc.starts) edge_masks[p] = 0;
   sc.dirty = false;
 
   // --- group raw loops by segment (counting sort keeps the tracing order) ---
   const std::size_t n_segs = out.segments.size();
+  sc.outer_rank.resize(sc.raw.size());
   sc.bucket_start.assign(n_segs + 1, 0);
   for (const RawLoop& r : sc.raw) ++sc.bucket_start[static_cast<std::size_t>(r.seg) + 1];
   for (std::size_t i = 0; i < n_segs; ++i) sc.bucket_start[i + 1] += sc.bucket_start[i];
@@ -447,7 +333,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
     const int b0 = sc.bucket_start[si], b1 = sc.bucket_start[si + 1];
     if (b0 == b1) continue;
 
-    // Outer loops (positive) by area descending, each followed by its holes.
+    // Outer loops (positive) by area descending, then the holes grouped by parent.
     int largest = -1;
     for (int b = b0; b < b1; ++b) {
       const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.bucket_loops[b])];
@@ -469,42 +355,38 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       return aa != ab ? aa > ab : a < b;
     });
     const std::size_t n_outer = sc.kept.size();
+    for (std::size_t k = 0; k < n_outer; ++k)
+      sc.outer_rank[static_cast<std::size_t>(sc.kept[k])] = static_cast<int>(k);
+    // Holes: the parent is the smallest outer loop containing the midpoint of the hole's first
+    // edge (never on another loop's edge: edges are unique).
+    sc.queries.clear();
     for (int b = b0; b < b1; ++b) {
       const int li = sc.bucket_loops[b];
       RawLoop& r = sc.raw[static_cast<std::size_t>(li)];
       if (r.area_px >= 0 || -r.area_px < settings.min_loop_pixels) continue;
-      r.parent = -1;
-      if (n_outer == 1) {
-        r.parent = sc.kept[0];
-      } else {
-        // Midpoint of the hole's first edge: never on another loop's edge (edges are unique).
-        const std::array<std::int32_t, 2>* uv = sc.raw_uv.data() + r.first;
-        const double px = 0.5 * static_cast<double>(uv[0][0] + uv[1][0]);
-        const double py = 0.5 * static_cast<double>(uv[0][1] + uv[1][1]);
-        for (std::size_t k = n_outer; k-- > 0;) {  // smallest enclosing outer loop
-          const RawLoop& o = sc.raw[static_cast<std::size_t>(sc.kept[k])];
-          if (px < o.u_min || px > o.u_max || py < o.v_min || py > o.v_max) continue;
-          if (inside_px(sc.raw_uv.data() + o.first, o.count, px, py)) {
-            r.parent = sc.kept[k];
-            break;
-          }
-        }
-      }
-      if (r.parent >= 0) sc.kept.push_back(li);
+      r.parent = n_outer == 1 ? sc.kept[0] : -1;
+      if (n_outer > 1) sc.queries.push_back(li);
     }
-    // Output order: each outer loop followed by its holes, in tracing order (loop index as the
-    // tie-break: std::sort, unlike std::stable_sort, never allocates).
-    std::sort(sc.kept.begin() + static_cast<std::ptrdiff_t>(n_outer), sc.kept.end(),
-              [&](int a, int b) {
-                const auto rank = [&](int li) {
-                  const int parent = sc.raw[static_cast<std::size_t>(li)].parent;
-                  return std::find(sc.kept.begin(),
-                                   sc.kept.begin() + static_cast<std::ptrdiff_t>(n_outer), parent) -
-                         sc.kept.begin();
-                };
-                const auto ra = rank(a), rb = rank(b);
-                return ra != rb ? ra < rb : a < b;
-              });
+    if (!sc.queries.empty()) find_parents(sc, n_outer);
+    // Output order: the holes of each outer loop in turn, in tracing order (a counting sort by
+    // the parent's rank keeps the order of the bucket, which is the tracing order).
+    sc.hole_count.assign(n_outer + 1, 0);
+    for (int b = b0; b < b1; ++b) {
+      const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.bucket_loops[b])];
+      if (r.area_px >= 0 || -r.area_px < settings.min_loop_pixels || r.parent < 0) continue;
+      ++sc.hole_count[static_cast<std::size_t>(sc.outer_rank[static_cast<std::size_t>(r.parent)]) +
+                      1];
+    }
+    for (std::size_t k = 0; k < n_outer; ++k) sc.hole_count[k + 1] += sc.hole_count[k];
+    sc.kept.resize(n_outer + static_cast<std::size_t>(sc.hole_count[n_outer]));
+    for (int b = b0; b < b1; ++b) {
+      const int li = sc.bucket_loops[b];
+      const RawLoop& r = sc.raw[static_cast<std::size_t>(li)];
+      if (r.area_px >= 0 || -r.area_px < settings.min_loop_pixels || r.parent < 0) continue;
+      const int rank = sc.outer_rank[static_cast<std::size_t>(r.parent)];
+      sc.kept[n_outer + static_cast<std::size_t>(sc.hole_count[static_cast<std::size_t>(rank)]++)] =
+          li;
+    }
 
     // Project every kept loop onto the plane.
     const PlaneFrame& fr = sp.frame;
@@ -514,13 +396,31 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
     for (int li : sc.kept) {
       const RawLoop& r = sc.raw[static_cast<std::size_t>(li)];
       sc.xy_first.push_back(static_cast<int>(sc.xy.size() / 2));
+      const std::array<std::int32_t, 2>* uv = sc.raw_uv.data() + r.first;
       for (int i = 0; i < r.count; ++i) {
-        const auto [u, v] = sc.raw_uv[static_cast<std::size_t>(r.first + i)];
+        // The points are scattered over cloud planes that earlier stages have mostly evicted
+        // from the caches: fetch a few vertices ahead.
+        constexpr int kAhead = 16;
+        if (i + kAhead < r.count) {
+          const auto [pu, pv] = uv[i + kAhead];
+          __builtin_prefetch(cloud.x.row(pv) + pu);
+          __builtin_prefetch(cloud.y.row(pv) + pu);
+          __builtin_prefetch(cloud.z.row(pv) + pu);
+        }
+        const auto [u, v] = uv[i];
         const Vec p{cloud.x.row(v)[u], cloud.y.row(v)[u], cloud.z.row(v)[u]};
         const Vec dir{p[0] - vp[0], p[1] - vp[1], p[2] - vp[2]};
         const double denom = dot(fr.normal, dir);
+        // The ray meets the plane's front side when denom < -1e-6 |dir| (and nvp > 0); the
+        // square root is needed only near that limit: denom^2 > 2e-12 |dir|^2 already implies
+        // it with a margin of sqrt(2) over the rounding of either side.
+        bool ray = false;
+        if (nvp > 0 && denom < 0) {
+          const double dir2 = dot(dir, dir);
+          ray = denom * denom > 2e-12 * dir2 || denom < -1e-6 * std::sqrt(dir2);
+        }
         Vec q;
-        if (denom < -1e-6 * std::sqrt(dot(dir, dir)) && nvp > 0) {
+        if (ray) {
           const double t = -nvp / denom;
           q = {vp[0] + t * dir[0], vp[1] + t * dir[1], vp[2] + t * dir[2]};
         } else {
@@ -538,23 +438,33 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
     // few halvings stay unsimplified (the mesh boundary is simple).
     const std::size_t nk = sc.kept.size();
     sc.tolerance.resize(nk);
+    sc.raw_area.resize(nk);
+    sc.raw_perimeter.resize(nk);
     for (std::size_t k = 0; k < nk; ++k) {
       const int n = sc.xy_first[k + 1] - sc.xy_first[k];
-      double area, perim;
-      polygons_detail::area_perimeter(sc.xy.data() + 2 * sc.xy_first[k], n, area, perim);
-      sc.tolerance[k] =
-          std::max(settings.simplify_tolerance, settings.simplify_tolerance_pixels * perim / n);
+      polygons_detail::area_perimeter(sc.xy.data() + 2 * sc.xy_first[k], n, sc.raw_area[k],
+                                      sc.raw_perimeter[k]);
+      sc.tolerance[k] = std::max(settings.simplify_tolerance,
+                                 settings.simplify_tolerance_pixels * sc.raw_perimeter[k] / n);
     }
     for (int attempt = 0;; ++attempt) {
-      sc.keep.clear();
-      sc.keep_first.clear();
+      // Only loops whose tolerance changed are simplified again.
+      sc.keep_next.clear();
+      sc.keep_first_next.clear();
       for (std::size_t k = 0; k < nk; ++k) {
-        sc.keep_first.push_back(static_cast<int>(sc.keep.size()));
+        sc.keep_first_next.push_back(static_cast<int>(sc.keep_next.size()));
+        if (attempt > 0 && !sc.bad[k]) {
+          sc.keep_next.insert(sc.keep_next.end(), sc.keep.begin() + sc.keep_first[k],
+                              sc.keep.begin() + sc.keep_first[k + 1]);
+          continue;
+        }
         const int n = sc.xy_first[k + 1] - sc.xy_first[k];
         polygons_detail::simplify_closed(sc.xy.data() + 2 * sc.xy_first[k], n, sc.tolerance[k],
-                                         sc.keep, sc.dp_stack);
+                                         sc.keep_next, sc.dp_stack);
       }
-      sc.keep_first.push_back(static_cast<int>(sc.keep.size()));
+      sc.keep_first_next.push_back(static_cast<int>(sc.keep_next.size()));
+      std::swap(sc.keep, sc.keep_next);
+      std::swap(sc.keep_first, sc.keep_first_next);
       bool any_simplified = false;
       for (std::size_t k = 0; k < nk; ++k) any_simplified |= sc.tolerance[k] > 0;
       if (!any_simplified) break;
@@ -575,7 +485,10 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       sc.bad.assign(nk, 0);
       if (!polygons_detail::mark_crossings(sc.edges, sc.bad)) break;
       for (std::size_t k = 0; k < nk; ++k) {
-        if (sc.bad[k]) sc.tolerance[k] = attempt >= 4 ? 0.0 : 0.5 * sc.tolerance[k];
+        if (!sc.bad[k]) continue;
+        const double tolerance = attempt >= 4 ? 0.0 : 0.5 * sc.tolerance[k];
+        sc.bad[k] = tolerance != sc.tolerance[k];  // from here on: "simplify again"
+        sc.tolerance[k] = tolerance;
       }
       if (attempt >= 5) break;  // every offender is unsimplified now
     }
@@ -588,16 +501,12 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       lp.segment = static_cast<int>(si);
       lp.label = sp.label;
       lp.is_hole = r.area_px < 0;
-      if (lp.is_hole) {
-        const auto it = std::find(sc.kept.begin(), sc.kept.end(), r.parent);
-        lp.parent = sp.first_loop + static_cast<int>(it - sc.kept.begin());
-      }
+      if (lp.is_hole) lp.parent = sp.first_loop + sc.outer_rank[static_cast<std::size_t>(r.parent)];
       lp.raw_count = r.count;
       lp.tolerance = sc.tolerance[k];
+      lp.raw_area = std::abs(sc.raw_area[k]);
+      lp.raw_perimeter = sc.raw_perimeter[k];
       double a, p;
-      polygons_detail::area_perimeter(base, r.count, a, p);
-      lp.raw_area = std::abs(a);
-      lp.raw_perimeter = p;
       lp.first = static_cast<int>(out.points2d.size());
       const int kb = sc.keep_first[k], ke = sc.keep_first[k + 1];
       lp.count = ke - kb;
@@ -627,19 +536,27 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
     // Convex hull of the outer loops' mesh boundary vertices.
     if (settings.convex_hull) {
       const double* xy = sc.xy.data();
-      hull_candidates(xy, sc.xy_first[n_outer], sc.hull_order);
+      polygons_detail::hull_candidates(xy, sc.xy_first[n_outer], sc.hull_order);
       const int n_pts = static_cast<int>(sc.hull_order.size());
-      // (x, y), then the vertex index: equal points keep a deterministic order.
-      std::sort(sc.hull_order.begin(), sc.hull_order.end(), [xy](int a, int b) {
-        if (xy[2 * a] != xy[2 * b]) return xy[2 * a] < xy[2 * b];
-        if (xy[2 * a + 1] != xy[2 * b + 1]) return xy[2 * a + 1] < xy[2 * b + 1];
-        return a < b;
-      });
-      sc.hull_xy.resize(2 * static_cast<std::size_t>(n_pts));
+      // (x, y), then the vertex index: equal points keep a deterministic order (a total order,
+      // so the result does not depend on the sorting algorithm).
+      sc.hull_sort.resize(static_cast<std::size_t>(n_pts));
       for (int i = 0; i < n_pts; ++i) {
         const int o = sc.hull_order[static_cast<std::size_t>(i)];
-        sc.hull_xy[2 * static_cast<std::size_t>(i)] = xy[2 * o];
-        sc.hull_xy[2 * static_cast<std::size_t>(i) + 1] = xy[2 * o + 1];
+        sc.hull_sort[static_cast<std::size_t>(i)] = {xy[2 * o], xy[2 * o + 1], o};
+      }
+      std::sort(sc.hull_sort.begin(), sc.hull_sort.end(),
+                [](const HullPoint& a, const HullPoint& b) {
+                  if (a.x != b.x) return a.x < b.x;
+                  if (a.y != b.y) return a.y < b.y;
+                  return a.index < b.index;
+                });
+      sc.hull_xy.resize(2 * static_cast<std::size_t>(n_pts));
+      for (int i = 0; i < n_pts; ++i) {
+        const HullPoint& h = sc.hull_sort[static_cast<std::size_t>(i)];
+        sc.hull_order[static_cast<std::size_t>(i)] = h.index;
+        sc.hull_xy[2 * static_cast<std::size_t>(i)] = h.x;
+        sc.hull_xy[2 * static_cast<std::size_t>(i) + 1] = h.y;
       }
       polygons_detail::monotone_chain_sorted(sc.hull_xy.data(), n_pts, sc.hull_idx);
       // Vertex o of the concatenated outer loops -> its mesh vertex, for the pixel.

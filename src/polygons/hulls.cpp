@@ -1,13 +1,207 @@
 // Convex hull of 2D points and the grid concave hull of point sets without a mesh.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
+#include "detail/simd.hpp"
 #include "polygons/internal.hpp"
 #include "rangeseg/polygons.hpp"
 
 namespace rangeseg {
+namespace polygons_detail {
+namespace {
+
+// Extreme points of xy[0..n) in kDirs directions evenly spaced counter-clockwise from +x (the
+// first one on ties), and the largest |coordinate|. The directions of multiples of 45 degrees
+// use the exact sums x + y etc.; the ones between them (kDirs 16) unit vectors.
+template <int kDirs>
+struct Extremes {
+  std::array<int, kDirs> index{};
+  std::array<double, kDirs> value{};
+  double extent = 0;
+  Extremes() { value.fill(-std::numeric_limits<double>::infinity()); }
+};
+
+constexpr double kCos22 = 0.92387953251128674, kSin22 = 0.38268343236508978;
+
+template <int kDirs>
+void extremes_scalar(const double* xy, int begin, int end, Extremes<kDirs>& e) {
+  static_assert(kDirs == 8 || kDirs == 16);
+  constexpr int kStep = kDirs / 8;
+  for (int i = begin; i < end; ++i) {
+    const double x = xy[2 * i], y = xy[2 * i + 1];
+    double d[kDirs];
+    const double d45[8] = {x, x + y, y, y - x, -x, -x - y, -y, x - y};
+    for (int k = 0; k < 8; ++k) d[k * kStep] = d45[k];
+    if constexpr (kDirs == 16) {
+      const double a = kCos22 * x, b = kSin22 * y, c = kSin22 * x, f = kCos22 * y;
+      d[1] = a + b;
+      d[3] = c + f;
+      d[5] = f - c;
+      d[7] = b - a;
+      d[9] = -a - b;
+      d[11] = -c - f;
+      d[13] = c - f;
+      d[15] = a - b;
+    }
+    for (int k = 0; k < kDirs; ++k) {
+      if (d[k] > e.value[k]) {
+        e.value[k] = d[k];
+        e.index[k] = i;
+      }
+    }
+    e.extent = std::max({e.extent, std::abs(x), std::abs(y)});
+  }
+}
+
+// The polygon of the extreme points: edges (origin a, direction e), degenerate ones skipped.
+template <int kDirs>
+struct Polygon {
+  std::array<double, kDirs> ax{}, ay{}, ex{}, ey{};
+  int edges = 0;
+  double eps = 0;
+};
+
+template <int kDirs>
+Polygon<kDirs> make_polygon(const double* xy, int n, const Extremes<kDirs>& e) {
+  Polygon<kDirs> o;
+  // A point is dropped when it is to the left of every (non-degenerate) polygon edge by more
+  // than eps (cross products are in m^2; rounding is ~1e-16 (1 + extent)^2).
+  o.eps = 1e-9 * (1 + e.extent) * (1 + e.extent);
+  for (int k = 0; k < kDirs && n > 0; ++k) {
+    const int a = e.index[k], b = e.index[(k + 1) % kDirs];
+    if (a == b) continue;
+    o.ax[o.edges] = xy[2 * a];
+    o.ay[o.edges] = xy[2 * a + 1];
+    o.ex[o.edges] = xy[2 * b] - o.ax[o.edges];
+    o.ey[o.edges] = xy[2 * b + 1] - o.ay[o.edges];
+    ++o.edges;
+  }
+  return o;
+}
+
+template <int kDirs>
+void outside_scalar(const double* xy, int begin, int end, const Polygon<kDirs>& o,
+                    std::vector<int>& out) {
+  for (int i = begin; i < end; ++i) {
+    bool inside = o.edges >= 3;
+    for (int e = 0; e < o.edges && inside; ++e) {
+      inside = o.ex[e] * (xy[2 * i + 1] - o.ay[e]) - o.ey[e] * (xy[2 * i] - o.ax[e]) > o.eps;
+    }
+    if (!inside) out.push_back(i);
+  }
+}
+
+#if RANGESEG_SIMD_X86
+// Points p[0..4) (x, y interleaved) as x and y vectors in point order.
+RANGESEG_SIMD_AVX2_TARGET inline __attribute__((always_inline)) void load_xy(const double* p,
+                                                                             __m256d& x,
+                                                                             __m256d& y) {
+  const __m256d p01 = _mm256_loadu_pd(p), p23 = _mm256_loadu_pd(p + 4);
+  x = _mm256_permute4x64_pd(_mm256_unpacklo_pd(p01, p23), 0xD8);
+  y = _mm256_permute4x64_pd(_mm256_unpackhi_pd(p01, p23), 0xD8);
+}
+
+// Four points per step with the scalar code's operations per point: each lane keeps its first
+// maximum per direction; the lanes are merged by value, then smallest index, which is the first
+// maximum of the sequential scan.
+RANGESEG_SIMD_AVX2_TARGET void hull_candidates_avx2(const double* xy, int n,
+                                                    std::vector<int>& out) {
+  constexpr int kDirs = 16;
+  Extremes<kDirs> e;
+  const int n4 = n / 4 * 4;
+  const __m256d sign = _mm256_set1_pd(-0.0);
+  __m256d best[kDirs], best_index[kDirs];
+  for (int k = 0; k < kDirs; ++k) {
+    best[k] = _mm256_set1_pd(-std::numeric_limits<double>::infinity());
+    best_index[k] = _mm256_set1_pd(-1.0);
+  }
+  const __m256d cos22 = _mm256_set1_pd(kCos22), sin22 = _mm256_set1_pd(kSin22);
+  __m256d extent = _mm256_setzero_pd();
+  __m256d index = _mm256_setr_pd(0, 1, 2, 3);
+  const __m256d four = _mm256_set1_pd(4.0);
+  for (int i = 0; i < n4; i += 4) {
+    __m256d x, y;
+    load_xy(xy + 2 * i, x, y);
+    const __m256d nx = _mm256_xor_pd(x, sign), ny = _mm256_xor_pd(y, sign);
+    const __m256d a = _mm256_mul_pd(cos22, x), b = _mm256_mul_pd(sin22, y);
+    const __m256d c = _mm256_mul_pd(sin22, x), f = _mm256_mul_pd(cos22, y);
+    const __m256d na = _mm256_xor_pd(a, sign), nc = _mm256_xor_pd(c, sign);
+    const __m256d d[kDirs] = {x,  _mm256_add_pd(a, b),  _mm256_add_pd(x, y),  _mm256_add_pd(c, f),
+                              y,  _mm256_sub_pd(f, c),  _mm256_sub_pd(y, x),  _mm256_sub_pd(b, a),
+                              nx, _mm256_sub_pd(na, b), _mm256_sub_pd(nx, y), _mm256_sub_pd(nc, f),
+                              ny, _mm256_sub_pd(c, f),  _mm256_sub_pd(x, y),  _mm256_sub_pd(a, b)};
+    for (int k = 0; k < kDirs; ++k) {
+      const __m256d gt = _mm256_cmp_pd(d[k], best[k], _CMP_GT_OQ);
+      best[k] = _mm256_blendv_pd(best[k], d[k], gt);
+      best_index[k] = _mm256_blendv_pd(best_index[k], index, gt);
+    }
+    extent =
+        _mm256_max_pd(extent, _mm256_max_pd(_mm256_andnot_pd(sign, x), _mm256_andnot_pd(sign, y)));
+    index = _mm256_add_pd(index, four);
+  }
+  alignas(32) double lane_value[4], lane_index[4];
+  for (int k = 0; k < kDirs; ++k) {
+    _mm256_store_pd(lane_value, best[k]);
+    _mm256_store_pd(lane_index, best_index[k]);
+    for (int l = 0; l < 4; ++l) {
+      if (lane_index[l] < 0) continue;
+      const int at = static_cast<int>(lane_index[l]);
+      if (lane_value[l] > e.value[k] || (lane_value[l] == e.value[k] && at < e.index[k])) {
+        e.value[k] = lane_value[l];
+        e.index[k] = at;
+      }
+    }
+  }
+  _mm256_store_pd(lane_value, extent);
+  e.extent = std::max({lane_value[0], lane_value[1], lane_value[2], lane_value[3]});
+  extremes_scalar(xy, n4, n, e);
+
+  const Polygon<kDirs> o = make_polygon(xy, n, e);
+  out.clear();
+  if (o.edges < 3) {
+    for (int i = 0; i < n; ++i) out.push_back(i);
+    return;
+  }
+  const __m256d eps = _mm256_set1_pd(o.eps);
+  for (int i = 0; i < n4; i += 4) {
+    __m256d x, y;
+    load_xy(xy + 2 * i, x, y);
+    __m256d inside = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+    for (int k = 0; k < o.edges; ++k) {
+      const __m256d cross = _mm256_sub_pd(
+          _mm256_mul_pd(_mm256_set1_pd(o.ex[k]), _mm256_sub_pd(y, _mm256_set1_pd(o.ay[k]))),
+          _mm256_mul_pd(_mm256_set1_pd(o.ey[k]), _mm256_sub_pd(x, _mm256_set1_pd(o.ax[k]))));
+      inside = _mm256_and_pd(inside, _mm256_cmp_pd(cross, eps, _CMP_GT_OQ));
+    }
+    unsigned outside = ~static_cast<unsigned>(_mm256_movemask_pd(inside)) & 15u;
+    while (outside != 0) {
+      out.push_back(i + __builtin_ctz(outside));
+      outside &= outside - 1;
+    }
+  }
+  outside_scalar(xy, n4, n, o, out);
+}
+#endif
+
+}  // namespace
+
+void hull_candidates(const double* xy, int n, std::vector<int>& out) {
+#if RANGESEG_SIMD_X86
+  if (detail::simd::chosen_isa() >= detail::simd::Isa::avx2) {
+    hull_candidates_avx2(xy, n, out);
+    return;
+  }
+#endif
+  out.clear();
+  Extremes<8> e;
+  extremes_scalar(xy, 0, n, e);
+  outside_scalar(xy, 0, n, make_polygon(xy, n, e), out);
+}
+
+}  // namespace polygons_detail
 
 void convex_hull(const std::vector<std::array<float, 2>>& points,
                  std::vector<std::array<float, 2>>& hull) {
@@ -94,7 +288,7 @@ void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha,
   // Corner lattice (cols + 1) x (rows + 1); cell (i, j) is a quad with corners (i, j)..(i+1, j+1).
   const int vw = cols + 1, vh = rows + 1;
   const std::ptrdiff_t stride = vw;
-  std::vector<std::uint8_t> mask(static_cast<std::size_t>(vw) * vh, 0), rem(mask.size(), 0);
+  std::vector<std::uint16_t> mask(static_cast<std::size_t>(vw) * vh, 0);
   std::vector<std::int32_t> pos(mask.size(), 0), starts, walk, stack;
   const auto cell = [&](int i, int j) -> bool {
     return i >= 0 && j >= 0 && i < cols && j < rows && occ[static_cast<std::size_t>(j) * cols + i];
@@ -106,14 +300,14 @@ void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha,
       const unsigned m = ((c01 && !c11) ? 1u : 0u) | ((c11 && !c10) ? 4u : 0u) |
                          ((c10 && !c00) ? 16u : 0u) | ((c00 && !c01) ? 64u : 0u);
       if (m) {
-        mask[static_cast<std::size_t>(j) * vw + i] = static_cast<std::uint8_t>(m);
+        mask[static_cast<std::size_t>(j) * vw + i] = static_cast<std::uint16_t>(m * 257u);
         starts.push_back(j * vw + i);
       }
     }
   }
   std::vector<double> xy;
   std::vector<int> loop_first;
-  polygons_detail::trace_loops(mask.data(), rem.data(), pos.data(), stride, 1, starts, walk, stack,
+  polygons_detail::trace_loops(mask.data(), pos.data(), stride, 1, starts, walk, stack,
                                [&](const std::int32_t* idx, int n) {
                                  loop_first.push_back(static_cast<int>(xy.size() / 2));
                                  // The tracer's orientation is for y down; reverse for y up.

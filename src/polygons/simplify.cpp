@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "detail/simd.hpp"
 #include "polygons/internal.hpp"
 
 namespace rangeseg::polygons_detail {
@@ -55,6 +56,87 @@ bool segments_touch(const CheckEdge& e, const CheckEdge& f, double eps) {
   return false;
 }
 
+// The vertex in (lo, hi) farthest from the chord a-b by dist2_segment, if that is more than
+// `worst_d2` (the first such vertex on ties), else -1.
+int farthest_from_chord_scalar(const double* xy, int lo, int hi, const double* a, const double* b,
+                               double worst_d2) {
+  int worst = -1;
+  for (int i = lo + 1; i < hi; ++i) {
+    const double d2 = dist2_segment(xy + 2 * i, a, b);
+    if (d2 > worst_d2) {
+      worst_d2 = d2;
+      worst = i;
+    }
+  }
+  return worst;
+}
+
+#if RANGESEG_SIMD_X86
+// The same four vertices at a time, with the same IEEE operations per vertex as
+// dist2_segment (no contraction: the target has no FMA), so the distances are bit-identical.
+// Each lane keeps its first maximum; the reduction takes the largest distance and, among equal
+// ones, the smallest index: the first maximum of the sequential scan.
+RANGESEG_SIMD_AVX2_TARGET int farthest_from_chord_avx2(const double* xy, int lo, int hi,
+                                                       const double* a, const double* b,
+                                                       double worst_d2) {
+  const double ex = b[0] - a[0], ey = b[1] - a[1];
+  const double len2 = ex * ex + ey * ey;
+  if (!(len2 > 0) || hi - lo - 1 < 8) return farthest_from_chord_scalar(xy, lo, hi, a, b, worst_d2);
+  const __m256d vex = _mm256_set1_pd(ex), vey = _mm256_set1_pd(ey), vlen2 = _mm256_set1_pd(len2);
+  const __m256d ax = _mm256_set1_pd(a[0]), ay = _mm256_set1_pd(a[1]);
+  const __m256d zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0);
+  __m256d best = _mm256_set1_pd(worst_d2);
+  __m256d best_index = _mm256_set1_pd(-1.0);
+  // unpacklo / unpackhi of two loads of two points each give lanes in vertex order 0, 2, 1, 3.
+  __m256d index = _mm256_setr_pd(lo + 1, lo + 3, lo + 2, lo + 4);
+  const __m256d four = _mm256_set1_pd(4.0);
+  int i = lo + 1;
+  for (; i + 4 <= hi; i += 4) {
+    const __m256d p01 = _mm256_loadu_pd(xy + 2 * i), p23 = _mm256_loadu_pd(xy + 2 * i + 4);
+    const __m256d px = _mm256_sub_pd(_mm256_unpacklo_pd(p01, p23), ax);
+    const __m256d py = _mm256_sub_pd(_mm256_unpackhi_pd(p01, p23), ay);
+    __m256d t = _mm256_div_pd(_mm256_add_pd(_mm256_mul_pd(px, vex), _mm256_mul_pd(py, vey)), vlen2);
+    t = _mm256_blendv_pd(t, zero, _mm256_cmp_pd(t, zero, _CMP_LT_OQ));  // std::clamp(t, 0, 1)
+    t = _mm256_blendv_pd(t, one, _mm256_cmp_pd(one, t, _CMP_LT_OQ));
+    const __m256d dx = _mm256_sub_pd(px, _mm256_mul_pd(t, vex));
+    const __m256d dy = _mm256_sub_pd(py, _mm256_mul_pd(t, vey));
+    const __m256d d2 = _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy));
+    const __m256d gt = _mm256_cmp_pd(d2, best, _CMP_GT_OQ);
+    best = _mm256_blendv_pd(best, d2, gt);
+    best_index = _mm256_blendv_pd(best_index, index, gt);
+    index = _mm256_add_pd(index, four);
+  }
+  alignas(32) double lane_best[4], lane_index[4];
+  _mm256_store_pd(lane_best, best);
+  _mm256_store_pd(lane_index, best_index);
+  int worst = -1;
+  for (int k = 0; k < 4; ++k) {
+    if (lane_index[k] < 0) continue;
+    const int at = static_cast<int>(lane_index[k]);
+    if (worst < 0 || lane_best[k] > worst_d2 || (lane_best[k] == worst_d2 && at < worst)) {
+      worst_d2 = lane_best[k];
+      worst = at;
+    }
+  }
+  for (; i < hi; ++i) {
+    const double d2 = dist2_segment(xy + 2 * i, a, b);
+    if (d2 > worst_d2) {
+      worst_d2 = d2;
+      worst = i;
+    }
+  }
+  return worst;
+}
+#endif
+
+using FarthestFn = int (*)(const double*, int, int, const double*, const double*, double);
+FarthestFn farthest_from_chord() {
+#if RANGESEG_SIMD_X86
+  if (detail::simd::chosen_isa() >= detail::simd::Isa::avx2) return farthest_from_chord_avx2;
+#endif
+  return farthest_from_chord_scalar;
+}
+
 }  // namespace
 
 void simplify_closed(const double* xy, int n, double tolerance, std::vector<int>& keep,
@@ -76,6 +158,7 @@ void simplify_closed(const double* xy, int n, double tolerance, std::vector<int>
     }
   }
   const double tol2 = tolerance * tolerance;
+  const FarthestFn farthest = farthest_from_chord();
   keep.push_back(0);
   keep.push_back(far);
   stack.clear();
@@ -85,17 +168,7 @@ void simplify_closed(const double* xy, int n, double tolerance, std::vector<int>
     const auto [lo, hi] = stack.back();
     stack.pop_back();
     if (hi - lo < 2) continue;
-    const double* a = xy + 2 * lo;
-    const double* b = xy + 2 * (hi % n);
-    int worst = -1;
-    double worst_d2 = tol2;
-    for (int i = lo + 1; i < hi; ++i) {
-      const double d2 = dist2_segment(xy + 2 * i, a, b);
-      if (d2 > worst_d2) {
-        worst_d2 = d2;
-        worst = i;
-      }
-    }
+    const int worst = farthest(xy, lo, hi, xy + 2 * lo, xy + 2 * (hi % n), tol2);
     if (worst < 0) continue;
     keep.push_back(worst);
     stack.push_back({lo, worst});
