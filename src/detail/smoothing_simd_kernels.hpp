@@ -274,7 +274,16 @@ RANGESEG_KERNEL void edges_row(const InRow& c, const float* hdc, const float* hn
       c, hdc, hnc, ci, off, hdq_, hnq_, qi, ring, k)
   Terms prev_right = zero_terms<kAlongRay, kFilterNormals>(k);
   Terms prev_down_right = prev_right, prev_down_left = prev_right;
+  const Terms none = prev_right;
   for (int i = 0; i < blocks * kLanes; i += kLanes) {
+    // A block whose pixels, and the pixels either side, have no edge (holes, outside the
+    // sensor's range) adds nothing: every term would be +0.
+    std::uint8_t any_edge = 0;
+    for (int b = -1; b <= kLanes; ++b) any_edge |= edges[i + b];
+    if (any_edge == 0) {
+      prev_right = none, prev_down_right = none, prev_down_left = none;
+      continue;
+    }
     const M ring = V::bytes_to_lanes(edges + i);
     // Each direction's terms go into the sums as soon as they exist, so that few vectors are
     // live at once. Edges leaving columns i ..: right and down-right end one column further
