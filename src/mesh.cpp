@@ -95,17 +95,7 @@ struct Kernels {
     }                                                                                         \
   }
 
-const Kernels& kernels() {
-#if RANGESEG_SIMD_X86
-  static const Kernels baseline = RANGESEG_MESH_KERNELS(sse2);
-  static const Kernels wide = RANGESEG_MESH_KERNELS(avx2);
-  static const Kernels widest = RANGESEG_MESH_KERNELS(avx512);
-  return detail::simd::by_isa(baseline, wide, widest);
-#else
-  static const Kernels baseline = RANGESEG_MESH_KERNELS(generic);
-  return baseline;
-#endif
-}
+const Kernels& kernels() { RANGESEG_SIMD_PICK(Kernels, RANGESEG_MESH_KERNELS); }
 #undef RANGESEG_MESH_KERNELS
 
 void validate(const OrganizedCloud& cloud, const MeshSettings& s) {

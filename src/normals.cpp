@@ -75,17 +75,7 @@ struct Kernels {
     ns::kLanes, {&ns::cell_normal_row<false>, &ns::cell_normal_row<true>}, &ns::curvature_row \
   }
 
-const Kernels& kernels() {
-#if RANGESEG_SIMD_X86
-  static const Kernels baseline = RANGESEG_NORMAL_KERNELS(sse2);
-  static const Kernels wide = RANGESEG_NORMAL_KERNELS(avx2);
-  static const Kernels widest = RANGESEG_NORMAL_KERNELS(avx512);
-  return detail::simd::by_isa(baseline, wide, widest);
-#else
-  static const Kernels baseline = RANGESEG_NORMAL_KERNELS(generic);
-  return baseline;
-#endif
-}
+const Kernels& kernels() { RANGESEG_SIMD_PICK(Kernels, RANGESEG_NORMAL_KERNELS); }
 #undef RANGESEG_NORMAL_KERNELS
 
 }  // namespace

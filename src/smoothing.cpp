@@ -268,19 +268,12 @@ struct FlagPass {
   }                                                                              \
   (std::make_integer_sequence<int, 32>{})
 
+using PassTable = std::array<PassFn, 32>;
+const PassTable& pass_table() { RANGESEG_SIMD_PICK(PassTable, RANGESEG_PASS_TABLE); }
+
 /// The pass for the flags (1 distance, 2 normal, 4 intensity, 8 along the ray, 16 normals
 /// filtered) on the widest instruction set the CPU has.
-PassFn pass_for(int flags) {
-#if RANGESEG_SIMD_X86
-  static const auto baseline = RANGESEG_PASS_TABLE(sse2);
-  static const auto wide = RANGESEG_PASS_TABLE(avx2);
-  static const auto widest = RANGESEG_PASS_TABLE(avx512);
-  return detail::simd::by_isa(baseline, wide, widest)[static_cast<std::size_t>(flags)];
-#else
-  static const auto baseline = RANGESEG_PASS_TABLE(generic);
-  return baseline[static_cast<std::size_t>(flags)];
-#endif
-}
+PassFn pass_for(int flags) { return pass_table()[static_cast<std::size_t>(flags)]; }
 #undef RANGESEG_PASS_TABLE
 
 void require_same_size(const FloatPlane& plane, const OrganizedCloud& cloud, const char* what) {

@@ -338,3 +338,19 @@ struct Generic {
 #endif  // RANGESEG_SIMD_X86
 
 }  // namespace rangeseg::detail::simd
+
+/// The body of a function that returns (by reference) the instance of type T for the CPU it runs
+/// on: make(ns) builds one instance from the kernels compiled into namespace ns by
+/// detail/simd_instances.hpp; x86 picks with by_isa.
+#if RANGESEG_SIMD_X86
+#define RANGESEG_SIMD_PICK(T, make)                                                       \
+  static const T rangeseg_sse2_instance = make(sse2);                                     \
+  static const T rangeseg_avx2_instance = make(avx2);                                     \
+  static const T rangeseg_avx512_instance = make(avx512);                                 \
+  return ::rangeseg::detail::simd::by_isa(rangeseg_sse2_instance, rangeseg_avx2_instance, \
+                                          rangeseg_avx512_instance)
+#else
+#define RANGESEG_SIMD_PICK(T, make)                         \
+  static const T rangeseg_generic_instance = make(generic); \
+  return rangeseg_generic_instance
+#endif

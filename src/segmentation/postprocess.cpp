@@ -26,14 +26,9 @@ namespace {
 
 using CellAreasFn = int (*)(const float*, const float*, const float*, const float*, const float*,
                             const float*, const std::uint8_t*, int, float*);
-CellAreasFn cell_areas_kernel() {
-#if RANGESEG_SIMD_X86
-  return detail::simd::by_isa<CellAreasFn>(&sse2::cell_twice_areas, &avx2::cell_twice_areas,
-                                           &avx512::cell_twice_areas);
-#else
-  return &generic::cell_twice_areas;
-#endif
-}
+#define RANGESEG_AREA_KERNEL(ns) &ns::cell_twice_areas
+const CellAreasFn& cell_areas_kernel() { RANGESEG_SIMD_PICK(CellAreasFn, RANGESEG_AREA_KERNEL); }
+#undef RANGESEG_AREA_KERNEL
 
 using detail::PlaneFit;
 using detail::PlaneStats;
