@@ -1,7 +1,8 @@
 // Stage 3: bilateral filter of points and normals over the mesh 1-ring (paper, eqs. 3 and 4).
 // The pass itself is in detail/smoothing_simd_kernels.hpp, compiled per instruction set and
-// picked at run time. Contraction into fused multiply-adds is off in this file, so the results
-// do not depend on the CPU or the build flags.
+// picked at run time. The compiler's contraction into fused multiply-adds is off in this file:
+// the kernels fuse where they choose (simd mul_add), so one instruction set gives the same bits
+// whatever the build flags or row bands; different instruction sets agree to float rounding.
 #if defined(__clang__)
 #pragma STDC FP_CONTRACT OFF
 #elif defined(__GNUC__)
@@ -285,80 +286,98 @@ void require_same_size(const FloatPlane& plane, const OrganizedCloud& cloud, con
   }
 }
 
-/// Grey value of every pixel from RGB (ITU-R BT.601 luma), into `grey` (sized by the caller).
-RANGESEG_INLINE void rgb_to_grey_body(const OrganizedCloud& cloud, FloatPlane& grey) {
-  for (int v = 0; v < cloud.height(); ++v) {
-    const std::uint8_t* __restrict r = cloud.r.row(v);
-    const std::uint8_t* __restrict g = cloud.g.row(v);
-    const std::uint8_t* __restrict b = cloud.b.row(v);
-    float* __restrict out = grey.row(v);
-    for (int u = 0; u < cloud.width(); ++u) {
-      out[u] = 0.299f * static_cast<float>(r[u]) + 0.587f * static_cast<float>(g[u]) +
-               0.114f * static_cast<float>(b[u]);
-    }
+/// Grey value of row v from RGB (ITU-R BT.601 luma), into `out`.
+RANGESEG_INLINE void grey_row(const OrganizedCloud& cloud, int v, float* __restrict out) {
+  const std::uint8_t* __restrict r = cloud.r.row(v);
+  const std::uint8_t* __restrict g = cloud.g.row(v);
+  const std::uint8_t* __restrict b = cloud.b.row(v);
+  for (int u = 0; u < cloud.width(); ++u) {
+    out[u] = 0.299f * static_cast<float>(r[u]) + 0.587f * static_cast<float>(g[u]) +
+             0.114f * static_cast<float>(b[u]);
   }
 }
 
-void rgb_to_grey_generic(const OrganizedCloud& cloud, FloatPlane& grey) {
-  rgb_to_grey_body(cloud, grey);
+/// max - min of an intensity over the valid points, row by row. Branch-free, so that it
+/// vectorises: x - x == 0 is false exactly for NaN and infinities. kLanes independent running
+/// minima and maxima (min and max are exact, so the order does not change the result) let the
+/// compiler keep them in vector registers instead of one serial scalar chain.
+class IntensityRange {
+ public:
+  IntensityRange() {
+    lo_.fill(kInf);
+    hi_.fill(-kInf);
+  }
+  RANGESEG_INLINE void add_row(const float* __restrict z, const float* __restrict in, int width) {
+    int u = 0;
+    for (; u + kLanes <= width; u += kLanes) {
+      for (int i = 0; i < kLanes; ++i) add(i, z[u + i], in[u + i]);
+    }
+    for (; u < width; ++u) add(0, z[u], in[u]);
+  }
+  /// 0 when no point is valid.
+  float range() const {
+    float low = kInf, high = -kInf;
+    for (int i = 0; i < kLanes; ++i) {
+      low = std::min(low, lo_[i]);
+      high = std::max(high, hi_[i]);
+    }
+    return high >= low ? high - low : 0.0f;
+  }
+
+ private:
+  static constexpr float kInf = std::numeric_limits<float>::infinity();
+  static constexpr int kLanes = 16;
+  RANGESEG_INLINE void add(int i, float z, float in) {
+    const bool ok = ((z - z) == 0.0f) & ((in - in) == 0.0f);
+    lo_[i] = std::min(lo_[i], select(ok, in, kInf));
+    hi_[i] = std::max(hi_[i], select(ok, in, -kInf));
+  }
+  std::array<float, kLanes> lo_, hi_;
+};
+
+/// Grey from RGB into `grey` (sized by the caller) and, when `range` is set, its range over
+/// the valid points, in one sweep while each grey row is in cache.
+RANGESEG_INLINE void rgb_to_grey_body(const OrganizedCloud& cloud, FloatPlane& grey, float* range) {
+  IntensityRange acc;
+  for (int v = 0; v < cloud.height(); ++v) {
+    grey_row(cloud, v, grey.row(v));
+    if (range != nullptr) acc.add_row(cloud.z.row(v), grey.row(v), cloud.width());
+  }
+  if (range != nullptr) *range = acc.range();
+}
+
+void rgb_to_grey_generic(const OrganizedCloud& cloud, FloatPlane& grey, float* range) {
+  rgb_to_grey_body(cloud, grey, range);
 }
 
 #if RANGESEG_SIMD_X86
 // AVX2 without FMA: products and sums stay separately rounded, so the grey values equal the
 // generic build's bit for bit.
-__attribute__((target("avx2"))) void rgb_to_grey_avx2(const OrganizedCloud& cloud,
-                                                      FloatPlane& grey) {
-  rgb_to_grey_body(cloud, grey);
+__attribute__((target("avx2"))) void rgb_to_grey_avx2(const OrganizedCloud& cloud, FloatPlane& grey,
+                                                      float* range) {
+  rgb_to_grey_body(cloud, grey, range);
 }
 #endif
 
-void rgb_to_grey(const OrganizedCloud& cloud, FloatPlane& grey) {
+/// Grey from RGB (and its range over the valid points into *range, unless nullptr).
+void rgb_to_grey(const OrganizedCloud& cloud, FloatPlane& grey, float* range) {
   ensure_size(grey, cloud.width(), cloud.height());
 #if RANGESEG_SIMD_X86
   if (detail::simd::cpu_has_avx2()) {
-    rgb_to_grey_avx2(cloud, grey);
+    rgb_to_grey_avx2(cloud, grey, range);
     return;
   }
 #endif
-  rgb_to_grey_generic(cloud, grey);
+  rgb_to_grey_generic(cloud, grey, range);
 }
 
-/// max - min of `intensity` over the valid points of `cloud` (0 when none). Branch-free, so
-/// that it vectorises: x - x == 0 is false exactly for NaN and infinities. kLanes independent
-/// running minima and maxima (min and max are exact, so the order does not change the result)
-/// let the compiler keep them in vector registers instead of one serial scalar chain.
 RANGESEG_INLINE float intensity_range_body(const OrganizedCloud& cloud,
                                            const FloatPlane& intensity) {
-  constexpr float kInf = std::numeric_limits<float>::infinity();
-  constexpr int kLanes = 16;
-  std::array<float, kLanes> lo, hi;
-  lo.fill(kInf);
-  hi.fill(-kInf);
-  const int width = cloud.width();
+  IntensityRange acc;
   for (int v = 0; v < cloud.height(); ++v) {
-    const float* __restrict z = cloud.z.row(v);
-    const float* __restrict in = intensity.row(v);
-    int u = 0;
-    for (; u + kLanes <= width; u += kLanes) {
-      for (int i = 0; i < kLanes; ++i) {
-        const float zi = z[u + i], ii = in[u + i];
-        const bool ok = ((zi - zi) == 0.0f) & ((ii - ii) == 0.0f);
-        lo[i] = std::min(lo[i], select(ok, ii, kInf));
-        hi[i] = std::max(hi[i], select(ok, ii, -kInf));
-      }
-    }
-    for (; u < width; ++u) {
-      const bool ok = ((z[u] - z[u]) == 0.0f) & ((in[u] - in[u]) == 0.0f);
-      lo[0] = std::min(lo[0], select(ok, in[u], kInf));
-      hi[0] = std::max(hi[0], select(ok, in[u], -kInf));
-    }
+    acc.add_row(cloud.z.row(v), intensity.row(v), cloud.width());
   }
-  float low = kInf, high = -kInf;
-  for (int i = 0; i < kLanes; ++i) {
-    low = std::min(low, lo[i]);
-    high = std::max(high, hi[i]);
-  }
-  return high >= low ? high - low : 0.0f;
+  return acc.range();
 }
 
 float intensity_range_generic(const OrganizedCloud& cloud, const FloatPlane& intensity) {
@@ -524,15 +543,16 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
   const FloatPlane* intensity = nullptr;
   float range = 0.0f;
   if (st.use_intensity && (cloud.has_intensity() || cloud.has_rgb())) {
+    const bool frame_range = !(st.intensity_range > 0.0f);
     if (cloud.has_intensity()) {
       require_same_size(cloud.intensity, cloud, "intensity");
       intensity = &cloud.intensity;
+      if (frame_range) range = detail::frame_intensity_range(cloud, *intensity);
     } else {
-      rgb_to_grey(cloud, grey_);
+      rgb_to_grey(cloud, grey_, frame_range ? &range : nullptr);
       intensity = &grey_;
     }
-    range = st.intensity_range > 0.0f ? st.intensity_range
-                                      : detail::frame_intensity_range(cloud, *intensity);
+    if (!frame_range) range = st.intensity_range;
   }
   const PassSetup setup = make_pass(st, mesh.pixel_stride, intensity, range);
   const PassParams& prm = setup.prm;

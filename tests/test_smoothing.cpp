@@ -540,9 +540,12 @@ INSTANTIATE_TEST_SUITE_P(Modes, RowBands,
                          ::testing::Combine(::testing::Bool(), ::testing::Values(1, 2)));
 
 /// The pass runs on 4 (SSE2), 8 (AVX2) or 16 (AVX-512) lanes, whichever the CPU has up to the
-/// limit, reading interior rows in place and the last row from a padded copy: the same IEEE
-/// operations in the same order, so every width gives the same bits, for every term and mode,
-/// on a width that is no multiple of 16, with holes and at pixel stride 2.
+/// limit, reading interior rows in place and the last row from a padded copy. The operations are
+/// the same except for fused multiply-adds and the hardware reciprocal estimates (each refined by
+/// a Newton step), so the widths agree to float rounding, amplified a little by the second pass's
+/// weights: points within 5 um, normal components within 5e-5 (measured: 1.2 um, 9e-6), for
+/// every term and mode, on a width that is no multiple of 16, with holes
+/// and at pixel stride 2. NaN where and only where the baseline has NaN.
 TEST(Smoothing, InstructionSetsAgree) {
   using detail::simd::Isa;
   const TestPlane plane = make_plane(2.0, 0.3);
@@ -556,11 +559,16 @@ TEST(Smoothing, InstructionSetsAgree) {
       if ((u * 5 + v * 11) % 89 == 0) cloud.z(u, v) = NAN;
     }
   }
-  const auto same = [](const FloatPlane& a, const FloatPlane& b) {
+  // Largest |a - b| over the plane; infinity where only one of them is NaN.
+  const auto max_diff = [](const FloatPlane& a, const FloatPlane& b) {
+    double worst = 0.0;
     for (int v = 0; v < a.height(); ++v) {
-      if (std::memcmp(a.row(v), b.row(v), sizeof(float) * a.width()) != 0) return false;
+      for (int u = 0; u < a.width(); ++u) {
+        if (std::isnan(a(u, v)) != std::isnan(b(u, v))) return HUGE_VAL;
+        if (!std::isnan(a(u, v))) worst = std::max(worst, std::abs(double{a(u, v)} - b(u, v)));
+      }
     }
-    return true;
+    return worst;
   };
   for (int stride : {1, 2}) {
     Frame f{cloud, {}, {}};
@@ -581,10 +589,10 @@ TEST(Smoothing, InstructionSetsAgree) {
                                    std::to_string(along_ray) + " normal term " +
                                    std::to_string(normal_term) + " isa " +
                                    std::to_string(static_cast<int>(isa));
-          EXPECT_TRUE(same(baseline.cloud.x, wide.cloud.x)) << what;
-          EXPECT_TRUE(same(baseline.cloud.z, wide.cloud.z)) << what;
-          EXPECT_TRUE(same(baseline.normals.nx, wide.normals.nx)) << what;
-          EXPECT_TRUE(same(baseline.normals.nz, wide.normals.nz)) << what;
+          EXPECT_LE(max_diff(baseline.cloud.x, wide.cloud.x), 5e-6) << what;
+          EXPECT_LE(max_diff(baseline.cloud.z, wide.cloud.z), 5e-6) << what;
+          EXPECT_LE(max_diff(baseline.normals.nx, wide.normals.nx), 5e-5) << what;
+          EXPECT_LE(max_diff(baseline.normals.nz, wide.normals.nz), 5e-5) << what;
         }
       }
     }

@@ -6,9 +6,13 @@
 // time. The arithmetic uses the GCC/clang vector extensions (operators on whole vectors), so
 // every instantiation performs the same IEEE operations in the same order as scalar code:
 // results do not depend on the vector width (and, with contraction off, not on the build flags).
+// The one exception is mul_add: fused (one rounding) where the instruction set has FMA (AVX2,
+// AVX-512), a product and a sum elsewhere; kernels that use it agree across widths only to
+// rounding.
 //
 // - Sse2: 4 lanes, baseline of every x86-64 CPU.
-// - Avx2: 8 lanes; each member is compiled for AVX2, so kernels using it must be compiled for
+// - Avx2: 8 lanes (with FMA, which every AVX2 CPU has); each member is compiled for AVX2, so
+// kernels using it must be compiled for
 //   AVX2 too (see RANGESEG_SIMD_AVX2_TARGET) and run only when cpu_has_avx2() is true.
 // - Avx512: 16 lanes (AVX-512 F/BW/DQ/VL), the same way (RANGESEG_SIMD_AVX512_TARGET,
 //   cpu_has_avx512()).
@@ -17,9 +21,11 @@
 // Interface (all members static and always inlined):
 //   kLanes; F, M, B, Selector;
 //   F load(const float*), store(float*, F), set1(float); M set1i(int);
-//   F sqrt(F), max(F a, F b) = a > b ? a : b per lane (NaN in a gives b, as maxps),
-//   min(F a, F b) = a < b ? a : b (likewise);
-//   F keep(F x, M m) = m ? x : +0 (bits); F pick(M m, F a, F b) = m ? a : b (m all-ones / zero);
+//   F sqrt(F), mul_add(F a, F b, F c) = a * b + c (see above), reciprocal(F) ~ 1 / x and
+//   rsqrt(F) ~ 1 / sqrt(x) (a hardware estimate and one Newton step: relative error below 1e-6 on
+//   SSE2 / AVX2, ~1e-8 on AVX-512, exact on Generic; 0 and infinity give NaN), max(F a, F b) = a >
+//   b ? a : b per lane (NaN in a gives b, as maxps), min(F a, F b) = a < b ? a : b (likewise); F
+//   keep(F x, M m) = m ? x : +0 (bits); F pick(M m, F a, F b) = m ? a : b (m all-ones / zero);
 //   Selector bit_selector<k>(M bits) and F keep_selected(F x, Selector) = bit k of the lane ? x :
 //   +0; F shift_in(F previous, F x) = {previous[kLanes - 1], x[0], ..., x[kLanes - 2]}; M
 //   bytes_to_lanes(const std::uint8_t*) loads kLanes bytes, zero-extended; B pack4(M, M, M, M):
@@ -41,7 +47,7 @@
 #define RANGESEG_SIMD_X86 1
 #include <immintrin.h>
 /// Function attribute of kernels that use simd::Avx2.
-#define RANGESEG_SIMD_AVX2_TARGET __attribute__((target("avx2")))
+#define RANGESEG_SIMD_AVX2_TARGET __attribute__((target("avx2,fma")))
 /// Function attribute of kernels that use simd::Avx512.
 #define RANGESEG_SIMD_AVX512_TARGET __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl")))
 #else
@@ -84,6 +90,17 @@ struct Sse2 {
   static RANGESEG_SIMD_INLINE F set1(float x) { return _mm_set1_ps(x); }
   static RANGESEG_SIMD_INLINE M set1i(int x) { return (M)_mm_set1_epi32(x); }
   static RANGESEG_SIMD_INLINE F sqrt(F x) { return _mm_sqrt_ps(x); }
+  static RANGESEG_SIMD_INLINE F mul_add(F a, F b, F c) { return _mm_add_ps(_mm_mul_ps(a, b), c); }
+  // Newton steps (relative error e -> ~e^2): r (2 - x r) for 1 / x, r (1.5 - 0.5 x r^2) for
+  // 1 / sqrt(x). The same in every struct below.
+  static RANGESEG_SIMD_INLINE F reciprocal(F x) {
+    const F r = _mm_rcp_ps(x);
+    return r * (set1(2.0f) - x * r);
+  }
+  static RANGESEG_SIMD_INLINE F rsqrt(F x) {
+    const F r = _mm_rsqrt_ps(x);
+    return r * (set1(1.5f) - set1(0.5f) * x * (r * r));
+  }
   static RANGESEG_SIMD_INLINE F max(F a, F b) { return _mm_max_ps(a, b); }
   static RANGESEG_SIMD_INLINE F min(F a, F b) { return _mm_min_ps(a, b); }
   static RANGESEG_SIMD_INLINE F keep(F x, M m) { return _mm_and_ps(x, (F)m); }
@@ -136,6 +153,15 @@ struct Avx2 {
   static RANGESEG_AVX2_INLINE F set1(float x) { return _mm256_set1_ps(x); }
   static RANGESEG_AVX2_INLINE M set1i(int x) { return (M)_mm256_set1_epi32(x); }
   static RANGESEG_AVX2_INLINE F sqrt(F x) { return _mm256_sqrt_ps(x); }
+  static RANGESEG_AVX2_INLINE F mul_add(F a, F b, F c) { return _mm256_fmadd_ps(a, b, c); }
+  static RANGESEG_AVX2_INLINE F reciprocal(F x) {
+    const F r = _mm256_rcp_ps(x);
+    return r * _mm256_fnmadd_ps(x, r, set1(2.0f));
+  }
+  static RANGESEG_AVX2_INLINE F rsqrt(F x) {
+    const F r = _mm256_rsqrt_ps(x);
+    return r * _mm256_fnmadd_ps(set1(0.5f) * x, r * r, set1(1.5f));
+  }
   static RANGESEG_AVX2_INLINE F max(F a, F b) { return _mm256_max_ps(a, b); }
   static RANGESEG_AVX2_INLINE F min(F a, F b) { return _mm256_min_ps(a, b); }
   static RANGESEG_AVX2_INLINE F keep(F x, M m) { return _mm256_and_ps(x, (F)m); }
@@ -200,6 +226,17 @@ struct Avx512 {
   // which GCC 12 reports as maybe-uninitialized.
   static constexpr __mmask16 kAll = 0xFFFF;
   static RANGESEG_AVX512_INLINE F sqrt(F x) { return _mm512_maskz_sqrt_ps(kAll, x); }
+  static RANGESEG_AVX512_INLINE F mul_add(F a, F b, F c) {
+    return _mm512_maskz_fmadd_ps(kAll, a, b, c);
+  }
+  static RANGESEG_AVX512_INLINE F reciprocal(F x) {
+    const F r = _mm512_maskz_rcp14_ps(kAll, x);
+    return r * _mm512_maskz_fnmadd_ps(kAll, x, r, set1(2.0f));
+  }
+  static RANGESEG_AVX512_INLINE F rsqrt(F x) {
+    const F r = _mm512_maskz_rsqrt14_ps(kAll, x);
+    return r * _mm512_maskz_fnmadd_ps(kAll, set1(0.5f) * x, r * r, set1(1.5f));
+  }
   static RANGESEG_AVX512_INLINE F max(F a, F b) { return _mm512_maskz_max_ps(kAll, a, b); }
   static RANGESEG_AVX512_INLINE F min(F a, F b) { return _mm512_maskz_min_ps(kAll, a, b); }
   static RANGESEG_AVX512_INLINE F keep(F x, M m) { return (F)((M)x & m); }
@@ -249,7 +286,7 @@ struct Avx512 {
 
 /// True when the CPU (and OS) support AVX2; evaluated once.
 inline bool cpu_has_avx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
+  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
   return has;
 }
 /// True when the CPU (and OS) support the AVX-512 subsets simd::Avx512 uses; evaluated once.
@@ -297,6 +334,9 @@ struct Generic {
     for (int k = 0; k < kLanes; ++k) x[k] = __builtin_sqrtf(x[k]);
     return x;
   }
+  static RANGESEG_SIMD_INLINE F mul_add(F a, F b, F c) { return a * b + c; }
+  static RANGESEG_SIMD_INLINE F reciprocal(F x) { return F{1.0f, 1.0f, 1.0f, 1.0f} / x; }
+  static RANGESEG_SIMD_INLINE F rsqrt(F x) { return reciprocal(sqrt(x)); }
   static RANGESEG_SIMD_INLINE F max(F a, F b) {
     for (int k = 0; k < kLanes; ++k) a[k] = a[k] > b[k] ? a[k] : b[k];
     return a;

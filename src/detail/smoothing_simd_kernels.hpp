@@ -15,7 +15,8 @@
 // down-left; then from row j: right, right-of-left, down-right, down, down-left-of-right), so
 // the output does not depend on where a band of rows starts: a band first replays the lattice
 // row above it into the sums of its first row. The arithmetic is the same sequence of IEEE
-// operations for every vector width.
+// operations for every vector width, except that mul_add is fused on AVX2 / AVX-512 and the
+// reciprocals start from each instruction set's own estimate: widths agree to float rounding.
 
 using F = V::F;
 using M = V::M;
@@ -45,9 +46,10 @@ RANGESEG_KERNEL RANGESEG_SIMD_INLINE F exp_neg(F a) {
   const F t = y + round;
   const F n = t - round;
   const F g = (y - n) * V::set1(0.693147181f);
-  const F p =
-      V::set1(1.0f) +
-      g * (V::set1(1.0f) + g * (V::set1(0.5f) + g * (V::set1(1.0f / 6) + g * V::set1(1.0f / 24))));
+  F p = V::mul_add(g, V::set1(1.0f / 24), V::set1(1.0f / 6));
+  p = V::mul_add(p, g, V::set1(0.5f));
+  p = V::mul_add(p, g, V::set1(1.0f));
+  p = V::mul_add(p, g, V::set1(1.0f));
   const M exponent = (M)t - (M)round;
   return (F)((M)p + (exponent << 23));
 }
@@ -61,10 +63,11 @@ RANGESEG_KERNEL void scales_row(const float* z, int blocks, const Consts& k, flo
     const F sigma = k.noise_a + k.noise_b * dz * dz;
     const F spacing = k.spacing * abs(zu, k);
     if constexpr (kDistance) {
-      V::store(hd + i, k.quarter / (k.kd2 * (spacing * spacing + k.two * sigma * sigma)));
+      V::store(hd + i, k.quarter * V::reciprocal(k.kd2 * V::mul_add(k.two * sigma, sigma,
+                                                                    spacing * spacing)));
     }
     if constexpr (kNormal) {
-      const F ratio = spacing / sigma;
+      const F ratio = spacing * V::reciprocal(sigma);
       V::store(hn + i, k.half_inv_sn * V::min(ratio, k.one));
     }
   }
@@ -90,18 +93,19 @@ RANGESEG_KERNEL RANGESEG_SIMD_INLINE Terms edge_terms(const InRow& c, const floa
   F arg = k.zero;
   // Symmetric scales (the sum of both ends' half inverse scales), so that w_ij = w_ji.
   if constexpr (kDistance) {
-    arg = arg + (dx * dx + dy * dy + dz * dz) * (V::load(hdc + i) + V::load(hdq + iq));
+    const F d2 = V::mul_add(dz, dz, V::mul_add(dy, dy, dx * dx));
+    arg = d2 * (V::load(hdc + i) + V::load(hdq + iq));
   }
-  if constexpr (kNormal) arg = arg + l1 * (V::load(hnc + i) + V::load(hnq + iq));
+  if constexpr (kNormal) arg = V::mul_add(l1, V::load(hnc + i) + V::load(hnq + iq), arg);
   if constexpr (kIntensity) {
-    arg = arg + abs(V::load(c.in + j) - V::load(c.in + i), k) * k.inv_intensity;
+    arg = V::mul_add(abs(V::load(c.in + j) - V::load(c.in + i), k), k.inv_intensity, arg);
   }
   // NaN (a NaN normal or intensity) fails the comparison.
   const auto use = V::both(V::template bit_selector<kBit>(ring), V::less(arg, k.max_exponent));
   Terms t{};
   t.w = V::keep_selected(exp_neg(V::min(arg, k.max_exponent)), use);
   if constexpr (kAlongRay) {
-    t.a0 = V::keep_selected(t.w * (qx * cx + qy * cy + qz * cz), use);
+    t.a0 = V::keep_selected(t.w * V::mul_add(qz, cz, V::mul_add(qy, cy, qx * cx)), use);
   } else {
     t.a0 = V::keep_selected(t.w * dx, use);
     t.a1 = V::keep_selected(t.w * dy, use);
@@ -202,13 +206,13 @@ RANGESEG_KERNEL RANGESEG_SIMD_INLINE void finish_block(const InRow& c, const Ter
     // mean projected onto the viewing ray; the centre's own term of the sum is q . q.
     const F qq = qx * qx + qy * qy + qz * qz;
     const F sum_t = qq + s.a0;
-    const F scale = V::pick((M)(qq > k.zero), sum_t / (sum_w * qq), k.one);
+    const F scale = V::pick((M)(qq > k.zero), sum_t * V::reciprocal(sum_w * qq), k.one);
     V::store(o.x, k.ox + qx * scale);
     V::store(o.y, k.oy + qy * scale);
     V::store(o.z, k.oz + qz * scale);
   } else {
     // sum_j w_j p_j / sum_j w_j = p + sum_j w_j (p_j - p) / sum_j w_j.
-    const F inv = k.one / sum_w;
+    const F inv = V::reciprocal(sum_w);
     V::store(o.x, k.ox + qx + s.a0 * inv);
     V::store(o.y, k.oy + qy + s.a1 * inv);
     V::store(o.z, k.oz + qz + s.a2 * inv);
@@ -220,7 +224,7 @@ RANGESEG_KERNEL RANGESEG_SIMD_INLINE void finish_block(const InRow& c, const Ter
     const F ax = nx * sum_w + s.n0, ay = ny * sum_w + s.n1, az = nz * sum_w + s.n2;
     const F len2 = ax * ax + ay * ay + az * az;
     const M ok = (M)(len2 > k.tiny);
-    const F inv = k.one / V::sqrt(V::pick(ok, len2, k.one));
+    const F inv = V::rsqrt(V::pick(ok, len2, k.one));
     V::store(o.nx, V::pick(ok, ax * inv, nx));
     V::store(o.ny, V::pick(ok, ay * inv, ny));
     V::store(o.nz, V::pick(ok, az * inv, nz));
@@ -247,23 +251,22 @@ RANGESEG_KERNEL RANGESEG_SIMD_INLINE void finish(const InRow& c, const Terms& s,
   }
 }
 
-/// Outputs of columns [0, count) of a lattice row from its completed sums, which are reset to
-/// 0 for reuse. (A separate sweep: inside edges_row the extra live vectors cost more than the
-/// sums' round trip through L1.)
+/// Outputs of columns [0, count) of a lattice row from its completed sums. (A separate sweep:
+/// inside edges_row the extra live vectors cost more than the sums' round trip through L1.)
 template <bool kAlongRay, bool kFilterNormals>
 RANGESEG_KERNEL void finish_row(const InRow& c, const SumRow& sums, int count, const Consts& k,
                                 const OutRow& out) {
   for (int i = 0; i < count; i += kLanes) {
     const Terms s = load_sums<kAlongRay, kFilterNormals>(sums, i);
-    store_sums<kAlongRay, kFilterNormals>(sums, i, zero_terms<kAlongRay, kFilterNormals>(k));
     finish<kAlongRay, kFilterNormals>(c, s, i, count, k, out);
   }
 }
 
 /// The forward edges of lattice row `c` (with the row below `q_off` elements further on in
 /// every plane; 0 on the last row, where no downward edge exists): their terms into the sums of
-/// both ends, `own` (this row) and `next` (the row below). One offset rather than a second set
-/// of row pointers keeps the pointers in registers.
+/// both ends, `own` (this row, which holds the terms of the edges from the row above) and
+/// `next` (the row below, overwritten: no other row adds to it before). One offset rather than
+/// a second set of row pointers keeps the pointers in registers.
 template <bool kDistance, bool kNormal, bool kIntensity, bool kAlongRay, bool kFilterNormals>
 RANGESEG_KERNEL void edges_row(const InRow& c, const float* hdc, const float* hnc,
                                std::ptrdiff_t q_off, const float* hdq, const float* hnq,
@@ -282,6 +285,7 @@ RANGESEG_KERNEL void edges_row(const InRow& c, const float* hdc, const float* hn
     for (int b = -1; b <= kLanes; ++b) any_edge |= edges[i + b];
     if (any_edge == 0) {
       prev_right = none, prev_down_right = none, prev_down_left = none;
+      store_sums<kAlongRay, kFilterNormals>(next, i, none);
       continue;
     }
     const M ring = V::bytes_to_lanes(edges + i);
@@ -289,7 +293,7 @@ RANGESEG_KERNEL void edges_row(const InRow& c, const float* hdc, const float* hn
     // live at once. Edges leaving columns i ..: right and down-right end one column further
     // right; the down-left edges are those leaving columns i + 1 .., ending in columns i ...
     Terms sums = load_sums<kAlongRay, kFilterNormals>(own, i);
-    Terms below = load_sums<kAlongRay, kFilterNormals>(next, i);
+    Terms below = none;
     const Terms right = RANGESEG_TERMS(i, 0, hdc, hnc, i + 1, ring, 0);
     add_terms<kAlongRay, kFilterNormals, 1>(sums, right);
     add_terms<kAlongRay, kFilterNormals, -1>(sums,
@@ -370,8 +374,7 @@ RANGESEG_KERNEL void pass(const OrganizedCloud& src, const NormalMap& nm, const 
   const int j_start = std::max(j_begin - 1, 0);
   int cur = 0;  // slot of row j's scales and sums (and inputs if copied); row j + 1 uses 1 - cur
   bool c_copied = false;  // row j is already in slot cur
-  lay.clear_sums(0);
-  lay.clear_sums(1);
+  lay.clear_sums(cur);    // the first row's edges from above: none (or replayed)
   for (int j = j_start; j < j_end; ++j) {
     const int nxt = 1 - cur;
     const bool has_below = j + 1 < m;
@@ -410,9 +413,7 @@ RANGESEG_KERNEL void pass(const OrganizedCloud& src, const NormalMap& nm, const 
     edges_row<kDistance, kNormal, kIntensity, kAlongRay, kFilterNormals>(
         c, lay.hd(cur), lay.hn(cur), q_off, hdq, hnq, edges, blocks, k, lay.sums(cur),
         lay.sums(nxt));
-    if (!output) {
-      lay.clear_sums(cur);
-    } else {
+    if (output) {
       finish_row<kAlongRay, kFilterNormals>(c, lay.sums(cur), n, k, out);
       if (s == 1) {
         copy_curvature_row(prm, v);
