@@ -64,6 +64,15 @@ void ensure_size(Plane<T>& plane, int width, int height) {
   if (plane.width() != width || plane.height() != height) plane.resize(width, height);
 }
 
+/// The planes that go through the filter unchanged: intensity, colour, label.
+void copy_attributes(const OrganizedCloud& cloud, OrganizedCloud& out_cloud) {
+  out_cloud.intensity = cloud.intensity;
+  out_cloud.r = cloud.r;
+  out_cloud.g = cloud.g;
+  out_cloud.b = cloud.b;
+  out_cloud.label = cloud.label;
+}
+
 void copy_plane(const FloatPlane& from, FloatPlane& to) {
   ensure_size(to, from.width(), from.height());
   for (int v = 0; v < from.height(); ++v) {
@@ -519,11 +528,6 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
 
   // Outputs: x, y, z and normals are written in full by every pass; optional planes are copied.
   for (FloatPlane* p : {&out_cloud.x, &out_cloud.y, &out_cloud.z}) ensure_size(*p, width, height);
-  out_cloud.intensity = cloud.intensity;
-  out_cloud.r = cloud.r;
-  out_cloud.g = cloud.g;
-  out_cloud.b = cloud.b;
-  out_cloud.label = cloud.label;
   for (FloatPlane* p : {&out_normals.nx, &out_normals.ny, &out_normals.nz}) {
     ensure_size(*p, width, height);
   }
@@ -537,6 +541,7 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
     copy_plane(normals.ny, out_normals.ny);
     copy_plane(normals.nz, out_normals.nz);
     copy_plane(normals.curvature, out_normals.curvature);
+    copy_attributes(cloud, out_cloud);
     return;
   }
 
@@ -602,6 +607,9 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
     src = &dst;
     src_normals = &dst_normals;
   }
+  // After the passes: copied before, these planes pushed the pass's rows out of cache (the
+  // stage measured ~4 % slower).
+  copy_attributes(cloud, out_cloud);
 }
 
 void smooth(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
