@@ -204,12 +204,12 @@ RANGESEG_KERNEL RANGESEG_SIMD_INLINE void finish_block(const InRow& c, const Ter
   if constexpr (kAlongRay) {
     // p' = o + q (q . m) / (q . q) with m the weighted mean of the origin-relative points: the
     // mean projected onto the viewing ray; the centre's own term of the sum is q . q.
-    const F qq = qx * qx + qy * qy + qz * qz;
+    const F qq = V::mul_add(qz, qz, V::mul_add(qy, qy, qx * qx));
     const F sum_t = qq + s.a0;
     const F scale = V::pick((M)(qq > k.zero), sum_t * V::reciprocal(sum_w * qq), k.one);
-    V::store(o.x, k.ox + qx * scale);
-    V::store(o.y, k.oy + qy * scale);
-    V::store(o.z, k.oz + qz * scale);
+    V::store(o.x, V::mul_add(qx, scale, k.ox));
+    V::store(o.y, V::mul_add(qy, scale, k.oy));
+    V::store(o.z, V::mul_add(qz, scale, k.oz));
   } else {
     // sum_j w_j p_j / sum_j w_j = p + sum_j w_j (p_j - p) / sum_j w_j.
     const F inv = V::reciprocal(sum_w);
@@ -221,8 +221,9 @@ RANGESEG_KERNEL RANGESEG_SIMD_INLINE void finish_block(const InRow& c, const Ter
     // sum_j w_j n_j = n sum_j w_j + sum_j w_j (n_j - n). Opposite normals can cancel; then (and
     // for NaN) the pixel keeps its normal.
     const F nx = V::load(c.nx + i), ny = V::load(c.ny + i), nz = V::load(c.nz + i);
-    const F ax = nx * sum_w + s.n0, ay = ny * sum_w + s.n1, az = nz * sum_w + s.n2;
-    const F len2 = ax * ax + ay * ay + az * az;
+    const F ax = V::mul_add(nx, sum_w, s.n0), ay = V::mul_add(ny, sum_w, s.n1);
+    const F az = V::mul_add(nz, sum_w, s.n2);
+    const F len2 = V::mul_add(az, az, V::mul_add(ay, ay, ax * ax));
     const M ok = (M)(len2 > k.tiny);
     const F inv = V::rsqrt(V::pick(ok, len2, k.one));
     V::store(o.nx, V::pick(ok, ax * inv, nx));
@@ -254,12 +255,21 @@ RANGESEG_KERNEL RANGESEG_SIMD_INLINE void finish(const InRow& c, const Terms& s,
 /// Outputs of columns [0, count) of a lattice row from its completed sums. (A separate sweep:
 /// inside edges_row the extra live vectors cost more than the sums' round trip through L1.)
 template <bool kAlongRay, bool kFilterNormals>
-RANGESEG_KERNEL void finish_row(const InRow& c, const SumRow& sums, int count, const Consts& k,
-                                const OutRow& out) {
-  for (int i = 0; i < count; i += kLanes) {
-    const Terms s = load_sums<kAlongRay, kFilterNormals>(sums, i);
-    finish<kAlongRay, kFilterNormals>(c, s, i, count, k, out);
+RANGESEG_KERNEL void finish_row(const InRow& in, const SumRow& sums, int count, const Consts& k,
+                                const OutRow& out_row) {
+  // Local copies: the compiler cannot tell that the output stores leave the row pointers
+  // unchanged, and would reload them from the referenced structs every block.
+  const InRow c = in;
+  const OutRow out = out_row;
+  int i = 0;
+  for (; i + kLanes <= count; i += kLanes) {
+    const OutRow o{out.x + i, out.y + i, out.z + i, out.nx + i, out.ny + i, out.nz + i};
+    finish_block<kAlongRay, kFilterNormals>(c, load_sums<kAlongRay, kFilterNormals>(sums, i), i, k,
+                                            o);
   }
+  if (i < count)
+    finish<kAlongRay, kFilterNormals>(c, load_sums<kAlongRay, kFilterNormals>(sums, i), i, count, k,
+                                      out);
 }
 
 /// The forward edges of lattice row `c` (with the row below `q_off` elements further on in
