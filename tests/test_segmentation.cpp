@@ -275,6 +275,72 @@ TEST(Segmentation, DepthStepIsSeparated) {
   EXPECT_NEAR(p.seg.segments[far_label - 1].offset, 2.0, 1e-4);
 }
 
+/// A wall at 1 m seen by a scanner whose calibration bows it: z = 1 + c x^2 with a sagitta of 3 mm
+/// over the +-0.6 m of the view (6 sigma of the 0.5 mm noise, Gaussian along the ray). No plane
+/// fits the whole wall within 3 sigma, so region growing cuts it into pieces, whose own fits are
+/// tilted against each other by ~0.3 deg and leave residuals above sigma; but every piece lies on
+/// the plane of their union within the wall's own measured residual, so they are one segment.
+/// Without the merge by `lies_on_merged_plane` this gives 2-3 segments.
+TEST(Segmentation, BowedWallIsOneSegmentButShallowCreaseIsNot) {
+  SegmentationSettings settings = preset("abw");
+  settings.noise = {.a = 0.0005, .b = 0.0, .z0 = 0.0};
+  const double c = 0.003 / (0.6 * 0.6);  // [1/m]
+  for (const std::uint32_t seed : {1u, 2u}) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> noise(0.0, 0.0005);
+    const auto noisy = [&](const std::function<double(double, double)>& depth) {
+      return cast(640, 480, [&](double a, double b) { return depth(a, b) + noise(rng); });
+    };
+    // Depth t of the bowed wall along the ray (a, b, 1): t = 1 + c (a t)^2 (fixed point).
+    const OrganizedCloud bowed = noisy([c](double a, double) {
+      double t = 1.0;
+      for (int i = 0; i < 6; ++i) t = 1.0 + c * a * a * t * t;
+      return t;
+    });
+    const Pipeline p = run(bowed, settings);
+    expect_consistent(bowed, p.seg, settings);
+    ASSERT_EQ(p.seg.segments.size(), 1u) << "seed " << seed;
+    EXPECT_GT(p.seg.segments[0].pixel_count, 0.98 * 640 * 480) << "seed " << seed;
+
+    // Control: two planes meeting at 3 deg along x = 0 (the left one fronto-parallel at 1 m)
+    // leave the same sagitta-scale residual but as a crease: two segments, split at x = 0.
+    const double slope = std::tan(3 * kDeg);
+    const OrganizedCloud crease =
+        noisy([slope](double a, double) { return a <= 0 ? 1.0 : 1.0 / (1.0 - slope * a); });
+    const Pipeline q = run(crease, settings);
+    expect_consistent(crease, q.seg, settings);
+    ASSERT_EQ(q.seg.segments.size(), 2u) << "seed " << seed;
+    const int left = q.seg.labels(100, 240), right = q.seg.labels(540, 240);
+    EXPECT_NE(left, 0);
+    EXPECT_NE(right, 0);
+    EXPECT_NE(left, right);
+  }
+}
+
+/// A point on a plane that the mesh's depth-jump gate left without edges (as on a surface seen at
+/// grazing incidence) joins the plane's segment when re-assignment may cross mesh cuts, and stays
+/// unlabelled otherwise (it has no mesh neighbour).
+TEST(Segmentation, ReassignmentAcrossMeshCutsReachesIsolatedPoints) {
+  const OrganizedCloud cloud = cast(160, 120, [](double a, double) { return 1.0 + 0.2 * a; });
+  Mesh mesh = build_mesh(cloud);
+  const NormalMap normals = compute_normals(cloud, mesh);
+  const int u0 = 80, v0 = 60;
+  for (int k = 0; k < 8; ++k) {  // cut every edge of (u0, v0), both directions
+    mesh.edges(u0 + kNeighbourDu[k], v0 + kNeighbourDv[k]) &=
+        static_cast<std::uint8_t>(~(1u << ((k + 4) % 8)));
+  }
+  mesh.edges(u0, v0) = 0;
+  for (const bool across : {false, true}) {
+    SegmentationSettings settings = preset("abw");
+    settings.reassign_across_mesh_cuts = across;
+    const Segmentation seg = segment(cloud, mesh, normals, settings);
+    expect_consistent(cloud, seg, settings);
+    ASSERT_EQ(seg.segments.size(), 1u);
+    EXPECT_EQ(seg.labels(u0, v0), across ? 1 : 0) << "across " << across;
+    EXPECT_EQ(seg.segments[0].pixel_count, 160 * 120 - (across ? 0 : 1));
+  }
+}
+
 TEST(Segmentation, HolesAreNeverLabelledAndAreaIsCorrect) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
@@ -458,6 +524,8 @@ TEST(Segmentation, PresetsAndValidation) {
   EXPECT_NO_THROW(preset("kinect"));
   EXPECT_NEAR(preset("abw").noise.sigma(1.0), 0.0005, 1e-12);
   EXPECT_NEAR(preset("kinect").noise.sigma(2.4), 0.0012 + 0.0019 * 4.0, 1e-12);
+  EXPECT_TRUE(preset("abw").reassign_across_mesh_cuts);
+  EXPECT_FALSE(preset("kinect").reassign_across_mesh_cuts);
   EXPECT_GE(preset("laser").noise.sigma(10.0), 0.01);
   try {
     preset("lidar");
@@ -543,11 +611,13 @@ TEST(Segmentation, SegCompAbw) {
       "ABW mean: GT %.2f correct %.2f (%.1f%%) over %.2f under %.2f missed %.2f noise %.2f\n",
       sum.mean_gt, sum.mean_correct, 100.0 * sum.mean_correct / sum.mean_gt, sum.mean_over,
       sum.mean_under, sum.mean_missed, sum.mean_noise);
-  // Target 85%; reached 84.9% (over 0.6, noise 3.2) with the coarse cell level (83.3%, over
-  // 0.7, noise 4.1 pixel-wise).
-  EXPECT_GE(sum.mean_correct / sum.mean_gt, 0.83);
-  EXPECT_LE(sum.mean_over + sum.mean_under, 0.8);
-  EXPECT_LE(sum.mean_noise, 3.7);
+  // Target 85%, over + under <= 0.5, noise <= 2; reached 87.5% (over 0.2, under 0, noise 1.8)
+  // since pieces of one plane merge when each lies on their union's plane within the plane's
+  // measured residual and re-assignment also reaches points the mesh cut off (84.9%, over 0.6,
+  // noise 3.2 before). Thresholds leave a little slack for cross-CPU rounding.
+  EXPECT_GE(sum.mean_correct / sum.mean_gt, 0.86);
+  EXPECT_LE(sum.mean_over + sum.mean_under, 0.5);
+  EXPECT_LE(sum.mean_noise, 2.2);
 }
 
 // --- real Kinect frame with a labelled table ---

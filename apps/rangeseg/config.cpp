@@ -90,12 +90,12 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
   if (j.contains("segmentation")) {
     const json& m = j["segmentation"];
     const std::string where = path + " [segmentation]";
-    reject_unknown(
-        m,
-        {"model", "max_normal_angle", "max_distance_sigmas", "max_smooth_angle", "max_curvature",
-         "max_seed_curvature", "min_region_size", "merge_planes", "merge_angle",
-         "merge_distance_sigmas", "merge_rms_sigmas", "merge_rms_max_angle", "reassign_boundary"},
-        where);
+    reject_unknown(m,
+                   {"model", "max_normal_angle", "max_distance_sigmas", "max_smooth_angle",
+                    "max_curvature", "max_seed_curvature", "min_region_size", "merge_planes",
+                    "merge_angle", "merge_distance_sigmas", "merge_rms_sigmas",
+                    "merge_rms_max_angle", "reassign_boundary", "reassign_across_mesh_cuts"},
+                   where);
     auto& t = s.segmentation;
     if (m.contains("model")) {
       try {
@@ -116,6 +116,7 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
     take(m, "merge_rms_sigmas", t.merge_rms_sigmas, where);
     take(m, "merge_rms_max_angle", t.merge_rms_max_angle, where);
     take(m, "reassign_boundary", t.reassign_boundary, where);
+    take(m, "reassign_across_mesh_cuts", t.reassign_across_mesh_cuts, where);
   }
   validate(s.smoothing);
 }

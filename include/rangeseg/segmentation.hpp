@@ -77,7 +77,14 @@ struct SegmentationSettings {
   /// Max angle between the normals of two planes to merge [rad] (5 deg).
   double merge_angle = 0.0873;
   /// Max distance of each plane's centroid to the other plane, in multiples of sigma(z) at that
-  /// centroid (dimensionless).
+  /// centroid (dimensionless). Also the bound of the third merge test: adjacent segments merge
+  /// when the points of each lie on the least-squares plane of their union with an RMS distance
+  /// of at most this many times the surface's noise, max(sigma(z), pooled RMS residual of the two
+  /// fits) (a large plane's residual includes the scanner's systematic distortion, which cuts it
+  /// into slightly tilted pieces), their normals agree within `merge_rms_max_angle` plus this
+  /// many standard errors of the smaller part's normal (its residual floored at sigma(z), so a
+  /// thin strip such as one range-quantisation terrace may join) and the merged RMS stays within
+  /// 1.5 times the larger part's RMS plus sigma(z) / 2.
   double merge_distance_sigmas = 3.0;
   /// Adjacent segments also merge when one least-squares plane fits the union of their points
   /// with an RMS residual of at most this many sigma(z) (and not much more than the parts' own
@@ -86,8 +93,14 @@ struct SegmentationSettings {
   /// ... provided their normals are within this angle [rad] (20 deg).
   double merge_rms_max_angle = 0.349;
   /// plane: unlabelled valid points adjacent (mesh 1-ring) to a plane segment join the closest
-  /// adjacent plane if within `max_distance_sigmas` * sigma(z) of it.
+  /// adjacent plane if within `max_distance_sigmas` * sigma(z) of it (perpendicular distance).
   bool reassign_boundary = true;
+  /// plane, with `reassign_boundary`: adjacency also over the image 8-neighbours the mesh's
+  /// depth-jump gate cut off. For sensors whose noise is far below the pixel footprint (abw
+  /// preset), the gate cuts surfaces seen at grazing incidence into single columns, whose points
+  /// the perpendicular plane test still places; off by default (a little slower; with noise
+  /// larger than the footprint, as for the Kinect at range, the gate rarely cuts a surface).
+  bool reassign_across_mesh_cuts = false;
   /// Compute Segment::area_m2 (one extra pass over the mesh faces).
   bool compute_area = true;
 };

@@ -14,6 +14,8 @@
 #include <cstdint>
 #include <numeric>
 
+#include <Eigen/Eigenvalues>
+
 #include "detail/simd.hpp"
 #include "segmentation/internal.hpp"
 
@@ -88,6 +90,65 @@ bool fits_as_one(const PlaneFit& merged, const PlaneFit& a, const PlaneFit& b,
   return merged.rms <= 1.5 * pooled + 0.5 * sigma;
 }
 
+/// Standard error of a segment's normal direction [rad] with its residual floored at the sensor
+/// noise: sqrt(max(rms^2, sigma^2) / (count lambda_1)), lambda_1 the covariance eigenvalue of the
+/// segment's narrower in-plane extent. A fit's own residual can be far below the noise (a strip
+/// of one quantisation terrace has rms 0 and a normal along the view ray), but its points do
+/// not pin the surface's orientation better than the sensor noise across its width allows.
+double floored_normal_stderr(const PlaneStats& stats, const PlaneFit& fit, double sigma) {
+  const double inv = 1.0 / static_cast<double>(stats.count);
+  const auto m = stats.mean();
+  Eigen::Matrix3d cov;
+  cov(0, 0) = stats.sxx * inv - m[0] * m[0];
+  cov(0, 1) = stats.sxy * inv - m[0] * m[1];
+  cov(0, 2) = stats.sxz * inv - m[0] * m[2];
+  cov(1, 1) = stats.syy * inv - m[1] * m[1];
+  cov(1, 2) = stats.syz * inv - m[1] * m[2];
+  cov(2, 2) = stats.szz * inv - m[2] * m[2];
+  cov(1, 0) = cov(0, 1);
+  cov(2, 0) = cov(0, 2);
+  cov(2, 1) = cov(1, 2);
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+  solver.computeDirect(cov, Eigen::EigenvaluesOnly);
+  const double lambda1 = solver.eigenvalues()(1);
+  if (!(lambda1 > 0)) return 3.14159265358979323846;
+  const double residual2 = std::max(fit.rms * fit.rms, sigma * sigma);
+  return std::sqrt(residual2 / (static_cast<double>(stats.count) * lambda1));
+}
+
+/// The scanner's view of a merge: two adjacent segments are one surface when the points of each
+/// lie on the plane fitted to their union, in RMS, within merge_distance_sigmas times the noise
+/// of that surface. The noise is sigma(z), or the pooled RMS residual of the two fits when that
+/// is larger: a plane fit over a large area also sees the scanner's systematic distortion (the
+/// calibration bends a real plane by a fraction of a millimetre over the field of view), which
+/// splits a large plane into pieces whose own fits are tilted slightly against each other,
+/// whereas the points of a different surface lie ~ extent * angle off the merged plane. The
+/// normals must agree within merge_rms_max_angle plus merge_distance_sigmas standard errors of
+/// the smaller part's normal (floored at the noise), so a thin strip (e.g. one range-quantisation
+/// terrace, whose own fit faces the sensor) can join while a compact patch of another
+/// orientation cannot, and the merged residual must stay within the bound of `fits_as_one`
+/// relative to the parts. Cheap tests first; the eigen-solve only for strips at a large angle.
+bool lies_on_merged_plane(const PlaneFit& merged, const PlaneStats& sa, const PlaneFit& a,
+                          const PlaneStats& sb, const PlaneFit& b, const SegmentationSettings& s) {
+  const double k = s.merge_distance_sigmas;
+  const double sigma = s.noise.sigma(merged.centroid[2]);
+  if (!(merged.rms <= 1.5 * std::max(a.rms, b.rms) + 0.5 * sigma)) return false;
+  const double na = static_cast<double>(sa.count), nb = static_cast<double>(sb.count);
+  const double pooled2 = (na * a.rms * a.rms + nb * b.rms * b.rms) / (na + nb);
+  const double bound2 = k * k * std::max(sigma * sigma, pooled2);
+  for (const PlaneStats* part : {&sa, &sb}) {
+    const double d = part->rms_distance(merged.normal, merged.offset);
+    if (!(d * d <= bound2)) return false;
+  }
+  const double angle = std::acos(std::min(1.0, std::fabs(dot(a.normal, b.normal))));
+  if (angle <= s.merge_rms_max_angle) return true;
+  const bool a_smaller = sa.count < sb.count;
+  const PlaneFit& small_fit = a_smaller ? a : b;
+  const double small_sigma = s.noise.sigma(small_fit.centroid[2]);
+  return angle <= s.merge_rms_max_angle +
+                      k * floored_normal_stderr(a_smaller ? sa : sb, small_fit, small_sigma);
+}
+
 void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
                            Segmenter::Scratch& s) {
   const auto& regions = s.regions;
@@ -134,7 +195,9 @@ void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
     const PlaneFit merged_fit = merged.fit();
     if (!merged_fit.ok) continue;
     if (!same_plane(s.fits[a], s.fits[b], settings) &&
-        !fits_as_one(merged_fit, s.fits[a], s.fits[b], settings)) {
+        !fits_as_one(merged_fit, s.fits[a], s.fits[b], settings) &&
+        !lies_on_merged_plane(merged_fit, s.regions[a], s.fits[a], s.regions[b], s.fits[b],
+                              settings)) {
       continue;
     }
     if (s.regions[a].count < s.regions[b].count) std::swap(a, b);
@@ -144,9 +207,44 @@ void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
   }
 }
 
+/// The in-image lattice neighbours of pixel (u, v) (bit k: direction k), whatever its mesh edges.
+inline unsigned lattice_mask(const Frame& f, int u, int v) {
+  const int step = f.pixel_stride;
+  if (u >= step && v >= step && u + step < f.width && v + step < f.height) return 0xFFu;
+  unsigned inside = 0;
+  for (int k = 0; k < 8; ++k) {
+    const int nu = u + step * kNeighbourDu[k], nv = v + step * kNeighbourDv[k];
+    if (nu >= 0 && nv >= 0 && nu < f.width && nv < f.height) inside |= 1u << k;
+  }
+  return inside;
+}
+
+/// The neighbours a point is re-assigned over: its mesh 1-ring, plus (kAcrossCuts), for a valid
+/// point, the rest of its 8 lattice neighbours inside the image. The mesh's jump gate compares
+/// depths along the viewing ray, and on a surface seen at grazing incidence (70-90 deg) by a
+/// sensor whose noise is far below the pixel footprint, consecutive samples lie several sigma
+/// apart along the ray although they are on the surface within the noise, so the mesh cuts a
+/// narrow strip of such a surface into single columns and leaves its outermost points isolated;
+/// the plane test measures the distance perpendicular to the surface, which is the right test
+/// for them (a point across a real depth step is far from the plane).
+template <bool kAcrossCuts>
+inline unsigned reassign_mask(const Frame& f, std::ptrdiff_t i, int u, int v) {
+  const unsigned edges = f.edges[i];
+  if (!kAcrossCuts || edges == 0xFFu || !std::isfinite(f.z[i])) return edges;
+  return edges | lattice_mask(f, u, v);
+}
+template <bool kAcrossCuts>
+inline unsigned reassign_mask(const Frame& f, std::ptrdiff_t i) {
+  if (!kAcrossCuts || f.edges[i] == 0xFFu) return f.edges[i];
+  return reassign_mask<kAcrossCuts>(f, i, static_cast<int>(i % f.stride),
+                                    static_cast<int>(i / f.stride));
+}
+
 /// Unlabelled valid points next to a plane segment join the adjacent plane they are closest to,
 /// if within k sigma(z) of it; newly labelled points make their neighbours candidates in turn,
-/// so dissolved small regions that lie on an adjacent plane are absorbed whole.
+/// so dissolved small regions that lie on an adjacent plane are absorbed whole. Neighbours are
+/// those of `reassign_mask`.
+template <bool kAcrossCuts>
 void reassign_boundary_points(const Frame& f, const SegmentationSettings& settings,
                               Segmenter::Scratch& s) {
   const std::size_t pixels = static_cast<std::size_t>(f.stride) * f.height;
@@ -161,8 +259,8 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
     ring[slot] = i;
     ++size;
   };
-  const auto has_labelled_neighbour = [&](std::ptrdiff_t i) {
-    unsigned mask = f.edges[i];
+  const auto has_labelled_neighbour = [&](std::ptrdiff_t i, int u, int v) {
+    unsigned mask = reassign_mask<kAcrossCuts>(f, i, u, v);
     while (mask != 0) {
       const int k = std::countr_zero(mask);
       mask &= mask - 1;
@@ -175,7 +273,8 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
     const std::ptrdiff_t row = v * f.stride;
     for (int u = 0; u < f.width; u += step) {
       const std::ptrdiff_t i = row + u;
-      if (f.labels[i] == 0 && f.edges[i] != 0 && has_labelled_neighbour(i)) {
+      const bool candidate = kAcrossCuts ? std::isfinite(f.z[i]) : f.edges[i] != 0;
+      if (f.labels[i] == 0 && candidate && has_labelled_neighbour(i, u, v)) {
         push(static_cast<std::int32_t>(i));
       }
     }
@@ -190,7 +289,8 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
     const double x = f.x[q], y = f.y[q], z = f.z[q];
     std::int32_t best = 0;
     double best_distance = k * settings.noise.sigma(z);
-    unsigned mask = f.edges[q];
+    const unsigned ring_mask = reassign_mask<kAcrossCuts>(f, q);
+    unsigned mask = ring_mask;
     while (mask != 0) {
       const int n = std::countr_zero(mask);
       mask &= mask - 1;
@@ -205,12 +305,12 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
     if (best == 0) continue;
     f.labels[q] = best;
     s.regions[best].add(x, y, z);
-    mask = f.edges[q];
+    mask = ring_mask;
     while (mask != 0) {
       const int n = std::countr_zero(mask);
       mask &= mask - 1;
       const std::int32_t r = static_cast<std::int32_t>(q + f.neighbour_offset[n]);
-      if (f.labels[r] == 0 && !s.queued[r]) push(r);
+      if (f.labels[r] == 0 && !s.queued[r] && (!kAcrossCuts || std::isfinite(f.z[r]))) push(r);
     }
   }
 }
@@ -326,7 +426,13 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
   const std::int32_t* const remap = s.remap.data();
   for (std::size_t i = 0; i < pixels; ++i) labels[i] = remap[labels[i]];
 
-  if (planes && settings.reassign_boundary) reassign_boundary_points(f, settings, s);
+  if (planes && settings.reassign_boundary) {
+    if (settings.reassign_across_mesh_cuts) {
+      reassign_boundary_points<true>(f, settings, s);
+    } else {
+      reassign_boundary_points<false>(f, settings, s);
+    }
+  }
   if (planes && settings.merge_planes) {
     for (std::int32_t r = 1; r < region_count; ++r) {
       if (s.remap[r] == r) s.fits[r] = s.regions[r].fit();
