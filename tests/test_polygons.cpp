@@ -11,6 +11,7 @@
 #include <string>
 
 #include "detail/simd.hpp"
+#include "polygons/internal.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/pipeline.hpp"
@@ -733,6 +734,39 @@ TEST(Polygons, HolesBelongToTheSmallestEnclosingOuterLoop) {
   // H2: 8 x 6 missing pixels, the mesh hole spans 9 x 7 pixel steps less the cut corners.
   EXPECT_NEAR(-pixel_area(ps, h2), 9 * 7, 2.0);
   EXPECT_NEAR(-pixel_area(ps, h1), 33 * 25, 2.0);  // the island is a loop of its own
+}
+
+// The hull's point sort (radix on x above a size, std::sort below) against std::sort with the
+// (x, y, index) comparator: ties in x and y, -0 and +0, negative and positive coordinates,
+// shuffled input, sizes on both sides of the radix threshold.
+TEST(Polygons, PointSortMatchesComparisonSort) {
+  std::mt19937 rng(7);
+  polygons_detail::PointSortScratch scratch;  // reused: no state may leak between calls
+  for (int n : {0, 1, 5, 255, 256, 300, 2000, 5000}) {
+    for (int kind = 0; kind < 3; ++kind) {
+      std::vector<double> xy(2 * static_cast<std::size_t>(n));
+      std::uniform_real_distribution<double> coord(-3.0, 3.0);
+      std::uniform_int_distribution<int> grid(-4, 4);
+      for (int i = 0; i < n; ++i) {
+        double x = kind == 0 ? coord(rng) : 0.25 * grid(rng);  // kinds 1, 2: many ties
+        const double y = kind == 2 ? 0.5 * grid(rng) : coord(rng);
+        if (x == 0 && (i & 1)) x = -0.0;
+        xy[2 * static_cast<std::size_t>(i)] = x;
+        xy[2 * static_cast<std::size_t>(i) + 1] = y;
+      }
+      std::vector<int> order(static_cast<std::size_t>(n));
+      for (int i = 0; i < n; ++i) order[static_cast<std::size_t>(i)] = i;
+      std::shuffle(order.begin(), order.end(), rng);
+      std::vector<int> expected = order;
+      std::sort(expected.begin(), expected.end(), [&](int a, int b) {
+        if (xy[2 * a] != xy[2 * b]) return xy[2 * a] < xy[2 * b];
+        if (xy[2 * a + 1] != xy[2 * b + 1]) return xy[2 * a + 1] < xy[2 * b + 1];
+        return a < b;
+      });
+      polygons_detail::sort_points_xy(xy.data(), order, scratch);
+      EXPECT_EQ(order, expected) << "n " << n << " kind " << kind;
+    }
+  }
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "detail/simd.hpp"
 #include "polygons/internal.hpp"
 #include "rangeseg/polygons.hpp"
 
@@ -52,11 +53,6 @@ PlaneFrame make_frame(const Segment& seg) {
   return fr;
 }
 
-struct HullPoint {
-  double x, y;
-  int index;
-};
-
 struct RawLoop {
   int label;
   int first;  // into raw_idx
@@ -67,6 +63,158 @@ struct RawLoop {
   int u_min, u_max, v_min, v_max;  // bounding box of the vertices [pixel]
 };
 
+// The projection of mesh vertices onto a segment's plane (see polygons.hpp): along the viewing
+// ray from `vp` when it meets the plane's front side, else orthogonally; then the plane frame.
+struct Projection {
+  PlaneFrame fr;
+  Vec vp;
+  double nvp;  // signed distance of the viewpoint from the plane
+};
+
+Projection make_projection(const PlaneFrame& fr, const Vec& vp) {
+  return {fr, vp, dot(fr.normal, vp) + fr.offset};
+}
+
+// Vertices at (u, v) = uv[first, n) into xy (x, y interleaved), from `first` on.
+void project_scalar(const OrganizedCloud& cloud, const std::array<std::int32_t, 2>* uv, int first,
+                    int n, const Projection& pr, double* xy) {
+  const PlaneFrame& fr = pr.fr;
+  const Vec& vp = pr.vp;
+  const double nvp = pr.nvp;
+  for (int i = first; i < n; ++i) {
+    // The points are scattered over cloud planes that earlier stages have mostly evicted
+    // from the caches: fetch a few vertices ahead.
+    constexpr int kAhead = 16;
+    if (i + kAhead < n) {
+      const auto [pu, pv] = uv[i + kAhead];
+      __builtin_prefetch(cloud.x.row(pv) + pu);
+      __builtin_prefetch(cloud.y.row(pv) + pu);
+      __builtin_prefetch(cloud.z.row(pv) + pu);
+    }
+    const auto [u, v] = uv[i];
+    const Vec p{cloud.x.row(v)[u], cloud.y.row(v)[u], cloud.z.row(v)[u]};
+    const Vec dir{p[0] - vp[0], p[1] - vp[1], p[2] - vp[2]};
+    const double denom = dot(fr.normal, dir);
+    // The ray meets the plane's front side when denom < -1e-6 |dir| (and nvp > 0); the
+    // square root is needed only near that limit: denom^2 > 2e-12 |dir|^2 already implies
+    // it with a margin of sqrt(2) over the rounding of either side.
+    bool ray = false;
+    if (nvp > 0 && denom < 0) {
+      const double dir2 = dot(dir, dir);
+      ray = denom * denom > 2e-12 * dir2 || denom < -1e-6 * std::sqrt(dir2);
+    }
+    Vec q;
+    if (ray) {
+      const double t = -nvp / denom;
+      q = {vp[0] + t * dir[0], vp[1] + t * dir[1], vp[2] + t * dir[2]};
+    } else {
+      const double dist = dot(fr.normal, p) + fr.offset;
+      q = {p[0] - dist * fr.normal[0], p[1] - dist * fr.normal[1], p[2] - dist * fr.normal[2]};
+    }
+    const Vec rel{q[0] - fr.origin[0], q[1] - fr.origin[1], q[2] - fr.origin[2]};
+    xy[2 * i] = dot(rel, fr.e1);
+    xy[2 * i + 1] = dot(rel, fr.e2);
+  }
+}
+
+#if RANGESEG_SIMD_X86
+// project_scalar four vertices at a time (scalar loads of the cloud values: gathers were
+// slower here), both projections computed and blended. Every lane does the scalar code's IEEE
+// operations in the same order (the target has no FMA, so nothing is contracted), so the results
+// are bit-identical.
+/// a0 b0 + a1 b1 + a2 b2 per lane, in dot()'s order.
+__attribute__((target("avx2"), always_inline)) inline __m256d dot3(__m256d a0, __m256d a1,
+                                                                   __m256d a2, __m256d b0,
+                                                                   __m256d b1, __m256d b2) {
+  return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a0, b0), _mm256_mul_pd(a1, b1)),
+                       _mm256_mul_pd(a2, b2));
+}
+
+__attribute__((target("avx2"))) void project_avx2(const OrganizedCloud& cloud,
+                                                  const std::array<std::int32_t, 2>* uv, int n,
+                                                  const Projection& pr, double* xy) {
+  const PlaneFrame& fr = pr.fr;
+  const std::ptrdiff_t stride = cloud.x.stride();
+  const float* px = cloud.x.row(0);
+  const float* py = cloud.y.row(0);
+  const float* pz = cloud.z.row(0);
+  const __m256d vp0 = _mm256_set1_pd(pr.vp[0]), vp1 = _mm256_set1_pd(pr.vp[1]),
+                vp2 = _mm256_set1_pd(pr.vp[2]);
+  const __m256d n0 = _mm256_set1_pd(fr.normal[0]), n1 = _mm256_set1_pd(fr.normal[1]),
+                n2 = _mm256_set1_pd(fr.normal[2]);
+  const __m256d o0 = _mm256_set1_pd(fr.origin[0]), o1 = _mm256_set1_pd(fr.origin[1]),
+                o2 = _mm256_set1_pd(fr.origin[2]);
+  const __m256d e10 = _mm256_set1_pd(fr.e1[0]), e11 = _mm256_set1_pd(fr.e1[1]),
+                e12 = _mm256_set1_pd(fr.e1[2]);
+  const __m256d e20 = _mm256_set1_pd(fr.e2[0]), e21 = _mm256_set1_pd(fr.e2[1]),
+                e22 = _mm256_set1_pd(fr.e2[2]);
+  const __m256d offset = _mm256_set1_pd(fr.offset), neg_nvp = _mm256_set1_pd(-pr.nvp),
+                zero = _mm256_setzero_pd();
+  const __m256d c2e12 = _mm256_set1_pd(2e-12), c1e6 = _mm256_set1_pd(-1e-6);
+  const __m256d front = pr.nvp > 0 ? _mm256_castsi256_pd(_mm256_set1_epi64x(-1)) : zero;
+  int i = 0;
+  for (; i + 4 <= n; i += 4) {
+    constexpr int kAhead = 16;
+    if (i + kAhead + 4 <= n) {
+      for (int a = 0; a < 4; a += 2) {  // two of the next four: a cache line holds several
+        const auto [pu, pv] = uv[i + kAhead + a];
+        __builtin_prefetch(px + pv * stride + pu);
+        __builtin_prefetch(py + pv * stride + pu);
+        __builtin_prefetch(pz + pv * stride + pu);
+      }
+    }
+    // Four scalar loads per plane: faster than gathers here.
+    std::ptrdiff_t at[4];
+    for (int a = 0; a < 4; ++a) at[a] = uv[i + a][1] * stride + uv[i + a][0];
+    const __m256d p0 = _mm256_cvtps_pd(_mm_setr_ps(px[at[0]], px[at[1]], px[at[2]], px[at[3]]));
+    const __m256d p1 = _mm256_cvtps_pd(_mm_setr_ps(py[at[0]], py[at[1]], py[at[2]], py[at[3]]));
+    const __m256d p2 = _mm256_cvtps_pd(_mm_setr_ps(pz[at[0]], pz[at[1]], pz[at[2]], pz[at[3]]));
+    const __m256d d0 = _mm256_sub_pd(p0, vp0), d1 = _mm256_sub_pd(p1, vp1),
+                  d2 = _mm256_sub_pd(p2, vp2);
+    const __m256d denom = dot3(n0, n1, n2, d0, d1, d2);
+    const __m256d dir2 = dot3(d0, d1, d2, d0, d1, d2);
+    const __m256d steep =
+        _mm256_cmp_pd(_mm256_mul_pd(denom, denom), _mm256_mul_pd(c2e12, dir2), _CMP_GT_OQ);
+    const __m256d near =
+        _mm256_cmp_pd(denom, _mm256_mul_pd(c1e6, _mm256_sqrt_pd(dir2)), _CMP_LT_OQ);
+    const __m256d ray = _mm256_and_pd(_mm256_and_pd(front, _mm256_cmp_pd(denom, zero, _CMP_LT_OQ)),
+                                      _mm256_or_pd(steep, near));
+    const __m256d t = _mm256_div_pd(neg_nvp, denom);
+    const __m256d dist = _mm256_add_pd(dot3(n0, n1, n2, p0, p1, p2), offset);
+    const __m256d q0 = _mm256_blendv_pd(_mm256_sub_pd(p0, _mm256_mul_pd(dist, n0)),
+                                        _mm256_add_pd(vp0, _mm256_mul_pd(t, d0)), ray);
+    const __m256d q1 = _mm256_blendv_pd(_mm256_sub_pd(p1, _mm256_mul_pd(dist, n1)),
+                                        _mm256_add_pd(vp1, _mm256_mul_pd(t, d1)), ray);
+    const __m256d q2 = _mm256_blendv_pd(_mm256_sub_pd(p2, _mm256_mul_pd(dist, n2)),
+                                        _mm256_add_pd(vp2, _mm256_mul_pd(t, d2)), ray);
+    const __m256d r0 = _mm256_sub_pd(q0, o0), r1 = _mm256_sub_pd(q1, o1),
+                  r2 = _mm256_sub_pd(q2, o2);
+    const __m256d x = dot3(r0, r1, r2, e10, e11, e12);
+    const __m256d y = dot3(r0, r1, r2, e20, e21, e22);
+    // Interleave: (x0, y0, x1, y1), (x2, y2, x3, y3).
+    const __m256d lo = _mm256_unpacklo_pd(x, y), hi = _mm256_unpackhi_pd(x, y);
+    _mm256_storeu_pd(xy + 2 * i, _mm256_permute2f128_pd(lo, hi, 0x20));
+    _mm256_storeu_pd(xy + 2 * i + 4, _mm256_permute2f128_pd(lo, hi, 0x31));
+  }
+  project_scalar(cloud, uv, i, n, pr, xy);
+}
+#endif
+
+// Projects the loop vertices uv[0, n) onto the plane: (x, y) interleaved into xy[0, 2n).
+void project(const OrganizedCloud& cloud, const std::array<std::int32_t, 2>* uv, int n,
+             const Projection& pr, double* xy) {
+#if RANGESEG_SIMD_X86
+  if (detail::simd::chosen_isa() >= detail::simd::Isa::avx2 &&
+      cloud.y.stride() == cloud.x.stride() && cloud.z.stride() == cloud.x.stride() &&
+      cloud.x.stride() * static_cast<std::ptrdiff_t>(cloud.height()) <=
+          std::numeric_limits<std::int32_t>::max()) {
+    project_avx2(cloud, uv, n, pr, xy);
+    return;
+  }
+#endif
+  project_scalar(cloud, uv, 0, n, pr, xy);
+}
+
 }  // namespace
 
 struct PolygonExtractor::Scratch {
@@ -74,6 +222,7 @@ struct PolygonExtractor::Scratch {
   Plane<std::int32_t> pos;
   bool dirty = false;
   polygons_detail::BoundaryMaskScratch masks;
+  polygons_detail::TraceSteps trace_steps;
   std::vector<std::int32_t> starts, walk, stack;
   std::vector<RawLoop> raw;
   std::vector<std::int32_t> raw_idx;
@@ -95,7 +244,7 @@ struct PolygonExtractor::Scratch {
   std::vector<CheckEdge> edges;
   std::vector<std::uint8_t> bad;
   std::vector<int> hull_order, hull_idx;
-  std::vector<HullPoint> hull_sort;
+  polygons_detail::PointSortScratch hull_sort;
   std::vector<double> hull_xy;
   std::vector<std::int32_t> hull_pix;
 };
@@ -266,45 +415,41 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
   sc.raw.clear();
   sc.raw_idx.clear();
   sc.raw_uv.clear();
-  polygons_detail::trace_loops(edge_masks, sc.pos.row(0), stride, s, sc.starts, sc.walk, sc.stack,
-                               [&](const std::int32_t* idx, int n) {
-                                 // Pixel coordinates once per vertex: v = idx / stride, from
-                                 // (idx + 0.5) / stride, which is at least 0.5 / stride away
-                                 // from an integer, far above the rounding of the product.
-                                 const std::size_t first = sc.raw_uv.size();
-                                 int u_min = width, u_max = -1, v_min = height, v_max = -1;
-                                 for (int i = 0; i < n; ++i) {
-                                   const auto v = static_cast<std::int32_t>(
-                                       (static_cast<double>(idx[i]) + 0.5) * inv_row_len);
-                                   const std::int32_t u = idx[i] - v * row_len;
-                                   sc.raw_uv.push_back({u, v});
-                                   u_min = std::min(u_min, u);
-                                   u_max = std::max(u_max, u);
-                                   v_min = std::min(v_min, v);
-                                   v_max = std::max(v_max, v);
-                                 }
-                                 const std::array<std::int32_t, 2>* uv = sc.raw_uv.data() + first;
-                                 const int label = segmentation.labels.row(uv[0][1])[uv[0][0]];
-                                 // Shoelace on the image (y down): counter-clockwise on the image
-                                 // is negative there.
-                                 std::int64_t twice = 0;
-                                 for (int i = 0, j = n - 1; i < n; j = i++) {
-                                   twice += static_cast<std::int64_t>(uv[j][0]) * uv[i][1] -
-                                            static_cast<std::int64_t>(uv[i][0]) * uv[j][1];
-                                 }
-                                 RawLoop r{label,
-                                           static_cast<int>(sc.raw_idx.size()),
-                                           n,
-                                           -0.5 * static_cast<double>(twice),
-                                           sc.seg_of_label[static_cast<std::size_t>(label)],
-                                           -1,
-                                           u_min,
-                                           u_max,
-                                           v_min,
-                                           v_max};
-                                 sc.raw.push_back(r);
-                                 sc.raw_idx.insert(sc.raw_idx.end(), idx, idx + n);
-                               });
+  polygons_detail::trace_loops(
+      edge_masks, sc.pos.row(0), stride, s, sc.starts, sc.trace_steps, sc.walk, sc.stack,
+      [&](const std::int32_t* idx, int n) {
+        const std::size_t first = sc.raw_uv.size();
+        sc.raw_uv.resize(first + static_cast<std::size_t>(n));  // capacity only grows
+        sc.raw_idx.insert(sc.raw_idx.end(), idx, idx + n);
+        std::array<std::int32_t, 2>* uv = sc.raw_uv.data() + first;
+        // One pass: pixel coordinates, bounding box and the shoelace sum (image, y down:
+        // counter-clockwise on the image is negative there). v = idx / stride, from
+        // (idx + 0.5) / stride, which is at least 0.5 / stride away from an integer, far above
+        // the rounding of the product.
+        const auto to_uv = [&](std::int32_t i) -> std::array<std::int32_t, 2> {
+          const auto v = static_cast<std::int32_t>((static_cast<double>(i) + 0.5) * inv_row_len);
+          return {i - v * row_len, v};
+        };
+        const std::array<std::int32_t, 2> last = to_uv(idx[n - 1]);
+        std::int32_t pu = last[0], pv = last[1];
+        int u_min = width, u_max = -1, v_min = height, v_max = -1;
+        std::int64_t twice = 0;
+        for (int i = 0; i < n; ++i) {
+          const auto [u, v] = to_uv(idx[i]);
+          uv[i] = {u, v};
+          u_min = std::min(u_min, u);
+          u_max = std::max(u_max, u);
+          v_min = std::min(v_min, v);
+          v_max = std::max(v_max, v);
+          twice += static_cast<std::int64_t>(pu) * v - static_cast<std::int64_t>(u) * pv;
+          pu = u;
+          pv = v;
+        }
+        const int label = segmentation.labels.row(uv[0][1])[uv[0][0]];
+        sc.raw.push_back({label, static_cast<int>(first), n, -0.5 * static_cast<double>(twice),
+                          sc.seg_of_label[static_cast<std::size_t>(label)], -1, u_min, u_max, v_min,
+                          v_max});
+      });
   for (std::int32_t p : sc.starts) edge_masks[p] = 0;
   sc.dirty = false;
 
@@ -390,49 +535,19 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
 
     // Project every kept loop onto the plane.
     const PlaneFrame& fr = sp.frame;
-    const double nvp = dot(fr.normal, vp) + fr.offset;
+    const Projection pr = make_projection(fr, vp);
     sc.xy_first.clear();
-    sc.xy.clear();
+    std::size_t n_points = 0;
     for (int li : sc.kept) {
-      const RawLoop& r = sc.raw[static_cast<std::size_t>(li)];
-      sc.xy_first.push_back(static_cast<int>(sc.xy.size() / 2));
-      const std::array<std::int32_t, 2>* uv = sc.raw_uv.data() + r.first;
-      for (int i = 0; i < r.count; ++i) {
-        // The points are scattered over cloud planes that earlier stages have mostly evicted
-        // from the caches: fetch a few vertices ahead.
-        constexpr int kAhead = 16;
-        if (i + kAhead < r.count) {
-          const auto [pu, pv] = uv[i + kAhead];
-          __builtin_prefetch(cloud.x.row(pv) + pu);
-          __builtin_prefetch(cloud.y.row(pv) + pu);
-          __builtin_prefetch(cloud.z.row(pv) + pu);
-        }
-        const auto [u, v] = uv[i];
-        const Vec p{cloud.x.row(v)[u], cloud.y.row(v)[u], cloud.z.row(v)[u]};
-        const Vec dir{p[0] - vp[0], p[1] - vp[1], p[2] - vp[2]};
-        const double denom = dot(fr.normal, dir);
-        // The ray meets the plane's front side when denom < -1e-6 |dir| (and nvp > 0); the
-        // square root is needed only near that limit: denom^2 > 2e-12 |dir|^2 already implies
-        // it with a margin of sqrt(2) over the rounding of either side.
-        bool ray = false;
-        if (nvp > 0 && denom < 0) {
-          const double dir2 = dot(dir, dir);
-          ray = denom * denom > 2e-12 * dir2 || denom < -1e-6 * std::sqrt(dir2);
-        }
-        Vec q;
-        if (ray) {
-          const double t = -nvp / denom;
-          q = {vp[0] + t * dir[0], vp[1] + t * dir[1], vp[2] + t * dir[2]};
-        } else {
-          const double dist = dot(fr.normal, p) + fr.offset;
-          q = {p[0] - dist * fr.normal[0], p[1] - dist * fr.normal[1], p[2] - dist * fr.normal[2]};
-        }
-        const Vec rel{q[0] - fr.origin[0], q[1] - fr.origin[1], q[2] - fr.origin[2]};
-        sc.xy.push_back(dot(rel, fr.e1));
-        sc.xy.push_back(dot(rel, fr.e2));
-      }
+      sc.xy_first.push_back(static_cast<int>(n_points));
+      n_points += static_cast<std::size_t>(sc.raw[static_cast<std::size_t>(li)].count);
     }
-    sc.xy_first.push_back(static_cast<int>(sc.xy.size() / 2));
+    sc.xy_first.push_back(static_cast<int>(n_points));
+    sc.xy.resize(2 * n_points);  // capacity only grows
+    for (std::size_t k = 0; k < sc.kept.size(); ++k) {
+      const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.kept[k])];
+      project(cloud, sc.raw_uv.data() + r.first, r.count, pr, sc.xy.data() + 2 * sc.xy_first[k]);
+    }
 
     // Simplify; loops that cross another loop (or themselves) get half the tolerance, and after a
     // few halvings stay unsimplified (the mesh boundary is simple).
@@ -538,25 +653,12 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       const double* xy = sc.xy.data();
       polygons_detail::hull_candidates(xy, sc.xy_first[n_outer], sc.hull_order);
       const int n_pts = static_cast<int>(sc.hull_order.size());
-      // (x, y), then the vertex index: equal points keep a deterministic order (a total order,
-      // so the result does not depend on the sorting algorithm).
-      sc.hull_sort.resize(static_cast<std::size_t>(n_pts));
-      for (int i = 0; i < n_pts; ++i) {
-        const int o = sc.hull_order[static_cast<std::size_t>(i)];
-        sc.hull_sort[static_cast<std::size_t>(i)] = {xy[2 * o], xy[2 * o + 1], o};
-      }
-      std::sort(sc.hull_sort.begin(), sc.hull_sort.end(),
-                [](const HullPoint& a, const HullPoint& b) {
-                  if (a.x != b.x) return a.x < b.x;
-                  if (a.y != b.y) return a.y < b.y;
-                  return a.index < b.index;
-                });
+      polygons_detail::sort_points_xy(xy, sc.hull_order, sc.hull_sort);
       sc.hull_xy.resize(2 * static_cast<std::size_t>(n_pts));
       for (int i = 0; i < n_pts; ++i) {
-        const HullPoint& h = sc.hull_sort[static_cast<std::size_t>(i)];
-        sc.hull_order[static_cast<std::size_t>(i)] = h.index;
-        sc.hull_xy[2 * static_cast<std::size_t>(i)] = h.x;
-        sc.hull_xy[2 * static_cast<std::size_t>(i) + 1] = h.y;
+        const int o = sc.hull_order[static_cast<std::size_t>(i)];
+        sc.hull_xy[2 * static_cast<std::size_t>(i)] = xy[2 * o];
+        sc.hull_xy[2 * static_cast<std::size_t>(i) + 1] = xy[2 * o + 1];
       }
       polygons_detail::monotone_chain_sorted(sc.hull_xy.data(), n_pts, sc.hull_idx);
       // Vertex o of the concatenated outer loops -> its mesh vertex, for the pixel.

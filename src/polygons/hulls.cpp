@@ -1,4 +1,11 @@
 // Convex hull of 2D points and the grid concave hull of point sets without a mesh.
+// The AVX2 kernels here must repeat the scalar code's IEEE operations exactly, so the
+// compiler may not fuse multiply-adds (the AVX2 target includes FMA).
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#elif defined(__GNUC__)
+#pragma GCC optimize("fp-contract=off")
+#endif
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -307,7 +314,8 @@ void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha,
   }
   std::vector<double> xy;
   std::vector<int> loop_first;
-  polygons_detail::trace_loops(mask.data(), pos.data(), stride, 1, starts, walk, stack,
+  polygons_detail::TraceSteps steps;
+  polygons_detail::trace_loops(mask.data(), pos.data(), stride, 1, starts, steps, walk, stack,
                                [&](const std::int32_t* idx, int n) {
                                  loop_first.push_back(static_cast<int>(xy.size() / 2));
                                  // The tracer's orientation is for y down; reverse for y up.

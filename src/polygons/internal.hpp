@@ -38,6 +38,30 @@ struct NextDirTable {
 };
 inline constexpr NextDirTable kNextDir{};
 
+/// kNextDir combined with the lattice: entry[mask * 8 + k_in] = offset * 16 + k_out, where
+/// k_out = kNextDir.next[mask][k_in] and offset is the index step along k_out (k_out = 8 and
+/// offset 0 for none). One load per step of a walk instead of a direction and then an offset:
+/// the walk is a chain of dependent loads, so its latency is the cost.
+struct TraceSteps {
+  std::array<std::int32_t, 256 * 8> entry{};
+  std::array<std::ptrdiff_t, 8> offset{};
+  std::ptrdiff_t stride = -1;
+  int s = -1;
+  /// Rebuilds the table when the lattice (row stride, step s) differs from the last call.
+  void prepare(std::ptrdiff_t new_stride, int new_s) {
+    if (new_stride == stride && new_s == s) return;
+    stride = new_stride;
+    s = new_s;
+    for (int k = 0; k < 8; ++k) offset[k] = s * (kNeighbourDv[k] * stride + kNeighbourDu[k]);
+    for (int m = 0; m < 256; ++m) {
+      for (int k = 0; k < 8; ++k) {
+        const int d = kNextDir.next[m][k];
+        entry[m * 8 + k] = d == 255 ? 8 : static_cast<std::int32_t>(offset[d] * 16 + d);
+      }
+    }
+  }
+};
+
 /// Traces the closed loops of directed boundary edges. `edges` holds per vertex (index
 /// v * stride + u) the mask of outgoing boundary edges (kNeighbourDu/Dv directions, lattice step
 /// s) in its low byte and the edges not traced yet in its high byte: both equal on entry, the
@@ -45,58 +69,66 @@ inline constexpr NextDirTable kNextDir{};
 /// entry and is all zero on return. `starts` lists every vertex with a non-zero mask, in any
 /// deterministic order. Each cycle of the wedge pairing is cut at repeated vertices into simple
 /// loops; `emit(const int32_t* idx, int n)` receives each loop (n >= 3 vertex indices, region
-/// on the left).
+/// on the left). `steps` is prepared here for (stride, s) (kept between calls).
 template <class Emit>
 void trace_loops(std::uint16_t* edges, std::int32_t* pos, std::ptrdiff_t stride, int s,
-                 const std::vector<std::int32_t>& starts, std::vector<std::int32_t>& walk,
-                 std::vector<std::int32_t>& stack, Emit&& emit) {
-  std::array<std::ptrdiff_t, 8> offset{};
-  for (int k = 0; k < 8; ++k) offset[k] = s * (kNeighbourDv[k] * stride + kNeighbourDu[k]);
-  const auto rem = [edges](std::int32_t p) -> unsigned { return edges[p] >> 8; };
+                 const std::vector<std::int32_t>& starts, TraceSteps& steps,
+                 std::vector<std::int32_t>& walk, std::vector<std::int32_t>& stack, Emit&& emit) {
+  steps.prepare(stride, s);
+  const std::int32_t* entry = steps.entry.data();
+  // A walk uses each directed edge at most once; its buffer is sized once (it only grows) and
+  // written through a pointer.
   const std::size_t max_walk = starts.size() * 8 + 8;
+  if (walk.size() < max_walk + 1) walk.resize(max_walk + 1);
+  std::int32_t* const w = walk.data();
   // Only a vertex with several outgoing edges can recur in a walk; walk entries of such
   // vertices carry this flag, and only they use `pos` (a mostly cold full-image plane).
   constexpr std::int32_t kTracked = std::numeric_limits<std::int32_t>::min();
   constexpr std::int32_t kIndex = std::numeric_limits<std::int32_t>::max();
   for (std::int32_t p : starts) {
-    while (rem(p) != 0) {
-      const int k0 = __builtin_ctz(rem(p));
-      walk.clear();
-      std::int32_t cur = p;
-      unsigned mask = edges[p] & 0xFFu;
-      bool several = false;
+    while ((edges[p] >> 8) != 0) {
+      // e: the current entry of `cur` (loaded when the walk arrived there; a walk never steps
+      // in place, so nothing wrote it since), k: the edge leaving cur, off: its index step.
+      unsigned e = edges[p];
+      const int k0 = __builtin_ctz(e >> 8);
       int k = k0;
+      std::ptrdiff_t off = steps.offset[k0];
+      std::int32_t cur = p;
+      std::size_t n = 0;
+      bool several = false;
       bool ok = true;
       do {
-        if (k == 255 || !(rem(cur) & (1u << k)) || walk.size() > max_walk) {
+        if (k > 7 || !((e >> 8) & (1u << k)) || n > max_walk) {
           ok = false;  // inconsistent boundary (cannot happen for faces on a grid); drop
           break;
         }
+        const unsigned mask = e & 0xFFu;
         const bool branches = (mask & (mask - 1)) != 0;
         several |= branches;
-        walk.push_back(branches ? (cur | kTracked) : cur);
-        edges[cur] = static_cast<std::uint16_t>(edges[cur] & ~(0x100u << k));
-        const std::int32_t q = static_cast<std::int32_t>(cur + offset[k]);
-        mask = edges[q] & 0xFFu;
-        k = kNextDir.next[mask][k];
+        w[n++] = branches ? (cur | kTracked) : cur;
+        edges[cur] = static_cast<std::uint16_t>(e & ~(0x100u << k));
+        const std::int32_t q = static_cast<std::int32_t>(cur + off);
+        e = edges[q];
+        const std::int32_t step = entry[(e & 0xFFu) * 8 + static_cast<unsigned>(k)];
+        k = step & 15;
+        off = step >> 4;
         cur = q;
       } while (!(cur == p && k == k0));
       if (!ok) continue;
-      const std::size_t n = walk.size();
       if (!several) {  // no vertex recurs: one simple loop
-        if (n >= 3) emit(walk.data(), static_cast<int>(n));
+        if (n >= 3) emit(w, static_cast<int>(n));
         continue;
       }
       // Cut the cyclic walk at repeated vertices into simple loops.
-      walk[0] |= kTracked;  // the walk's end is checked against its start
+      w[0] |= kTracked;  // the walk's end is checked against its start
       stack.clear();
       for (std::size_t i = 0; i <= n; ++i) {
-        const std::int32_t w = walk[i < n ? i : 0];
-        if (w >= 0) {
-          stack.push_back(w);
+        const std::int32_t wi = w[i < n ? i : 0];
+        if (wi >= 0) {
+          stack.push_back(wi);
           continue;
         }
-        const std::int32_t v = w & kIndex;
+        const std::int32_t v = wi & kIndex;
         if (pos[v] != 0) {
           const std::size_t j = static_cast<std::size_t>(pos[v] - 1);
           for (std::size_t t = j; t < stack.size(); ++t) {
@@ -108,11 +140,11 @@ void trace_loops(std::uint16_t* edges, std::int32_t* pos, std::ptrdiff_t stride,
           stack.resize(j);
           if (i == n) break;
         }
-        stack.push_back(w);
+        stack.push_back(wi);
         pos[v] = static_cast<std::int32_t>(stack.size());
       }
-      for (std::int32_t w : stack) {  // only after an inconsistent walk
-        if (w < 0) pos[w & kIndex] = 0;
+      for (std::int32_t wi : stack) {  // only after an inconsistent walk
+        if (wi < 0) pos[wi & kIndex] = 0;
       }
     }
   }
@@ -164,6 +196,18 @@ void area_perimeter(const double* xy, int n, double& area, double& perimeter);
 /// the hull is unchanged. Boundary loops have most of their vertices inside, and the sort before
 /// the hull is the costly part. Uses AVX2 when available (identical results).
 void hull_candidates(const double* xy, int n, std::vector<int>& out);
+
+/// Buffers of sort_points_xy, reused.
+struct PointSortScratch {
+  std::vector<std::uint64_t> keys, keys_tmp;
+  std::vector<int> order_tmp;
+  std::array<std::array<std::uint32_t, 256>, 8> counts{};
+};
+/// Sorts `order` (indices into xy, x and y interleaved; no NaN) by (x, y, index), a total order,
+/// so the result is the one of any correct sort. Comparison sorts mispredict about every other
+/// comparison on such keys; large sets take an LSD radix sort on the bits of x (bytes on which
+/// all keys agree are skipped), then each run of equal x (rare) is sorted by (y, index).
+void sort_points_xy(const double* xy, std::vector<int>& order, PointSortScratch& scratch);
 
 /// Andrew's monotone chain on points sorted by (x, y) ascending: writes hull indices,
 /// counter-clockwise, into `hull`. Points with equal coordinates may repeat.

@@ -1,5 +1,13 @@
 // Closed-loop Douglas-Peucker, the simplicity check after simplification, loop measures.
+// The AVX2 kernels here must repeat the scalar code's IEEE operations exactly, so the
+// compiler may not fuse multiply-adds (the AVX2 target includes FMA).
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#elif defined(__GNUC__)
+#pragma GCC optimize("fp-contract=off")
+#endif
 #include <algorithm>
+#include <bit>
 #include <cmath>
 
 #include "detail/simd.hpp"
@@ -7,6 +15,12 @@
 
 namespace rangeseg::polygons_detail {
 namespace {
+
+// Order-preserving map of a double to an unsigned integer (-0 and +0 map alike).
+std::uint64_t sort_key(double x) {
+  const auto bits = std::bit_cast<std::uint64_t>(x + 0.0);
+  return (bits >> 63) != 0 ? ~bits : bits | (std::uint64_t{1} << 63);
+}
 
 // Squared distance of p from the segment a-b.
 double dist2_segment(const double* p, const double* a, const double* b) {
@@ -73,7 +87,7 @@ int farthest_from_chord_scalar(const double* xy, int lo, int hi, const double* a
 
 #if RANGESEG_SIMD_X86
 // The same four vertices at a time, with the same IEEE operations per vertex as
-// dist2_segment (no contraction: the target has no FMA), so the distances are bit-identical.
+// dist2_segment (contraction is off in this file), so the distances are bit-identical.
 // Each lane keeps its first maximum; the reduction takes the largest distance and, among equal
 // ones, the smallest index: the first maximum of the sequential scan.
 RANGESEG_SIMD_AVX2_TARGET int farthest_from_chord_avx2(const double* xy, int lo, int hi,
@@ -235,6 +249,59 @@ bool mark_crossings(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& ba
     }
   }
   return any;
+}
+
+void sort_points_xy(const double* xy, std::vector<int>& order, PointSortScratch& sc) {
+  const std::size_t n = order.size();
+  const auto less = [xy](int a, int b) {
+    if (xy[2 * a] != xy[2 * b]) return xy[2 * a] < xy[2 * b];
+    if (xy[2 * a + 1] != xy[2 * b + 1]) return xy[2 * a + 1] < xy[2 * b + 1];
+    return a < b;
+  };
+  constexpr std::size_t kRadixMin = 256;
+  if (n < kRadixMin) {
+    std::sort(order.begin(), order.end(), less);
+    return;
+  }
+  sc.keys.resize(n);
+  sc.keys_tmp.resize(n);
+  sc.order_tmp.resize(n);
+  for (auto& c : sc.counts) c.fill(0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint64_t key = sort_key(xy[2 * order[i]]);
+    sc.keys[i] = key;
+    for (int b = 0; b < 8; ++b) ++sc.counts[static_cast<std::size_t>(b)][(key >> (8 * b)) & 255u];
+  }
+  std::uint64_t* keys = sc.keys.data();
+  std::uint64_t* keys_out = sc.keys_tmp.data();
+  int* idx = order.data();
+  int* idx_out = sc.order_tmp.data();
+  for (int b = 0; b < 8; ++b) {
+    std::array<std::uint32_t, 256>& count = sc.counts[static_cast<std::size_t>(b)];
+    if (count[(keys[0] >> (8 * b)) & 255u] == n) continue;  // one value: order unchanged
+    std::uint32_t sum = 0;
+    for (std::uint32_t& c : count) {
+      const std::uint32_t c0 = c;
+      c = sum;
+      sum += c0;
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::uint32_t at = count[(keys[i] >> (8 * b)) & 255u]++;
+      keys_out[at] = keys[i];
+      idx_out[at] = idx[i];
+    }
+    std::swap(keys, keys_out);
+    std::swap(idx, idx_out);
+  }
+  if (idx != order.data()) std::copy(idx, idx + n, order.data());
+  for (std::size_t i = 0; i + 1 < n;) {  // runs of equal x: by (y, index)
+    std::size_t j = i + 1;
+    while (j < n && keys[j] == keys[i]) ++j;
+    if (j - i > 1)
+      std::sort(order.begin() + static_cast<std::ptrdiff_t>(i),
+                order.begin() + static_cast<std::ptrdiff_t>(j), less);
+    i = j;
+  }
 }
 
 void area_perimeter(const double* xy, int n, double& area, double& perimeter) {
