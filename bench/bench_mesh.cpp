@@ -4,12 +4,10 @@
 #include <filesystem>
 #include <string>
 
+#include "bench_isa.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/normals.hpp"
-
-// The bench target has no src/ include path; the header is internal (baseline switch only).
-#include "../src/detail/simd.hpp"
 
 namespace {
 
@@ -50,19 +48,11 @@ BENCHMARK(BM_Normals)->Unit(benchmark::kMillisecond);
 // The same with the kernels capped at an instruction set (0 = baseline, SSE2 on x86-64; 1 = AVX2;
 // 2 = AVX-512), where the CPU has it.
 void BM_MeshAdaptiveIsa(benchmark::State& state) {
-  using rangeseg::detail::simd::Isa;
-  rangeseg::detail::simd::isa_limit = static_cast<Isa>(state.range(0));
-  BM_MeshAdaptive(state);
-  rangeseg::detail::simd::isa_limit = Isa::avx512;
+  rangeseg::bench::with_isa_limit(state, BM_MeshAdaptive);
 }
 BENCHMARK(BM_MeshAdaptiveIsa)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
-void BM_NormalsIsa(benchmark::State& state) {
-  using rangeseg::detail::simd::Isa;
-  rangeseg::detail::simd::isa_limit = static_cast<Isa>(state.range(0));
-  BM_Normals(state);
-  rangeseg::detail::simd::isa_limit = Isa::avx512;
-}
+void BM_NormalsIsa(benchmark::State& state) { rangeseg::bench::with_isa_limit(state, BM_Normals); }
 BENCHMARK(BM_NormalsIsa)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
 void BM_ExtractFaces(benchmark::State& state) {

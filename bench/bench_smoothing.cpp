@@ -4,12 +4,11 @@
 #include <filesystem>
 #include <string>
 
+#include "bench_isa.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/normals.hpp"
 #include "rangeseg/smoothing.hpp"
-// The bench target has no src/ include path; the header is internal (kernel choice only).
-#include "../src/detail/simd.hpp"
 
 namespace {
 
@@ -24,10 +23,7 @@ BENCHMARK(BM_SmoothOneIteration)->Unit(benchmark::kMillisecond);
 
 /// The same on the SSE2 (0), AVX2 (1) and AVX-512 (2) kernels, where the CPU has them.
 void BM_SmoothOneIterationIsa(benchmark::State& state) {
-  using rangeseg::detail::simd::Isa;
-  rangeseg::detail::simd::isa_limit = static_cast<Isa>(state.range(0));
-  smooth_one_iteration(state);
-  rangeseg::detail::simd::isa_limit = Isa::avx512;
+  rangeseg::bench::with_isa_limit(state, smooth_one_iteration);
 }
 BENCHMARK(BM_SmoothOneIterationIsa)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
