@@ -1,4 +1,4 @@
-// Fixed-width vector types for the row kernels of mesh.cpp and normals.cpp.
+// Fixed-width vector types for the row kernels (mesh, normals, smoothing, segment areas).
 //
 // The kernels are written once against the interface below (a "traits" struct V with V::F a
 // float vector, V::M a vector of 32-bit lane masks, V::B a byte vector of 4 * V::kLanes lanes)
@@ -6,14 +6,15 @@
 // time. The arithmetic uses the GCC/clang vector extensions (operators on whole vectors), so
 // every instantiation performs the same IEEE operations in the same order as scalar code:
 // results do not depend on the vector width (and, with contraction off, not on the build flags).
-// The one exception is mul_add: fused (one rounding) where the instruction set has FMA (AVX2,
-// AVX-512), a product and a sum elsewhere; kernels that use it agree across widths only to
-// rounding.
+// The exceptions are mul_add, fused (one rounding) where the instruction set has FMA (AVX2,
+// AVX-512) and a product and a sum elsewhere, and reciprocal / rsqrt, which start from each
+// instruction set's own estimate: kernels that use them agree across widths only to rounding.
 //
 // - Sse2: 4 lanes, baseline of every x86-64 CPU.
-// - Avx2: 8 lanes (with FMA, which every AVX2 CPU has); each member is compiled for AVX2, so
-// kernels using it must be compiled for
-//   AVX2 too (see RANGESEG_SIMD_AVX2_TARGET) and run only when cpu_has_avx2() is true.
+// - Avx2: 8 lanes (with FMA, which every AVX2 CPU has); each member is compiled for AVX2 + FMA,
+//   so kernels using it must be compiled for them too (see RANGESEG_SIMD_AVX2_TARGET) and run
+//   only when cpu_has_avx2() is true. Files whose AVX2 code must match scalar code bit for bit
+//   turn contraction off.
 // - Avx512: 16 lanes (AVX-512 F/BW/DQ/VL), the same way (RANGESEG_SIMD_AVX512_TARGET,
 //   cpu_has_avx512()).
 // - Generic: 4 lanes from plain vector extensions, for other architectures.
@@ -21,11 +22,13 @@
 // Interface (all members static and always inlined):
 //   kLanes; F, M, B, Selector;
 //   F load(const float*), store(float*, F), set1(float); M set1i(int);
-//   F sqrt(F), mul_add(F a, F b, F c) = a * b + c (see above), reciprocal(F) ~ 1 / x and
-//   rsqrt(F) ~ 1 / sqrt(x) (a hardware estimate and one Newton step: relative error below 1e-6 on
-//   SSE2 / AVX2, ~1e-8 on AVX-512, exact on Generic; 0 and infinity give NaN), max(F a, F b) = a >
-//   b ? a : b per lane (NaN in a gives b, as maxps), min(F a, F b) = a < b ? a : b (likewise); F
-//   keep(F x, M m) = m ? x : +0 (bits); F pick(M m, F a, F b) = m ? a : b (m all-ones / zero);
+//   F sqrt(F); F mul_add(F a, F b, F c) = a * b + c (see above);
+//   F reciprocal(F) ~ 1 / x, F rsqrt(F) ~ 1 / sqrt(x): a hardware estimate and one Newton step,
+//   relative error below 1e-6 (SSE2, AVX2) or a few float ulps (AVX-512), exact on Generic;
+//   0 and infinity give NaN;
+//   F max(F a, F b) = a > b ? a : b per lane (NaN in a gives b, as maxps),
+//   min(F a, F b) = a < b ? a : b (likewise);
+//   F keep(F x, M m) = m ? x : +0 (bits); F pick(M m, F a, F b) = m ? a : b (m all-ones / zero);
 //   Selector bit_selector<k>(M bits) and F keep_selected(F x, Selector) = bit k of the lane ? x :
 //   +0; F shift_in(F previous, F x) = {previous[kLanes - 1], x[0], ..., x[kLanes - 2]}; M
 //   bytes_to_lanes(const std::uint8_t*) loads kLanes bytes, zero-extended; B pack4(M, M, M, M):
