@@ -26,6 +26,8 @@
 //   F reciprocal(F) ~ 1 / x, F rsqrt(F) ~ 1 / sqrt(x): a hardware estimate and one Newton step,
 //   relative error below 1e-6 (SSE2, AVX2) or a few float ulps (AVX-512), exact on Generic;
 //   0 and infinity give NaN;
+//   F round_nearest(F x): x rounded to an integer, ties to even (|x| < 2^22);
+//   F scale_pow2(F p, F n) = p 2^n for an integer n with p 2^n a normal float;
 //   F max(F a, F b) = a > b ? a : b per lane (NaN in a gives b, as maxps),
 //   min(F a, F b) = a < b ? a : b (likewise);
 //   F keep(F x, M m) = m ? x : +0 (bits); F pick(M m, F a, F b) = m ? a : b (m all-ones / zero);
@@ -104,6 +106,13 @@ struct Sse2 {
     const F r = _mm_rsqrt_ps(x);
     return r * (set1(1.5f) - set1(0.5f) * x * (r * r));
   }
+  static RANGESEG_SIMD_INLINE F round_nearest(F x) {
+    const F magic = set1(12582912.0f);  // 1.5 * 2^23: adding it rounds to an integer
+    return (x + magic) - magic;
+  }
+  static RANGESEG_SIMD_INLINE F scale_pow2(F p, F n) {
+    return (F)((M)p + ((M)_mm_cvtps_epi32(n) << 23));
+  }
   static RANGESEG_SIMD_INLINE F max(F a, F b) { return _mm_max_ps(a, b); }
   static RANGESEG_SIMD_INLINE F min(F a, F b) { return _mm_min_ps(a, b); }
   static RANGESEG_SIMD_INLINE F keep(F x, M m) { return _mm_and_ps(x, (F)m); }
@@ -164,6 +173,12 @@ struct Avx2 {
   static RANGESEG_AVX2_INLINE F rsqrt(F x) {
     const F r = _mm256_rsqrt_ps(x);
     return r * _mm256_fnmadd_ps(set1(0.5f) * x, r * r, set1(1.5f));
+  }
+  static RANGESEG_AVX2_INLINE F round_nearest(F x) {
+    return _mm256_round_ps(x, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+  }
+  static RANGESEG_AVX2_INLINE F scale_pow2(F p, F n) {
+    return (F)((M)p + ((M)_mm256_cvtps_epi32(n) << 23));
   }
   static RANGESEG_AVX2_INLINE F max(F a, F b) { return _mm256_max_ps(a, b); }
   static RANGESEG_AVX2_INLINE F min(F a, F b) { return _mm256_min_ps(a, b); }
@@ -239,6 +254,12 @@ struct Avx512 {
   static RANGESEG_AVX512_INLINE F rsqrt(F x) {
     const F r = _mm512_maskz_rsqrt14_ps(kAll, x);
     return r * _mm512_maskz_fnmadd_ps(kAll, set1(0.5f) * x, r * r, set1(1.5f));
+  }
+  static RANGESEG_AVX512_INLINE F round_nearest(F x) {
+    return _mm512_maskz_roundscale_ps(kAll, x, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+  }
+  static RANGESEG_AVX512_INLINE F scale_pow2(F p, F n) {
+    return _mm512_maskz_scalef_ps(kAll, p, n);
   }
   static RANGESEG_AVX512_INLINE F max(F a, F b) { return _mm512_maskz_max_ps(kAll, a, b); }
   static RANGESEG_AVX512_INLINE F min(F a, F b) { return _mm512_maskz_min_ps(kAll, a, b); }
@@ -340,6 +361,14 @@ struct Generic {
   static RANGESEG_SIMD_INLINE F mul_add(F a, F b, F c) { return a * b + c; }
   static RANGESEG_SIMD_INLINE F reciprocal(F x) { return F{1.0f, 1.0f, 1.0f, 1.0f} / x; }
   static RANGESEG_SIMD_INLINE F rsqrt(F x) { return reciprocal(sqrt(x)); }
+  static RANGESEG_SIMD_INLINE F round_nearest(F x) {
+    for (int k = 0; k < kLanes; ++k) x[k] = __builtin_rintf(x[k]);
+    return x;
+  }
+  static RANGESEG_SIMD_INLINE F scale_pow2(F p, F n) {
+    for (int k = 0; k < kLanes; ++k) p[k] = __builtin_ldexpf(p[k], static_cast<int>(n[k]));
+    return p;
+  }
   static RANGESEG_SIMD_INLINE F max(F a, F b) {
     for (int k = 0; k < kLanes; ++k) a[k] = a[k] > b[k] ? a[k] : b[k];
     return a;

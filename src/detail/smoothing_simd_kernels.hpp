@@ -36,22 +36,18 @@ struct Consts {
 
 RANGESEG_KERNEL RANGESEG_SIMD_INLINE F abs(F x, const Consts& k) { return (F)((M)x & k.abs_mask); }
 
-/// exp(-a) for a in [0, kMaxExponent]: 2^y = 2^n 2^f with n = round(y), |f| <= 1/2, and 2^f from
-/// its degree-4 Taylor polynomial in g = f ln 2 (|g| <= 0.347, relative error <= g^5 / 120 <
-/// 5e-5, far below what a weight needs; checked in tests against std::exp through the filter
-/// output).
+/// exp(-a) for a in [0, kMaxExponent]: e^-a = 2^n e^-h with n = round(-a / ln 2) and
+/// h = a + n ln 2 (|h| <= ln 2 / 2 = 0.347), e^-h from its degree-4 Taylor polynomial (relative
+/// error <= h^5 / 120 < 5e-5, far below what a weight needs; checked in tests against std::exp
+/// through the filter output).
 RANGESEG_KERNEL RANGESEG_SIMD_INLINE F exp_neg(F a) {
-  const F round = V::set1(12582912.0f);  // 1.5 * 2^23: adding it rounds to an integer
-  const F y = a * V::set1(-1.44269504f);
-  const F t = y + round;
-  const F n = t - round;
-  const F g = (y - n) * V::set1(0.693147181f);
-  F p = V::mul_add(g, V::set1(1.0f / 24), V::set1(1.0f / 6));
-  p = V::mul_add(p, g, V::set1(0.5f));
-  p = V::mul_add(p, g, V::set1(1.0f));
-  p = V::mul_add(p, g, V::set1(1.0f));
-  const M exponent = (M)t - (M)round;
-  return (F)((M)p + (exponent << 23));
+  const F n = V::round_nearest(a * V::set1(-1.44269504f));
+  const F h = V::mul_add(n, V::set1(0.693147181f), a);
+  F p = V::mul_add(h, V::set1(1.0f / 24), V::set1(-1.0f / 6));
+  p = V::mul_add(p, h, V::set1(0.5f));
+  p = V::mul_add(p, h, V::set1(-1.0f));
+  p = V::mul_add(p, h, V::set1(1.0f));
+  return V::scale_pow2(p, n);
 }
 
 /// Per-pixel half inverse scales of one lattice row, blocks * kLanes columns: 1 / (4 s_d^2) and
