@@ -397,14 +397,9 @@ RANGESEG_KERNEL void pass(const OrganizedCloud& src, const NormalMap& nm, const 
   // reaches the row below in all of them) and the reads stay inside the planes; else, and for
   // a last row whose reads would leave the planes, rows j and j + 1 are copied into the slots.
   const std::ptrdiff_t plane_stride = common_stride(src, nm, prm);
-  // Likewise for the outputs, prefetched for writing two rows ahead.
-  const std::ptrdiff_t out_stride =
-      dst.x.stride() == dst.z.stride() && dst.y.stride() == dst.z.stride() &&
-              (!kFilterNormals || (dst_normals.nx.stride() == dst.z.stride() &&
-                                   dst_normals.ny.stride() == dst.z.stride() &&
-                                   dst_normals.nz.stride() == dst.z.stride()))
-          ? dst.z.stride()
-          : 0;
+  // The output planes all have the cloud's size, hence one stride; the rows two ahead are
+  // prefetched for writing (a prefetch never faults, so nothing depends on it being exact).
+  const std::ptrdiff_t out_stride = dst.z.stride();
   const int len = blocks * kLanes;
   const bool in_place = s == 1 && plane_stride > 0 && len < 2 * plane_stride;
   const auto readable = [&](int j) { return in_place && (j + 1 < m || len < plane_stride); };
