@@ -317,6 +317,52 @@ TEST(Segmentation, BowedWallIsOneSegmentButShallowCreaseIsNot) {
   }
 }
 
+/// Two planes meeting at a 15 deg crease 1.5 m away, with noise along the ray of 0.4 sigma(z) of
+/// the Kinect preset (a sensor less noisy than its preset says, or a closer one) and the
+/// pipeline's default smoothing. Points near the crease lie within 3 sigma(z) of either plane
+/// and the fixed 25 deg normal test passes both, so a region grown on one side creeps a band of
+/// pixels over the crease; the normal noise measured in the frame bounds the angle test far
+/// tighter and the split follows the crease.
+TEST(Segmentation, MeasuredNormalNoiseKeepsRegionsOffShallowCreases) {
+  const SegmentationSettings kinect = preset("kinect");
+  const double slope = std::tan(15 * kDeg);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  const OrganizedCloud cloud = cast(640, 480, [&](double a, double) {
+    const double t = a <= 0 ? 1.5 : 1.5 / (1.0 - slope * a);
+    return t + 0.4 * kinect.noise.sigma(t) * unit(rng);
+  });
+  const Mesh mesh = build_mesh(cloud);
+  const NormalMap raw = compute_normals(cloud, mesh);
+  OrganizedCloud points;
+  NormalMap normals;
+  smooth(cloud, mesh, raw, {}, points, normals);
+  // Pixels of each segment on the wrong side of the crease (u = cx), 3 columns off it.
+  const auto crossing = [&](const SegmentationSettings& settings) {
+    const Segmentation seg = segment(points, mesh, normals, settings);
+    expect_consistent(points, seg, settings);
+    const int left = seg.labels(100, 240), right = seg.labels(540, 240);
+    EXPECT_NE(left, 0);
+    EXPECT_NE(right, 0);
+    EXPECT_NE(left, right);
+    int wrong = 0;
+    for (int v = 0; v < 480; ++v) {
+      for (int u = 0; u < 640; ++u) {
+        if (u < 317) wrong += seg.labels(u, v) == right;
+        if (u > 322) wrong += seg.labels(u, v) == left;
+      }
+    }
+    return wrong;
+  };
+  SegmentationSettings fixed = kinect;
+  fixed.normal_noise_sigmas = 0;  // the 25 deg test alone
+  const int wrong_fixed = crossing(fixed), wrong_measured = crossing(kinect);
+  std::printf("pixels across the crease: fixed angle %d, measured normal noise %d\n", wrong_fixed,
+              wrong_measured);
+  EXPECT_LT(wrong_measured, 480 * 3);  // under 3 columns' worth
+  EXPECT_GT(wrong_fixed, 4 * wrong_measured);
+}
+
 /// A point on a plane that the mesh's depth-jump gate left without edges (as on a surface seen at
 /// grazing incidence) joins the plane's segment when re-assignment may cross mesh cuts, and stays
 /// unlabelled otherwise (it has no mesh neighbour).
@@ -546,6 +592,9 @@ TEST(Segmentation, PresetsAndValidation) {
   EXPECT_THROW(segment(cloud, mesh, normals, {.max_distance_sigmas = 0}, out),
                std::invalid_argument);
   EXPECT_THROW(segment(cloud, mesh, normals, {.min_region_size = 0}, out), std::invalid_argument);
+  EXPECT_THROW(segment(cloud, mesh, normals, {.normal_noise_sigmas = -1}, out),
+               std::invalid_argument);
+  EXPECT_THROW(segment(cloud, mesh, normals, {.min_normal_angle = 4}, out), std::invalid_argument);
   EXPECT_THROW(segment(OrganizedCloud(64, 1), mesh, normals, {}, out), std::invalid_argument);
 }
 

@@ -91,10 +91,11 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
     const json& m = j["segmentation"];
     const std::string where = path + " [segmentation]";
     reject_unknown(m,
-                   {"model", "max_normal_angle", "max_distance_sigmas", "max_smooth_angle",
-                    "max_curvature", "max_seed_curvature", "min_region_size", "merge_planes",
-                    "merge_angle", "merge_distance_sigmas", "merge_rms_sigmas",
-                    "merge_rms_max_angle", "reassign_boundary", "reassign_across_mesh_cuts"},
+                   {"model", "max_normal_angle", "max_distance_sigmas", "normal_noise_sigmas",
+                    "min_normal_angle", "max_smooth_angle", "max_curvature", "max_seed_curvature",
+                    "min_region_size", "merge_planes", "merge_angle", "merge_distance_sigmas",
+                    "merge_rms_sigmas", "merge_rms_max_angle", "reassign_boundary",
+                    "reassign_across_mesh_cuts"},
                    where);
     auto& t = s.segmentation;
     if (m.contains("model")) {
@@ -106,6 +107,8 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
     }
     take(m, "max_normal_angle", t.max_normal_angle, where);
     take(m, "max_distance_sigmas", t.max_distance_sigmas, where);
+    take(m, "normal_noise_sigmas", t.normal_noise_sigmas, where);
+    take(m, "min_normal_angle", t.min_normal_angle, where);
     take(m, "max_smooth_angle", t.max_smooth_angle, where);
     take(m, "max_curvature", t.max_curvature, where);
     take(m, "max_seed_curvature", t.max_seed_curvature, where);

@@ -56,6 +56,15 @@ struct SegmentationSettings {
   double max_normal_angle = 0.4363;
   /// plane: max point-to-plane distance in multiples of sigma(z) of the point (k, dimensionless)
   double max_distance_sigmas = 3.0;
+  /// plane: the normal test's angle is also bounded by this many standard deviations of the
+  /// frame's normal noise at the point's depth, sigma_n(z) = c sigma(z) / z, with c measured per
+  /// frame from the normal spread inside the 8x8 cells (median over complete cells). Near the
+  /// sensor, or with smoothed normals, this is far tighter than `max_normal_angle` and keeps
+  /// regions from creeping over shallow creases. 0 = off (dimensionless).
+  double normal_noise_sigmas = 3.0;
+  /// plane: the noise-derived angle bound is never below this [rad] (5 deg), for noise-free data
+  /// and surfaces that are not exactly planar.
+  double min_normal_angle = 0.0873;
   /// smooth: max angle between neighbouring normals [rad] (8 deg)
   double max_smooth_angle = 0.1396;
   /// smooth: points with larger curvature are neither seeds nor added [1/m]

@@ -1,18 +1,130 @@
 // The coarse level of region growing: per-cell point and normal statistics.
+// Contraction into fused multiply-adds is off in this file, so that the vectorised per-column
+// sums equal the scalar ones on every CPU.
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#elif defined(__GNUC__)
+#pragma GCC optimize("fp-contract=off")
+#endif
+
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 
+#include "detail/simd.hpp"
 #include "segmentation/internal.hpp"
 
 namespace rangeseg::seg {
 
 namespace {
 
-/// The body of compute_cells; `kStep` > 0 fixes the lattice step at compile time (1: the
-/// column loops run over contiguous floats and vectorise), 0 takes it from the frame.
-template <int kStep>
-void compute_cells_impl(const Frame& f, Segmenter::Scratch& s) {
-  const int step = kStep > 0 ? kStep : f.pixel_stride;
+/// Per-column float sums of a cell: x, y, z relative to the cell's first point, their products
+/// xx, xy, xz, yy, yz, zz, the normal components and the curvature.
+constexpr int kCellSums = 13;
+
+/// The planes of one row of cells (lattice step 1), at the top-left pixel of its first cell.
+struct CellRowInput {
+  const float *x, *y, *z, *nx, *ny, *nz, *curvature;
+  const std::uint8_t* edges;
+  std::ptrdiff_t stride;  ///< [elements]
+};
+
+#define RANGESEG_SIMD_KERNEL_FILE "segmentation/cells_simd_kernels.hpp"
+#include "detail/simd_instances.hpp"
+#undef RANGESEG_SIMD_KERNEL_FILE
+
+using CellRowFn = int (*)(const CellRowInput&, int, float*, std::uint8_t*);
+#define RANGESEG_CELL_KERNEL(ns) &ns::cell_row_sums
+const CellRowFn& cell_row_kernel() { RANGESEG_SIMD_PICK(CellRowFn, RANGESEG_CELL_KERNEL); }
+#undef RANGESEG_CELL_KERNEL
+
+/// Whether the cell at `origin` is complete: every vertex has a point, a normal and its
+/// right/down edges inside the cell. Branch-free (NaN fails every comparison).
+bool cell_complete(const Frame& f, std::ptrdiff_t origin, int step, std::ptrdiff_t down) {
+  constexpr int last = kCellSide - 1;
+  constexpr unsigned right_bit = 1u << 0, down_bit = 1u << 2;
+  int complete = 1;
+  for (int j = 0; j < kCellSide; ++j) {
+    const std::ptrdiff_t row = origin + j * down;
+    const unsigned need_down = j < last ? down_bit : 0u;
+    for (int i = 0; i < kCellSide; ++i) {
+      const std::ptrdiff_t p = row + i * step;
+      const unsigned need = need_down | (i < last ? right_bit : 0u);
+      complete &= static_cast<int>((f.edges[p] & need) == need) &
+                  static_cast<int>(f.nz[p] == f.nz[p]) & static_cast<int>(f.curvature[p] <= 3e38f);
+    }
+  }
+  return complete != 0;
+}
+
+/// The per-column sums of the cell at `origin` into sums[k * plane + column]: one float
+/// accumulator per column and quantity, so that every column is an independent chain of float
+/// additions in row order (the vector kernels compute the same chains lane by lane).
+void cell_column_sums(const Frame& f, std::ptrdiff_t origin, int step, std::ptrdiff_t down,
+                      float* sums, std::ptrdiff_t plane) {
+  const float x0 = f.x[origin], y0 = f.y[origin], z0 = f.z[origin];
+  float acc[kCellSums][kCellSide]{};
+  for (int j = 0; j < kCellSide; ++j) {
+    const std::ptrdiff_t row = origin + j * down;
+    for (int i = 0; i < kCellSide; ++i) {
+      const std::ptrdiff_t p = row + i * step;
+      const float x = f.x[p] - x0, y = f.y[p] - y0, z = f.z[p] - z0;
+      acc[0][i] += x;
+      acc[1][i] += y;
+      acc[2][i] += z;
+      acc[3][i] += x * x;
+      acc[4][i] += x * y;
+      acc[5][i] += x * z;
+      acc[6][i] += y * y;
+      acc[7][i] += y * z;
+      acc[8][i] += z * z;
+      acc[9][i] += f.nx[p];
+      acc[10][i] += f.ny[p];
+      acc[11][i] += f.nz[p];
+      acc[12][i] += f.curvature[p];
+    }
+  }
+  for (int k = 0; k < kCellSums; ++k) std::memcpy(sums + k * plane, acc[k], sizeof acc[k]);
+}
+
+/// A complete cell from its per-column sums (sums[k * plane + column]) and first point: the
+/// columns are added in double and shifted to absolute sums once per cell.
+void finish_cell(const float* sums, std::ptrdiff_t plane, float x0, float y0, float z0,
+                 Cell& cell) {
+  double total[kCellSums];
+  for (int k = 0; k < kCellSums; ++k) {
+    double t = 0;
+    for (int i = 0; i < kCellSide; ++i) t += sums[k * plane + i];
+    total[k] = t;
+  }
+  const double sx = total[0], sy = total[1], sz = total[2], sxx = total[3], sxy = total[4],
+               sxz = total[5], syy = total[6], syz = total[7], szz = total[8];
+  constexpr double n = kCellSide * kCellSide;
+  const double X = x0, Y = y0, Z = z0;
+  detail::PlaneStats& st = cell.stats;
+  st.count = kCellSide * kCellSide;
+  st.sx = sx + n * X;
+  st.sy = sy + n * Y;
+  st.sz = sz + n * Z;
+  st.sxx = sxx + 2 * X * sx + n * X * X;
+  st.syy = syy + 2 * Y * sy + n * Y * Y;
+  st.szz = szz + 2 * Z * sz + n * Z * Z;
+  st.sxy = sxy + X * sy + Y * sx + n * X * Y;
+  st.sxz = sxz + X * sz + Z * sx + n * X * Z;
+  st.syz = syz + Y * sz + Z * sy + n * Y * Z;
+  cell.snx = total[9];
+  cell.sny = total[10];
+  cell.snz = total[11];
+  cell.curvature = static_cast<float>(total[12]);
+  cell.complete = true;
+}
+
+}  // namespace
+
+// Sums relative to each cell's first point in float (a cell spans centimetres), one accumulator
+// per column so that the columns are vector lanes; shifted to absolute double sums once per cell.
+void compute_cells(const Frame& f, Segmenter::Scratch& s) {
+  const int step = f.pixel_stride;
   const int lattice_width = (f.width + step - 1) / step;
   const int lattice_height = (f.height + step - 1) / step;
   const int cols = lattice_width / kCellSide, rows = lattice_height / kCellSide;
@@ -20,103 +132,34 @@ void compute_cells_impl(const Frame& f, Segmenter::Scratch& s) {
   s.cell_rows = rows;
   s.cells.resize(static_cast<std::size_t>(cols) * rows);
   s.cell_label.assign(static_cast<std::size_t>(cols) * rows, 0);
+  const std::ptrdiff_t plane = static_cast<std::ptrdiff_t>(cols) * kCellSide;
+  s.cell_sums.resize(static_cast<std::size_t>(kCellSums) * plane);
+  s.cell_complete.resize(cols);
+  float* const sums = s.cell_sums.data();
+  std::uint8_t* const complete = s.cell_complete.data();
   const std::ptrdiff_t down = static_cast<std::ptrdiff_t>(step) * f.stride;
-  constexpr int last = kCellSide - 1;
-  constexpr unsigned right_bit = 1u << 0, down_bit = 1u << 2;
+  const CellRowFn kernel = step == 1 ? cell_row_kernel() : nullptr;
   for (int cv = 0; cv < rows; ++cv) {
+    const std::ptrdiff_t row_origin = cv * kCellSide * down;
+    int done = 0;
+    if (kernel != nullptr) {
+      const CellRowInput in{f.x + row_origin,         f.y + row_origin,     f.z + row_origin,
+                            f.nx + row_origin,        f.ny + row_origin,    f.nz + row_origin,
+                            f.curvature + row_origin, f.edges + row_origin, f.stride};
+      done = kernel(in, cols, sums, complete);
+    }
+    for (int cu = done; cu < cols; ++cu) {
+      const std::ptrdiff_t origin = row_origin + cu * kCellSide * step;
+      complete[cu] = cell_complete(f, origin, step, down) ? 1 : 0;
+      if (complete[cu]) cell_column_sums(f, origin, step, down, sums + cu * kCellSide, plane);
+    }
     for (int cu = 0; cu < cols; ++cu) {
       Cell& cell = s.cells[static_cast<std::size_t>(cv) * cols + cu];
       cell = Cell{};
-      const std::ptrdiff_t origin = cv * kCellSide * down + cu * kCellSide * step;
-      // Complete: every vertex has a point, a normal and its right/down edges inside the cell.
-      // Branch-free (NaN fails every comparison), so the column loop vectorises.
-      int complete = 1;
-      for (int j = 0; j < kCellSide; ++j) {
-        const std::ptrdiff_t row = origin + j * down;
-        const unsigned need_down = j < last ? down_bit : 0u;
-        for (int i = 0; i < kCellSide; ++i) {
-          const std::ptrdiff_t p = row + i * step;
-          const unsigned need = need_down | (i < last ? right_bit : 0u);
-          complete &= static_cast<int>((f.edges[p] & need) == need) &
-                      static_cast<int>(f.nz[p] == f.nz[p]) &
-                      static_cast<int>(f.curvature[p] <= 3e38f);
-        }
-      }
-      if (!complete) continue;
-      // Sums relative to the cell's first point in float (a cell spans centimetres), one
-      // accumulator per column so that the loop vectorises without reassociation; shifted to
-      // absolute double sums once per cell.
-      const std::ptrdiff_t o = origin;
-      const float x0 = f.x[o], y0 = f.y[o], z0 = f.z[o];
-      float ax[kCellSide]{}, ay[kCellSide]{}, az[kCellSide]{}, axx[kCellSide]{}, axy[kCellSide]{},
-          axz[kCellSide]{}, ayy[kCellSide]{}, ayz[kCellSide]{}, azz[kCellSide]{}, anx[kCellSide]{},
-          any[kCellSide]{}, anz[kCellSide]{}, ac[kCellSide]{};
-      for (int j = 0; j < kCellSide; ++j) {
-        const std::ptrdiff_t row = origin + j * down;
-        for (int i = 0; i < kCellSide; ++i) {
-          const std::ptrdiff_t p = row + i * step;
-          const float x = f.x[p] - x0, y = f.y[p] - y0, z = f.z[p] - z0;
-          ax[i] += x;
-          ay[i] += y;
-          az[i] += z;
-          axx[i] += x * x;
-          axy[i] += x * y;
-          axz[i] += x * z;
-          ayy[i] += y * y;
-          ayz[i] += y * z;
-          azz[i] += z * z;
-          anx[i] += f.nx[p];
-          any[i] += f.ny[p];
-          anz[i] += f.nz[p];
-          ac[i] += f.curvature[p];
-        }
-      }
-      double sx = 0, sy = 0, sz = 0, sxx = 0, sxy = 0, sxz = 0, syy = 0, syz = 0, szz = 0;
-      double snx = 0, sny = 0, snz = 0, sc = 0;
-      for (int i = 0; i < kCellSide; ++i) {
-        sx += ax[i];
-        sy += ay[i];
-        sz += az[i];
-        sxx += axx[i];
-        sxy += axy[i];
-        sxz += axz[i];
-        syy += ayy[i];
-        syz += ayz[i];
-        szz += azz[i];
-        snx += anx[i];
-        sny += any[i];
-        snz += anz[i];
-        sc += ac[i];
-      }
-      constexpr double n = kCellSide * kCellSide;
-      const double X = x0, Y = y0, Z = z0;
-      detail::PlaneStats& st = cell.stats;
-      st.count = kCellSide * kCellSide;
-      st.sx = sx + n * X;
-      st.sy = sy + n * Y;
-      st.sz = sz + n * Z;
-      st.sxx = sxx + 2 * X * sx + n * X * X;
-      st.syy = syy + 2 * Y * sy + n * Y * Y;
-      st.szz = szz + 2 * Z * sz + n * Z * Z;
-      st.sxy = sxy + X * sy + Y * sx + n * X * Y;
-      st.sxz = sxz + X * sz + Z * sx + n * X * Z;
-      st.syz = syz + Y * sz + Z * sy + n * Y * Z;
-      cell.snx = snx;
-      cell.sny = sny;
-      cell.snz = snz;
-      cell.curvature = static_cast<float>(sc);
-      cell.complete = true;
+      if (!complete[cu]) continue;
+      const std::ptrdiff_t origin = row_origin + cu * kCellSide * step;
+      finish_cell(sums + cu * kCellSide, plane, f.x[origin], f.y[origin], f.z[origin], cell);
     }
-  }
-}
-
-}  // namespace
-
-void compute_cells(const Frame& f, Segmenter::Scratch& s) {
-  if (f.pixel_stride == 1) {
-    compute_cells_impl<1>(f, s);
-  } else {
-    compute_cells_impl<0>(f, s);
   }
 }
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <vector>
 
 #include "segmentation/region_growing.hpp"
 
@@ -29,7 +30,16 @@ class PlaneModel {
         a_(static_cast<float>(s.noise.a)),
         b_(static_cast<float>(s.noise.b)),
         z0_(static_cast<float>(s.noise.z0)),
-        max_seed_curvature_(static_cast<float>(std::fmin(s.max_seed_curvature, 3e38))) {}
+        max_seed_curvature_(static_cast<float>(std::fmin(s.max_seed_curvature, 3e38))),
+        cos_min_angle_(
+            static_cast<float>(std::cos(std::min(s.min_normal_angle, s.max_normal_angle)))) {}
+
+  /// Sets c of the noise-derived angle bound (see SegmentationSettings::normal_noise_sigmas);
+  /// kc2_ = 2 / (k c)^2 so that the test reads 2 (1 - dot) z^2 <= (k c sigma)^2.
+  void set_normal_noise(double k_times_c) {
+    adaptive_ = k_times_c > 0;
+    kc2_ = static_cast<float>(k_times_c * k_times_c);
+  }
 
   void init(const Frame& f, std::int32_t seed) {
     stats_.clear();
@@ -48,7 +58,8 @@ class PlaneModel {
     const float z = f.z[q];
     const float distance = std::fabs(nx_ * f.x[q] + ny_ * f.y[q] + nz_ * z + d_);
     const float dz = z - z0_;
-    return distance <= k_ * (a_ + b_ * dz * dz);
+    const float sigma = a_ + b_ * dz * dz;
+    return distance <= k_ * sigma && angle_within_noise(dot, z, sigma);
   }
 
   void add(const Frame& f, std::int32_t q) {
@@ -60,6 +71,9 @@ class PlaneModel {
   }
 
   const detail::PlaneStats& stats() const { return stats_; }
+
+  /// Changes whenever the plane that `accepts` tests against changes.
+  std::int32_t plane_version() const { return plane_version_; }
 
   // --- coarse level: whole cells ---
 
@@ -90,7 +104,12 @@ class PlaneModel {
   bool accepts_cell(const Cell& c) const {
     double nx, ny, nz;
     if (!cell_normal(c, nx, ny, nz)) return false;
-    if (!(nx * nx_ + ny * ny_ + nz * nz_ >= cos_max_angle_)) return false;
+    const double dot = nx * nx_ + ny * ny_ + nz * nz_;
+    if (!(dot >= cos_max_angle_)) return false;
+    const double z = c.stats.sz / static_cast<double>(c.stats.count), dz = z - z0_;
+    if (!angle_within_noise(static_cast<float>(dot), static_cast<float>(z),
+                            static_cast<float>(a_ + b_ * dz * dz)))
+      return false;
     return cell_within(c, nx_, ny_, nz_, d_);
   }
 
@@ -104,6 +123,13 @@ class PlaneModel {
 
  private:
   static constexpr std::int64_t kPcaMinPoints = 8;
+
+  /// The angle between the normals (cosine `dot`) is within k sigma_n(z) or the floor; the
+  /// small-angle form 1 - cos(t) = t^2 / 2 avoids a cosine per point.
+  bool angle_within_noise(float dot, float z, float sigma) const {
+    if (!adaptive_ || dot >= cos_min_angle_) return true;
+    return 2.0f * (1.0f - dot) * z * z <= kc2_ * sigma * sigma;
+  }
 
   /// The cell's mean normal, if its normals are consistent (resultant length test).
   bool cell_normal(const Cell& c, double& nx, double& ny, double& nz) const {
@@ -143,6 +169,7 @@ class PlaneModel {
     ny_ = static_cast<float>(ny);
     nz_ = static_cast<float>(nz);
     d_ = static_cast<float>(-(nx * stats_.sx + ny * stats_.sy + nz * stats_.sz) * inv_count);
+    ++plane_version_;
     // Mean-normal updates are cheap (every point while the region is tiny); eigen-solves run at
     // 8, 12, 18, 27, ... points, so the many tiny regions of noisy areas cost few solves.
     next_refresh_ =
@@ -173,11 +200,14 @@ class PlaneModel {
     nz = n(2);
   }
 
-  float cos_max_angle_, cos_seed_angle_, k_, a_, b_, z0_, max_seed_curvature_;
+  float cos_max_angle_, cos_seed_angle_, k_, a_, b_, z0_, max_seed_curvature_, cos_min_angle_;
+  bool adaptive_ = false;
+  float kc2_ = 0;
   detail::PlaneStats stats_;
   double snx_ = 0, sny_ = 0, snz_ = 0;
   std::int64_t next_refresh_ = 0;
   float nx_ = 0, ny_ = 0, nz_ = 1, d_ = 0;
+  std::int32_t plane_version_ = 0;
 };
 
 static_assert(CellGrowingModel<PlaneModel>);
@@ -190,15 +220,42 @@ struct PixelPlaneModel {
   bool accepts(const Frame& f, std::int32_t p, std::int32_t q) const { return m.accepts(f, p, q); }
   void add(const Frame& f, std::int32_t q) { m.add(f, q); }
   const detail::PlaneStats& stats() const { return m.stats(); }
+  std::int32_t plane_version() const { return m.plane_version(); }
 };
 
 static_assert(RegionGrowingModel<PixelPlaneModel> && !CellGrowingModel<PixelPlaneModel>);
+static_assert(VersionedModel<PlaneModel> && VersionedModel<PixelPlaneModel>);
+
+/// c of the normal noise model sigma_n(z) = c sigma(z) / z: the median over complete cells of
+/// s z / sigma(z), where s = sqrt(1 - |mean normal|) is a cell's per-axis normal spread
+/// (1 - |mean n| = s^2 for small isotropic deviations). 0 when fewer than 16 cells are complete.
+double normal_noise_constant(Segmenter::Scratch& scratch, const SensorNoise& noise) {
+  std::vector<double>& c = scratch.cell_normal_noise;
+  c.clear();
+  for (const Cell& cell : scratch.cells) {
+    if (!cell.complete) continue;
+    const double n = static_cast<double>(cell.stats.count);
+    const double length =
+        std::sqrt(cell.snx * cell.snx + cell.sny * cell.sny + cell.snz * cell.snz) / n;
+    const double z = cell.stats.sz / n;
+    c.push_back(std::sqrt(std::max(0.0, 1.0 - length)) * z / noise.sigma(z));
+  }
+  if (c.size() < 16) return 0;
+  const auto middle = c.begin() + static_cast<std::ptrdiff_t>(c.size() / 2);
+  std::nth_element(c.begin(), middle, c.end());
+  return *middle;
+}
 
 }  // namespace
 
 void grow_planes(const Frame& frame, const SegmentationSettings& settings,
                  Segmenter::Scratch& scratch) {
   PlaneModel model(settings);
+  if (settings.coarse_cells || settings.normal_noise_sigmas > 0) compute_cells(frame, scratch);
+  if (settings.normal_noise_sigmas > 0) {
+    model.set_normal_noise(settings.normal_noise_sigmas *
+                           normal_noise_constant(scratch, settings.noise));
+  }
   if (settings.coarse_cells) {
     grow_regions(frame, model, scratch, &settings);
   } else {

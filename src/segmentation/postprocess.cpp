@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdint>
 #include <numeric>
+#include <utility>
 
 #include <Eigen/Eigenvalues>
 
@@ -21,6 +22,142 @@
 
 namespace rangeseg::seg {
 namespace {
+
+/// The faces of a run of cells that all carry one label (see accumulate_areas), summed in any
+/// order. Their twice-areas are non-negative floats, so each is an integer multiple of the unit in
+/// the last place of the smallest positive one, w = 2^(e - 24) with 2^(e-1) <= smallest; while
+/// the total stays below 2^53 w every partial sum is exact in double, whatever the order, and
+/// equals the scalar running sum bit for bit. Runs beyond that bound (a face far smaller than
+/// the rest of a large run) mark the result inexact, and the caller recomputes in scalar order.
+struct AreaRun {
+  std::int32_t label = 0;
+  double sum = 0;                     ///< twice the area of the faces added so far
+  float smallest = __builtin_inff();  ///< smallest positive twice-area added
+  bool inexact = false;
+
+  void add(float twice_area) {
+    sum += twice_area;
+    if (twice_area > 0 && twice_area < smallest) smallest = twice_area;
+  }
+  void flush(double* area, std::int32_t next_label) {
+    if (smallest < __builtin_inff()) {
+      int e = 0;
+      std::frexp(smallest, &e);
+      // Half the bound, for the rounding of `sum` itself if it were inexact.
+      if (!(sum < std::ldexp(1.0, e + 28))) inexact = true;
+    }
+    area[label] += 0.5 * sum;
+    label = next_label;
+    sum = 0;
+    smallest = __builtin_inff();
+  }
+};
+
+struct ScalarPoint {
+  float x, y, z;
+  static ScalarPoint at(const float* x, const float* y, const float* z, int u) {
+    return {x[u], y[u], z[u]};
+  }
+};
+
+/// cross_norm below on points: |(p1 - p0) x (p3 - p2)|, the same operations in the same order.
+inline float cross_norm_points(const ScalarPoint& p0, const ScalarPoint& p1, const ScalarPoint& p2,
+                               const ScalarPoint& p3) {
+  const float ux = p1.x - p0.x, uy = p1.y - p0.y, uz = p1.z - p0.z;
+  const float vx = p3.x - p2.x, vy = p3.y - p2.y, vz = p3.z - p2.z;
+  const float cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
+  return std::sqrt(cx * cx + cy * cy + cz * cz);
+}
+
+/// Twice the area of the faces of cell a-b-c-d (a, b top; c, d bottom), as accumulate_areas.
+inline float scalar_cell_twice_area(std::uint8_t bits, const ScalarPoint& a, const ScalarPoint& b,
+                                    const ScalarPoint& c, const ScalarPoint& d) {
+  float twice_area = 0;
+  if (bits & face_bits::quad) {
+    twice_area = cross_norm_points(a, d, b, c);
+  } else if (bits & face_bits::diag_bc) {
+    if (bits & face_bits::tri0) twice_area += cross_norm_points(a, c, a, b);
+    if (bits & face_bits::tri1) twice_area += cross_norm_points(b, c, b, d);
+  } else {
+    if (bits & face_bits::tri0) twice_area += cross_norm_points(a, d, a, b);
+    if (bits & face_bits::tri1) twice_area += cross_norm_points(a, c, a, d);
+  }
+  return twice_area;
+}
+
+/// A cell with corners of different labels: each face's area split among its corners.
+inline void credit_cell(std::uint8_t bits, const ScalarPoint& a, const ScalarPoint& b,
+                        const ScalarPoint& c, const ScalarPoint& d, std::int32_t la,
+                        std::int32_t lb, std::int32_t lc, std::int32_t ld, double* area) {
+  const auto credit = [&](float twice_area, std::int32_t l0, std::int32_t l1, std::int32_t l2,
+                          std::int32_t l3) {
+    const double share = 0.5 * twice_area / (l3 < 0 ? 3 : 4);
+    area[l0] += share;
+    area[l1] += share;
+    area[l2] += share;
+    if (l3 >= 0) area[l3] += share;
+  };
+  if (bits & face_bits::quad) {
+    credit(cross_norm_points(a, d, b, c), la, lc, ld, lb);
+  } else if (bits & face_bits::diag_bc) {
+    if (bits & face_bits::tri0) credit(cross_norm_points(a, c, a, b), la, lc, lb, -1);
+    if (bits & face_bits::tri1) credit(cross_norm_points(b, c, b, d), lb, lc, ld, -1);
+  } else {
+    if (bits & face_bits::tri0) credit(cross_norm_points(a, d, a, b), la, ld, lb, -1);
+    if (bits & face_bits::tri1) credit(cross_norm_points(a, c, a, d), la, lc, ld, -1);
+  }
+}
+
+/// One cell of row_areas (see accumulate_areas): `vector_area` is its twice-area when
+/// `have_vector_area`, else it is computed here. Out of line, to keep the vector loop's
+/// registers free.
+[[gnu::noinline]] void area_cell(const float* x0, const float* y0, const float* z0, const float* x1,
+                                 const float* y1, const float* z1, const std::uint8_t* faces,
+                                 const std::int32_t* l0, const std::int32_t* l1, int u,
+                                 float vector_area, bool have_vector_area, AreaRun& run,
+                                 double* area) {
+  const std::uint8_t bits = faces[u];
+  if (bits == 0) return;
+  const std::int32_t la = l0[u], lb = l0[u + 1], lc = l1[u], ld = l1[u + 1];
+  if ((la | lb | lc | ld) == 0) return;
+  const auto point = [](const float* x, const float* y, const float* z, int at) {
+    return ScalarPoint::at(x, y, z, at);
+  };
+  if (la == lb && la == lc && la == ld) {
+    const float twice_area =
+        have_vector_area
+            ? vector_area
+            : scalar_cell_twice_area(bits, point(x0, y0, z0, u), point(x0, y0, z0, u + 1),
+                                     point(x1, y1, z1, u), point(x1, y1, z1, u + 1));
+    if (la != run.label) run.flush(area, la);
+    run.add(twice_area);
+    return;
+  }
+  credit_cell(bits, point(x0, y0, z0, u), point(x0, y0, z0, u + 1), point(x1, y1, z1, u),
+              point(x1, y1, z1, u + 1), la, lb, lc, ld, area);
+}
+
+/// Bit k set when lane k of a comparison result (all ones or zero per lane) is set.
+#if RANGESEG_SIMD_X86
+RANGESEG_SIMD_INLINE unsigned lane_bits(detail::simd::i32x4 m) {
+  return static_cast<unsigned>(_mm_movemask_ps((__m128)m));
+}
+RANGESEG_SIMD_AVX2_TARGET RANGESEG_SIMD_INLINE unsigned lane_bits(detail::simd::i32x8 m) {
+  return static_cast<unsigned>(_mm256_movemask_ps((__m256)m));
+}
+RANGESEG_SIMD_AVX512_TARGET RANGESEG_SIMD_INLINE unsigned lane_bits(detail::simd::i32x16 m) {
+  return _mm512_movepi32_mask((__m512i)m);
+}
+#else
+template <class Mask>
+RANGESEG_SIMD_INLINE unsigned lane_bits(Mask m) {
+  unsigned bits = 0;
+  for (int k = 0; k < static_cast<int>(sizeof(Mask) / sizeof(std::int32_t)); ++k) {
+    if (m[k] != 0) bits |= 1u << k;
+  }
+  return bits;
+}
+#endif
 
 #define RANGESEG_SIMD_KERNEL_FILE "segmentation/area_simd_kernels.hpp"
 #include "detail/simd_instances.hpp"
@@ -31,6 +168,32 @@ using CellAreasFn = int (*)(const float*, const float*, const float*, const floa
 #define RANGESEG_AREA_KERNEL(ns) &ns::cell_twice_areas
 const CellAreasFn& cell_areas_kernel() { RANGESEG_SIMD_PICK(CellAreasFn, RANGESEG_AREA_KERNEL); }
 #undef RANGESEG_AREA_KERNEL
+using RowAreasFn = void (*)(const float*, const float*, const float*, const float*, const float*,
+                            const float*, const std::uint8_t*, const std::int32_t*,
+                            const std::int32_t*, int, AreaRun&, double*);
+#define RANGESEG_ROW_AREAS_KERNEL(ns) &ns::row_areas
+const RowAreasFn& row_areas_kernel() { RANGESEG_SIMD_PICK(RowAreasFn, RANGESEG_ROW_AREAS_KERNEL); }
+#undef RANGESEG_ROW_AREAS_KERNEL
+using AdjacencyPixelsFn = int (*)(const std::int32_t*, const std::int32_t*, int, int, std::int32_t*,
+                                  int&);
+#define RANGESEG_ADJACENCY_KERNEL(ns) &ns::adjacency_pixels
+const AdjacencyPixelsFn& adjacency_pixels_kernel() {
+  RANGESEG_SIMD_PICK(AdjacencyPixelsFn, RANGESEG_ADJACENCY_KERNEL);
+}
+#undef RANGESEG_ADJACENCY_KERNEL
+using BorderPixelsFn = int (*)(const std::int32_t*, const std::int32_t*, const std::int32_t*, int,
+                               int, std::int32_t*, int&);
+#define RANGESEG_BORDER_KERNEL(ns) &ns::unlabelled_border_pixels
+const BorderPixelsFn& border_pixels_kernel() {
+  RANGESEG_SIMD_PICK(BorderPixelsFn, RANGESEG_BORDER_KERNEL);
+}
+#undef RANGESEG_BORDER_KERNEL
+using RemapLabelsFn = void (*)(std::int32_t*, const std::int32_t*, int);
+#define RANGESEG_REMAP_KERNEL(ns) &ns::remap_labels
+const RemapLabelsFn& remap_labels_kernel() {
+  RANGESEG_SIMD_PICK(RemapLabelsFn, RANGESEG_REMAP_KERNEL);
+}
+#undef RANGESEG_REMAP_KERNEL
 
 using detail::PlaneFit;
 using detail::PlaneStats;
@@ -156,31 +319,46 @@ void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
   std::uint64_t last = 0;
   const int step = f.pixel_stride;
   const std::ptrdiff_t right = f.neighbour_offset[0], down = f.neighbour_offset[2];
+  // Directions 0..3 (right, down-right, down, down-left) visit every undirected edge once.
+  const auto visit = [&](std::ptrdiff_t i, std::int32_t a) {
+    unsigned mask = f.edges[i] & 0x0Fu;
+    if (a == 0 || mask == 0 || regions[a].count < kMinFitPixels) return;
+    while (mask != 0) {
+      const int k = std::countr_zero(mask);
+      mask &= mask - 1;
+      const std::int32_t b = f.labels[i + f.neighbour_offset[k]];
+      if (b == 0 || b == a || regions[b].count < kMinFitPixels) continue;
+      const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) |
+                                static_cast<std::uint32_t>(std::max(a, b));
+      if (key != last) s.adjacency.push_back(key);
+      last = key;
+    }
+  };
+  // Inside a segment (nearly every pixel) all forward neighbours share the label.
+  const auto interior = [&](std::ptrdiff_t i, std::int32_t a) {
+    return f.labels[i + right] == a && f.labels[i + down] == a && f.labels[i + down - right] == a &&
+           f.labels[i + down + right] == a;
+  };
+  // At stride 1 the inner pixels of inner rows are screened a vector at a time.
+  const bool screen = step == 1 && f.width > 2;
+  if (screen) s.row_pixels.resize(static_cast<std::size_t>(f.width));
+  const AdjacencyPixelsFn adjacency_pixels = adjacency_pixels_kernel();
   for (int v = 0; v < f.height; v += step) {
     const std::ptrdiff_t row = v * f.stride;
     const bool inner_row = v + step < f.height;
-    for (int u = 0; u < f.width; u += step) {
+    int u = 0;
+    if (inner_row && screen) {
+      visit(row, f.labels[row]);
+      int found = 0;
+      u = adjacency_pixels(f.labels + row, f.labels + row + f.stride, 1, f.width - 1,
+                           s.row_pixels.data(), found);
+      for (int j = 0; j < found; ++j) visit(row + s.row_pixels[j], f.labels[row + s.row_pixels[j]]);
+    }
+    for (; u < f.width; u += step) {
       const std::ptrdiff_t i = row + u;
       const std::int32_t a = f.labels[i];
-      // Inside a segment (nearly every pixel) all forward neighbours share the label.
-      if (inner_row && u >= step && u + step < f.width && f.labels[i + right] == a &&
-          f.labels[i + down] == a && f.labels[i + down - right] == a &&
-          f.labels[i + down + right] == a) {
-        continue;
-      }
-      // Directions 0..3 (right, down-right, down, down-left) visit every undirected edge once.
-      unsigned mask = f.edges[i] & 0x0Fu;
-      if (a == 0 || mask == 0 || regions[a].count < kMinFitPixels) continue;
-      while (mask != 0) {
-        const int k = std::countr_zero(mask);
-        mask &= mask - 1;
-        const std::int32_t b = f.labels[i + f.neighbour_offset[k]];
-        if (b == 0 || b == a || regions[b].count < kMinFitPixels) continue;
-        const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) |
-                                  static_cast<std::uint32_t>(std::max(a, b));
-        if (key != last) s.adjacency.push_back(key);
-        last = key;
-      }
+      if (inner_row && u >= step && u + step < f.width && interior(i, a)) continue;
+      visit(i, a);
     }
   }
   std::sort(s.adjacency.begin(), s.adjacency.end());
@@ -248,7 +426,8 @@ template <bool kAcrossCuts>
 void reassign_boundary_points(const Frame& f, const SegmentationSettings& settings,
                               Segmenter::Scratch& s) {
   const std::size_t pixels = static_cast<std::size_t>(f.stride) * f.height;
-  s.queued.assign(pixels, 0);
+  // Every pixel queued below is dequeued again (and its flag cleared) before this returns.
+  if (s.queued.size() != pixels) s.queued.assign(pixels, 0);
   std::int32_t* const ring = s.queue.data();
   const std::size_t capacity = s.queue.size();
   std::size_t head = 0, size = 0;
@@ -269,15 +448,29 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
     return false;
   };
   const int step = f.pixel_stride;
+  const auto consider = [&](std::ptrdiff_t row, int u, int v) {
+    const std::ptrdiff_t i = row + u;
+    const bool candidate = kAcrossCuts ? std::isfinite(f.z[i]) : f.edges[i] != 0;
+    if (f.labels[i] == 0 && candidate && has_labelled_neighbour(i, u, v)) {
+      push(static_cast<std::int32_t>(i));
+    }
+  };
+  // At stride 1 the inner pixels of inner rows are first screened a vector at a time: only an
+  // unlabelled pixel with a labelled one among its 8 neighbours can be a candidate.
+  const bool screen = step == 1 && f.width > 2;
+  if (screen) s.row_pixels.resize(static_cast<std::size_t>(f.width));
+  const BorderPixelsFn border_pixels = border_pixels_kernel();
   for (int v = 0; v < f.height; v += step) {
     const std::ptrdiff_t row = v * f.stride;
-    for (int u = 0; u < f.width; u += step) {
-      const std::ptrdiff_t i = row + u;
-      const bool candidate = kAcrossCuts ? std::isfinite(f.z[i]) : f.edges[i] != 0;
-      if (f.labels[i] == 0 && candidate && has_labelled_neighbour(i, u, v)) {
-        push(static_cast<std::int32_t>(i));
-      }
+    int u = 0;
+    if (screen && v > 0 && v + 1 < f.height) {
+      consider(row, 0, v);
+      int found = 0;
+      u = border_pixels(f.labels + row - f.stride, f.labels + row, f.labels + row + f.stride, 1,
+                        f.width - 1, s.row_pixels.data(), found);
+      for (int j = 0; j < found; ++j) consider(row, s.row_pixels[j], v);
     }
+    for (; u < f.width; u += step) consider(row, u, v);
   }
   const double k = settings.max_distance_sigmas;
   while (size > 0) {
@@ -289,12 +482,13 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
     const double x = f.x[q], y = f.y[q], z = f.z[q];
     std::int32_t best = 0;
     double best_distance = k * settings.noise.sigma(z);
-    const unsigned ring_mask = reassign_mask<kAcrossCuts>(f, q);
-    unsigned mask = ring_mask;
+    unsigned mask = reassign_mask<kAcrossCuts>(f, q);
+    unsigned unlabelled = 0;  // neighbours to queue if q joins a segment
     while (mask != 0) {
       const int n = std::countr_zero(mask);
       mask &= mask - 1;
       const std::int32_t label = f.labels[q + f.neighbour_offset[n]];
+      if (label == 0) unlabelled |= 1u << n;
       if (label == 0 || label == best || !s.fits[label].ok) continue;
       const double d = std::fabs(s.fits[label].distance(x, y, z));
       if (d <= best_distance) {
@@ -305,12 +499,11 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
     if (best == 0) continue;
     f.labels[q] = best;
     s.regions[best].add(x, y, z);
-    mask = ring_mask;
-    while (mask != 0) {
-      const int n = std::countr_zero(mask);
-      mask &= mask - 1;
+    while (unlabelled != 0) {
+      const int n = std::countr_zero(unlabelled);
+      unlabelled &= unlabelled - 1;
       const std::int32_t r = static_cast<std::int32_t>(q + f.neighbour_offset[n]);
-      if (f.labels[r] == 0 && !s.queued[r] && (!kAcrossCuts || std::isfinite(f.z[r]))) push(r);
+      if (!s.queued[r] && (!kAcrossCuts || std::isfinite(f.z[r]))) push(r);
     }
   }
 }
@@ -329,6 +522,8 @@ inline float cross_norm(const Frame& f, std::ptrdiff_t a, std::ptrdiff_t b, std:
 /// Adds a third of every triangle's area (a quarter of every quad's) to each labelled corner.
 /// Cells whose four corners share one label (nearly all) are summed in a running total that is
 /// flushed when the label changes, so the per-label array is not hit four times per face.
+/// The reference order of the sums: used at strides > 1 and when accumulate_areas_vector cannot
+/// guarantee the same bits.
 void accumulate_areas(const Frame& f, Segmenter::Scratch& s) {
   const std::uint8_t* const faces = f.faces;
   const int step = f.pixel_stride;
@@ -401,6 +596,39 @@ void accumulate_areas(const Frame& f, Segmenter::Scratch& s) {
   area[0] = 0;  // unlabelled corners collected here
 }
 
+/// accumulate_areas at stride 1, a vector of cells at a time; false (with `s.area` partly
+/// filled) when a run's sum may differ from the scalar order (see AreaRun).
+bool accumulate_areas_vector(const Frame& f, Segmenter::Scratch& s) {
+  const RowAreasFn row_areas = row_areas_kernel();
+  double* const area = s.area.data();
+  const std::ptrdiff_t down = f.stride;
+  AreaRun run;
+  for (int v = 0; v + 1 < f.height; ++v) {
+    const std::ptrdiff_t row = v * f.stride;
+    row_areas(f.x + row, f.y + row, f.z + row, f.x + row + down, f.y + row + down, f.z + row + down,
+              f.faces + row, f.labels + row, f.labels + row + down, f.width - 1, run, area);
+  }
+  run.flush(area, 0);
+  area[0] = 0;  // unlabelled corners collected here
+  return !run.inexact;
+}
+
+/// set_plane_fields with its plane fit `fit` (= stats.fit()) given.
+void fill_plane_fields(const PlaneStats& stats, const PlaneFit& fit, Segment& seg) {
+  seg.pixel_count = static_cast<int>(stats.count);
+  seg.centroid = stats.mean();
+  if (fit.ok) {
+    seg.normal = fit.normal;
+    seg.offset = fit.offset;
+    seg.rms_residual = fit.rms;
+  } else {
+    const double dist = std::hypot(seg.centroid[0], seg.centroid[1], seg.centroid[2]);
+    seg.normal = {-seg.centroid[0] / dist, -seg.centroid[1] / dist, -seg.centroid[2] / dist};
+    seg.offset = dist;
+    seg.rms_residual = stats.rms_distance(seg.normal, seg.offset);
+  }
+}
+
 }  // namespace
 
 void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s,
@@ -423,8 +651,9 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
   }
   const std::size_t pixels = static_cast<std::size_t>(f.stride) * f.height;
   std::int32_t* const labels = f.labels;
+  const RemapLabelsFn remap_labels = remap_labels_kernel();
   const std::int32_t* const remap = s.remap.data();
-  for (std::size_t i = 0; i < pixels; ++i) labels[i] = remap[labels[i]];
+  remap_labels(labels, remap, static_cast<int>(pixels));
 
   if (planes && settings.reassign_boundary) {
     if (settings.reassign_across_mesh_cuts) {
@@ -434,7 +663,8 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
     }
   }
   if (planes && settings.merge_planes) {
-    for (std::int32_t r = 1; r < region_count; ++r) {
+    // Re-assignment changed the statistics; without it the fits above are current.
+    for (std::int32_t r = 1; r < region_count && settings.reassign_boundary; ++r) {
       if (s.remap[r] == r) s.fits[r] = s.regions[r].fit();
     }
     merge_adjacent_planes(f, settings, s);
@@ -459,11 +689,16 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
     s.compact[s.order[j]] = static_cast<std::int32_t>(j + 1);
   }
   for (std::int32_t r = 1; r < region_count; ++r) s.remap[r] = s.compact[s.remap[r]];
-  for (std::size_t i = 0; i < pixels; ++i) labels[i] = remap[labels[i]];
+  remap_labels(labels, remap, static_cast<int>(pixels));
 
   const std::size_t n = s.order.size();
   s.area.assign(n + 1, 0.0);
-  if (settings.compute_area) accumulate_areas(f, s);
+  if (settings.compute_area) {
+    if (f.pixel_stride != 1 || f.width < 2 || !accumulate_areas_vector(f, s)) {
+      s.area.assign(n + 1, 0.0);
+      accumulate_areas(f, s);
+    }
+  }
 
   out.segments.resize(n);
   for (std::size_t j = 0; j < n; ++j) {
@@ -471,24 +706,17 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
     seg.label = static_cast<int>(j + 1);
     seg.model = settings.model;
     seg.area_m2 = s.area[j + 1];
-    set_plane_fields(s.regions[s.order[j]], seg);
+    // After merging, the fit of every surviving region is that of its final statistics.
+    if (planes && settings.merge_planes) {
+      fill_plane_fields(s.regions[s.order[j]], s.fits[s.order[j]], seg);
+    } else {
+      fill_plane_fields(s.regions[s.order[j]], s.regions[s.order[j]].fit(), seg);
+    }
   }
 }
 
 void set_plane_fields(const PlaneStats& stats, Segment& seg) {
-  const PlaneFit fit = stats.fit();
-  seg.pixel_count = static_cast<int>(stats.count);
-  seg.centroid = stats.mean();
-  if (fit.ok) {
-    seg.normal = fit.normal;
-    seg.offset = fit.offset;
-    seg.rms_residual = fit.rms;
-  } else {
-    const double dist = std::hypot(seg.centroid[0], seg.centroid[1], seg.centroid[2]);
-    seg.normal = {-seg.centroid[0] / dist, -seg.centroid[1] / dist, -seg.centroid[2] / dist};
-    seg.offset = dist;
-    seg.rms_residual = stats.rms_distance(seg.normal, seg.offset);
-  }
+  fill_plane_fields(stats, stats.fit(), seg);
 }
 
 }  // namespace rangeseg::seg

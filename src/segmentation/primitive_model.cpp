@@ -419,8 +419,9 @@ class PrimitivePass {
       return s_.models[r].kind != SurfaceKind::plane ? r : 0;
     };
     bool any_curved = false;
-    for (std::int32_t l = 1; l <= n_ && !any_curved; ++l)
+    for (std::int32_t l = 1; l <= n_ && !any_curved; ++l) {
       any_curved = s_.parent[l] == l && s_.models[l].kind != SurfaceKind::plane;
+    }
     if (!any_curved) return;
     const auto push_unlabelled_neighbours = [&](std::ptrdiff_t i) {
       unsigned mask = f_.edges[i];
@@ -436,8 +437,9 @@ class PrimitivePass {
     };
     for (std::int32_t l = 1; l <= n_; ++l) {
       if (curved_root(l) == 0) continue;
-      for (std::int32_t j = begin(l); j < end(l); ++j)
+      for (std::int32_t j = begin(l); j < end(l); ++j) {
         push_unlabelled_neighbours(s_.pixels[static_cast<std::size_t>(j)]);
+      }
     }
     const double k = settings_.max_distance_sigmas;
     for (std::size_t head = 0; head < s_.queue.size(); ++head) {
@@ -479,8 +481,9 @@ class PrimitivePass {
       return ca != cb ? ca > cb : a < b;
     });
     s_.remap.assign(static_cast<std::size_t>(n_) + 1, 0);
-    for (std::size_t j = 0; j < s_.order.size(); ++j)
+    for (std::size_t j = 0; j < s_.order.size(); ++j) {
       s_.remap[s_.order[j]] = static_cast<std::int32_t>(j + 1);
+    }
     for (std::int32_t l = 1; l <= n_; ++l) s_.remap[l] = s_.remap[find_root(s_.parent, l)];
     const int step = f_.pixel_stride;
     // Plane statistics of the changed segments (merged, or with re-assigned points).
@@ -495,8 +498,9 @@ class PrimitivePass {
         std::int32_t& label = f_.labels[row + u];
         if (label == 0) continue;
         label = s_.remap[label];
-        if (s_.final_changed[label])
+        if (s_.final_changed[label]) {
           s_.stats[label].add(f_.x[row + u], f_.y[row + u], f_.z[row + u]);
+        }
       }
     }
     s_.segments.resize(m);
@@ -505,8 +509,9 @@ class PrimitivePass {
       Segment seg = out_.segments[root - 1];
       if (s_.final_changed[j + 1]) {
         double area = 0;
-        for (std::int32_t l = root; l != 0; l = s_.next_member[l])
+        for (std::int32_t l = root; l != 0; l = s_.next_member[l]) {
           area += out_.segments[l - 1].area_m2;
+        }
         set_plane_fields(s_.stats[j + 1], seg);
         seg.area_m2 = area;
       }

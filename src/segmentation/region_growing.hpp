@@ -2,10 +2,17 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cassert>
 #include <concepts>
 #include <cstdint>
+#include <limits>
+#include <vector>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "segmentation/internal.hpp"
 
@@ -89,27 +96,145 @@ inline bool cells_connected(const Frame& f, std::ptrdiff_t origin, int k) {
 
 }  // namespace detail_engine
 
+/// A model whose `accepts` depends only on the candidate and on model state that changes only
+/// together with `plane_version()` (positive, increasing over the model's lifetime).
+template <class M>
+concept VersionedModel = requires(const M cm) {
+  { cm.plane_version() } -> std::convertible_to<std::int32_t>;
+};
+
+namespace detail_engine {
+
+/// Bit k set when lattice neighbour k of `p` is a mesh neighbour (`edges`) that may join:
+/// unlabelled and not rejected under plane version `version` (labels[q] = -version marks a
+/// rejection; older marks are stale). Branch-free per neighbour: which neighbours are free is
+/// unpredictable.
+inline unsigned candidate_neighbours(const std::int32_t* labels, const std::ptrdiff_t* offsets,
+                                     std::int32_t p, unsigned edges, std::uint32_t version) {
+  // Free: -version < labels[q] <= 0, i.e. labels[q] + version - 1 in [0, version).
+  const std::uint32_t bias = version - 1;
+  unsigned candidates = 0;
+  while (edges != 0) {
+    const int k = std::countr_zero(edges);
+    edges &= edges - 1;
+    const auto v = static_cast<std::uint32_t>(labels[p + offsets[k]]);
+    candidates |= static_cast<unsigned>(v + bias < version) << k;
+  }
+  return candidates;
+}
+
+#if defined(__SSE2__)
+/// Direction bits (kNeighbourDu/Dv order) of the 3 x 3 block around a pixel, from 3 bits per
+/// row (columns -1, 0, +1) of the rows above, at and below it: index up | mid << 3 | down << 6.
+inline constexpr auto kBlockDirections = [] {
+  std::array<std::uint8_t, 512> table{};
+  for (unsigned i = 0; i < 512; ++i) {
+    const unsigned up = i & 7u, mid = (i >> 3) & 7u, down = (i >> 6) & 7u;
+    unsigned d = 0;
+    for (int k = 0; k < 8; ++k) {
+      const unsigned row = kNeighbourDv[k] < 0 ? up : kNeighbourDv[k] > 0 ? down : mid;
+      d |= ((row >> (kNeighbourDu[k] + 1)) & 1u) << k;
+    }
+    table[i] = static_cast<std::uint8_t>(d);
+  }
+  return table;
+}();
+
+/// `candidate_neighbours` for lattice step 1 and a pixel whose 3 x 4 block starting at
+/// p - stride - 1 lies inside the label plane: three vector loads instead of a loop.
+inline unsigned candidate_block(const std::int32_t* labels, std::ptrdiff_t stride, std::int32_t p,
+                                unsigned edges, std::uint32_t version) {
+  const __m128i bias = _mm_set1_epi32(static_cast<std::int32_t>(version - 1));
+  // Unsigned v + bias < version as a signed comparison of sign-flipped values.
+  const __m128i flip = _mm_set1_epi32(std::numeric_limits<std::int32_t>::min());
+  const __m128i limit = _mm_xor_si128(_mm_set1_epi32(static_cast<std::int32_t>(version)), flip);
+  const auto free_bits = [&](const std::int32_t* at) {
+    const __m128i v = _mm_loadu_si128(reinterpret_cast<const __m128i*>(at));
+    const __m128i key = _mm_xor_si128(_mm_add_epi32(v, bias), flip);
+    return static_cast<unsigned>(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmplt_epi32(key, limit)))) &
+           7u;
+  };
+  const std::int32_t* const centre = labels + p - 1;
+  const unsigned index =
+      free_bits(centre - stride) | free_bits(centre) << 3 | free_bits(centre + stride) << 6;
+  return kBlockDirections[index] & edges;
+}
+#endif
+
+}  // namespace detail_engine
+
 /// The pixel-wise inner loop: pops the processing queue [head, tail) and adds accepted unlabelled
 /// mesh neighbours. Returns the new tail.
+/// With a `VersionedModel`, a rejected pixel is marked with -plane_version() and not tested
+/// again until the model's plane changes (the same test would give the same answer); the marks
+/// are negative labels, listed in `marked` (which may repeat a pixel) and cleared before
+/// returning.
 template <RegionGrowingModel Model>
 std::int32_t grow_pixels(const Frame& f, Model& model, std::int32_t label, std::int32_t* queue,
                          std::int32_t head, std::int32_t tail,
-                         [[maybe_unused]] std::size_t capacity) {
+                         [[maybe_unused]] std::size_t capacity,
+                         [[maybe_unused]] std::vector<std::int32_t>* marked = nullptr) {
   std::int32_t* const labels = f.labels;
   const std::uint8_t* const edges = f.edges;
   const auto offsets = f.neighbour_offset;
-  while (head < tail) {
-    const std::int32_t p = queue[head++];
-    unsigned mask = edges[p];
-    while (mask != 0) {
-      const int k = std::countr_zero(mask);
-      mask &= mask - 1;
-      const std::int32_t q = static_cast<std::int32_t>(p + offsets[k]);
-      if (labels[q] != 0 || !model.accepts(f, p, q)) continue;
-      labels[q] = label;
-      model.add(f, q);
-      assert(static_cast<std::size_t>(tail) < capacity);
-      queue[tail++] = q;
+  if constexpr (VersionedModel<Model>) {
+    marked->clear();
+#if defined(__SSE2__)
+    // Pixels whose 3 x 4 label block is inside the plane (lattice step 1).
+    const std::ptrdiff_t block_first = f.stride + 1;
+    const std::ptrdiff_t block_last =
+        f.pixel_stride == 1 ? static_cast<std::ptrdiff_t>(f.height - 1) * f.stride - 3 : -1;
+#endif
+    const auto candidates_of = [&](std::int32_t p, unsigned edges_p, std::int32_t version) {
+      const auto v = static_cast<std::uint32_t>(version);
+#if defined(__SSE2__)
+      if (p >= block_first && p <= block_last) {
+        return detail_engine::candidate_block(labels, f.stride, p, edges_p, v);
+      }
+#endif
+      return detail_engine::candidate_neighbours(labels, offsets.data(), p, edges_p, v);
+    };
+    while (head < tail) {
+      const std::int32_t p = queue[head++];
+      const unsigned edges_p = edges[p];
+      std::int32_t version = model.plane_version();
+      unsigned candidates = candidates_of(p, edges_p, version);
+      while (candidates != 0) {
+        const int k = std::countr_zero(candidates);
+        candidates &= candidates - 1;
+        const std::int32_t q = static_cast<std::int32_t>(p + offsets[k]);
+        if (!model.accepts(f, p, q)) {
+          marked->push_back(q);
+          labels[q] = -version;
+          continue;
+        }
+        labels[q] = label;
+        model.add(f, q);
+        assert(static_cast<std::size_t>(tail) < capacity);
+        queue[tail++] = q;
+        if (model.plane_version() != version) {
+          // A new plane: earlier rejections among the remaining neighbours are stale.
+          version = model.plane_version();
+          const unsigned remaining = ~((2u << k) - 1u);
+          candidates = candidates_of(p, edges_p, version) & remaining;
+        }
+      }
+    }
+    for (const std::int32_t q : *marked) labels[q] = std::max(labels[q], std::int32_t{0});
+  } else {
+    while (head < tail) {
+      const std::int32_t p = queue[head++];
+      unsigned mask = edges[p];
+      while (mask != 0) {
+        const int k = std::countr_zero(mask);
+        mask &= mask - 1;
+        const std::int32_t q = static_cast<std::int32_t>(p + offsets[k]);
+        if (labels[q] != 0 || !model.accepts(f, p, q)) continue;
+        labels[q] = label;
+        model.add(f, q);
+        assert(static_cast<std::size_t>(tail) < capacity);
+        queue[tail++] = q;
+      }
     }
   }
   return tail;
@@ -117,11 +242,11 @@ std::int32_t grow_pixels(const Frame& f, Model& model, std::int32_t label, std::
 
 /// Coarse level of `grow_regions`: complete cells in ascending curvature order seed regions that
 /// grow over neighbouring cells the model accepts as units; each region then continues pixel by
-/// pixel from the border of its cells. Raw labels continue from `label`.
+/// pixel from the border of its cells. Raw labels continue from `label`. Needs scratch.cells
+/// computed for this frame (`compute_cells`).
 template <CellGrowingModel Model>
 void grow_cells(const Frame& f, Model& model, Segmenter::Scratch& s, std::int32_t& label) {
   using namespace detail_engine;
-  compute_cells(f, s);
   const int cols = s.cell_cols, rows = s.cell_rows;
   const auto& cells = s.cells;
   auto& cell_label = s.cell_label;
@@ -208,7 +333,7 @@ void grow_cells(const Frame& f, Model& model, Segmenter::Scratch& s, std::int32_
         }
       }
     }
-    grow_pixels(f, model, label, queue, 0, ptail, s.queue.size());
+    grow_pixels(f, model, label, queue, 0, ptail, s.queue.size(), &s.marked);
     s.regions.push_back(model.stats());
   }
 }
@@ -238,7 +363,7 @@ void grow_regions(const Frame& f, Model& model, Segmenter::Scratch& s,
     labels[seed] = label;
     model.init(f, seed);
     queue[0] = seed;
-    grow_pixels(f, model, label, queue, 0, 1, s.queue.size());
+    grow_pixels(f, model, label, queue, 0, 1, s.queue.size(), &s.marked);
     s.regions.push_back(model.stats());
   }
 }

@@ -2,9 +2,14 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "segmentation/internal.hpp"
 #include "segmentation/primitive_internal.hpp"
@@ -38,6 +43,10 @@ void validate(const SegmentationSettings& s) {
           s.max_normal_angle, "in (0, pi] rad");
   require(s.max_distance_sigmas > 0 && std::isfinite(s.max_distance_sigmas), "max_distance_sigmas",
           s.max_distance_sigmas, "finite and > 0");
+  require(s.normal_noise_sigmas >= 0 && std::isfinite(s.normal_noise_sigmas), "normal_noise_sigmas",
+          s.normal_noise_sigmas, "finite and >= 0");
+  require(s.min_normal_angle >= 0 && s.min_normal_angle <= pi, "min_normal_angle",
+          s.min_normal_angle, "in [0, pi] rad");
   require(s.max_smooth_angle > 0 && s.max_smooth_angle <= pi, "max_smooth_angle",
           s.max_smooth_angle, "in (0, pi] rad");
   require(s.max_curvature > 0, "max_curvature", s.max_curvature, "> 0");
@@ -69,34 +78,69 @@ void collect_seeds(const Frame& f, const SegmentationSettings& settings, Segment
     max_curvature = std::fmin(max_curvature, static_cast<float>(settings.max_curvature));
   }
   const std::uint32_t floor_key = float_key(kSeedKeyFloor);
-  s.candidate_pixel.clear();
-  s.candidate_key.clear();
+  const int step = f.pixel_stride;
   s.bucket_start.assign(kSeedBuckets + 1, 0);
   std::int32_t* const count = s.bucket_start.data() + 1;
-  const int step = f.pixel_stride;
+  // Written by index (at most one candidate per lattice vertex): push_back costs a quarter of
+  // the scan. The buffers only grow, so the zero fill of resize is paid once per Segmenter.
+  const std::size_t lattice =
+      static_cast<std::size_t>((f.width + step - 1) / step) * ((f.height + step - 1) / step);
+  if (s.candidate_pixel.size() < lattice) {
+    s.candidate_pixel.resize(lattice);
+    s.candidate_key.resize(lattice);
+  }
+  std::int32_t* const pixel = s.candidate_pixel.data();
+  std::uint16_t* const key_of = s.candidate_key.data();
+  std::size_t n = 0;
+  const auto add = [&](std::ptrdiff_t i) {
+    const std::uint32_t key = float_key(std::fabs(f.curvature[i]));
+    const std::uint32_t bucket =
+        key <= floor_key ? 0u : std::min<std::uint32_t>(key - floor_key, kSeedBuckets - 1);
+    ++count[bucket];
+    pixel[n] = static_cast<std::int32_t>(i);
+    key_of[n] = static_cast<std::uint16_t>(bucket);
+    ++n;
+  };
+  // A seed needs a point and a normal; NaN curvature fails the comparison.
+  const auto consider = [&](std::ptrdiff_t i) {
+    if (f.labels[i] == 0 && f.curvature[i] <= max_curvature && std::isfinite(f.nz[i]) &&
+        std::isfinite(f.z[i])) {
+      add(i);
+    }
+  };
   for (int v = 0; v < f.height; v += step) {
     const std::ptrdiff_t row = v * f.stride;
-    for (int u = 0; u < f.width; u += step) {
-      const std::ptrdiff_t i = row + u;
-      const float c = f.curvature[i];
-      // A seed needs a point and a normal; NaN curvature fails the comparison.
-      if (f.labels[i] != 0 || !(c <= max_curvature) || !std::isfinite(f.nz[i]) ||
-          !std::isfinite(f.z[i]))
-        continue;
-      const std::uint32_t key = float_key(std::fabs(c));
-      const std::uint32_t bucket =
-          key <= floor_key ? 0u : std::min<std::uint32_t>(key - floor_key, kSeedBuckets - 1);
-      ++count[bucket];
-      s.candidate_pixel.push_back(static_cast<std::int32_t>(i));
-      s.candidate_key.push_back(static_cast<std::uint16_t>(bucket));
+    int u = 0;
+#if defined(__SSE2__)
+    if (step == 1) {
+      // Four pixels at a time, branch-free (most are labelled by the coarse level already).
+      const __m128 limit = _mm_set1_ps(max_curvature);
+      const __m128 infinity = _mm_set1_ps(std::numeric_limits<float>::infinity());
+      const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7FFFFFFF));
+      const __m128i zero = _mm_setzero_si128();
+      for (; u + 4 <= f.width; u += 4) {
+        const std::ptrdiff_t i = row + u;
+        const __m128i labels = _mm_loadu_si128(reinterpret_cast<const __m128i*>(f.labels + i));
+        const __m128 unlabelled = _mm_castsi128_ps(_mm_cmpeq_epi32(labels, zero));
+        const __m128 flat = _mm_cmple_ps(_mm_loadu_ps(f.curvature + i), limit);
+        // |x| < infinity fails for infinities and NaN.
+        const __m128 normal = _mm_cmplt_ps(_mm_and_ps(_mm_loadu_ps(f.nz + i), abs_mask), infinity);
+        const __m128 point = _mm_cmplt_ps(_mm_and_ps(_mm_loadu_ps(f.z + i), abs_mask), infinity);
+        auto bits = static_cast<unsigned>(
+            _mm_movemask_ps(_mm_and_ps(_mm_and_ps(unlabelled, flat), _mm_and_ps(normal, point))));
+        while (bits != 0) {
+          add(i + std::countr_zero(bits));
+          bits &= bits - 1;
+        }
+      }
     }
+#endif
+    for (; u < f.width; u += step) consider(row + u);
   }
   for (int b = 0; b < kSeedBuckets; ++b) s.bucket_start[b + 1] += s.bucket_start[b];
-  s.seeds.resize(s.candidate_pixel.size());
+  s.seeds.resize(n);
   std::int32_t* const next = s.bucket_start.data();
-  for (std::size_t j = 0; j < s.candidate_pixel.size(); ++j) {
-    s.seeds[next[s.candidate_key[j]]++] = s.candidate_pixel[j];
-  }
+  for (std::size_t j = 0; j < n; ++j) s.seeds[next[key_of[j]]++] = pixel[j];
 }
 
 Frame make_frame(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
