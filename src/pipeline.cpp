@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <stdexcept>
+#include <string>
 
 #include "detail/row_bands.hpp"
 
@@ -50,7 +52,13 @@ PipelineSettings pipeline_preset(std::string_view sensor) {
 }
 
 Pipeline::Pipeline(const PipelineSettings& settings)
-    : settings_(settings), smoother_(settings.smoothing) {}
+    : settings_(settings), smoother_(settings.smoothing) {
+  if (settings.threads < 1 || settings.threads > 256) {
+    throw std::invalid_argument("PipelineSettings::threads = " + std::to_string(settings.threads) +
+                                " must be in [1, 256]");
+  }
+  if (settings.threads > 1) pool_ = std::make_unique<ThreadPool>(settings.threads);
+}
 
 void Pipeline::process(const OrganizedCloud& cloud) {
   require_organized(cloud, "Pipeline::process");
@@ -65,8 +73,19 @@ void Pipeline::process(const OrganizedCloud& cloud) {
   detail::prepare_normals(cloud, mesh_, settings_.normals, raw_normals_);
   times_.mesh = ms_since(t);
   const int height = cloud.height(), stride = mesh_.pixel_stride;
-  int normals_done = 0;
-  for (int v0 = 0; v0 < height; v0 += kMeshBandRows) {
+  if (pool_) {
+    // Threads: all mesh bands, then (a band's normals read the mesh beyond it) all normal bands.
+    pool_->for_each_band(height, stride, [&](int, int v0, int v1) {
+      detail::build_mesh_rows(cloud, settings_.mesh, mesh_, v0, v1);
+    });
+    times_.mesh += ms_since(t);
+    pool_->for_each_band(height, stride, [&](int, int v0, int v1) {
+      detail::compute_normals_rows(cloud, mesh_, settings_.normals, raw_normals_, v0, v1);
+    });
+    times_.normals = ms_since(t);
+  }
+  int normals_done = pool_ ? height : 0;
+  for (int v0 = pool_ ? height : 0; v0 < height; v0 += kMeshBandRows) {
     const int v1 = std::min(height, v0 + kMeshBandRows);
     detail::build_mesh_rows(cloud, settings_.mesh, mesh_, v0, v1);
     times_.mesh += ms_since(t);
@@ -79,7 +98,11 @@ void Pipeline::process(const OrganizedCloud& cloud) {
     times_.normals += ms_since(t);
   }
   if (settings_.smooth) {
-    smoother_.run(cloud, mesh_, raw_normals_, smoothed_cloud_, smoothed_normals_);
+    if (pool_) {
+      smoother_.run(cloud, mesh_, raw_normals_, smoothed_cloud_, smoothed_normals_, *pool_);
+    } else {
+      smoother_.run(cloud, mesh_, raw_normals_, smoothed_cloud_, smoothed_normals_);
+    }
     times_.smoothing = ms_since(t);
   }
   if (settings_.segment) {

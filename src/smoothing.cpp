@@ -502,6 +502,16 @@ Smoother::Smoother(const SmoothingSettings& settings) : settings_(settings) { va
 
 void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
                    OrganizedCloud& out_cloud, NormalMap& out_normals) {
+  run_passes(cloud, mesh, normals, out_cloud, out_normals, nullptr);
+}
+
+void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
+                   OrganizedCloud& out_cloud, NormalMap& out_normals, ThreadPool& pool) {
+  run_passes(cloud, mesh, normals, out_cloud, out_normals, &pool);
+}
+
+void Smoother::run_passes(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
+                          OrganizedCloud& out_cloud, NormalMap& out_normals, ThreadPool* pool) {
   require_organized(cloud, "smooth");
   if (&out_cloud == &cloud || &out_normals == &normals) {
     throw std::invalid_argument("smooth: the output objects must differ from the inputs");
@@ -569,6 +579,14 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
   const PassFn pass = setup.pass;
   const bool filter_normals = !st.recompute_normals;
   PassScratch ps{rows_, row_bytes_, rows_layout_};
+  if (pool != nullptr) {
+    const auto extra = static_cast<std::size_t>(pool->threads() - 1);
+    if (band_rows_.size() < extra) {
+      band_rows_.resize(extra);
+      band_row_bytes_.resize(extra);
+      band_rows_layout_.resize(extra, 0);
+    }
+  }
 
   // The pass works on origin-relative points (q = p - viewpoint) and adds the viewpoint back.
   const bool shifted = st.viewpoint != std::array<float, 3>{0.0f, 0.0f, 0.0f};
@@ -601,8 +619,21 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
         }
       }
     }
-    pass(shifted ? shifted_ : *src, *src_normals, mesh, i + 1 == st.iterations ? last_prm : prm, ps,
-         dst, dst_normals, 0, height);
+    const OrganizedCloud& in = shifted ? shifted_ : *src;
+    const PassParams& pass_prm = i + 1 == st.iterations ? last_prm : prm;
+    if (pool == nullptr || pool->threads() == 1) {
+      pass(in, *src_normals, mesh, pass_prm, ps, dst, dst_normals, 0, height);
+    } else {
+      pool->for_each_band(height, 1, [&](int band, int v0, int v1) {
+        if (band == 0) {
+          pass(in, *src_normals, mesh, pass_prm, ps, dst, dst_normals, v0, v1);
+          return;
+        }
+        const auto b = static_cast<std::size_t>(band - 1);
+        PassScratch band_ps{band_rows_[b], band_row_bytes_[b], band_rows_layout_[b]};
+        pass(in, *src_normals, mesh, pass_prm, band_ps, dst, dst_normals, v0, v1);
+      });
+    }
     if (!filter_normals) compute_normals(dst, mesh, normal_settings, dst_normals);
     src = &dst;
     src_normals = &dst_normals;

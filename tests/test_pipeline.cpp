@@ -3,10 +3,15 @@
 
 #include <atomic>
 #include <cstdlib>
+#include <cstring>
 #include <new>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "rangeseg/pipeline.hpp"
 #include "rangeseg/synth.hpp"
+#include "rangeseg/thread_pool.hpp"
 
 namespace {
 std::atomic<long> g_allocations{0};
@@ -59,15 +64,103 @@ TEST(Pipeline, NoAllocationPerFrameAfterTheFirst) {
   // Two different frames of the same size, alternating: buffers sized by the first must serve both.
   const synth::Rendering a = qvga(1);
   const synth::Rendering b = qvga(2);
-  Pipeline pipeline(pipeline_preset("kinect"));
-  for (int warmup = 0; warmup < 3; ++warmup) {
-    pipeline.process(a.cloud);
-    pipeline.process(b.cloud);
+  for (const int threads : {1, 2}) {
+    PipelineSettings settings = pipeline_preset("kinect");
+    settings.threads = threads;
+    Pipeline pipeline(settings);
+    for (int warmup = 0; warmup < 3; ++warmup) {
+      pipeline.process(a.cloud);
+      pipeline.process(b.cloud);
+    }
+    const long before = g_allocations.load();
+    for (int frame = 0; frame < 4; ++frame) pipeline.process(frame % 2 == 0 ? a.cloud : b.cloud);
+    EXPECT_EQ(g_allocations.load() - before, 0)
+        << "heap allocations in 4 frames after warm-up, " << threads << " threads";
+    EXPECT_FALSE(pipeline.segmentation().segments.empty());
   }
-  const long before = g_allocations.load();
-  for (int frame = 0; frame < 4; ++frame) pipeline.process(frame % 2 == 0 ? a.cloud : b.cloud);
-  EXPECT_EQ(g_allocations.load() - before, 0) << "heap allocations in 4 frames after warm-up";
-  EXPECT_FALSE(pipeline.segmentation().segments.empty());
+}
+
+template <class T>
+bool same_bits(const Plane<T>& a, const Plane<T>& b) {
+  if (a.width() != b.width() || a.height() != b.height()) return false;
+  for (int v = 0; v < a.height(); ++v) {
+    if (std::memcmp(a.row(v), b.row(v), sizeof(T) * static_cast<std::size_t>(a.width())) != 0) {
+      return false;
+    }
+  }
+  return true;
+}
+
+/// Every output of a threaded frame equals the single-threaded one bit for bit, for 2 and 3
+/// threads (uneven bands) and both the smoothed and the raw path.
+TEST(Pipeline, ThreadsInsideAFrameGiveIdenticalResults) {
+  const synth::Rendering scene = qvga(3);
+  for (const bool smooth : {true, false}) {
+    PipelineSettings settings = pipeline_preset("kinect");
+    settings.smooth = smooth;
+    settings.smoothing.iterations = 2;
+    Pipeline reference(settings);
+    reference.process(scene.cloud);
+    for (const int threads : {2, 3}) {
+      settings.threads = threads;
+      Pipeline threaded(settings);
+      threaded.process(scene.cloud);
+      const std::string what =
+          std::to_string(threads) + " threads, smooth " + std::to_string(smooth);
+      EXPECT_TRUE(same_bits(threaded.mesh().edges, reference.mesh().edges)) << what;
+      EXPECT_TRUE(same_bits(threaded.mesh().faces, reference.mesh().faces)) << what;
+      EXPECT_TRUE(same_bits(threaded.raw_normals().nz, reference.raw_normals().nz)) << what;
+      EXPECT_TRUE(same_bits(threaded.raw_normals().curvature, reference.raw_normals().curvature))
+          << what;
+      EXPECT_TRUE(same_bits(threaded.cloud().x, reference.cloud().x)) << what;
+      EXPECT_TRUE(same_bits(threaded.cloud().z, reference.cloud().z)) << what;
+      EXPECT_TRUE(same_bits(threaded.normals().nx, reference.normals().nx)) << what;
+      EXPECT_TRUE(same_bits(threaded.normals().ny, reference.normals().ny)) << what;
+      EXPECT_TRUE(same_bits(threaded.segmentation().labels, reference.segmentation().labels))
+          << what;
+      ASSERT_EQ(threaded.segmentation().segments.size(), reference.segmentation().segments.size());
+      EXPECT_EQ(threaded.polygons().points3d, reference.polygons().points3d) << what;
+    }
+  }
+}
+
+TEST(Pipeline, RejectsInvalidThreadCounts) {
+  EXPECT_THROW(Pipeline({.threads = 0}), std::invalid_argument);
+  EXPECT_THROW(Pipeline({.threads = 257}), std::invalid_argument);
+  EXPECT_THROW(ThreadPool(0), std::invalid_argument);
+}
+
+/// Bands cover the rows exactly once, start at multiples of the alignment, run on distinct
+/// threads, and an exception in any band reaches the caller after all bands finished.
+TEST(ThreadPoolTest, BandsCoverRowsAndPropagateExceptions) {
+  ThreadPool pool(3);
+  for (const int rows : {0, 1, 2, 7, 480}) {
+    for (const int align : {1, 2, 8}) {
+      std::vector<int> hits(static_cast<std::size_t>(rows), 0);
+      std::atomic<int> calls{0};
+      pool.for_each_band(rows, align, [&](int band, int v0, int v1) {
+        ++calls;
+        EXPECT_TRUE(band >= 0 && band < 3);
+        EXPECT_LE(v0, v1);
+        if (v0 > 0 && v0 < v1) EXPECT_EQ(v0 % align, 0) << v0 << " align " << align;
+        for (int v = v0; v < v1; ++v) ++hits[static_cast<std::size_t>(v)];
+      });
+      EXPECT_EQ(calls.load(), 3);
+      for (int v = 0; v < rows; ++v) EXPECT_EQ(hits[static_cast<std::size_t>(v)], 1) << v;
+    }
+  }
+  std::atomic<int> finished{0};
+  EXPECT_THROW(pool.for_each_band(30, 1,
+                                  [&](int band, int, int) {
+                                    if (band == 2) throw std::runtime_error("band 2 failed");
+                                    ++finished;
+                                  }),
+               std::runtime_error);
+  EXPECT_EQ(finished.load(), 2);
+  // The pool still works after an exception.
+  std::atomic<int> again{0};
+  pool.for_each_band(30, 1, [&](int, int, int) { ++again; });
+  EXPECT_EQ(again.load(), 3);
 }
 
 TEST(Pipeline, RejectsUnorganizedClouds) {

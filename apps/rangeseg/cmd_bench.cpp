@@ -36,8 +36,9 @@ constexpr const char* kStages[] = {"mesh",         "normals",  "smoothing",
 struct SizeResult {
   int scale = 1, width = 0, height = 0;
   double median_ms[6] = {};
-  double fps_single = 0;   ///< frames/s of the timed single-thread runs
-  double fps_threads = 0;  ///< frames/s of `threads` pipelines in parallel (0 if threads == 1)
+  double fps_single = 0;       ///< frames/s of the timed single-thread runs
+  double fps_threads = 0;      ///< frames/s of `threads` pipelines in parallel (0 if threads == 1)
+  double in_frame_ms[6] = {};  ///< medians with `threads` threads inside each frame
 };
 
 using Clock = std::chrono::steady_clock;
@@ -48,11 +49,10 @@ double seconds_since(Clock::time_point start) {
 
 /// Per-stage medians of one pipeline over `repeat` runs, then (threads > 1) the frame rate of
 /// `threads` pipelines sharing repeat * threads frames.
-SizeResult measure(const OrganizedCloud& cloud, const PipelineSettings& settings, int repeat,
-                   int threads) {
-  SizeResult r;
-  r.width = cloud.width();
-  r.height = cloud.height();
+/// Per-stage medians over `repeat` frames (after one warm-up frame) into `medians`; returns the
+/// frames per second of the timed runs.
+double time_stages(const OrganizedCloud& cloud, const PipelineSettings& settings, int repeat,
+                   double (&medians)[6]) {
   Pipeline pipeline(settings);
   pipeline.process(cloud);  // warm-up: buffers are allocated here
   std::vector<std::vector<double>> times(6);
@@ -63,9 +63,21 @@ SizeResult measure(const OrganizedCloud& cloud, const PipelineSettings& settings
     const double values[] = {t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons, t.total};
     for (int s = 0; s < 6; ++s) times[static_cast<std::size_t>(s)].push_back(values[s]);
   }
-  r.fps_single = repeat / seconds_since(start);
-  for (int s = 0; s < 6; ++s) r.median_ms[s] = median(times[static_cast<std::size_t>(s)]);
+  const double fps = repeat / seconds_since(start);
+  for (int s = 0; s < 6; ++s) medians[s] = median(times[static_cast<std::size_t>(s)]);
+  return fps;
+}
+
+SizeResult measure(const OrganizedCloud& cloud, const PipelineSettings& settings, int repeat,
+                   int threads) {
+  SizeResult r;
+  r.width = cloud.width();
+  r.height = cloud.height();
+  r.fps_single = time_stages(cloud, settings, repeat, r.median_ms);
   if (threads <= 1) return r;
+  PipelineSettings in_frame = settings;
+  in_frame.threads = threads;
+  time_stages(cloud, in_frame, repeat, r.in_frame_ms);
 
   std::vector<std::unique_ptr<Pipeline>> pipelines;
   for (int t = 0; t < threads; ++t) {
@@ -144,8 +156,8 @@ void add_bench(CLI::App& app) {
       ->check(CLI::Range(1, 1024))
       ->excludes(sizes);
   cmd->add_option("--threads", o->threads,
-                  "Also measure the frame rate of N pipelines in parallel (one per thread); the "
-                  "per-stage medians stay single-threaded")
+                  "Also measure N threads inside each frame (stage medians) and the frame rate of "
+                  "N pipelines in parallel (one per thread)")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
   cmd->callback([o] {
@@ -172,6 +184,10 @@ void add_bench(CLI::App& app) {
         result["threads"] = o->threads;
         result["frames_per_second"] = r.fps_threads;
         result["frames_per_second_single_thread"] = r.fps_single;
+        nlohmann::json in_frame;
+        for (int s = 0; s < 6; ++s) in_frame[kStages[s]] = r.in_frame_ms[s];
+        result["in_frame"] = in_frame;
+        result["in_frame_speedup"] = r.median_ms[5] / r.in_frame_ms[5];
       }
       if (o->json) {
         std::printf("%s\n", result.dump().c_str());
@@ -179,8 +195,16 @@ void add_bench(CLI::App& app) {
       }
       std::printf("%s: %d x %d, median of %d runs, single thread\n", o->in.path.c_str(),
                   in.cloud.width(), in.cloud.height(), o->repeat);
-      for (int s = 0; s < 6; ++s) std::printf("  %-13s %8.3f ms\n", kStages[s], r.median_ms[s]);
+      for (int s = 0; s < 6; ++s) {
+        std::printf("  %-13s %8.3f ms", kStages[s], r.median_ms[s]);
+        if (o->threads > 1) {
+          std::printf("   %8.3f ms with %d threads in the frame", r.in_frame_ms[s], o->threads);
+        }
+        std::printf("\n");
+      }
       if (o->threads > 1) {
+        std::printf("  in-frame      x%.2f faster with %d threads\n",
+                    r.median_ms[5] / r.in_frame_ms[5], o->threads);
         std::printf("  throughput    %8.1f frames/s with %d threads (%.1f with one, x%.2f)\n",
                     r.fps_threads, o->threads, r.fps_single, r.fps_threads / r.fps_single);
       }
@@ -196,7 +220,10 @@ void add_bench(CLI::App& app) {
         j["height"] = r.height;
         j["scale"] = r.scale;
         j["frames_per_second"] = r.fps_single;
-        if (o->threads > 1) j["frames_per_second_threads"] = r.fps_threads;
+        if (o->threads > 1) {
+          j["frames_per_second_threads"] = r.fps_threads;
+          j["in_frame_total_ms"] = r.in_frame_ms[5];
+        }
         list.push_back(std::move(j));
       }
       std::printf("%s\n", nlohmann::json{{"input", o->in.path},
@@ -213,13 +240,16 @@ void add_bench(CLI::App& app) {
     std::printf("%-9s", "size");
     for (const char* stage : kStages) std::printf(" %12s", stage);
     std::printf(" %10s", "frames/s");
-    if (o->threads > 1) std::printf(" %14s", ("frames/s x" + std::to_string(o->threads)).c_str());
+    const std::string n = std::to_string(o->threads);
+    if (o->threads > 1) {
+      std::printf(" %14s %18s", ("frames/s x" + n).c_str(), ("total, " + n + " in frame").c_str());
+    }
     std::printf("\n");
     for (const SizeResult& r : results) {
       std::printf("%-9s", (std::to_string(r.width) + "x" + std::to_string(r.height)).c_str());
       for (const double ms : r.median_ms) std::printf(" %12.3f", ms);
       std::printf(" %10.1f", r.fps_single);
-      if (o->threads > 1) std::printf(" %14.1f", r.fps_threads);
+      if (o->threads > 1) std::printf(" %14.1f %18.3f", r.fps_threads, r.in_frame_ms[5]);
       std::printf("\n");
     }
   });

@@ -60,7 +60,9 @@ void add_segment(CLI::App& app) {
                   "Output directory (one input file: the results; otherwise one folder per frame "
                   "and summary.json)")
       ->required();
-  cmd->add_option("--threads", o->threads, "Frames processed in parallel (one pipeline each)")
+  cmd->add_option("--threads", o->threads,
+                  "A batch: frames processed in parallel (one pipeline each); one input: threads "
+                  "inside the frame (mesh, normals, smoothing)")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
   cmd->add_option("--model", o->model, "Region model: plane or smooth")->capture_default_str();
@@ -87,7 +89,9 @@ void add_segment(CLI::App& app) {
     }
     o->in.path = o->inputs.front();
     const LoadedInput in = load_input(o->in);
-    Pipeline pipeline(settings_from(o->preset, o->model, o->config, o->no_smooth));
+    PipelineSettings settings = settings_from(o->preset, o->model, o->config, o->no_smooth);
+    settings.threads = o->threads;
+    Pipeline pipeline(settings);
     pipeline.process(in.cloud);
     write_segmentation_folder(o->out_dir, in.cloud, pipeline, !o->no_mesh);
     const StageTimes& t = pipeline.times();

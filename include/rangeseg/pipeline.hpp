@@ -1,6 +1,7 @@
 // The whole frame: mesh, normals, smoothing and segmentation with buffers reused across frames.
 #pragma once
 
+#include <memory>
 #include <string_view>
 
 #include "rangeseg/cloud.hpp"
@@ -9,6 +10,7 @@
 #include "rangeseg/polygons.hpp"
 #include "rangeseg/segmentation.hpp"
 #include "rangeseg/smoothing.hpp"
+#include "rangeseg/thread_pool.hpp"
 
 namespace rangeseg {
 
@@ -21,6 +23,9 @@ struct PipelineSettings {
   SegmentationSettings segmentation{};
   bool polygons = true;  ///< outline every plane segment (needs `segment`)
   PolygonSettings polygon{};
+  /// Threads inside one frame: mesh, normals and smoothing run on this many row bands at once
+  /// (results bit-identical to 1 thread); segmentation and polygons run on one. 1..256.
+  int threads = 1;
 };
 
 /// Sets the sensor noise model of every stage.
@@ -42,7 +47,8 @@ struct StageTimes {
 /// than any before). Results stay valid until the next call of `process`. Not thread-safe.
 class Pipeline {
  public:
-  /// Throws std::invalid_argument for invalid settings.
+  /// Throws std::invalid_argument for invalid settings. Starts settings.threads - 1 worker
+  /// threads, which live as long as the pipeline.
   explicit Pipeline(const PipelineSettings& settings = {});
 
   /// Processes one organized cloud. Throws std::invalid_argument for an unorganized cloud.
@@ -71,6 +77,7 @@ class Pipeline {
   PolygonExtractor polygon_extractor_;
   PolygonSet polygons_;
   StageTimes times_;
+  std::unique_ptr<ThreadPool> pool_;  ///< when settings.threads > 1
 };
 
 }  // namespace rangeseg

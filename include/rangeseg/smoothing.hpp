@@ -10,6 +10,7 @@
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/normals.hpp"
 #include "rangeseg/sensor.hpp"
+#include "rangeseg/thread_pool.hpp"
 
 namespace rangeseg {
 
@@ -101,6 +102,10 @@ class Smoother {
   /// object is the corresponding input. iterations == 0 copies the input.
   void run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
            OrganizedCloud& out_cloud, NormalMap& out_normals);
+  /// As above, with every pass split into `pool.threads()` row bands that run concurrently.
+  /// The output is bit-identical to the single-threaded call.
+  void run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
+           OrganizedCloud& out_cloud, NormalMap& out_normals, ThreadPool& pool);
 
   const SmoothingSettings& settings() const { return settings_; }
 
@@ -113,6 +118,13 @@ class Smoother {
   std::vector<float> rows_;              ///< per-row inputs, scales and sums of a pass
   std::vector<std::uint8_t> row_bytes_;  ///< one row of edge bytes
   std::size_t rows_layout_ = 0;          ///< layout rows_ was made for
+  // The same per band 1.. of a threaded run (band 0 uses the buffers above).
+  std::vector<std::vector<float>> band_rows_;
+  std::vector<std::vector<std::uint8_t>> band_row_bytes_;
+  std::vector<std::size_t> band_rows_layout_;
+
+  void run_passes(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
+                  OrganizedCloud& out_cloud, NormalMap& out_normals, ThreadPool* pool);
 };
 
 /// One-shot filter (allocates its scratch buffers per call; keep a Smoother to avoid that).

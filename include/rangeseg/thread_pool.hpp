@@ -1,0 +1,46 @@
+// Worker threads for splitting the rows of one frame over cores (Pipeline, Smoother::run).
+#pragma once
+
+#include <memory>
+#include <type_traits>
+
+namespace rangeseg {
+
+/// A fixed set of threads that run one function on disjoint bands of image rows. Created once
+/// and reused for every frame: dispatching a frame's bands allocates nothing.
+class ThreadPool {
+ public:
+  /// `threads` >= 1 bands run concurrently: threads - 1 workers are started and the calling
+  /// thread runs the first band. Throws std::invalid_argument for threads < 1 or > 256.
+  explicit ThreadPool(int threads);
+  ~ThreadPool();
+  ThreadPool(const ThreadPool&) = delete;
+  ThreadPool& operator=(const ThreadPool&) = delete;
+
+  int threads() const { return threads_; }
+
+  /// Calls fn(band, row_begin, row_end) for `threads()` disjoint bands covering rows [0, rows),
+  /// concurrently; the first row of every non-empty band but the first is a multiple of `align`
+  /// (>= 1), and bands may be empty. Returns when every band is done and rethrows the first exception a band threw.
+  /// Not reentrant: one call at a time per pool.
+  template <class F>
+  void for_each_band(int rows, int align, F&& fn) {
+    using Fn = std::remove_reference_t<F>;
+    run_bands(
+        rows, align,
+        [](void* context, int band, int row_begin, int row_end) {
+          (*static_cast<Fn*>(context))(band, row_begin, row_end);
+        },
+        const_cast<void*>(static_cast<const void*>(&fn)));
+  }
+
+ private:
+  using BandFn = void (*)(void* context, int band, int row_begin, int row_end);
+  void run_bands(int rows, int align, BandFn fn, void* context);
+
+  struct Workers;
+  int threads_ = 1;
+  std::unique_ptr<Workers> workers_;
+};
+
+}  // namespace rangeseg
