@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 
@@ -82,8 +83,9 @@ TEST(Cli, SynthSegmentEvalRoundTrip) {
   const auto json = nlohmann::json::parse(read_text(dir / "seg" / "segments.json"));
   ASSERT_FALSE(json["segments"].empty());
   int max_label = 0;
-  for (int v = 0; v < labels.height(); ++v)
+  for (int v = 0; v < labels.height(); ++v) {
     for (int u = 0; u < labels.width(); ++u) max_label = std::max(max_label, labels(u, v));
+  }
   EXPECT_EQ(max_label, static_cast<int>(json["segments"].size()));
   const auto& first = json["segments"][0];
   EXPECT_NEAR(std::hypot(first["normal"][0].get<double>(), first["normal"][1].get<double>(),
@@ -99,6 +101,28 @@ TEST(Cli, SynthSegmentEvalRoundTrip) {
                              (dir / "seg" / "labels.png").string());
   ASSERT_EQ(eval.code, 0) << eval.out;
   EXPECT_NE(eval.out.find("correct"), std::string::npos);
+
+  // Per-region outcomes, the JSON report, and the angle error from the scene's points.
+  const std::string eval_args = "eval " + (dir / "scene" / "labels.png").string() + " " +
+                                (dir / "seg" / "labels.png").string() + " --cloud " +
+                                (dir / "scene" / "cloud.pcd").string();
+  const CliResult detailed = run(eval_args + " --regions --json " + (dir / "eval.json").string());
+  ASSERT_EQ(detailed.code, 0) << detailed.out;
+  EXPECT_NE(detailed.out.find("ground-truth regions:"), std::string::npos) << detailed.out;
+  const auto report = nlohmann::json::parse(read_text(dir / "eval.json"));
+  ASSERT_EQ(report["gt"].size(), report["gt_regions"].get<std::size_t>());
+  std::map<std::string, int> gt_outcomes;
+  for (const auto& r : report["gt"]) ++gt_outcomes[r["outcome"].get<std::string>()];
+  EXPECT_EQ(gt_outcomes["correct"], report["correct"].get<int>());
+  EXPECT_EQ(gt_outcomes["missed"], report["missed"].get<int>());
+  EXPECT_EQ(report["ms"].size(), report["ms_regions"].get<std::size_t>());
+  ASSERT_GT(report["angle_pairs"].get<int>(), 0) << report.dump();
+  EXPECT_LT(report["angle_mean_deg"].get<double>(), 5.0);
+  const CliResult no_cloud =
+      run("eval " + (dir / "scene" / "labels.png").string() + " " +
+          (dir / "seg" / "labels.png").string() + " --cloud " + (dir / "missing.pcd").string());
+  EXPECT_EQ(no_cloud.code, 2);
+  EXPECT_NE(no_cloud.out.find("missing.pcd"), std::string::npos) << no_cloud.out;
 
   // The depth PNG with the camera file gives the same grid as the PCD.
   const CliResult info = run("info " + (dir / "scene" / "depth.png").string() + " --intrinsics " +
@@ -269,9 +293,11 @@ TEST(CliBatch, TumSequenceUsesTimestampsAndFiveThousandUnitsPerMetre) {
     rangeseg::io::write_depth_png((seq / "depth" / (std::string(stamps[i]) + ".png")).string(),
                                   rangeseg::cloud_to_depth(cloud, 1.0 / 5000.0).view());
     list << stamps[i] << " depth/" << stamps[i] << ".png\n";
-    for (int v = 0; v < cloud.height(); ++v)
-      for (int u = 0; u < cloud.width(); ++u)
+    for (int v = 0; v < cloud.height(); ++v) {
+      for (int u = 0; u < cloud.width(); ++u) {
         if (cloud.valid(u, v)) mean_z += cloud.z(u, v), ++valid;
+      }
+    }
   }
   mean_z /= valid;
   list << "1305031102.226738 depth/1305031102.226738.png\n";  // listed but absent

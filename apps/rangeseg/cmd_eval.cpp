@@ -1,4 +1,7 @@
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -57,8 +60,9 @@ LabelImage load_machine(const std::string& path) {
   if (ext == ".ms-seg") {
     const BytePlane raw = io::read_rasterfile(path);
     LabelImage labels(raw.width(), raw.height(), 0);
-    for (int v = 0; v < raw.height(); ++v)
+    for (int v = 0; v < raw.height(); ++v) {
       for (int u = 0; u < raw.width(); ++u) labels(u, v) = raw(u, v);
+    }
     return labels;
   }
   throw std::runtime_error(path + ": unsupported segmentation type '" + ext +
@@ -85,7 +89,58 @@ void print_header() {
 struct EvalOptions {
   std::string gt, pred;
   double tolerance = 0.8;
+  std::string cloud;  ///< points for the angle error when the ground truth brings none
+  std::string json;
+  bool regions = false;
 };
+
+/// "3 (over: 7 9)" style partner list.
+std::string partner_list(const std::vector<int>& partners) {
+  std::string text;
+  for (const int p : partners) text += (text.empty() ? "" : " ") + std::to_string(p);
+  return text.empty() ? "-" : text;
+}
+
+void print_regions(const char* side, const std::vector<eval::RegionOutcome>& regions) {
+  std::printf("%s regions:\n%8s %9s %-8s %s\n", side, "label", "pixels", "outcome", "partners");
+  for (const eval::RegionOutcome& r : regions) {
+    std::printf("%8d %9lld %-8s %s\n", r.label, static_cast<long long>(r.pixels),
+                eval::to_string(r.outcome), partner_list(r.partners).c_str());
+  }
+}
+
+nlohmann::json regions_json(const std::vector<eval::RegionOutcome>& regions) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const eval::RegionOutcome& r : regions) {
+    list.push_back({{"label", r.label},
+                    {"pixels", r.pixels},
+                    {"outcome", eval::to_string(r.outcome)},
+                    {"partners", r.partners}});
+  }
+  return list;
+}
+
+nlohmann::json result_json(const EvalOptions& o, const eval::EvalResult& r,
+                           const eval::AngleStats& a) {
+  const auto number_or_null = [](double x) {
+    return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);
+  };
+  return {{"ground_truth", o.gt},
+          {"segmentation", o.pred},
+          {"T", r.settings.tolerance},
+          {"gt_regions", r.gt_regions},
+          {"ms_regions", r.ms_regions},
+          {"correct", r.correct},
+          {"over", r.over},
+          {"under", r.under},
+          {"missed", r.missed},
+          {"noise", r.noise},
+          {"angle_pairs", a.pairs},
+          {"angle_mean_deg", number_or_null(a.mean_deg)},
+          {"angle_std_deg", number_or_null(a.std_deg)},
+          {"gt", regions_json(r.gt)},
+          {"ms", regions_json(r.ms)}};
+}
 
 struct SegcompOptions {
   std::string dir;
@@ -99,11 +154,12 @@ struct SegcompOptions {
 /// SegComp .ms-seg: 8-bit rasterfile; labels above 255 cannot be stored and become 0.
 void write_ms_seg(const std::string& path, const LabelImage& labels) {
   BytePlane raw(labels.width(), labels.height(), 0);
-  for (int v = 0; v < labels.height(); ++v)
+  for (int v = 0; v < labels.height(); ++v) {
     for (int u = 0; u < labels.width(); ++u) {
       const int l = labels(u, v);
       raw(u, v) = static_cast<std::uint8_t>(l > 0 && l <= 255 ? l : 0);
     }
+  }
   io::write_rasterfile(path, raw.view());
 }
 
@@ -125,8 +181,9 @@ void run_segcomp(const SegcompOptions& o) {
   std::vector<fs::path> images;
   for (const auto& e : fs::directory_iterator(o.dir)) {
     const std::string name = e.path().filename().string();
-    if (name.rfind("abw.test.", 0) == 0 && e.path().extension() == ".range")
+    if (name.rfind("abw.test.", 0) == 0 && e.path().extension() == ".range") {
       images.push_back(e.path());
+    }
   }
   if (images.empty()) throw std::runtime_error(o.dir + ": no abw.test.*.range files");
   std::sort(images.begin(), images.end(), [](const fs::path& a, const fs::path& b) {
@@ -182,13 +239,35 @@ void add_eval(CLI::App& app) {
   cmd->add_option("segmentation", o->pred, "16-bit label .png (e.g. labels.png) or SegComp .ms-seg")
       ->required();
   cmd->add_option("--T", o->tolerance, "Overlap tolerance T, 0.5 < T <= 1")->capture_default_str();
+  cmd->add_option("--cloud", o->cloud,
+                  "Points of the scene (.pcd or .range) for the angle error, when the ground truth "
+                  "brings none (e.g. a label PNG from `synth`)");
+  cmd->add_flag("--regions", o->regions,
+                "Also list every region with its size, outcome and partner regions");
+  cmd->add_option("--json", o->json, "Write the scores and per-region outcomes to this JSON file");
   cmd->callback([o] {
-    const GroundTruth gt = load_ground_truth(o->gt);
+    GroundTruth gt = load_ground_truth(o->gt);
+    if (!o->cloud.empty()) {
+      OrganizedCloud cloud = load_input({.path = o->cloud}).cloud;
+      if (cloud.width() != gt.labels.width() || cloud.height() != gt.labels.height()) {
+        throw std::runtime_error(o->cloud + ": the cloud is " + std::to_string(cloud.width()) +
+                                 "x" + std::to_string(cloud.height()) + ", the ground truth " +
+                                 std::to_string(gt.labels.width()) + "x" +
+                                 std::to_string(gt.labels.height()));
+      }
+      gt.cloud = std::move(cloud);
+    }
     const LabelImage ms = load_machine(o->pred);
     const eval::EvalResult r =
         eval::evaluate(gt.labels, ms, {.tolerance = o->tolerance, .min_gt_label = gt.min_label});
+    const eval::AngleStats a = angles_for(r, gt, ms);
     print_header();
-    print_row(fs::path(o->gt).filename().string().c_str(), r, angles_for(r, gt, ms));
+    print_row(fs::path(o->gt).filename().string().c_str(), r, a);
+    if (o->regions) {
+      print_regions("ground-truth", r.gt);
+      print_regions("machine", r.ms);
+    }
+    if (!o->json.empty()) write_json(o->json, result_json(*o, r, a));
   });
 
   auto s = std::make_shared<SegcompOptions>();
