@@ -88,8 +88,9 @@ void draw_segment(RgbImage& image, long x0, long y0, long x1, long y1,
   const long sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1;
   long error = dx + dy;
   for (;;) {
-    if (x0 >= 0 && y0 >= 0 && x0 < image.width && y0 < image.height)
+    if (x0 >= 0 && y0 >= 0 && x0 < image.width && y0 < image.height) {
       set_pixel(image, static_cast<int>(x0), static_cast<int>(y0), colour);
+    }
     if (x0 == x1 && y0 == y1) break;
     const long e2 = 2 * error;
     if (e2 >= dy) error += dy, x0 += sx;
@@ -100,9 +101,10 @@ void draw_segment(RgbImage& image, long x0, long y0, long x1, long y1,
 }  // namespace
 
 RgbImage RgbImage::black(int w, int h) {
-  if (w < 0 || h < 0)
+  if (w < 0 || h < 0) {
     throw std::invalid_argument("RgbImage: negative size " + std::to_string(w) + " x " +
                                 std::to_string(h));
+  }
   RgbImage image;
   image.width = w;
   image.height = h;
@@ -177,9 +179,10 @@ std::array<std::uint8_t, 3> colour_map(float t) {
   const int i = std::min(static_cast<int>(s), 7);
   const float f = s - static_cast<float>(i);
   std::array<std::uint8_t, 3> out{};
-  for (int c = 0; c < 3; ++c)
+  for (int c = 0; c < 3; ++c) {
     out[c] = static_cast<std::uint8_t>(
         std::lround(kAnchors[i][c] + f * (kAnchors[i + 1][c] - kAnchors[i][c])));
+  }
   return out;
 }
 
@@ -207,8 +210,9 @@ RgbImage colorize_scalar_auto(View<const float> values) {
   finite.reserve(static_cast<std::size_t>(std::max(values.width, 0)) * std::max(values.height, 0));
   for (int y = 0; y < values.height; ++y) {
     const float* row = values.row(y);
-    for (int x = 0; x < values.width; ++x)
+    for (int x = 0; x < values.width; ++x) {
       if (std::isfinite(row[x])) finite.push_back(row[x]);
+    }
   }
   if (finite.empty()) return RgbImage::black(std::max(values.width, 0), std::max(values.height, 0));
   const auto percentile = [&](double q) {
@@ -232,8 +236,9 @@ RgbImage colorize_depth(const OrganizedCloud& cloud) {
 
 void draw_polyline(RgbImage& image, const std::vector<std::array<float, 2>>& pixels,
                    std::array<std::uint8_t, 3> colour, bool closed) {
-  if (image.rgb.size() != static_cast<std::size_t>(image.width) * image.height * 3)
+  if (image.rgb.size() != static_cast<std::size_t>(image.width) * image.height * 3) {
     throw std::invalid_argument("draw_polyline: image buffer does not match its size");
+  }
   const std::size_t n = pixels.size();
   // Points far outside the picture are clamped to a generous box so the integer arithmetic
   // cannot overflow; the line direction inside the picture is unaffected for sane inputs.

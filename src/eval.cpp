@@ -71,13 +71,15 @@ class PairCounter {
   std::vector<Overlap> sorted_overlaps() const {
     std::vector<std::pair<std::uint64_t, std::int64_t>> entries;
     entries.reserve(size_);
-    for (std::size_t i = 0; i < keys_.size(); ++i)
+    for (std::size_t i = 0; i < keys_.size(); ++i) {
       if (keys_[i] != kEmpty) entries.emplace_back(keys_[i], counts_[i]);
+    }
     std::sort(entries.begin(), entries.end());
     std::vector<Overlap> out;
     out.reserve(entries.size());
-    for (const auto& [key, count] : entries)
+    for (const auto& [key, count] : entries) {
       out.push_back({key_first(key), key_second(key), count});
+    }
     return out;
   }
 
@@ -204,8 +206,9 @@ EvalResult evaluate(const LabelImage& ground_truth, const LabelImage& machine,
   std::vector<IndexedOverlap> indexed;
   std::vector<std::pair<std::int32_t, int>> ms_of_overlap;  // (MS label, index into `indexed`)
   for (const Overlap& o : overlaps) {
-    if (result.gt.empty() || result.gt.back().label != o.gt)
+    if (result.gt.empty() || result.gt.back().label != o.gt) {
       result.gt.push_back({o.gt, 0, Outcome::missed, {}});
+    }
     result.gt.back().pixels += o.pixels;
     if (o.ms == kUnlabelled) continue;
     ms_of_overlap.emplace_back(o.ms, static_cast<int>(indexed.size()));
@@ -215,8 +218,9 @@ EvalResult evaluate(const LabelImage& ground_truth, const LabelImage& machine,
   // MS regions, ascending label, with sizes P_m.
   std::sort(ms_of_overlap.begin(), ms_of_overlap.end());
   for (const auto& [label, k] : ms_of_overlap) {
-    if (result.ms.empty() || result.ms.back().label != label)
+    if (result.ms.empty() || result.ms.back().label != label) {
       result.ms.push_back({label, 0, Outcome::noise, {}});
+    }
     result.ms.back().pixels += indexed[k].pixels;
     indexed[k].mi = static_cast<int>(result.ms.size()) - 1;
   }
@@ -256,16 +260,19 @@ EvalResult evaluate(const LabelImage& ground_truth, const LabelImage& machine,
   // 2. Over-segmentation: all still unclassified machine regions lying mostly inside R_n.
   {
     std::vector<std::pair<int, int>> pieces;  // (gi, mi), grouped by gi
-    for (int mi = 0; mi < n_ms; ++mi)
-      if (!ms_done[mi] && gt_containing_ms[mi] >= 0 && !gt_done[gt_containing_ms[mi]])
+    for (int mi = 0; mi < n_ms; ++mi) {
+      if (!ms_done[mi] && gt_containing_ms[mi] >= 0 && !gt_done[gt_containing_ms[mi]]) {
         pieces.emplace_back(gt_containing_ms[mi], mi);
+      }
+    }
     std::sort(pieces.begin(), pieces.end());
     for (std::size_t begin = 0; begin < pieces.size();) {
       const int gi = pieces[begin].first;
       std::size_t end = begin;
       std::int64_t sum = 0;
-      while (end < pieces.size() && pieces[end].first == gi)
+      while (end < pieces.size() && pieces[end].first == gi) {
         sum += ms_inside_overlap[pieces[end++].second];
+      }
       if (end - begin >= 2 && at_least_fraction(sum, T, result.gt[gi].pixels)) {
         result.gt[gi].outcome = Outcome::over;
         gt_done[gi] = true;
@@ -284,16 +291,19 @@ EvalResult evaluate(const LabelImage& ground_truth, const LabelImage& machine,
   // 3. Under-segmentation: all still unclassified GT regions lying mostly inside R_m.
   {
     std::vector<std::pair<int, int>> pieces;  // (mi, gi), grouped by mi
-    for (int gi = 0; gi < n_gt; ++gi)
-      if (!gt_done[gi] && ms_containing_gt[gi] >= 0 && !ms_done[ms_containing_gt[gi]])
+    for (int gi = 0; gi < n_gt; ++gi) {
+      if (!gt_done[gi] && ms_containing_gt[gi] >= 0 && !ms_done[ms_containing_gt[gi]]) {
         pieces.emplace_back(ms_containing_gt[gi], gi);
+      }
+    }
     std::sort(pieces.begin(), pieces.end());
     for (std::size_t begin = 0; begin < pieces.size();) {
       const int mi = pieces[begin].first;
       std::size_t end = begin;
       std::int64_t sum = 0;
-      while (end < pieces.size() && pieces[end].first == mi)
+      while (end < pieces.size() && pieces[end].first == mi) {
         sum += gt_inside_overlap[pieces[end++].second];
+      }
       if (end - begin >= 2 && at_least_fraction(sum, T, result.ms[mi].pixels)) {
         result.ms[mi].outcome = Outcome::under;
         ms_done[mi] = true;
@@ -324,8 +334,9 @@ EvalResult evaluate(const LabelImage& ground_truth, const LabelImage& machine,
   std::sort(ms_on_excluded.begin(), ms_on_excluded.end());
   ms_on_excluded.erase(std::unique(ms_on_excluded.begin(), ms_on_excluded.end()),
                        ms_on_excluded.end());
-  for (std::int32_t m : ms_on_excluded)
+  for (std::int32_t m : ms_on_excluded) {
     if (!find_label(result.ms, m)) ++result.ms_regions_outside;
+  }
   return result;
 }
 
@@ -494,8 +505,9 @@ AngleStats angle_error(const EvalResult& result, const LabelImage& ground_truth,
       if (row_x >= 0 && row_label != g && x - row_x <= max_step) add_pair(row_label, g);
       row_label = g;
       row_x = x;
-      if (column_y[x] >= 0 && column_label[x] != g && y - column_y[x] <= max_step)
+      if (column_y[x] >= 0 && column_label[x] != g && y - column_y[x] <= max_step) {
         add_pair(column_label[x], g);
+      }
       column_label[x] = g;
       column_y[x] = y;
     }

@@ -111,8 +111,9 @@ void validate(const OrganizedCloud& cloud, const MeshSettings& s) {
         "x" + std::to_string(cloud.height()));
   }
   const int t = static_cast<int>(s.type);
-  if (t < 0 || t > 3)
+  if (t < 0 || t > 3) {
     throw std::invalid_argument("build_mesh: unknown MeshType " + std::to_string(t));
+  }
   if (!(s.eps_theta >= 0.0f && s.eps_theta <= 1.5707964f)) {
     throw std::invalid_argument("build_mesh: eps_theta must be in [0, pi/2] rad, got " +
                                 std::to_string(s.eps_theta));

@@ -54,8 +54,9 @@ TEST(CliPrimitives, AutoModelWritesSurfaceTypesAndParameters) {
       for (const auto& gt : surfaces["surfaces"]) {
         if (gt["type"] == "cylinder" &&
             std::abs(gt["radius"].get<double>() - surface["radius"].get<double>()) <
-                0.01 * gt["radius"].get<double>())
+                0.01 * gt["radius"].get<double>()) {
           matched = true;
+        }
       }
       EXPECT_TRUE(matched) << surface.dump();
     } else {

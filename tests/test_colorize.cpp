@@ -47,20 +47,22 @@ TEST(Colorize, LabelColours) {
   EXPECT_EQ(seen.size(), 50u);
   EXPECT_GE(closest, 40);  // L1 distance in 0..765: no two of the first 50 are near-identical
   // Neighbouring labels are far apart.
-  for (int i = 1; i < 50; ++i)
+  for (int i = 1; i < 50; ++i) {
     EXPECT_GT(colour_distance(label_colour(i), label_colour(i + 1)), 100);
+  }
 }
 
 TEST(Colorize, LabelsShadedByDepth) {
   LabelImage labels(6, 6, 3);
   OrganizedCloud cloud(6, 6);
-  for (int v = 0; v < 6; ++v)
+  for (int v = 0; v < 6; ++v) {
     for (int u = 0; u < 6; ++u) {
       // Left half faces the camera, right half is steeply tilted.
       cloud.x(u, v) = 0.01f * (u - 3);
       cloud.y(u, v) = 0.01f * (v - 3);
       cloud.z(u, v) = u < 3 ? 1.0f : 1.0f + 0.05f * (u - 3);
     }
+  }
   cloud.z(0, 0) = NAN;
   const RgbImage img = colorize_labels(labels, &cloud);
   const auto base = label_colour(3);
@@ -123,9 +125,12 @@ TEST(Colorize, AutoRangeIgnoresOutliers) {
   // 1st / 99th percentiles are ~2 and ~197: pixel 50 sits about a quarter along the map.
   const auto c = at(img, 50, 0);
   int best = 0;
-  for (int i = 1; i <= 100; ++i)
-    if (colour_distance(colour_map(i / 100.0f), c) < colour_distance(colour_map(best / 100.0f), c))
+  for (int i = 1; i <= 100; ++i) {
+    if (colour_distance(colour_map(i / 100.0f), c) <
+        colour_distance(colour_map(best / 100.0f), c)) {
       best = i;
+    }
+  }
   EXPECT_NEAR(best, 25, 3);
   EXPECT_EQ(at(img, 100, 0), (std::array<std::uint8_t, 3>{0, 0, 0}));
   FloatPlane nan(3, 2, NAN);
@@ -144,13 +149,14 @@ TEST(Colorize, PolylineIsBresenhamAndClipped) {
   const std::array<std::uint8_t, 3> red = {255, 0, 0};
   draw_polyline(img, {{1, 1}, {6, 1}, {6, 5}, {1, 5}}, red, true);
   int lit = 0;
-  for (int y = 0; y < 8; ++y)
+  for (int y = 0; y < 8; ++y) {
     for (int x = 0; x < 10; ++x) {
       const bool on_rectangle =
           ((y == 1 || y == 5) && x >= 1 && x <= 6) || ((x == 1 || x == 6) && y >= 1 && y <= 5);
       EXPECT_EQ(at(img, x, y) == red, on_rectangle) << x << "," << y;
       lit += at(img, x, y) == red;
     }
+  }
   EXPECT_EQ(lit, 18);
 
   // A diagonal: exactly one pixel per column, each within half a pixel of the line.
@@ -158,11 +164,12 @@ TEST(Colorize, PolylineIsBresenhamAndClipped) {
   draw_polyline(diag, {{0, 0}, {9, 4}}, red, false);
   for (int x = 0; x < 10; ++x) {
     int count = 0;
-    for (int y = 0; y < 10; ++y)
+    for (int y = 0; y < 10; ++y) {
       if (at(diag, x, y) == red) {
         ++count;
         EXPECT_LE(std::abs(y - x * 4.0 / 9.0), 0.5 + 1e-9);
       }
+    }
     EXPECT_EQ(count, 1) << x;
   }
   // Far outside, NaN and a single point: no crash, clipped.
@@ -175,8 +182,9 @@ TEST(Colorize, PolylineIsBresenhamAndClipped) {
 TEST(Colorize, RgbPngRoundTripThroughDisk) {
   const auto dir = test::scratch_dir("colorize_png");
   LabelImage labels(16, 9, 0);
-  for (int y = 0; y < 9; ++y)
+  for (int y = 0; y < 9; ++y) {
     for (int x = 0; x < 16; ++x) labels(x, y) = (x / 4) + 3 * (y / 3);
+  }
   const RgbImage img = colorize_labels(labels);
   const std::string path = (dir / "labels.png").string();
   io::write_rgb_png(path, img);

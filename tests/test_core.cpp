@@ -23,9 +23,11 @@ TEST(Plane, StrideIsPaddedAndRowsAreIndependent) {
 
 TEST(Camera, DepthToCloudAndBackIsExact) {
   DepthImage depth(8, 6, 0);
-  for (int v = 0; v < 6; ++v)
-    for (int u = 0; u < 8; ++u)
+  for (int v = 0; v < 6; ++v) {
+    for (int u = 0; u < 8; ++u) {
       depth(u, v) = static_cast<std::uint16_t>((u + v) % 4 == 0 ? 0 : 500 + 37 * u + v);
+    }
+  }
   const CameraIntrinsics cam{.fx = 10, .fy = 12, .cx = 3.5, .cy = 2.5};
   const OrganizedCloud cloud = depth_to_cloud(depth.view(), cam, 0.001);
   ASSERT_EQ(cloud.width(), 8);
@@ -43,8 +45,9 @@ TEST(Camera, DepthToCloudAndBackIsExact) {
     }
   }
   const DepthImage back = cloud_to_depth(cloud, 0.001);
-  for (int v = 0; v < 6; ++v)
+  for (int v = 0; v < 6; ++v) {
     for (int u = 0; u < 8; ++u) EXPECT_EQ(back(u, v), depth(u, v));
+  }
   EXPECT_THROW(depth_to_cloud(depth.view(), CameraIntrinsics{.fx = 0}, 0.001),
                std::invalid_argument);
   EXPECT_THROW(depth_to_cloud(depth.view(), cam, -1.0), std::invalid_argument);

@@ -19,8 +19,9 @@ using namespace rangeseg::eval;
 
 /// Sets the pixels x0 <= x < x1, y0 <= y < y1 to `label`.
 void fill_rect(LabelImage& image, int x0, int y0, int x1, int y1, int label) {
-  for (int y = y0; y < y1; ++y)
+  for (int y = y0; y < y1; ++y) {
     for (int x = x0; x < x1; ++x) image(x, y) = label;
+  }
 }
 
 /// 20x20 image of four 10x10 quadrants labelled base, base+1, base+2, base+3.
@@ -268,12 +269,13 @@ struct Counts {
 };
 Counts reference_counts(const LabelImage& gt, const LabelImage& ms, double T) {
   std::map<int, int> gi, mi;
-  for (int y = 0; y < gt.height(); ++y)
+  for (int y = 0; y < gt.height(); ++y) {
     for (int x = 0; x < gt.width(); ++x) {
       if (gt(x, y) < 1) continue;
       gi.emplace(gt(x, y), 0);
       if (ms(x, y) > 0) mi.emplace(ms(x, y), 0);
     }
+  }
   int k = 0;
   for (auto& [label, index] : gi) index = k++;
   k = 0;
@@ -281,7 +283,7 @@ Counts reference_counts(const LabelImage& gt, const LabelImage& ms, double T) {
   const int N = static_cast<int>(gi.size()), M = static_cast<int>(mi.size());
   std::vector<std::vector<long>> O(M, std::vector<long>(N, 0));
   std::vector<long> Pn(N, 0), Pm(M, 0);
-  for (int y = 0; y < gt.height(); ++y)
+  for (int y = 0; y < gt.height(); ++y) {
     for (int x = 0; x < gt.width(); ++x) {
       if (gt(x, y) < 1) continue;
       const int n = gi[gt(x, y)];
@@ -292,24 +294,28 @@ Counts reference_counts(const LabelImage& gt, const LabelImage& ms, double T) {
         ++O[m][n];
       }
     }
+  }
   const auto ge = [T](long o, long p) { return o >= T * p - 1e-9; };
   std::vector<int> gt_state(N, 0), ms_state(M, 0);  // 0 open, 1 classified
   Counts c;
-  for (int n = 0; n < N; ++n)
-    for (int m = 0; m < M; ++m)
+  for (int n = 0; n < N; ++n) {
+    for (int m = 0; m < M; ++m) {
       if (ge(O[m][n], Pm[m]) && ge(O[m][n], Pn[n])) {
         ++c.correct;
         gt_state[n] = ms_state[m] = 1;
       }
+    }
+  }
   for (int n = 0; n < N; ++n) {
     if (gt_state[n]) continue;
     std::vector<int> set;
     long sum = 0;
-    for (int m = 0; m < M; ++m)
+    for (int m = 0; m < M; ++m) {
       if (!ms_state[m] && O[m][n] > 0 && ge(O[m][n], Pm[m])) {
         set.push_back(m);
         sum += O[m][n];
       }
+    }
     if (set.size() >= 2 && ge(sum, Pn[n])) {
       ++c.over;
       gt_state[n] = 1;
@@ -320,11 +326,12 @@ Counts reference_counts(const LabelImage& gt, const LabelImage& ms, double T) {
     if (ms_state[m]) continue;
     std::vector<int> set;
     long sum = 0;
-    for (int n = 0; n < N; ++n)
+    for (int n = 0; n < N; ++n) {
       if (!gt_state[n] && O[m][n] > 0 && ge(O[m][n], Pn[n])) {
         set.push_back(n);
         sum += O[m][n];
       }
+    }
     if (set.size() >= 2 && ge(sum, Pm[m])) {
       ++c.under;
       ms_state[m] = 1;
@@ -351,13 +358,14 @@ TEST(Eval, MatchesSlowReferenceOnRandomBlockImages) {
                 std::min(h, y0 + 4 + static_cast<int>(rng() % 12)), 2 + r);
     }
     // MS: the GT relabelled, with regions randomly split, merged, shifted and blotched.
-    for (int y = 0; y < h; ++y)
+    for (int y = 0; y < h; ++y) {
       for (int x = 0; x < w; ++x) {
         int label = 100 + gt(x, y);
         if (gt(x, y) % 3 == 0 && x > w / 2) label += 50;    // split
         if (gt(x, y) % 4 == 1) label = 100 + gt(x, y) + 1;  // merge with the next label
         ms(x, y) = label;
       }
+    }
     for (int b = 0; b < 6; ++b) {
       const int x0 = coord_x(rng), y0 = coord_y(rng);
       fill_rect(ms, x0, y0, std::min(w, x0 + 1 + static_cast<int>(rng() % 8)),
@@ -375,12 +383,15 @@ TEST(Eval, MatchesSlowReferenceOnRandomBlockImages) {
       ASSERT_EQ(r.noise, c.noise) << "trial " << trial << " T " << T;
       // Every GT region is in exactly one class; MS likewise.
       int gt_in_classes = r.missed, ms_in_classes = r.noise + r.under;
-      for (const RegionOutcome& g : r.gt)
+      for (const RegionOutcome& g : r.gt) {
         if (g.outcome == Outcome::correct || g.outcome == Outcome::over ||
-            g.outcome == Outcome::under)
+            g.outcome == Outcome::under) {
           ++gt_in_classes;
-      for (const RegionOutcome& m : r.ms)
+        }
+      }
+      for (const RegionOutcome& m : r.ms) {
         if (m.outcome == Outcome::correct || m.outcome == Outcome::over) ++ms_in_classes;
+      }
       EXPECT_EQ(gt_in_classes, r.gt_regions);
       EXPECT_EQ(ms_in_classes, r.ms_regions);
       total_over += r.over;
@@ -508,7 +519,7 @@ TEST(EvalAngle, InvalidInputsThrow) {
 OrganizedCloud analytic_cloud(LabelImage& labels) {
   OrganizedCloud cloud(20, 20);
   labels = LabelImage(20, 20, 0);
-  for (int v = 0; v < 20; ++v)
+  for (int v = 0; v < 20; ++v) {
     for (int u = 0; u < 20; ++u) {
       const double x = (u - 10) * 0.01, y = (v - 10) * 0.01;
       double z = 0;
@@ -528,6 +539,7 @@ OrganizedCloud analytic_cloud(LabelImage& labels) {
       cloud.z(u, v) = static_cast<float>(z);
       labels(u, v) = label;
     }
+  }
   labels(0, 0) = 0;  // excluded: moved off the plane, must not disturb the fit
   cloud.z(0, 0) = 100.0f;
   cloud.z(1, 0) = NAN;  // invalid point in region 1

@@ -197,8 +197,9 @@ TEST(Mesh, MatchesSlowReference) {
                                  (nm.sigma(ri) * nm.sigma(ri) + nm.sigma(rj) * nm.sigma(rj));
               const double m3 = var - (ri - rj) * (ri - rj);
               if (std::abs(m1) < 1e-5 * eps * eps || std::abs(m2) < 1e-5 * len2 * r2 ||
-                  std::abs(m3) < 1e-6 * (std::max(ri, rj) * std::abs(ri - rj) + var))
+                  std::abs(m3) < 1e-6 * (std::max(ri, rj) * std::abs(ri - rj) + var)) {
                 near_threshold = true;
+              }
               return m1 >= 0 && (m2 >= 0 || m3 >= 0);
             };
             const bool ab = edge(0, 1), ac = edge(0, 2), bd = edge(1, 3), cd = edge(2, 3),
@@ -218,8 +219,9 @@ TEST(Mesh, MatchesSlowReference) {
               if (nad != nbc && std::abs(lad - lbc) < 1e-5 * lad) near_threshold = true;
               bool use_bc = type == MeshType::left_cut ||
                             (type == MeshType::adaptive && (nad != nbc ? nbc > nad : lbc < lad));
-              if (type == MeshType::adaptive && nad == nbc && std::abs(lad - lbc) < 1e-5 * lad)
+              if (type == MeshType::adaptive && nad == nbc && std::abs(lad - lbc) < 1e-5 * lad) {
                 near_threshold = true;
+              }
               const int fx = use_bc ? fbc : fad;
               expected = fx == 0 ? 0 : std::uint8_t(fx | (use_bc ? face_bits::diag_bc : 0));
             }
@@ -248,9 +250,11 @@ TEST(Mesh, HolesSymmetryAndCompaction) {
   OrganizedCloud cloud = plane(w, h, -0.2, 0.3, 1.0, 1.2);
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> uni(0.0f, 1.0f);
-  for (int v = 0; v < h; ++v)
-    for (int u = 0; u < w; ++u)
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
       if (uni(rng) < 0.1f) cloud.x(u, v) = cloud.y(u, v) = cloud.z(u, v) = NAN;
+    }
+  }
   for (MeshType type : kAllTypes) {
     for (int s : {1, 2}) {
       const Mesh mesh = rangeseg::build_mesh(cloud, {.type = type, .pixel_stride = s});
@@ -286,20 +290,25 @@ TEST(Mesh, HolesSymmetryAndCompaction) {
       // Every face edge is in the edge masks and vice versa.
       std::set<std::pair<int, int>> face_edges;
       const int n = full.vertices_per_face;
-      for (std::size_t f = 0; f < full.indices.size(); f += n)
-        for (int k = 0; k < n; ++k)
+      for (std::size_t f = 0; f < full.indices.size(); f += n) {
+        for (int k = 0; k < n; ++k) {
           face_edges.insert({full.indices[f + k], full.indices[f + (k + 1) % n]}),
               face_edges.insert({full.indices[f + (k + 1) % n], full.indices[f + k]});
+        }
+      }
       std::size_t mask_edges = 0;
-      for (int v = 0; v < h; ++v)
-        for (int u = 0; u < w; ++u)
-          for (int k = 0; k < 8; ++k)
+      for (int v = 0; v < h; ++v) {
+        for (int u = 0; u < w; ++u) {
+          for (int k = 0; k < 8; ++k) {
             if (mesh.edges(u, v) >> k & 1) {
               ++mask_edges;
               const int q =
                   (v + s * rangeseg::kNeighbourDv[k]) * w + u + s * rangeseg::kNeighbourDu[k];
               ASSERT_TRUE(face_edges.count({v * w + u, q}));
             }
+          }
+        }
+      }
       EXPECT_EQ(mask_edges, face_edges.size());
     }
   }
@@ -436,11 +445,12 @@ TEST(Mesh, RealKinectFrameIsWellConnected) {
   for (MeshType type : kAllTypes) {
     const Mesh mesh = rangeseg::build_mesh(cloud, {.type = type});
     std::size_t valid = 0, used = 0;
-    for (int v = 0; v < cloud.height(); ++v)
+    for (int v = 0; v < cloud.height(); ++v) {
       for (int u = 0; u < cloud.width(); ++u) {
         valid += cloud.valid(u, v);
         used += mesh.edges(u, v) != 0;
       }
+    }
     const double fraction = double(used) / double(valid);
     RecordProperty("used_fraction_type" + std::to_string(int(type)), std::to_string(fraction));
     std::cout << "grabber_frame0 type " << int(type) << ": " << rangeseg::count_faces(mesh)

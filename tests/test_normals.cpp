@@ -100,9 +100,11 @@ double angle_deg(const Vec& a, const Vec& b) {
 // its normal (grazing views are where the mesh is legitimately cut).
 bool interior(const Scene& s, int u, int v, double max_deg, int stride = 1) {
   if (u < stride || v < stride || u + stride >= s.w || v + stride >= s.h) return false;
-  for (int dv = -stride; dv <= stride; dv += stride)
-    for (int du = -stride; du <= stride; du += stride)
+  for (int dv = -stride; dv <= stride; dv += stride) {
+    for (int du = -stride; du <= stride; du += stride) {
       if (!s.cloud.valid(u + du, v + dv)) return false;
+    }
+  }
   const Vec p(s.cloud.x(u, v), s.cloud.y(u, v), s.cloud.z(u, v));
   return angle_deg(-p.normalized(), s.true_normal(u, v)) < max_deg;
 }
@@ -206,21 +208,25 @@ TEST(Normals, StrideAndOrientation) {
   ASSERT_GT(st.n, 200);
   EXPECT_LT(st.max_angle, 0.5);
   EXPECT_NEAR(st.mean_curv, 1.0 / 0.3, 0.05 / 0.3);
-  for (int v = 0; v < s.h; ++v)
-    for (int u = 0; u < s.w; ++u)
+  for (int v = 0; v < s.h; ++v) {
+    for (int u = 0; u < s.w; ++u) {
       if (u % 3 != 0 || v % 3 != 0) {
         ASSERT_TRUE(std::isnan(m.nx(u, v)) && std::isnan(m.curvature(u, v)));
       }
+    }
+  }
   // A viewpoint behind the surface flips every normal.
   const NormalMap flipped =
       rangeseg::compute_normals(s.cloud, mesh, {.viewpoint = {0.0f, 0.0f, 5.0f}});
-  for (int v = 0; v < s.h; v += 3)
-    for (int u = 0; u < s.w; u += 3)
+  for (int v = 0; v < s.h; v += 3) {
+    for (int u = 0; u < s.w; u += 3) {
       if (std::isfinite(m.nz(u, v))) {
         const Vec p(s.cloud.x(u, v), s.cloud.y(u, v), s.cloud.z(u, v));
         const Vec n = normal_at(flipped, u, v);
         ASSERT_GT(n.dot(Vec(0, 0, 5) - p), 0.0);
       }
+    }
+  }
 }
 
 TEST(Normals, NanWithoutFacesAndBufferReuse) {
@@ -233,11 +239,12 @@ TEST(Normals, NanWithoutFacesAndBufferReuse) {
   const float* row = m.nz.row(0);
   rangeseg::compute_normals(s.cloud, mesh, {}, m);
   EXPECT_EQ(m.nz.row(0), row);
-  for (int v = 0; v < 30; ++v)
+  for (int v = 0; v < 30; ++v) {
     for (int u = 0; u < 40; ++u) {
       EXPECT_EQ(std::isnan(m.nz(u, v)), mesh.edges(u, v) == 0) << u << "," << v;
       EXPECT_EQ(std::isnan(m.curvature(u, v)), mesh.edges(u, v) == 0) << u << "," << v;
     }
+  }
   EXPECT_TRUE(std::isnan(m.nz(10, 10)));
   Mesh wrong = rangeseg::build_mesh(plane_scene(20, 30, Vec(0, 0, -1), 1.0).cloud);
   EXPECT_THROW(rangeseg::compute_normals(s.cloud, wrong), std::invalid_argument);
@@ -251,7 +258,7 @@ TEST(Normals, KinectNoiseAgainstPca) {
   Scene s = plane_scene(w, h, truth, 2.0);
   std::mt19937 rng(11);
   std::normal_distribution<double> gauss(0.0, 1.0);
-  for (int v = 0; v < h; ++v)
+  for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
       const double z = s.cloud.z(u, v);
       const double sigma = 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4);
@@ -260,11 +267,12 @@ TEST(Normals, KinectNoiseAgainstPca) {
       s.cloud.y(u, v) = float(s.cloud.y(u, v) * k);
       s.cloud.z(u, v) = float(z * k);
     }
+  }
   const Mesh mesh = rangeseg::build_mesh(s.cloud);
   const NormalMap m = rangeseg::compute_normals(s.cloud, mesh);
   double mesh_sum = 0, pca_sum = 0;
   int n_mesh = 0, n_pca = 0, n_total = 0;
-  for (int v = 2; v < h - 2; ++v)
+  for (int v = 2; v < h - 2; ++v) {
     for (int u = 2; u < w - 2; ++u) {
       ++n_total;
       if (std::isfinite(m.nz(u, v))) {
@@ -273,24 +281,28 @@ TEST(Normals, KinectNoiseAgainstPca) {
       }
       Vec mean = Vec::Zero();
       Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-      for (int dv = -2; dv <= 2; ++dv)
-        for (int du = -2; du <= 2; ++du)
+      for (int dv = -2; dv <= 2; ++dv) {
+        for (int du = -2; du <= 2; ++du) {
           mean +=
               Vec(s.cloud.x(u + du, v + dv), s.cloud.y(u + du, v + dv), s.cloud.z(u + du, v + dv));
+        }
+      }
       mean /= 25;
-      for (int dv = -2; dv <= 2; ++dv)
+      for (int dv = -2; dv <= 2; ++dv) {
         for (int du = -2; du <= 2; ++du) {
           const Vec d =
               Vec(s.cloud.x(u + du, v + dv), s.cloud.y(u + du, v + dv), s.cloud.z(u + du, v + dv)) -
               mean;
           cov += d * d.transpose();
         }
+      }
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
       Vec n = eig.eigenvectors().col(0);
       if (n.dot(mean) > 0) n = -n;
       pca_sum += angle_deg(n, truth);
       ++n_pca;
     }
+  }
   const double mesh_err = mesh_sum / n_mesh, pca_err = pca_sum / n_pca;
   const double kept = double(n_mesh) / n_total;
   std::cout << "plane at 2 m, Kinect noise: mean normal error mesh 1-ring " << mesh_err << " deg ("
@@ -336,19 +348,22 @@ TEST(Normals, MatchesSlowReferenceForAllMeshTypes) {
                                        .cross(p(c[2][0], c[2][1]) - p(c[0][0], c[0][1]));
         for (int k = 0; k < count; ++k) sum[c[k][1] * s.w + c[k][0]] += n;
       };
-      for (int v = 0; v + stride < s.h; v += stride)
+      for (int v = 0; v + stride < s.h; v += stride) {
         for (int u = 0; u + stride < s.w; u += stride) {
           const int f = mesh.faces(u, v), u1 = u + stride, v1 = v + stride;
           const std::array<int, 2> a{u, v}, b{u1, v}, c{u, v1}, d{u1, v1};
           const bool bc = f & rangeseg::face_bits::diag_bc;
           if (f & rangeseg::face_bits::quad) add({a, b, c, d}, 4);  // (d - a) x (b - c)
-          if (f & rangeseg::face_bits::tri0)
+          if (f & rangeseg::face_bits::tri0) {
             add(bc ? std::array{a, c, b, a} : std::array{a, d, b, a}, 3);
-          if (f & rangeseg::face_bits::tri1)
+          }
+          if (f & rangeseg::face_bits::tri1) {
             add(bc ? std::array{b, c, d, a} : std::array{a, c, d, a}, 3);
+          }
         }
+      }
       int checked = 0;
-      for (int v = 0; v < s.h; ++v)
+      for (int v = 0; v < s.h; ++v) {
         for (int u = 0; u < s.w; ++u) {
           const Vec& n = sum[v * s.w + u];
           if (n.norm() == 0.0) {
@@ -360,18 +375,20 @@ TEST(Normals, MatchesSlowReferenceForAllMeshTypes) {
           ASSERT_LT((normal_at(m, u, v) - unit).norm(), 1e-4) << u << "," << v;
           const unsigned ring = mesh.edges(u, v);
           double along = 0.0, spread = 0.0;
-          for (int k = 0; k < 8; ++k)
+          for (int k = 0; k < 8; ++k) {
             if (ring & (1u << k)) {
               const Vec q =
                   p(u + stride * rangeseg::kNeighbourDu[k], v + stride * rangeseg::kNeighbourDv[k]);
               along += (q - p(u, v)).dot(unit);
               spread += (q - p(u, v)).squaredNorm();
             }
+          }
           ASSERT_NEAR(m.curvature(u, v), 2.0 * std::abs(along) / spread,
                       1e-3 * (1.0 + 2.0 * std::abs(along) / spread))
               << u << "," << v;
           ++checked;
         }
+      }
       EXPECT_GT(checked, 200 / (stride * stride));
     }
   }

@@ -219,8 +219,9 @@ TEST_P(RealPcd, LoadsWithExpectedContent) {
         labelled += cloud.label(u, v) != 0;
         max_label = std::max(max_label, cloud.label(u, v));
       }
-      if (cloud.has_intensity() && std::isfinite(cloud.intensity(u, v)))
+      if (cloud.has_intensity() && std::isfinite(cloud.intensity(u, v))) {
         sum_intensity += cloud.intensity(u, v);
+      }
     }
   }
   EXPECT_NEAR(sum_z, e.sum_z, 1e-5);

@@ -171,6 +171,7 @@ TEST(Ply, ReaderRejectsOtherLayoutsAndDamage) {
   b.back() = 9;  // last index byte: vertex index 9 + 256 * 0 ... out of range
   EXPECT_THROW(io::decode_ply(b.data(), b.size(), "bad.ply"), std::runtime_error);
   b = io::encode_ply(m);
-  for (std::size_t cut = 1; cut < 40; ++cut)
+  for (std::size_t cut = 1; cut < 40; ++cut) {
     EXPECT_THROW(io::decode_ply(b.data(), b.size() - cut, "cut.ply"), std::runtime_error) << cut;
+  }
 }

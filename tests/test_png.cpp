@@ -23,9 +23,11 @@ namespace {
 
 DepthImage pattern(int w, int h) {
   DepthImage d(w, h);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
       d(x, y) = static_cast<std::uint16_t>((x * 2654435761u + y * 40503u) & 0xffff);
+    }
+  }
   d(0, 0) = 0;
   d(w - 1, h - 1) = 65535;
   return d;
@@ -45,22 +47,25 @@ TEST(Png, DepthRoundTripIsBitExact) {
   const DepthImage back = io::read_depth_png(path);
   ASSERT_EQ(back.width(), 37);
   ASSERT_EQ(back.height(), 11);
-  for (int y = 0; y < 11; ++y)
+  for (int y = 0; y < 11; ++y) {
     for (int x = 0; x < 37; ++x) ASSERT_EQ(back(x, y), d(x, y)) << x << "," << y;
+  }
 }
 
 TEST(Png, LabelRoundTripIsBitExactAndRangeChecked) {
   const auto dir = test::scratch_dir("png_label");
   LabelImage labels(20, 7, 0);
-  for (int y = 0; y < 7; ++y)
+  for (int y = 0; y < 7; ++y) {
     for (int x = 0; x < 20; ++x) labels(x, y) = (x * 7 + y * 1000) % 65536;
+  }
   labels(3, 3) = 65535;
   const std::string path = (dir / "l.png").string();
   io::write_label_png(path, labels);
   const LabelImage back = io::read_label_png(path);
   ASSERT_EQ(back.width(), 20);
-  for (int y = 0; y < 7; ++y)
+  for (int y = 0; y < 7; ++y) {
     for (int x = 0; x < 20; ++x) ASSERT_EQ(back(x, y), labels(x, y));
+  }
 
   labels(1, 2) = 70000;
   EXPECT_THROW(io::write_label_png((dir / "bad.png").string(), labels), std::invalid_argument);
@@ -188,9 +193,11 @@ TEST(Png, SharedDepthFrameMatchesIndependentDecode) {
   ASSERT_EQ(d.height(), 480);
   std::size_t valid = 0;
   std::uint64_t sum = 0;
-  for (int y = 0; y < 480; ++y)
-    for (int x = 0; x < 640; ++x)
+  for (int y = 0; y < 480; ++y) {
+    for (int x = 0; x < 640; ++x) {
       if (d(x, y) != 0) ++valid, sum += d(x, y);
+    }
+  }
   // Reference values from an independent decoder: Python's zlib.decompress of the IDAT chunks
   // plus a hand-written PNG unfilter (filters 0-4), counting non-zero big-endian 16-bit samples.
   EXPECT_EQ(valid, 267129u);

@@ -35,7 +35,7 @@ Segmentation truth_segmentation(const synth::Rendering& r) {
   const int n = static_cast<int>(r.surfaces.size());
   std::vector<V3> sum(n, V3{0, 0, 0});
   std::vector<int> count(n, 0);
-  for (int v = 0; v < r.labels.height(); ++v)
+  for (int v = 0; v < r.labels.height(); ++v) {
     for (int u = 0; u < r.labels.width(); ++u) {
       const int l = r.labels(u, v);
       if (l <= 0 || !r.cloud.valid(u, v)) continue;
@@ -44,14 +44,16 @@ Segmentation truth_segmentation(const synth::Rendering& r) {
       sum[l - 1][2] += r.cloud.z(u, v);
       ++count[l - 1];
     }
+  }
   for (int i = 0; i < n; ++i) {
     Segment s;
     s.label = i + 1;
     const synth::Surface& surf = r.surfaces[i];
     s.model = surf.type == synth::SurfaceType::plane ? SegmentModel::plane : SegmentModel::smooth;
     s.pixel_count = count[i];
-    if (count[i] > 0)
+    if (count[i] > 0) {
       s.centroid = {sum[i][0] / count[i], sum[i][1] / count[i], sum[i][2] / count[i]};
+    }
     s.normal = surf.normal;
     s.offset = surf.offset;
     if (dot(s.normal, s.centroid) > 0) {  // face the camera
@@ -66,19 +68,21 @@ Segmentation truth_segmentation(const synth::Rendering& r) {
 /// A flat fronto-parallel cloud at depth z with the default intrinsics.
 OrganizedCloud flat_cloud(int w, int h, double z) {
   OrganizedCloud c(w, h);
-  for (int v = 0; v < h; ++v)
+  for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
       c.x(u, v) = static_cast<float>((u - 319.5) / 525.0 * z);
       c.y(u, v) = static_cast<float>((v - 239.5) / 525.0 * z);
       c.z(u, v) = static_cast<float>(z);
     }
+  }
   return c;
 }
 
 double shoelace(const std::vector<P2>& p) {
   double a = 0;
-  for (std::size_t i = 0, j = p.size() - 1; i < p.size(); j = i++)
+  for (std::size_t i = 0, j = p.size() - 1; i < p.size(); j = i++) {
     a += static_cast<double>(p[j][0]) * p[i][1] - static_cast<double>(p[i][0]) * p[j][1];
+  }
   return 0.5 * a;
 }
 
@@ -90,8 +94,9 @@ bool point_in(const std::vector<P2>& poly, double x, double y) {
   bool in = false;
   for (std::size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
     if ((poly[i][1] > y) != (poly[j][1] > y) &&
-        x < (poly[j][0] - poly[i][0]) * (y - poly[i][1]) / (poly[j][1] - poly[i][1]) + poly[i][0])
+        x < (poly[j][0] - poly[i][0]) * (y - poly[i][1]) / (poly[j][1] - poly[i][1]) + poly[i][0]) {
       in = !in;
+    }
   }
   return in;
 }
@@ -136,8 +141,9 @@ void check_properties(const PolygonSet& ps) {
       EXPECT_EQ(a < 0, lp.is_hole) << "loop " << li << " area " << a;
       EXPECT_NEAR(std::abs(a), lp.area, 1e-6 + 1e-4 * lp.area);
       area += a;
-      for (std::size_t i = 0, j = pts.size() - 1; i < pts.size(); j = i++)
+      for (std::size_t i = 0, j = pts.size() - 1; i < pts.size(); j = i++) {
         edges.push_back({pts[j], pts[i]});
+      }
       if (lp.is_hole) {
         ASSERT_GE(lp.parent, sp.first_loop);
         const std::vector<P2> outer = loop2d(ps, ps.loops[lp.parent]);
@@ -152,10 +158,11 @@ void check_properties(const PolygonSet& ps) {
     }
     EXPECT_NEAR(area, sp.area, 1e-6 + 1e-4 * std::abs(sp.area));
     // Exact pairwise test, pruned by a sweep over x (edges sorted by their smaller x).
-    for (E& e : edges)
+    for (E& e : edges) {
       if (e.b < e.a) std::swap(e.a, e.b);
+    }
     std::sort(edges.begin(), edges.end(), [](const E& x, const E& y) { return x.a[0] < y.a[0]; });
-    for (std::size_t i = 0; i < edges.size(); ++i)
+    for (std::size_t i = 0; i < edges.size(); ++i) {
       for (std::size_t j = i + 1; j < edges.size() && edges[j].a[0] <= edges[i].b[0]; ++j) {
         const E& e = edges[i];
         const E& f = edges[j];
@@ -165,6 +172,7 @@ void check_properties(const PolygonSet& ps) {
             << "," << e.b[1] << ") and (" << f.a[0] << "," << f.a[1] << ")-(" << f.b[0] << ","
             << f.b[1] << ") cross";
       }
+    }
   }
 }
 
@@ -201,8 +209,9 @@ std::vector<double> mesh_areas(const OrganizedCloud& cloud, const Mesh& mesh,
 }
 
 const SegmentPolygons* find_segment(const PolygonSet& ps, int label) {
-  for (const SegmentPolygons& sp : ps.segments)
+  for (const SegmentPolygons& sp : ps.segments) {
     if (sp.label == label) return &sp;
+  }
   return nullptr;
 }
 
@@ -228,8 +237,9 @@ void expect_rectangle(const PolygonSet& ps, const PolygonLoop& lp, const std::ar
   for (int i = lp.first; i < lp.first + lp.count; ++i) {
     const V3 p{ps.points3d[i][0], ps.points3d[i][1], ps.points3d[i][2]};
     double best = 1e9;
-    for (int k = 0; k < 4; ++k)
+    for (int k = 0; k < 4; ++k) {
       best = std::min(best, dist_to_segment(p, corners[k], corners[(k + 1) % 4]));
+    }
     EXPECT_LT(best, tol) << "vertex " << i;
   }
 }
@@ -345,8 +355,9 @@ TEST(Polygons, KinectNoiseAt2mAreaWithin5Percent) {
   const double truth = 1.8 * 1.2 - std::abs(shoelace(hull));
   EXPECT_NEAR(wall->area, truth, 0.05 * truth);
   int holes = 0;
-  for (int li = wall->first_loop; li < wall->first_loop + wall->loop_count; ++li)
+  for (int li = wall->first_loop; li < wall->first_loop + wall->loop_count; ++li) {
     holes += ps.loops[li].is_hole;
+  }
   EXPECT_GE(holes, 1);
   const SegmentPolygons* front = find_segment(ps, 1 + 6);
   ASSERT_NE(front, nullptr);
@@ -371,8 +382,9 @@ struct Handmade {
     mesh = build_mesh(cloud, {.type = type});
   }
   void fill(int u0, int u1, int v0, int v1) {
-    for (int v = v0; v <= v1; ++v)
+    for (int v = v0; v <= v1; ++v) {
       for (int u = u0; u <= u1; ++u) seg.labels(u, v) = 1;
+    }
   }
 };
 
@@ -467,8 +479,9 @@ TEST(Polygons, PipelineSegmentationIsHandledAndExtractorReuseIsDeterministic) {
   // Simplified areas stay within tolerance * perimeter of the mesh areas.
   for (const SegmentPolygons& sp : first.segments) {
     double bound = 0;
-    for (int li = sp.first_loop; li < sp.first_loop + sp.loop_count; ++li)
+    for (int li = sp.first_loop; li < sp.first_loop + sp.loop_count; ++li) {
       bound += first.loops[li].tolerance * first.loops[li].raw_perimeter;
+    }
     EXPECT_LE(std::abs(sp.area - sp.raw_area), bound + 1e-9) << sp.label;
     EXPECT_GE(sp.hull_area + 1e-9, sp.raw_area);
   }
@@ -486,16 +499,19 @@ TEST(Polygons, ConvexHullContainsAllPoints) {
   convex_hull(pts, hull);
   ASSERT_GE(hull.size(), 3u);
   EXPECT_GT(shoelace(hull), 0);
-  for (std::size_t i = 0, j = hull.size() - 1; i < hull.size(); j = i++)
+  for (std::size_t i = 0, j = hull.size() - 1; i < hull.size(); j = i++) {
     for (const P2& p : pts) EXPECT_GE(orient(hull[j], hull[i], p), -1e-6);
+  }
 }
 
 TEST(Polygons, ConcaveHullOfLShapeAndRing) {
   // L shape of points on a 1 cm grid: [0, 1] x [0, 0.3] and [0, 0.3] x [0, 1].
   std::vector<P2> pts;
-  for (int i = 0; i <= 100; ++i)
-    for (int j = 0; j <= 100; ++j)
+  for (int i = 0; i <= 100; ++i) {
+    for (int j = 0; j <= 100; ++j) {
       if (i <= 30 || j <= 30) pts.push_back({i * 0.01f, j * 0.01f});
+    }
+  }
   Polygons2D out;
   concave_hull(pts, 0.03, out);
   ASSERT_EQ(out.first.size(), 1u);
@@ -507,16 +523,19 @@ TEST(Polygons, ConcaveHullOfLShapeAndRing) {
   for (const P2& p : pts) {
     // Inside, or within alpha / 2 * sqrt(2) of the outline.
     bool near = point_in(loop, p[0], p[1]);
-    for (std::size_t i = 0, j = loop.size() - 1; i < loop.size() && !near; j = i++)
+    for (std::size_t i = 0, j = loop.size() - 1; i < loop.size() && !near; j = i++) {
       near = dist_to_segment({p[0], p[1], 0}, {loop[j][0], loop[j][1], 0},
                              {loop[i][0], loop[i][1], 0}) < 0.03 * 0.71;
+    }
     ASSERT_TRUE(near);
   }
   // A ring: a hole.
   pts.clear();
-  for (int i = 0; i <= 100; ++i)
-    for (int j = 0; j <= 100; ++j)
+  for (int i = 0; i <= 100; ++i) {
+    for (int j = 0; j <= 100; ++j) {
       if (i <= 20 || i >= 80 || j <= 20 || j >= 80) pts.push_back({i * 0.01f, j * 0.01f});
+    }
+  }
   concave_hull(pts, 0.03, out);
   ASSERT_EQ(out.first.size(), 2u);
   EXPECT_EQ(out.is_hole[0] + out.is_hole[1], 1);
@@ -534,12 +553,14 @@ TEST(Polygons, ObjTriangulationCoversThePolygonArea) {
     const double a = orient(ps.points2d[t[0]], ps.points2d[t[1]], ps.points2d[t[2]]) * 0.5;
     EXPECT_GT(a, 0);
     int si = -1;
-    for (const PolygonLoop& lp : ps.loops)
+    for (const PolygonLoop& lp : ps.loops) {
       if (t[0] >= lp.first && t[0] < lp.first + lp.count) si = lp.segment;
+    }
     area[si] += a;
   }
-  for (std::size_t i = 0; i < ps.segments.size(); ++i)
+  for (std::size_t i = 0; i < ps.segments.size(); ++i) {
     EXPECT_NEAR(area[i], ps.segments[i].area, 1e-6 + 1e-4 * ps.segments[i].area) << i;
+  }
 
   const auto dir = test::scratch_dir("polygons_obj");
   const std::string path = (dir / "planes.obj").string();
@@ -647,13 +668,14 @@ TEST(Polygons, VectorPathsMatchScalarOnSpeckledLabels) {
     const int w = 37 + 29 * trial, h = 23 + 11 * trial;
     OrganizedCloud cloud = flat_cloud(w, h, 1.0);
     std::uniform_real_distribution<float> jitter(0.998f, 1.002f);  // depth noise along the ray
-    for (int v = 0; v < h; ++v)
+    for (int v = 0; v < h; ++v) {
       for (int u = 0; u < w; ++u) {
         const float f = jitter(rng);
         cloud.x(u, v) *= f;
         cloud.y(u, v) *= f;
         cloud.z(u, v) *= f;
       }
+    }
     Segmentation seg;
     seg.labels.resize(w, h, 0);
     for (int l = 1; l <= 4; ++l) {
@@ -667,12 +689,13 @@ TEST(Polygons, VectorPathsMatchScalarOnSpeckledLabels) {
       seg.segments.push_back(s);
     }
     std::uniform_int_distribution<int> label(-1, 6), speckle(0, 9);
-    for (int v = 0; v < h; ++v)
+    for (int v = 0; v < h; ++v) {
       for (int u = 0; u < w; ++u) {
         int l = (u / 9 + v / 7) % 5;
         if (speckle(rng) == 0) l = label(rng);  // includes -1 and labels beyond the segments
         seg.labels(u, v) = l;
       }
+    }
     for (MeshType type : {MeshType::adaptive, MeshType::quad, MeshType::right_cut}) {
       for (int stride : {1, 2, 3}) {
         const Mesh mesh = build_mesh(cloud, {.type = type, .pixel_stride = stride});
@@ -712,12 +735,14 @@ TEST(Polygons, VectorPathsMatchScalarOnRealFrame) {
 // Each hole belongs to the smallest outer loop around it.
 TEST(Polygons, HolesBelongToTheSmallestEnclosingOuterLoop) {
   Handmade h(MeshType::left_cut);
-  h.fill(2, 45, 2, 37);          // outer loop A
-  for (int v = 8; v <= 31; ++v)  // hole H1 in A
+  h.fill(2, 45, 2, 37);            // outer loop A
+  for (int v = 8; v <= 31; ++v) {  // hole H1 in A
     for (int u = 8; u <= 39; ++u) h.seg.labels(u, v) = 0;
-  h.fill(13, 34, 12, 27);         // island B inside H1
-  for (int v = 17; v <= 22; ++v)  // hole H2 in B
+  }
+  h.fill(13, 34, 12, 27);           // island B inside H1
+  for (int v = 17; v <= 22; ++v) {  // hole H2 in B
     for (int u = 20; u <= 27; ++u) h.seg.labels(u, v) = 0;
+  }
   const PolygonSet ps = extract_polygons(h.cloud, h.mesh, h.seg, kRaw);
   check_properties(ps);
   ASSERT_EQ(ps.segments.size(), 1u);

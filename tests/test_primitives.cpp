@@ -206,12 +206,15 @@ SceneRun run(const synth::Scene& scene, synth::Noise noise, RegionModel model,
 /// The machine segment with the largest overlap with GT label `gt`.
 int best_segment(const SceneRun& run, int gt) {
   std::map<int, int> overlap;
-  for (int v = 0; v < run.r.labels.height(); ++v)
-    for (int u = 0; u < run.r.labels.width(); ++u)
+  for (int v = 0; v < run.r.labels.height(); ++v) {
+    for (int u = 0; u < run.r.labels.width(); ++u) {
       if (run.r.labels(u, v) == gt && run.seg.labels(u, v) != 0) ++overlap[run.seg.labels(u, v)];
+    }
+  }
   int best = 0, count = 0;
-  for (const auto& [label, c] : overlap)
+  for (const auto& [label, c] : overlap) {
     if (c > count) best = label, count = c;
+  }
   return best;
 }
 
@@ -284,10 +287,11 @@ double correct_fraction(bool curved, RegionModel model, int seeds, bool print) {
     total += e.gt_regions;
     if (print) {
       for (const eval::RegionOutcome& o : e.gt) {
-        if (o.outcome != eval::Outcome::correct)
+        if (o.outcome != eval::Outcome::correct) {
           std::printf("seed %d: %s %s (%lld px)\n", seed,
                       r.r.surfaces[static_cast<std::size_t>(o.label - 1)].name.c_str(),
                       eval::to_string(o.outcome), static_cast<long long>(o.pixels));
+        }
       }
     }
   }
@@ -304,11 +308,12 @@ TEST(AutoModel, DISABLED_CompareWithPlanes) {
       std::printf("noise %d seed %d: auto %d/%d plane %d/%d\n", static_cast<int>(noise), seed,
                   ea.correct, ea.gt_regions, ep.correct, ep.gt_regions);
       for (std::size_t k = 0; k < ea.gt.size(); ++k) {
-        if (ea.gt[k].outcome != ep.gt[k].outcome)
+        if (ea.gt[k].outcome != ep.gt[k].outcome) {
           std::printf("   %-16s auto %-8s plane %-8s (%lld px)\n",
                       a.r.surfaces[static_cast<std::size_t>(ea.gt[k].label - 1)].name.c_str(),
                       eval::to_string(ea.gt[k].outcome), eval::to_string(ep.gt[k].outcome),
                       static_cast<long long>(ea.gt[k].pixels));
+        }
       }
     }
   }

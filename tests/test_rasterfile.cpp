@@ -24,8 +24,9 @@ void put32(std::vector<std::uint8_t>& b, int field, std::uint32_t v) {
 
 BytePlane pattern(int w, int h) {
   BytePlane p(w, h);
-  for (int y = 0; y < h; ++y)
+  for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) p(x, y) = static_cast<std::uint8_t>(x * 31 + y * 17 + 1);
+  }
   return p;
 }
 
@@ -43,8 +44,9 @@ TEST(Rasterfile, RoundTripOddWidthUsesEvenRowPadding) {
   const BytePlane back = io::read_rasterfile(path);
   ASSERT_EQ(back.width(), 7);
   ASSERT_EQ(back.height(), 5);
-  for (int y = 0; y < 5; ++y)
+  for (int y = 0; y < 5; ++y) {
     for (int x = 0; x < 7; ++x) ASSERT_EQ(back(x, y), img(x, y));
+  }
 
   // A type-0 file with length 0 and a colour map before the pixels.
   std::vector<std::uint8_t> old(32 + 6);
@@ -155,10 +157,13 @@ TEST(Rasterfile, AbwGroundTruthRegionsArePlanar) {
   EXPECT_GT(valid, 512u * 512u / 4);
 
   std::map<int, std::vector<Eigen::Vector3d>> regions;
-  for (int v = 0; v < 512; ++v)
-    for (int u = 0; u < 512; ++u)
-      if (gt(u, v) >= 10 && cloud.valid(u, v))
+  for (int v = 0; v < 512; ++v) {
+    for (int u = 0; u < 512; ++u) {
+      if (gt(u, v) >= 10 && cloud.valid(u, v)) {
         regions[gt(u, v)].emplace_back(cloud.x(u, v), cloud.y(u, v), cloud.z(u, v));
+      }
+    }
+  }
   ASSERT_GE(regions.size(), 5u);
   std::vector<double> rms_mm;
   for (const auto& [label, points] : regions) {

@@ -235,8 +235,9 @@ TEST(Smoothing, IntensityTermKeepsStepAtIntensityEdges) {
   std::mt19937 rng(5);
   std::normal_distribution<float> noise(0.0f, 2.0f);
   for (int v = 0; v < kHeight; ++v) {
-    for (int u = 0; u < kWidth; ++u)
+    for (int u = 0; u < kWidth; ++u) {
       cloud.intensity(u, v) = (dark(u, v) ? 40.0f : 200.0f) + noise(rng);
+    }
   }
   const Frame in = make_frame(std::move(cloud));
 
@@ -246,8 +247,9 @@ TEST(Smoothing, IntensityTermKeepsStepAtIntensityEdges) {
     for (int v = 2; v < kHeight - 2; ++v) {
       for (int u = 2; u < kWidth - 2; ++u) {
         bool at_edge = false;
-        for (int k = 0; k < 8; ++k)
+        for (int k = 0; k < 8; ++k) {
           at_edge |= dark(u + kNeighbourDu[k], v + kNeighbourDv[k]) != dark(u, v);
+        }
         if (!at_edge) continue;
         const double e = c.z(u, v) - (dark(u, v) ? 1.0 + step : 1.0);
         sum2 += e * e;

@@ -21,16 +21,18 @@ Vec3 point(const Rendering& r, int u, int v) {
 double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
 std::int64_t count_of(const Rendering& r, const std::string& name) {
-  for (std::size_t i = 0; i < r.surfaces.size(); ++i)
+  for (std::size_t i = 0; i < r.surfaces.size(); ++i) {
     if (r.surfaces[i].name == name) return r.pixel_counts[i];
+  }
   ADD_FAILURE() << "no surface named " << name;
   return -1;
 }
 
 std::int64_t count_prefix(const Rendering& r, const std::string& prefix) {
   std::int64_t total = 0;
-  for (std::size_t i = 0; i < r.surfaces.size(); ++i)
+  for (std::size_t i = 0; i < r.surfaces.size(); ++i) {
     if (r.surfaces[i].name.rfind(prefix, 0) == 0) total += r.pixel_counts[i];
+  }
   return total;
 }
 
@@ -90,7 +92,7 @@ TEST(Synth, CylinderCapsAreDiscsAndSideNormalsAreRadial) {
   EXPECT_EQ(count_of(r, "log/top"), 0);
   EXPECT_GT(expect_points_on_surfaces(r), 2500);
   const Surface& side = r.surfaces[0];
-  for (int v = 0; v < r.labels.height(); ++v)
+  for (int v = 0; v < r.labels.height(); ++v) {
     for (int u = 0; u < r.labels.width(); ++u) {
       const Vec3 p = point(r, u, v);
       if (r.labels(u, v) == 2) {
@@ -105,13 +107,15 @@ TEST(Synth, CylinderCapsAreDiscsAndSideNormalsAreRadial) {
         EXPECT_NEAR(dot(n, n), 1.0, 1e-9);
       }
     }
+  }
 }
 
 TEST(Synth, AnalyticDepths) {
   const Rendering plane = render(plane_scene(2.0, 0.0));
   EXPECT_EQ(plane.cloud.count_valid(), plane.cloud.size());
-  for (int v = 0; v < 480; v += 7)
+  for (int v = 0; v < 480; v += 7) {
     for (int u = 0; u < 640; u += 7) ASSERT_NEAR(plane.cloud.z(u, v), 2.0, 1e-6);
+  }
 
   // The tilted plane's depth on each ray matches the plane equation.
   const Rendering tilted = render(plane_scene(2.0, 0.5));
@@ -136,13 +140,14 @@ TEST(Synth, PointsLieOnTheirPixelRays) {
     const RenderSettings settings{.noise = noise};
     const Rendering r = render(demo_scene(), settings);
     const CameraIntrinsics& c = settings.camera;
-    for (int v = 0; v < r.labels.height(); ++v)
+    for (int v = 0; v < r.labels.height(); ++v) {
       for (int u = 0; u < r.labels.width(); ++u) {
         if (!r.cloud.valid(u, v)) continue;
         const double z = r.cloud.z(u, v);
         ASSERT_NEAR(r.cloud.x(u, v) / z, (u - c.cx) / c.fx, 1e-6);
         ASSERT_NEAR(r.cloud.y(u, v) / z, (v - c.cy) / c.fy, 1e-6);
       }
+    }
   }
 }
 
@@ -169,10 +174,13 @@ TEST(Synth, DeterministicFromTheSeed) {
   EXPECT_TRUE(same_bytes(a, b));
   EXPECT_FALSE(same_bytes(a, c));
   std::int64_t differing = 0;
-  for (int v = 0; v < 480; ++v)
-    for (int u = 0; u < 640; ++u)
-      if (a.cloud.valid(u, v) && c.cloud.valid(u, v) && a.cloud.z(u, v) != c.cloud.z(u, v))
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      if (a.cloud.valid(u, v) && c.cloud.valid(u, v) && a.cloud.z(u, v) != c.cloud.z(u, v)) {
         ++differing;
+      }
+    }
+  }
   EXPECT_GT(differing, 100000);  // the noise itself changes, not just a few dropouts
 
   const RenderSettings small{.camera = kSmallCamera};
@@ -189,7 +197,7 @@ TEST(Synth, KinectAxialNoiseMatchesSigma) {
     double sum = 0, sum2 = 0;
     std::int64_t n = 0;
     const double bf8 = 8 * model.baseline * 525.0;
-    for (int v = 0; v < 480; ++v)
+    for (int v = 0; v < 480; ++v) {
       for (int u = 0; u < 640; ++u) {
         if (!r.cloud.valid(u, v)) continue;
         const double z = r.cloud.z(u, v);
@@ -200,6 +208,7 @@ TEST(Synth, KinectAxialNoiseMatchesSigma) {
         sum2 += (z - distance) * (z - distance);
         ++n;
       }
+    }
     ASSERT_GT(n, 300000);
     const double rms = std::sqrt(sum2 / n);
     const double sigma = kinect_sigma(model, distance);
@@ -215,7 +224,7 @@ TEST(Synth, KinectNoiseOnTiltedPlaneScalesWithDepth) {
   const Rendering noisy = render(plane_scene(2.0, 0.6), {.noise = Noise::kinect});
   double sum2 = 0;
   std::int64_t n = 0;
-  for (int v = 0; v < 480; ++v)
+  for (int v = 0; v < 480; ++v) {
     for (int u = 0; u < 640; ++u) {
       if (!noisy.cloud.valid(u, v)) continue;
       const double truth = clean.cloud.z(u, v);
@@ -223,6 +232,7 @@ TEST(Synth, KinectNoiseOnTiltedPlaneScalesWithDepth) {
       sum2 += e * e;
       ++n;
     }
+  }
   EXPECT_NEAR(std::sqrt(sum2 / n), 1.0, 0.1);
 }
 
@@ -270,7 +280,7 @@ TEST(Synth, DropoutsAtDepthJumpsNotInsideFlatSurfaces) {
   // Edge pixels from the noise-free depth (jumps of 1.5 m); interior: > 3 pixels from any edge.
   const int w = 640, h = 480;
   std::vector<int> edge(w * h, 0);
-  for (int v = 0; v < h; ++v)
+  for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
       const float z = clean.cloud.z(u, v);
       auto jump = [&](int uu, int vv) {
@@ -278,8 +288,9 @@ TEST(Synth, DropoutsAtDepthJumpsNotInsideFlatSurfaces) {
       };
       edge[v * w + u] = jump(u - 1, v) || jump(u + 1, v) || jump(u, v - 1) || jump(u, v + 1);
     }
+  }
   std::int64_t edge_total = 0, edge_dropped = 0, flat_total = 0, flat_dropped = 0;
-  for (int v = 4; v < h - 4; ++v)
+  for (int v = 4; v < h - 4; ++v) {
     for (int u = 4; u < w - 4; ++u) {
       const bool dropped = !noisy.cloud.valid(u, v);
       EXPECT_EQ(dropped, noisy.labels(u, v) == 0);
@@ -289,12 +300,14 @@ TEST(Synth, DropoutsAtDepthJumpsNotInsideFlatSurfaces) {
         continue;
       }
       bool near_edge = false;
-      for (int dv = -3; dv <= 3 && !near_edge; ++dv)
+      for (int dv = -3; dv <= 3 && !near_edge; ++dv) {
         for (int du = -3; du <= 3 && !near_edge; ++du) near_edge = edge[(v + dv) * w + u + du];
+      }
       if (near_edge) continue;
       ++flat_total;
       flat_dropped += dropped;
     }
+  }
   ASSERT_GT(edge_total, 1500);
   const double edge_rate = static_cast<double>(edge_dropped) / edge_total;
   const double flat_rate = static_cast<double>(flat_dropped) / flat_total;
@@ -315,25 +328,28 @@ TEST(Synth, DemoSceneShowsEverything) {
   EXPECT_GT(count_of(r, "floor"), total / 20);
   EXPECT_GT(count_of(r, "left_wall"), total / 20);
   EXPECT_GT(count_of(r, "back_wall"), total / 5);
-  for (const char* box : {"table/", "stack_lower/", "stack_upper/", "rotated/"})
+  for (const char* box : {"table/", "stack_lower/", "stack_upper/", "rotated/"}) {
     EXPECT_GT(count_prefix(r, box), 2000) << box;
+  }
   EXPECT_GT(count_of(r, "table/-y"), 500);  // the table top is seen from above
   EXPECT_GT(count_of(r, "stack_upper/-y"), 50);
   EXPECT_GT(count_of(r, "pillar/side"), 3000);
   EXPECT_GT(count_of(r, "ball"), 1500);
   // All objects are in view: no object touches the image border except floor and walls.
-  for (int v = 0; v < 480; ++v)
+  for (int v = 0; v < 480; ++v) {
     for (int u = 0; u < 640; ++u) {
       if (u != 0 && u != 639 && v != 0 && v != 479) continue;
       const std::string& name = r.surfaces[r.labels(u, v) - 1].name;
       ASSERT_TRUE(name == "floor" || name == "left_wall" || name == "back_wall") << name;
     }
+  }
   double min_z = 1e9, max_z = 0;
-  for (int v = 0; v < 480; ++v)
+  for (int v = 0; v < 480; ++v) {
     for (int u = 0; u < 640; ++u) {
       min_z = std::min<double>(min_z, r.cloud.z(u, v));
       max_z = std::max<double>(max_z, r.cloud.z(u, v));
     }
+  }
   EXPECT_GT(min_z, 1.0);
   EXPECT_LT(max_z, 6.0);  // the whole demo is within the Kinect range
 
@@ -359,8 +375,9 @@ TEST(Synth, RandomScenes) {
 TEST(Synth, MinSurfacePixelsClearsSmallSurfaces) {
   const Rendering all = render(demo_scene());
   const Rendering big = render(demo_scene(), {.min_surface_pixels = 1000});
-  for (std::size_t i = 0; i < all.surfaces.size(); ++i)
+  for (std::size_t i = 0; i < all.surfaces.size(); ++i) {
     EXPECT_EQ(big.pixel_counts[i], all.pixel_counts[i] >= 1000 ? all.pixel_counts[i] : 0);
+  }
   EXPECT_EQ(big.cloud.count_valid(), all.cloud.count_valid());  // points stay
   EXPECT_EQ(std::memcmp(big.cloud.label.row(0), big.labels.row(0),
                         sizeof(std::int32_t) * big.labels.stride() * big.labels.height()),

@@ -100,8 +100,9 @@ std::size_t segment_batch(const FrameList& list, const PipelineSettings& setting
       static_cast<std::size_t>(std::max(options.threads, 1)), 1, std::max<std::size_t>(n, 1));
   // Constructed here so that invalid settings throw before any work starts.
   std::vector<std::unique_ptr<Pipeline>> pipelines;
-  for (std::size_t t = 0; t < threads; ++t)
+  for (std::size_t t = 0; t < threads; ++t) {
     pipelines.push_back(std::make_unique<Pipeline>(settings));
+  }
 
   std::vector<FrameResult> results(n);
   std::atomic<std::size_t> next{0};
@@ -135,8 +136,9 @@ std::size_t segment_batch(const FrameList& list, const PipelineSettings& setting
     const FrameResult& r = results[i];
     if (r.ok) {
       ++ok;
-      for (int s = 0; s < 6; ++s)
+      for (int s = 0; s < 6; ++s) {
         per_stage[static_cast<std::size_t>(s)].push_back(stage_time(r.times, s));
+      }
       frames.push_back({{"name", f.name},
                         {"input", f.path},
                         {"ok", true},

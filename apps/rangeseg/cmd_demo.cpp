@@ -34,8 +34,9 @@ RgbImage montage(const std::vector<const RgbImage*>& panels) {
         std::uint8_t* dst = out.pixel(static_cast<int>(k) * w + x, y);
         for (int c = 0; c < 3; ++c) {
           int sum = 0;
-          for (int dy = 0; dy < 2; ++dy)
+          for (int dy = 0; dy < 2; ++dy) {
             for (int dx = 0; dx < 2; ++dx) sum += panels[k]->pixel(2 * x + dx, 2 * y + dy)[c];
+          }
           dst[c] = static_cast<std::uint8_t>((sum + 2) / 4);
         }
       }

@@ -93,15 +93,17 @@ nlohmann::json segments_json(const Segmentation& seg, const PolygonSet* polygons
   std::vector<const SegmentPolygons*> by_label(seg.segments.size() + 1, nullptr);
   if (polygons != nullptr) {
     for (const SegmentPolygons& sp : polygons->segments) {
-      if (sp.label > 0 && static_cast<std::size_t>(sp.label) < by_label.size())
+      if (sp.label > 0 && static_cast<std::size_t>(sp.label) < by_label.size()) {
         by_label[static_cast<std::size_t>(sp.label)] = &sp;
+      }
     }
   }
   nlohmann::json list = nlohmann::json::array();
   for (const Segment& s : seg.segments) {
     nlohmann::json& item = list.emplace_back();
-    if (const SegmentPolygons* sp = by_label[static_cast<std::size_t>(s.label)])
+    if (const SegmentPolygons* sp = by_label[static_cast<std::size_t>(s.label)]) {
       item["polygon"] = polygon_json(*polygons, *sp);
+    }
     item.update({{"id", s.label},
                  {"model", to_string(s.model)},
                  {"pixel_count", s.pixel_count},
@@ -128,8 +130,9 @@ void write_segmentation_folder(const std::string& dir_name, const OrganizedCloud
   const Segmentation& seg = pipeline.segmentation();
   io::write_label_png((dir / "labels.png").string(), seg.labels);
   write_json((dir / "segments.json").string(), segments_json(seg, &pipeline.polygons()));
-  if (!pipeline.polygons().segments.empty())
+  if (!pipeline.polygons().segments.empty()) {
     write_polygons_obj((dir / "polygons.obj").string(), pipeline.polygons());
+  }
   RgbImage overlay = colorize_labels(seg.labels, &input);
   draw_polygons(overlay, pipeline.polygons());
   io::write_rgb_png((dir / "overlay.png").string(), overlay);

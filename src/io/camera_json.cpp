@@ -20,8 +20,9 @@ using nlohmann::json;
 double number(const json& object, const char* key, const std::string& name) {
   const auto it = object.find(key);
   if (it == object.end()) fail(name, std::string("missing key \"") + key + "\"");
-  if (!it->is_number())
+  if (!it->is_number()) {
     fail(name, std::string("key \"") + key + "\" is not a number: " + it->dump());
+  }
   const double value = it->get<double>();
   if (!std::isfinite(value)) fail(name, std::string("key \"") + key + "\" is not finite");
   return value;
@@ -30,8 +31,9 @@ double number(const json& object, const char* key, const std::string& name) {
 int size_value(const json& object, const char* key, const std::string& name, bool required) {
   if (!required && !object.contains(key)) return 0;
   const double value = number(object, key, name);
-  if (value < 0 || value > 1e6 || value != std::floor(value))
+  if (value < 0 || value > 1e6 || value != std::floor(value)) {
     fail(name, std::string("key \"") + key + "\" is not a valid image size: " + object[key].dump());
+  }
   return static_cast<int>(value);
 }
 
@@ -49,12 +51,14 @@ CameraIntrinsics parse_camera_json(const std::string& text, const std::string& n
   CameraIntrinsics camera;
   if (root.contains("intrinsic_matrix")) {
     const json& m = root["intrinsic_matrix"];
-    if (!m.is_array() || m.size() != 9)
+    if (!m.is_array() || m.size() != 9) {
       fail(name, "key \"intrinsic_matrix\" must be an array of 9 numbers, got " + m.dump());
+    }
     std::vector<double> k(9);
     for (std::size_t i = 0; i < 9; ++i) {
-      if (!m[i].is_number())
+      if (!m[i].is_number()) {
         fail(name, "key \"intrinsic_matrix\" element " + std::to_string(i) + " is not a number");
+      }
       k[i] = m[i].get<double>();
     }
     // Column-major: k[0] = K(0,0) = fx, k[4] = K(1,1) = fy, k[6] = K(0,2) = cx, k[7] = K(1,2) = cy.

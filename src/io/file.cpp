@@ -38,8 +38,9 @@ std::vector<std::uint8_t> read_file(const std::string& path, std::uint64_t max_b
 AtomicFile::AtomicFile(std::string path)
     : path_(std::move(path)), tmp_(path_ + ".tmp." + std::to_string(::getpid())) {
   file_ = std::fopen(tmp_.c_str(), "wb");
-  if (file_ == nullptr)
+  if (file_ == nullptr) {
     throw std::runtime_error(path_ + ": cannot create: " + std::strerror(errno));
+  }
 }
 
 AtomicFile::~AtomicFile() {

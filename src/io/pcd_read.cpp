@@ -113,8 +113,9 @@ Header parse_header(const std::uint8_t* data, std::size_t size, const std::strin
     } else if (key == "FIELDS" || key == "COLUMNS") {
       once(have_fields);
       if (tokens.size() < 2) fail(name, "FIELDS line lists no field");
-      for (std::size_t i = 1; i < tokens.size(); ++i)
+      for (std::size_t i = 1; i < tokens.size(); ++i) {
         h.fields.push_back({.name = std::string(tokens[i])});
+      }
     } else if (key == "SIZE") {
       once(have_size);
       sizes.assign(tokens.begin() + 1, tokens.end());
@@ -138,8 +139,9 @@ Header parse_header(const std::uint8_t* data, std::size_t size, const std::strin
       // The sensor pose is not used: clouds are in the camera frame.
     } else if (key == "DATA") {
       have_data = true;
-      if (tokens.size() != 2)
+      if (tokens.size() != 2) {
         fail(name, "DATA needs exactly one value (ascii, binary or binary_compressed)");
+      }
       if (tokens[1] == "ascii") {
         h.info.encoding = PcdEncoding::ascii;
       } else if (tokens[1] == "binary") {
@@ -173,8 +175,9 @@ Header parse_header(const std::uint8_t* data, std::size_t size, const std::strin
     // Headers older than v0.7 may lack SIZE/TYPE/COUNT: PCL then assumes 4-byte floats, one each.
     if (have_size) f.size = parse_uint(sizes[i], name, "SIZE");
     if (have_type) {
-      if (types[i].size() != 1)
+      if (types[i].size() != 1) {
         fail(name, "field " + f.name + ": unknown TYPE " + quoted(types[i]));
+      }
       f.type = types[i][0];
     }
     if (have_count) f.count = parse_uint(counts[i], name, "COUNT");
@@ -204,9 +207,10 @@ Header parse_header(const std::uint8_t* data, std::size_t size, const std::strin
   }
 
   if (!have_width && !have_points) fail(name, "neither WIDTH nor POINTS in the header");
-  if (!have_width)
+  if (!have_width) {
     h.info.width =
         static_cast<int>(std::min<std::uint64_t>(points, std::numeric_limits<int>::max()));
+  }
   if (!have_height) h.info.height = 1;
   const std::uint64_t grid =
       static_cast<std::uint64_t>(h.info.width) * static_cast<std::uint64_t>(h.info.height);
@@ -290,8 +294,9 @@ void decode_float(const Column& c, FloatPlane& plane) {
   for (int v = 0; v < plane.height(); ++v) {
     const std::uint8_t* src = c.base + static_cast<std::size_t>(v) * w * c.stride;
     float* dst = plane.row(v);
-    for (int u = 0; u < w; ++u)
+    for (int u = 0; u < w; ++u) {
       dst[u] = static_cast<float>(load_as_double(*c.field, src + u * c.stride));
+    }
   }
 }
 
@@ -504,8 +509,9 @@ OrganizedCloud parse_pcd(const std::uint8_t* data, std::size_t size, const std::
   for (const Field& f : h.fields) {
     if (f.name == "rgb" || f.name == "rgba") {
       frgb = used_field(h, f.name, name);
-      if (f.size != 4)
+      if (f.size != 4) {
         fail(name, "field " + f.name + " has SIZE " + std::to_string(f.size) + ", expected 4");
+      }
       break;
     }
   }
@@ -555,8 +561,9 @@ OrganizedCloud parse_pcd(const std::uint8_t* data, std::size_t size, const std::
   }
 
   auto column = [&](const Field* f) {
-    if (soa)
+    if (soa) {
       return Column{f, block + f->offset * h.info.points, static_cast<std::size_t>(f->bytes())};
+    }
     return Column{f, block + f->offset, static_cast<std::size_t>(h.point_size)};
   };
 

@@ -83,8 +83,9 @@ std::vector<std::uint8_t> encode_pcd(const OrganizedCloud& cloud, const PcdWrite
     for (int v = 0; v < h; ++v) {
       const std::uint8_t *r = cloud.r.row(v), *g = cloud.g.row(v), *b = cloud.b.row(v);
       std::uint32_t* dst = packed.data() + static_cast<std::size_t>(v) * w;
-      for (int u = 0; u < w; ++u)
+      for (int u = 0; u < w; ++u) {
         dst[u] = std::uint32_t{r[u]} << 16 | std::uint32_t{g[u]} << 8 | b[u];
+      }
     }
     fields.push_back({"rgb", 'F', reinterpret_cast<const std::uint8_t*>(packed.data()),
                       static_cast<std::ptrdiff_t>(w) * 4});
@@ -94,8 +95,9 @@ std::vector<std::uint8_t> encode_pcd(const OrganizedCloud& cloud, const PcdWrite
     fields.push_back(plane_field("label", 'U', cloud.label));
   }
   for (const auto& [name, plane] : options.extra_float_fields) {
-    if (plane == nullptr)
+    if (plane == nullptr) {
       throw std::invalid_argument("encode_pcd: extra field " + name + " has no plane");
+    }
     if (name.empty() || name.find_first_of(" \t\r\n") != std::string::npos) {
       throw std::invalid_argument("encode_pcd: extra field name '" + name +
                                   "' is empty or has whitespace");

@@ -24,27 +24,33 @@ void append(std::vector<std::uint8_t>& out, T value) {
 
 void validate(const PlyMesh& mesh) {
   const auto bad = [](const std::string& why) { return std::invalid_argument("PLY mesh: " + why); };
-  if (mesh.xyz.size() % 3 != 0)
+  if (mesh.xyz.size() % 3 != 0) {
     throw bad("xyz has " + std::to_string(mesh.xyz.size()) + " floats, not a multiple of 3");
+  }
   const std::size_t n = mesh.vertex_count();
   if (n > 0x7fffffffu) throw bad("too many vertices for int indices: " + std::to_string(n));
-  if (!mesh.normals.empty() && mesh.normals.size() != 3 * n)
+  if (!mesh.normals.empty() && mesh.normals.size() != 3 * n) {
     throw bad("normals has " + std::to_string(mesh.normals.size()) + " floats, expected 0 or " +
               std::to_string(3 * n));
-  if (!mesh.rgb.empty() && mesh.rgb.size() != 3 * n)
+  }
+  if (!mesh.rgb.empty() && mesh.rgb.size() != 3 * n) {
     throw bad("rgb has " + std::to_string(mesh.rgb.size()) + " bytes, expected 0 or " +
               std::to_string(3 * n));
-  if (mesh.vertices_per_face < 3 || mesh.vertices_per_face > 255)
+  }
+  if (mesh.vertices_per_face < 3 || mesh.vertices_per_face > 255) {
     throw bad("vertices_per_face = " + std::to_string(mesh.vertices_per_face) +
               ", expected 3..255");
-  if (mesh.faces.size() % static_cast<std::size_t>(mesh.vertices_per_face) != 0)
+  }
+  if (mesh.faces.size() % static_cast<std::size_t>(mesh.vertices_per_face) != 0) {
     throw bad("faces has " + std::to_string(mesh.faces.size()) + " indices, not a multiple of " +
               std::to_string(mesh.vertices_per_face));
+  }
   for (std::size_t i = 0; i < mesh.faces.size(); ++i) {
     const std::int32_t index = mesh.faces[i];
-    if (index < 0 || static_cast<std::size_t>(index) >= n)
+    if (index < 0 || static_cast<std::size_t>(index) >= n) {
       throw bad("face " + std::to_string(i / mesh.vertices_per_face) + " has vertex index " +
                 std::to_string(index) + ", outside 0.." + std::to_string(n) + "-1");
+    }
   }
 }
 
@@ -82,10 +88,12 @@ void encode_ply_chunks(const PlyMesh& mesh, Sink&& sink) {
   out.insert(out.end(), text.begin(), text.end());
   for (std::size_t i = 0; i < n; ++i) {
     for (int k = 0; k < 3; ++k) append(out, mesh.xyz[3 * i + k]);
-    if (has_normals)
+    if (has_normals) {
       for (int k = 0; k < 3; ++k) append(out, mesh.normals[3 * i + k]);
-    if (has_rgb)
+    }
+    if (has_rgb) {
       for (int k = 0; k < 3; ++k) out.push_back(mesh.rgb[3 * i + k]);
+    }
     flush_if_full();
   }
   const std::size_t m = static_cast<std::size_t>(mesh.vertices_per_face);
@@ -137,8 +145,9 @@ PlyMesh decode_ply(const std::uint8_t* data, std::size_t size, const std::string
     if (!line.empty() && line.back() == '\r') line.pop_back();
     return line;
   };
-  if (size < 4 || std::memcmp(data, "ply", 3) != 0 || (data[3] != '\n' && data[3] != '\r'))
+  if (size < 4 || std::memcmp(data, "ply", 3) != 0 || (data[3] != '\n' && data[3] != '\r')) {
     throw fail("not a PLY file (first line is not \"ply\")");
+  }
   next_line();
 
   enum class Section { none, vertex, face, other } section = Section::none;
@@ -156,8 +165,9 @@ PlyMesh decode_ply(const std::uint8_t* data, std::size_t size, const std::string
     if (keyword == "format") {
       std::string format, version;
       words >> format >> version;
-      if (format != "binary_little_endian" || version != "1.0")
+      if (format != "binary_little_endian" || version != "1.0") {
         throw fail("unsupported format line \"" + line + "\" (only binary_little_endian 1.0)");
+      }
     } else if (keyword == "element") {
       std::string element;
       std::uint64_t count = 0;
@@ -181,9 +191,10 @@ PlyMesh decode_ply(const std::uint8_t* data, std::size_t size, const std::string
         words >> count_type >> index_type >> property;
         if (type != "list" || count_type != "uchar" ||
             (index_type != "int" && index_type != "int32") || property != "vertex_indices" ||
-            face_list_ok)
+            face_list_ok) {
           throw fail("unsupported face property \"" + line +
                      "\" (only one 'property list uchar int vertex_indices')");
+        }
         face_list_ok = true;
       } else {
         throw fail("property outside an element: \"" + line + "\"");
@@ -202,28 +213,32 @@ PlyMesh decode_ply(const std::uint8_t* data, std::size_t size, const std::string
     std::size_t i = 0;
     const auto take = [&](const std::vector<std::string>& group) {
       if (vertex_properties.size() < i + 3) return false;
-      for (std::size_t k = 0; k < 3; ++k)
+      for (std::size_t k = 0; k < 3; ++k) {
         if (vertex_properties[i + k] != group[k]) return false;
+      }
       i += 3;
       return true;
     };
     if (!take(base)) throw fail("vertex properties must start with float x, y, z");
     has_normals = take(normals);
     has_rgb = take(colours);
-    if (i != vertex_properties.size())
+    if (i != vertex_properties.size()) {
       throw fail("unsupported vertex property \"" + vertex_properties[i] + "\"");
+    }
   }
   if (seen_face && !face_list_ok) throw fail("face element without vertex_indices list");
 
   const std::uint64_t vertex_bytes = 12 + (has_normals ? 12 : 0) + (has_rgb ? 3 : 0);
   const std::uint64_t remaining = size - pos;
-  if (vertices > remaining / vertex_bytes)
+  if (vertices > remaining / vertex_bytes) {
     throw fail("truncated: " + std::to_string(vertices) + " vertices need " +
                std::to_string(vertices * vertex_bytes) + " bytes, " + std::to_string(remaining) +
                " left");
-  if (faces > remaining / 4)  // every face needs at least its count byte and 3 ints
+  }
+  if (faces > remaining / 4) {  // every face needs at least its count byte and 3 ints
     throw fail("truncated: " + std::to_string(faces) + " faces cannot fit in " +
                std::to_string(remaining) + " bytes");
+  }
 
   PlyMesh mesh;
   mesh.xyz.resize(3 * vertices);
@@ -253,15 +268,17 @@ PlyMesh decode_ply(const std::uint8_t* data, std::size_t size, const std::string
                  " vertices, face 0 has " + std::to_string(mesh.vertices_per_face) +
                  " (mixed polygon sizes are not supported)");
     }
-    if (size - pos < 4u * static_cast<unsigned>(count))
+    if (size - pos < 4u * static_cast<unsigned>(count)) {
       throw fail("truncated in face " + std::to_string(f));
+    }
     for (int k = 0; k < count; ++k) {
       std::int32_t index = 0;
       std::memcpy(&index, data + pos, 4);
       pos += 4;
-      if (index < 0 || static_cast<std::uint64_t>(index) >= vertices)
+      if (index < 0 || static_cast<std::uint64_t>(index) >= vertices) {
         throw fail("face " + std::to_string(f) + " has vertex index " + std::to_string(index) +
                    ", outside 0.." + std::to_string(vertices) + "-1");
+      }
       mesh.faces.push_back(index);
     }
   }

@@ -93,8 +93,9 @@ void decode_gray(const std::uint8_t* data, std::size_t size, const std::string& 
   const auto fail = [&](const std::string& why) -> std::runtime_error {
     return std::runtime_error("PNG '" + name + "': " + why);
   };
-  if (data == nullptr || size < 8 || png_sig_cmp(data, 0, 8) != 0)
+  if (data == nullptr || size < 8 || png_sig_cmp(data, 0, 8) != 0) {
     throw fail("not a PNG file (bad signature)");
+  }
 
   // libpng allocates a chunk's declared length before reading it; a lying length could make it
   // allocate far more than the file holds, so every chunk must fit in the file first.
@@ -165,8 +166,9 @@ void decode_gray(const std::uint8_t* data, std::size_t size, const std::string& 
     const std::uint8_t* src = rows[y];
     T* dst = out.row(y);
     if (bytes_per_sample == 2) {
-      for (int x = 0; x < width; ++x)
+      for (int x = 0; x < width; ++x) {
         dst[x] = static_cast<T>((static_cast<unsigned>(src[2 * x]) << 8) | src[2 * x + 1]);
+      }
     } else {
       for (int x = 0; x < width; ++x) dst[x] = static_cast<T>(src[x]);
     }
@@ -203,9 +205,10 @@ bool write_png(png_structp png, png_infop info, png_uint_32 width, png_uint_32 h
 // `rows` point to big-endian samples ready for libpng.
 std::vector<std::uint8_t> encode(int width, int height, int bit_depth, int colour_type,
                                  std::vector<std::uint8_t>& pixels, std::size_t row_bytes) {
-  if (width <= 0 || height <= 0)
+  if (width <= 0 || height <= 0) {
     throw std::invalid_argument("PNG encode: empty image " + std::to_string(width) + " x " +
                                 std::to_string(height));
+  }
   std::vector<std::uint8_t> bytes;
   bytes.reserve(pixels.size() / 2 + 1024);
   std::vector<png_bytep> rows(height);

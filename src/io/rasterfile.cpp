@@ -38,8 +38,9 @@ BytePlane decode_rasterfile(const std::uint8_t* data, std::size_t size, const st
   const auto fail = [&](const std::string& why) {
     return std::runtime_error("rasterfile '" + name + "': " + why);
   };
-  if (data == nullptr || size < kHeaderBytes)
+  if (data == nullptr || size < kHeaderBytes) {
     throw fail("file has " + std::to_string(size) + " bytes, shorter than the 32-byte header");
+  }
   std::array<std::uint32_t, 8> h{};
   for (int i = 0; i < 8; ++i) h[i] = read_be32(data + 4 * i);
   const auto [magic, width, height, depth, length, type, maptype, maplength] = h;
@@ -76,8 +77,9 @@ BytePlane decode_rasterfile(const std::uint8_t* data, std::size_t size, const st
   }
   BytePlane image(static_cast<int>(width), static_cast<int>(height));
   const std::uint8_t* pixels_begin = data + kHeaderBytes + maplength;
-  for (std::uint32_t y = 0; y < height; ++y)
+  for (std::uint32_t y = 0; y < height; ++y) {
     std::memcpy(image.row(static_cast<int>(y)), pixels_begin + y * row_bytes, width);
+  }
   return image;
 }
 
@@ -104,9 +106,10 @@ std::vector<std::uint8_t> encode_rasterfile(View<const std::uint8_t> image) {
                                    0,
                                    0};
   for (int i = 0; i < 8; ++i) write_be32(bytes.data() + 4 * i, header[i]);
-  for (int y = 0; y < image.height; ++y)
+  for (int y = 0; y < image.height; ++y) {
     std::memcpy(bytes.data() + kHeaderBytes + y * row_bytes, image.row(y),
                 static_cast<std::size_t>(image.width));
+  }
   return bytes;
 }
 
@@ -130,8 +133,9 @@ AbwCalibration AbwCalibration::for_image(const std::string& path) {
     const bool number_ends = end > prefix.size() && (end == name.size() || name[end] == '.');
     if (number_ends && end - prefix.size() <= 3) {
       const int index = std::stoi(name.substr(prefix.size(), end - prefix.size()));
-      for (const int second : {0, 19, 21, 25, 27, 28, 29})
+      for (const int second : {0, 19, 21, 25, 27, 28, 29}) {
         if (index == second) return {.offset = 785.410786, .scal = 0.773545, .f = -1610.981722};
+      }
     }
   }
   return {};

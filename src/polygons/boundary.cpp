@@ -274,8 +274,9 @@ void find_parents(PolygonExtractor::Scratch& sc, std::size_t n_outer) {
   }
   const std::size_t rows = static_cast<std::size_t>(y2_max - y2_min) + 1;
   sc.row_start.assign(rows + 1, 0);
-  for (std::size_t q = 0; q < nq; ++q)
+  for (std::size_t q = 0; q < nq; ++q) {
     ++sc.row_start[static_cast<std::size_t>(sc.query_y2[q] - y2_min) + 1];
+  }
   for (std::size_t i = 0; i < rows; ++i) sc.row_start[i + 1] += sc.row_start[i];
   sc.row_queries.resize(nq);
   sc.touched.assign(sc.row_start.begin(), sc.row_start.end() - 1);  // fill cursors
@@ -301,8 +302,10 @@ void find_parents(PolygonExtractor::Scratch& sc, std::size_t n_outer) {
         for (int t = sc.row_start[static_cast<std::size_t>(row)];
              t < sc.row_start[static_cast<std::size_t>(row) + 1]; ++t) {
           const int q = sc.row_queries[static_cast<std::size_t>(t)];
-          if (sc.raw[static_cast<std::size_t>(sc.queries[static_cast<std::size_t>(q)])].parent >= 0)
+          if (sc.raw[static_cast<std::size_t>(sc.queries[static_cast<std::size_t>(q)])].parent >=
+              0) {
             continue;
+          }
           const double px = 0.5 * static_cast<double>(sc.query_x2[static_cast<std::size_t>(q)]);
           const double py = 0.5 * static_cast<double>(y2);
           const double xi = uv[i][0], yi = yi_int, xj = uv[j][0], yj = yj_int;
@@ -383,8 +386,9 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
     if (settings.planes_only && seg.model != SegmentModel::plane) continue;
     if (seg.pixel_count < settings.min_segment_pixels) continue;
     if (!std::isfinite(seg.offset) || !std::isfinite(seg.normal[0]) ||
-        !std::isfinite(seg.normal[1]) || !std::isfinite(seg.normal[2]))
+        !std::isfinite(seg.normal[1]) || !std::isfinite(seg.normal[2])) {
       continue;
+    }
     sc.enabled[seg.label] = 1;
   }
   for (std::size_t l = 1; l < n_labels; ++l) {
@@ -483,16 +487,18 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
     for (int b = b0; b < b1; ++b) {
       const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.bucket_loops[b])];
       if (r.area_px > 0 &&
-          (largest < 0 || r.area_px > sc.raw[static_cast<std::size_t>(largest)].area_px))
+          (largest < 0 || r.area_px > sc.raw[static_cast<std::size_t>(largest)].area_px)) {
         largest = sc.bucket_loops[b];
+      }
     }
     if (largest < 0) continue;
     sc.kept.clear();
     for (int b = b0; b < b1; ++b) {
       const int li = sc.bucket_loops[b];
       const RawLoop& r = sc.raw[static_cast<std::size_t>(li)];
-      if (r.area_px > 0 && (li == largest || r.area_px >= settings.min_loop_pixels))
+      if (r.area_px > 0 && (li == largest || r.area_px >= settings.min_loop_pixels)) {
         sc.kept.push_back(li);
+      }
     }
     std::sort(sc.kept.begin(), sc.kept.end(), [&](int a, int b) {
       const double aa = sc.raw[static_cast<std::size_t>(a)].area_px,
@@ -500,8 +506,9 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       return aa != ab ? aa > ab : a < b;
     });
     const std::size_t n_outer = sc.kept.size();
-    for (std::size_t k = 0; k < n_outer; ++k)
+    for (std::size_t k = 0; k < n_outer; ++k) {
       sc.outer_rank[static_cast<std::size_t>(sc.kept[k])] = static_cast<int>(k);
+    }
     // Holes: the parent is the smallest outer loop containing the midpoint of the hole's first
     // edge (never on another loop's edge: edges are unique).
     sc.queries.clear();
@@ -684,8 +691,9 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
         sc.hull_xy.push_back(xy[2 * o]);
         sc.hull_xy.push_back(xy[2 * o + 1]);
       }
-      if (sp.hull_count >= 3)
+      if (sp.hull_count >= 3) {
         polygons_detail::area_perimeter(sc.hull_xy.data(), sp.hull_count, a, p);
+      }
       sp.hull_area = std::abs(a);
       sp.hull_perimeter = p;
     }

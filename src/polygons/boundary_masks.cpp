@@ -343,8 +343,9 @@ RANGESEG_SIMD_AVX2_TARGET void masks_avx2(View<const std::int32_t> labels,
                                           BoundaryMaskScratch& scratch) {
   const int width = labels.width, height = labels.height;
   scratch.label_map.resize(n_labels + 1);
-  for (std::size_t l = 0; l < n_labels; ++l)
+  for (std::size_t l = 0; l < n_labels; ++l) {
     scratch.label_map[l] = en[l] ? static_cast<std::int32_t>(l) : 0;
+  }
   scratch.label_map[n_labels] = 0;
   // Label rows with kChunk + 1 zeros after them; cell rows with a zero before and kChunk after.
   const std::size_t label_len = static_cast<std::size_t>(width) + kChunk + 16;

@@ -276,18 +276,22 @@ void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha,
   for (int j = 1; j + 1 < rows; ++j) {
     for (int i = 1; i + 1 < cols; ++i) {
       std::uint8_t any = 0;
-      for (int dj = -1; dj <= 1; ++dj)
-        for (int di = -1; di <= 1; ++di)
+      for (int dj = -1; dj <= 1; ++dj) {
+        for (int di = -1; di <= 1; ++di) {
           any |= occ[static_cast<std::size_t>(j + dj) * cols + i + di];
+        }
+      }
       tmp[static_cast<std::size_t>(j) * cols + i] = any;
     }
   }
   for (int j = 1; j + 1 < rows; ++j) {
     for (int i = 1; i + 1 < cols; ++i) {
       std::uint8_t all = 1;
-      for (int dj = -1; dj <= 1; ++dj)
-        for (int di = -1; di <= 1; ++di)
+      for (int dj = -1; dj <= 1; ++dj) {
+        for (int di = -1; di <= 1; ++di) {
           all &= tmp[static_cast<std::size_t>(j + dj) * cols + i + di];
+        }
+      }
       occ[static_cast<std::size_t>(j) * cols + i] =
           static_cast<std::uint8_t>(occ[static_cast<std::size_t>(j) * cols + i] | all);
     }

@@ -55,14 +55,16 @@ bool segments_touch(const CheckEdge& e, const CheckEdge& f, double eps) {
   if (dist2_point_segment(f.x0, f.y0, e.x0, e.y0, e.x1, e.y1) <= eps2 ||
       dist2_point_segment(f.x1, f.y1, e.x0, e.y0, e.x1, e.y1) <= eps2 ||
       dist2_point_segment(e.x0, e.y0, f.x0, f.y0, f.x1, f.y1) <= eps2 ||
-      dist2_point_segment(e.x1, e.y1, f.x0, f.y0, f.x1, f.y1) <= eps2)
+      dist2_point_segment(e.x1, e.y1, f.x0, f.y0, f.x1, f.y1) <= eps2) {
     return true;
+  }
   const double o1 = cross(e.x0, e.y0, e.x1, e.y1, f.x0, f.y0);
   const double o2 = cross(e.x0, e.y0, e.x1, e.y1, f.x1, f.y1);
   const double o3 = cross(f.x0, f.y0, f.x1, f.y1, e.x0, e.y0);
   const double o4 = cross(f.x0, f.y0, f.x1, f.y1, e.x1, e.y1);
-  if (((o1 > 0 && o2 < 0) || (o1 < 0 && o2 > 0)) && ((o3 > 0 && o4 < 0) || (o3 < 0 && o4 > 0)))
+  if (((o1 > 0 && o2 < 0) || (o1 < 0 && o2 > 0)) && ((o3 > 0 && o4 < 0) || (o3 < 0 && o4 > 0))) {
     return true;
+  }
   if (o1 == 0 && on_segment(e.x0, e.y0, e.x1, e.y1, f.x0, f.y0)) return true;
   if (o2 == 0 && on_segment(e.x0, e.y0, e.x1, e.y1, f.x1, f.y1)) return true;
   if (o3 == 0 && on_segment(f.x0, f.y0, f.x1, f.y1, e.x0, e.y0)) return true;
@@ -297,9 +299,10 @@ void sort_points_xy(const double* xy, std::vector<int>& order, PointSortScratch&
   for (std::size_t i = 0; i + 1 < n;) {  // runs of equal x: by (y, index)
     std::size_t j = i + 1;
     while (j < n && keys[j] == keys[i]) ++j;
-    if (j - i > 1)
+    if (j - i > 1) {
       std::sort(order.begin() + static_cast<std::ptrdiff_t>(i),
                 order.begin() + static_cast<std::ptrdiff_t>(j), less);
+    }
     i = j;
   }
 }

@@ -25,8 +25,9 @@ bool segments_cross(const P2& a, const P2& b, const P2& c, const P2& d) {
   if (a == c || a == d || b == c || b == d) return false;
   const double o1 = orient(a, b, c), o2 = orient(a, b, d), o3 = orient(c, d, a),
                o4 = orient(c, d, b);
-  if (((o1 > 0 && o2 < 0) || (o1 < 0 && o2 > 0)) && ((o3 > 0 && o4 < 0) || (o3 < 0 && o4 > 0)))
+  if (((o1 > 0 && o2 < 0) || (o1 < 0 && o2 > 0)) && ((o3 > 0 && o4 < 0) || (o3 < 0 && o4 > 0))) {
     return true;
+  }
   const auto on = [](const P2& p, const P2& q, const P2& r) {
     return std::min(p[0], q[0]) <= r[0] && r[0] <= std::max(p[0], q[0]) &&
            std::min(p[1], q[1]) <= r[1] && r[1] <= std::max(p[1], q[1]);
@@ -85,8 +86,9 @@ void ear_clip(std::vector<int> poly, const std::vector<P2>& pts,
     tris.push_back({poly[(ear + n - 1) % n], poly[ear], poly[(ear + 1) % n]});
     poly.erase(poly.begin() + static_cast<std::ptrdiff_t>(ear));
   }
-  if (poly.size() == 3 && orient(pt(poly[0]), pt(poly[1]), pt(poly[2])) > 0)
+  if (poly.size() == 3 && orient(pt(poly[0]), pt(poly[1]), pt(poly[2])) > 0) {
     tris.push_back({poly[0], poly[1], poly[2]});
+  }
 }
 
 }  // namespace
@@ -110,8 +112,9 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
     const auto max_x_vertex = [&](int h) {
       const PolygonLoop& hl = polygons.loops[static_cast<std::size_t>(h)];
       int best = hl.first;
-      for (int i = hl.first; i < hl.first + hl.count; ++i)
+      for (int i = hl.first; i < hl.first + hl.count; ++i) {
         if (pts[static_cast<std::size_t>(i)][0] > pts[static_cast<std::size_t>(best)][0]) best = i;
+      }
       return best;
     };
     std::sort(holes.begin(), holes.end(), [&](int a, int b) {

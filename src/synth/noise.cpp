@@ -36,9 +36,10 @@ class Random {
 
 void validate(const KinectModel& m) {
   auto check = [](double value, bool ok, const char* name) {
-    if (!ok || !std::isfinite(value))
+    if (!ok || !std::isfinite(value)) {
       throw std::invalid_argument(std::string("synth: KinectModel::") + name +
                                   " out of range: " + std::to_string(value));
+    }
   };
   check(m.sigma_base, m.sigma_base >= 0, "sigma_base");
   check(m.sigma_quadratic, m.sigma_quadratic >= 0, "sigma_quadratic");
@@ -59,10 +60,11 @@ void apply_kinect_noise(const KinectModel& model, const CameraIntrinsics& camera
                         std::uint64_t seed, std::vector<double>& depth, LabelImage& labels) {
   validate(model);
   const int width = labels.width(), height = labels.height();
-  if (depth.size() != static_cast<std::size_t>(width) * height)
+  if (depth.size() != static_cast<std::size_t>(width) * height) {
     throw std::invalid_argument("synth: depth buffer size " + std::to_string(depth.size()) +
                                 " does not match the label image " + std::to_string(width) + "x" +
                                 std::to_string(height));
+  }
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double bf = model.baseline * camera.fx;  // disparity [pixel] = bf / z
 

@@ -11,12 +11,14 @@ namespace rangeseg::synth {
 Rendering render(const Scene& scene, const RenderSettings& settings) {
   const CameraIntrinsics& camera = settings.camera;
   rangeseg::validate(camera);
-  if (camera.width <= 0 || camera.height <= 0)
+  if (camera.width <= 0 || camera.height <= 0) {
     throw std::invalid_argument("synth::render: camera size must be positive, got " +
                                 std::to_string(camera.width) + "x" + std::to_string(camera.height));
-  if (settings.min_surface_pixels < 0)
+  }
+  if (settings.min_surface_pixels < 0) {
     throw std::invalid_argument("synth::render: min_surface_pixels must be >= 0, got " +
                                 std::to_string(settings.min_surface_pixels));
+  }
 
   const detail::Tracer tracer(scene);
   const int width = camera.width, height = camera.height;
@@ -41,8 +43,9 @@ Rendering render(const Scene& scene, const RenderSettings& settings) {
     }
   }
 
-  if (settings.noise == Noise::kinect)
+  if (settings.noise == Noise::kinect) {
     detail::apply_kinect_noise(settings.kinect, camera, settings.seed, depth, out.labels);
+  }
 
   out.pixel_counts.assign(out.surfaces.size(), 0);
   out.cloud.resize(width, height);
@@ -68,12 +71,14 @@ Rendering render(const Scene& scene, const RenderSettings& settings) {
       std::int32_t* label_row = out.labels.row(v);
       for (int u = 0; u < width; ++u) {
         const int label = label_row[u];
-        if (label > 0 && out.pixel_counts[label - 1] < settings.min_surface_pixels)
+        if (label > 0 && out.pixel_counts[label - 1] < settings.min_surface_pixels) {
           label_row[u] = 0;
+        }
       }
     }
-    for (auto& count : out.pixel_counts)
+    for (auto& count : out.pixel_counts) {
       if (count < settings.min_surface_pixels) count = 0;
+    }
   }
 
   out.cloud.label = out.labels;

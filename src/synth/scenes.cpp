@@ -97,8 +97,9 @@ Scene random_scene(std::uint64_t seed, bool with_curved) {
       z = random(1.8, wall_z - radius - 0.3);
       x = random(-0.45, 0.45) * z;
       bool clear = true;
-      for (const Footprint& f : footprints)
+      for (const Footprint& f : footprints) {
         clear = clear && std::hypot(f.x - x, f.z - z) > f.radius + radius + 0.05;
+      }
       if (clear) {
         footprints.push_back({x, z, radius});
         return true;
@@ -158,13 +159,15 @@ Scene random_scene(std::uint64_t seed, bool with_curved) {
 }
 
 Scene plane_scene(double distance, double tilt_rad) {
-  if (!(distance > 0.0) || !std::isfinite(distance))
+  if (!(distance > 0.0) || !std::isfinite(distance)) {
     throw std::invalid_argument("synth::plane_scene: distance must be positive, got " +
                                 std::to_string(distance));
-  if (!(std::abs(tilt_rad) < 1.1))
+  }
+  if (!(std::abs(tilt_rad) < 1.1)) {
     throw std::invalid_argument(
         "synth::plane_scene: |tilt_rad| must be < 1.1 so the plane fills the view, got " +
         std::to_string(tilt_rad));
+  }
   constexpr double half_size = 100.0;  // m: far larger than the view at any usable distance
   Scene scene;
   scene.rectangles.push_back(

@@ -24,9 +24,10 @@ bool finite(const Vec3& v) {
 }
 
 void require_positive(double value, const std::string& what) {
-  if (!(value > 0.0) || !std::isfinite(value))
+  if (!(value > 0.0) || !std::isfinite(value)) {
     throw std::invalid_argument("synth: " + what + " must be positive and finite, got " +
                                 std::to_string(value));
+  }
 }
 
 void require_finite(const Vec3& v, const std::string& what) {
@@ -60,9 +61,10 @@ void quadratic_roots(double a, double b, double c, double roots[2], int& count) 
 
 Vec3 normalized(const Vec3& a, const char* what) {
   const double n = std::sqrt(dot(a, a));
-  if (!(n > 0.0) || !std::isfinite(n))
+  if (!(n > 0.0) || !std::isfinite(n)) {
     throw std::invalid_argument(std::string("synth: ") + what +
                                 " must be a non-zero finite vector, got " + to_string(a));
+  }
   return scale(a, 1.0 / n);
 }
 
@@ -75,9 +77,11 @@ Mat3 rotation(const Orientation& o) {
   const Mat3 rz{{{cr, -sr, 0}, {sr, cr, 0}, {0, 0, 1}}};
   auto mul = [](const Mat3& a, const Mat3& b) {
     Mat3 m{};
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) {
         for (int k = 0; k < 3; ++k) m[i][j] += a[i][k] * b[k][j];
+      }
+    }
     return m;
   };
   return mul(ry, mul(rx, rz));
@@ -88,8 +92,9 @@ Tracer::Tracer(const Scene& scene) {
     const Room& room = *scene.room;
     require_finite(room.centre, "room centre");
     for (int i = 0; i < 3; ++i) require_positive(room.half_extent[i], "room half extent");
-    if (!std::isfinite(room.yaw))
+    if (!std::isfinite(room.yaw)) {
       throw std::invalid_argument("synth: room yaw is not finite: " + std::to_string(room.yaw));
+    }
     const Mat3 r = rotation({.yaw = room.yaw});
     const Vec3 ex = scale(column(r, 0), room.half_extent[0]);
     const Vec3 ey = scale(column(r, 1), room.half_extent[1]);
@@ -108,15 +113,18 @@ Tracer::Tracer(const Scene& scene) {
   static const char* const kFaceNames[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
   for (const Box& box : scene.boxes) {
     require_finite(box.centre, "box '" + box.name + "' centre");
-    for (int i = 0; i < 3; ++i)
+    for (int i = 0; i < 3; ++i) {
       require_positive(box.half_extent[i], "box '" + box.name + "' half extent");
+    }
     BoxShape shape;
     shape.rotation = rotation(box.orientation);
     shape.half_extent = box.half_extent;
-    for (int i = 0; i < 3; ++i)
+    for (int i = 0; i < 3; ++i) {
       shape.camera_in_body[i] = -dot(column(shape.rotation, i), box.centre);
-    if (!finite(shape.camera_in_body))
+    }
+    if (!finite(shape.camera_in_body)) {
       throw std::invalid_argument("synth: box '" + box.name + "' orientation is not finite");
+    }
     shape.bound = make_bound(box.centre, std::sqrt(dot(box.half_extent, box.half_extent)));
     shape.first_label = static_cast<int>(surfaces_.size()) + 1;
     for (int face = 0; face < 6; ++face) {
@@ -187,10 +195,11 @@ void Tracer::add_rectangle(const Rectangle& rectangle) {
   require_positive(half_v, what + " |half_v|");
   const Vec3 unit_u = scale(rectangle.half_u, 1.0 / half_u);
   const Vec3 unit_v = scale(rectangle.half_v, 1.0 / half_v);
-  if (std::abs(dot(unit_u, unit_v)) > 1e-9)
+  if (std::abs(dot(unit_u, unit_v)) > 1e-9) {
     throw std::invalid_argument("synth: " + what + " half_u " + to_string(rectangle.half_u) +
                                 " and half_v " + to_string(rectangle.half_v) +
                                 " are not orthogonal");
+  }
   Vec3 normal = normalized(cross(unit_u, unit_v), "rectangle normal");
   if (dot(normal, rectangle.centre) > 0.0) normal = scale(normal, -1.0);  // face the camera
   Surface surface = plane_surface(normal, rectangle.centre, rectangle.name);
