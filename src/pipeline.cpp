@@ -16,6 +16,11 @@ using Clock = std::chrono::steady_clock;
 /// (~0.6 MB at 640 columns) stay in a 1 MB L2 cache; each band recomputes one row of cells.
 constexpr int kMeshBandRows = 64;
 
+/// Frames smaller than this run on one thread even with settings.threads > 1: mesh, normals and
+/// smoothing then take tens of microseconds, as long as handing a band to another core
+/// (measured at 160x120 on a 2-core VM: 2 threads slower than 1) [pixels].
+constexpr long kMinPixelsForThreads = 1L << 16;
+
 double ms_since(Clock::time_point& start) {
   const Clock::time_point now = Clock::now();
   const double ms = std::chrono::duration<double, std::milli>(now - start).count();
@@ -73,19 +78,21 @@ void Pipeline::process(const OrganizedCloud& cloud) {
   detail::prepare_normals(cloud, mesh_, settings_.normals, raw_normals_);
   times_.mesh = ms_since(t);
   const int height = cloud.height(), stride = mesh_.pixel_stride;
-  if (pool_) {
+  ThreadPool* const pool =
+      static_cast<long>(cloud.width()) * height >= kMinPixelsForThreads ? pool_.get() : nullptr;
+  if (pool != nullptr) {
     // Threads: all mesh bands, then (a band's normals read the mesh beyond it) all normal bands.
-    pool_->for_each_band(height, stride, [&](int, int v0, int v1) {
+    pool->for_each_band(height, stride, [&](int, int v0, int v1) {
       detail::build_mesh_rows(cloud, settings_.mesh, mesh_, v0, v1);
     });
     times_.mesh += ms_since(t);
-    pool_->for_each_band(height, stride, [&](int, int v0, int v1) {
+    pool->for_each_band(height, stride, [&](int, int v0, int v1) {
       detail::compute_normals_rows(cloud, mesh_, settings_.normals, raw_normals_, v0, v1);
     });
     times_.normals = ms_since(t);
   }
-  int normals_done = pool_ ? height : 0;
-  for (int v0 = pool_ ? height : 0; v0 < height; v0 += kMeshBandRows) {
+  int normals_done = pool != nullptr ? height : 0;
+  for (int v0 = normals_done; v0 < height; v0 += kMeshBandRows) {
     const int v1 = std::min(height, v0 + kMeshBandRows);
     detail::build_mesh_rows(cloud, settings_.mesh, mesh_, v0, v1);
     times_.mesh += ms_since(t);
@@ -98,8 +105,8 @@ void Pipeline::process(const OrganizedCloud& cloud) {
     times_.normals += ms_since(t);
   }
   if (settings_.smooth) {
-    if (pool_) {
-      smoother_.run(cloud, mesh_, raw_normals_, smoothed_cloud_, smoothed_normals_, *pool_);
+    if (pool != nullptr) {
+      smoother_.run(cloud, mesh_, raw_normals_, smoothed_cloud_, smoothed_normals_, *pool);
     } else {
       smoother_.run(cloud, mesh_, raw_normals_, smoothed_cloud_, smoothed_normals_);
     }

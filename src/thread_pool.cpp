@@ -1,5 +1,6 @@
 #include "rangeseg/thread_pool.hpp"
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <exception>
@@ -12,18 +13,22 @@
 namespace rangeseg {
 
 /// Workers wait for a new generation of work, run their band and count down; the caller runs
-/// band 0 and waits for the count to reach zero. One mutex guards the whole job description.
+/// band 0 and waits for the count to reach zero. Both sides spin for a few microseconds before
+/// sleeping on a condition variable: the bands of one frame follow each other within
+/// microseconds, and waking a sleeping thread costs tens of them.
 struct ThreadPool::Workers {
+  static constexpr int kSpins = 4000;  // ~10-20 us of pause instructions
+
   std::mutex mutex;
   std::condition_variable work_ready;
   std::condition_variable work_done;
-  std::uint64_t generation = 0;
-  int pending = 0;
-  bool stopping = false;
+  std::atomic<std::uint64_t> generation{0};
+  std::atomic<int> pending{0};
+  bool stopping = false;  // guarded by mutex
   BandFn fn = nullptr;
   void* context = nullptr;
   int rows = 0, align = 1, bands = 1;
-  std::exception_ptr error;
+  std::exception_ptr error;  // guarded by mutex
   std::vector<std::thread> threads;
 
   /// Rows of band b: [begin(b), begin(b + 1)), split evenly and rounded to `align`.
@@ -44,18 +49,35 @@ struct ThreadPool::Workers {
     }
   }
 
+  static void pause() {
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_ia32_pause();
+#else
+    std::this_thread::yield();
+#endif
+  }
+
   void work(int band) {
     std::uint64_t seen = 0;
     for (;;) {
-      {
-        std::unique_lock<std::mutex> lock(mutex);
-        work_ready.wait(lock, [&] { return stopping || generation != seen; });
-        if (stopping) return;
-        seen = generation;
+      std::uint64_t now = generation.load(std::memory_order_acquire);
+      for (int i = 0; i < kSpins && now == seen; ++i) {
+        pause();
+        now = generation.load(std::memory_order_acquire);
       }
+      if (now == seen) {
+        std::unique_lock<std::mutex> lock(mutex);
+        work_ready.wait(
+            lock, [&] { return stopping || generation.load(std::memory_order_acquire) != seen; });
+        if (stopping) return;
+        now = generation.load(std::memory_order_acquire);
+      }
+      seen = now;
       run_band(band);
-      const std::lock_guard<std::mutex> lock(mutex);
-      if (--pending == 0) work_done.notify_one();
+      if (pending.fetch_sub(1, std::memory_order_acq_rel) == 1) {
+        const std::lock_guard<std::mutex> lock(mutex);  // the caller may be about to sleep
+        work_done.notify_one();
+      }
     }
   }
 };
@@ -89,21 +111,25 @@ void ThreadPool::run_bands(int rows, int align, BandFn fn, void* context) {
   }
   Workers& w = *workers_;
   {
+    // Workers read the job after seeing the new generation (release / acquire).
     const std::lock_guard<std::mutex> lock(w.mutex);
     w.fn = fn;
     w.context = context;
     w.rows = rows;
     w.align = align;
     w.error = nullptr;
-    w.pending = threads_ - 1;
-    ++w.generation;
+    w.pending.store(threads_ - 1, std::memory_order_relaxed);
+    w.generation.fetch_add(1, std::memory_order_release);
   }
   w.work_ready.notify_all();
   w.run_band(0);
+  for (int i = 0; i < Workers::kSpins && w.pending.load(std::memory_order_acquire) != 0; ++i) {
+    Workers::pause();
+  }
   std::exception_ptr error;
   {
     std::unique_lock<std::mutex> lock(w.mutex);
-    w.work_done.wait(lock, [&] { return w.pending == 0; });
+    w.work_done.wait(lock, [&] { return w.pending.load(std::memory_order_acquire) == 0; });
     error = w.error;
     w.error = nullptr;
   }

@@ -24,7 +24,8 @@ struct PipelineSettings {
   bool polygons = true;  ///< outline every plane segment (needs `segment`)
   PolygonSettings polygon{};
   /// Threads inside one frame: mesh, normals and smoothing run on this many row bands at once
-  /// (results bit-identical to 1 thread); segmentation and polygons run on one. 1..256.
+  /// (results bit-identical to 1 thread); segmentation and polygons run on one. Frames under
+  /// 65536 pixels always run on one thread (a hand-off costs as much as their work). 1..256.
   int threads = 1;
 };
 
