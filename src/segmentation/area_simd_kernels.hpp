@@ -19,29 +19,34 @@ RANGESEG_KERNEL RANGESEG_SIMD_INLINE F cross_norm(const Corner& p0, const Corner
   return V::sqrt(cx * cx + cy * cy + cz * cz);
 }
 
+/// Twice the area of the faces of cells a-b-c-d (a, b top; c, d bottom) with face_bits `bits`,
+/// the scalar cell_twice_area's operations per lane.
+RANGESEG_KERNEL RANGESEG_SIMD_INLINE F cell_twice_area(const Corner& a, const Corner& b,
+                                                       const Corner& c, const Corner& d, M bits) {
+  const M quad = V::set1i(face_bits::quad), diag_bc = V::set1i(face_bits::diag_bc);
+  const M tri0 = V::set1i(face_bits::tri0), tri1 = V::set1i(face_bits::tri1);
+  const M is_quad = (M)((bits & quad) == quad), is_bc = (M)((bits & diag_bc) == diag_bc);
+  const M has0 = (M)((bits & tri0) == tri0), has1 = (M)((bits & tri1) == tri1);
+  // Diagonal b-c: (a, c, a, b) and (b, c, b, d); diagonal a-d: (a, d, a, b) and (a, c, a, d).
+  const Corner e{V::pick(is_bc, c.x, d.x), V::pick(is_bc, c.y, d.y), V::pick(is_bc, c.z, d.z)};
+  const Corner g{V::pick(is_bc, b.x, a.x), V::pick(is_bc, b.y, a.y), V::pick(is_bc, b.z, a.z)};
+  const F triangles = V::keep(cross_norm(a, e, a, b), has0) + V::keep(cross_norm(g, c, g, d), has1);
+  return V::pick(is_quad, cross_norm(a, d, b, c), triangles);
+}
+
 /// Cells [0, count) with count + 1 readable points in both rows (stride 1): twice the area of
 /// the faces of each cell (face_bits in `faces`) into `out`, for the cells of whole vectors;
 /// returns how many cells that is (the caller does the rest).
 RANGESEG_KERNEL int cell_twice_areas(const float* x0, const float* y0, const float* z0,
                                      const float* x1, const float* y1, const float* z1,
                                      const std::uint8_t* faces, int count, float* out) {
-  const M quad = V::set1i(face_bits::quad), diag_bc = V::set1i(face_bits::diag_bc);
-  const M tri0 = V::set1i(face_bits::tri0), tri1 = V::set1i(face_bits::tri1);
   int i = 0;
   for (; i + kLanes <= count; i += kLanes) {
     const Corner a{V::load(x0 + i), V::load(y0 + i), V::load(z0 + i)};
     const Corner b{V::load(x0 + i + 1), V::load(y0 + i + 1), V::load(z0 + i + 1)};
     const Corner c{V::load(x1 + i), V::load(y1 + i), V::load(z1 + i)};
     const Corner d{V::load(x1 + i + 1), V::load(y1 + i + 1), V::load(z1 + i + 1)};
-    const M bits = V::bytes_to_lanes(faces + i);
-    const M is_quad = (M)((bits & quad) == quad), is_bc = (M)((bits & diag_bc) == diag_bc);
-    const M has0 = (M)((bits & tri0) == tri0), has1 = (M)((bits & tri1) == tri1);
-    // Diagonal b-c: (a, c, a, b) and (b, c, b, d); diagonal a-d: (a, d, a, b) and (a, c, a, d).
-    const Corner e{V::pick(is_bc, c.x, d.x), V::pick(is_bc, c.y, d.y), V::pick(is_bc, c.z, d.z)};
-    const Corner g{V::pick(is_bc, b.x, a.x), V::pick(is_bc, b.y, a.y), V::pick(is_bc, b.z, a.z)};
-    const F triangles =
-        V::keep(cross_norm(a, e, a, b), has0) + V::keep(cross_norm(g, c, g, d), has1);
-    V::store(out + i, V::pick(is_quad, cross_norm(a, d, b, c), triangles));
+    V::store(out + i, cell_twice_area(a, b, c, d, V::bytes_to_lanes(faces + i)));
   }
   return i;
 }
@@ -86,8 +91,6 @@ RANGESEG_KERNEL void row_areas(const float* x0, const float* y0, const float* z0
                                const float* y1, const float* z1, const std::uint8_t* faces,
                                const std::int32_t* l0, const std::int32_t* l1, int count,
                                AreaRun& run, double* area) {
-  const M quad = V::set1i(face_bits::quad), diag_bc = V::set1i(face_bits::diag_bc);
-  const M tri0 = V::set1i(face_bits::tri0), tri1 = V::set1i(face_bits::tri1);
   const M zero = V::set1i(0);
   const F zerof = V::set1(0.0f), inf = V::set1(__builtin_inff());
   LaneSums sum;
@@ -107,13 +110,7 @@ RANGESEG_KERNEL void row_areas(const float* x0, const float* y0, const float* z0
     const Corner b{V::load(x0 + i + 1), V::load(y0 + i + 1), V::load(z0 + i + 1)};
     const Corner c{V::load(x1 + i), V::load(y1 + i), V::load(z1 + i)};
     const Corner d{V::load(x1 + i + 1), V::load(y1 + i + 1), V::load(z1 + i + 1)};
-    const M is_quad = (M)((bits & quad) == quad), is_bc = (M)((bits & diag_bc) == diag_bc);
-    const M has0 = (M)((bits & tri0) == tri0), has1 = (M)((bits & tri1) == tri1);
-    const Corner e{V::pick(is_bc, c.x, d.x), V::pick(is_bc, c.y, d.y), V::pick(is_bc, c.z, d.z)};
-    const Corner g{V::pick(is_bc, b.x, a.x), V::pick(is_bc, b.y, a.y), V::pick(is_bc, b.z, a.z)};
-    const F triangles =
-        V::keep(cross_norm(a, e, a, b), has0) + V::keep(cross_norm(g, c, g, d), has1);
-    const F twice_area = V::pick(is_quad, cross_norm(a, d, b, c), triangles);
+    const F twice_area = cell_twice_area(a, b, c, d, bits);
     if ((to_add & ~in_run) == 0) {
       // Every cell is empty or belongs to the run.
       const F added = V::keep(twice_area, ~skip);

@@ -60,7 +60,9 @@ struct ScalarPoint {
   }
 };
 
-/// cross_norm below on points: |(p1 - p0) x (p3 - p2)|, the same operations in the same order.
+/// |(p1 - p0) x (p3 - p2)|: twice the area of the triangle a-b-c as (a, b, a, c), or of the quad
+/// a-b-d-c as its diagonals (a, d, b, c). Float is plenty for one face (sub-millimetre edges at
+/// 6 m keep ~1e-4 relative precision); sums are kept in double.
 inline float cross_norm_points(const ScalarPoint& p0, const ScalarPoint& p1, const ScalarPoint& p2,
                                const ScalarPoint& p3) {
   const float ux = p1.x - p0.x, uy = p1.y - p0.y, uz = p1.z - p0.z;
@@ -508,17 +510,6 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
   }
 }
 
-/// Twice the area of the triangle a-b-c, or of the quad a-b-d-c when (a, b, c) is replaced by
-/// its diagonals (d - a, c - b): the norm of a cross product. Float is plenty for one face
-/// (sub-millimetre edges at 6 m keep ~1e-4 relative precision); sums are kept in double.
-inline float cross_norm(const Frame& f, std::ptrdiff_t a, std::ptrdiff_t b, std::ptrdiff_t c,
-                        std::ptrdiff_t d) {
-  const float ux = f.x[b] - f.x[a], uy = f.y[b] - f.y[a], uz = f.z[b] - f.z[a];
-  const float vx = f.x[d] - f.x[c], vy = f.y[d] - f.y[c], vz = f.z[d] - f.z[c];
-  const float cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
-  return std::sqrt(cx * cx + cy * cy + cz * cz);
-}
-
 /// Adds a third of every triangle's area (a quarter of every quad's) to each labelled corner.
 /// Cells whose four corners share one label (nearly all) are summed in a running total that is
 /// flushed when the label changes, so the per-label array is not hit four times per face.
@@ -550,20 +541,12 @@ void accumulate_areas(const Frame& f, Segmenter::Scratch& s) {
       if (bits == 0) continue;
       const std::int32_t la = labels[a], lb = labels[b], lc = labels[c], ld = labels[d];
       if ((la | lb | lc | ld) == 0) continue;
+      const auto point = [&](std::ptrdiff_t i) { return ScalarPoint{f.x[i], f.y[i], f.z[i]}; };
       // One label on all four corners (nearly every cell): add the cell's faces to the run.
       if (la == lb && la == lc && la == ld) {
-        float twice_area = 0;
-        if (u < vector_end) {
-          twice_area = row_area[u];
-        } else if (bits & face_bits::quad) {
-          twice_area = cross_norm(f, a, d, b, c);
-        } else if (bits & face_bits::diag_bc) {
-          if (bits & face_bits::tri0) twice_area += cross_norm(f, a, c, a, b);
-          if (bits & face_bits::tri1) twice_area += cross_norm(f, b, c, b, d);
-        } else {
-          if (bits & face_bits::tri0) twice_area += cross_norm(f, a, d, a, b);
-          if (bits & face_bits::tri1) twice_area += cross_norm(f, a, c, a, d);
-        }
+        const float twice_area =
+            u < vector_end ? row_area[u]
+                           : scalar_cell_twice_area(bits, point(a), point(b), point(c), point(d));
         if (la != run_label) {
           area[run_label] += 0.5 * run_area;
           run_label = la;
@@ -572,24 +555,7 @@ void accumulate_areas(const Frame& f, Segmenter::Scratch& s) {
         run_area += twice_area;
         continue;
       }
-      // Twice the face area and its corners (l3 < 0: a triangle).
-      const auto credit = [&](float twice_area, std::int32_t l0, std::int32_t l1, std::int32_t l2,
-                              std::int32_t l3) {
-        const double share = 0.5 * twice_area / (l3 < 0 ? 3 : 4);
-        area[l0] += share;
-        area[l1] += share;
-        area[l2] += share;
-        if (l3 >= 0) area[l3] += share;
-      };
-      if (bits & face_bits::quad) {
-        credit(cross_norm(f, a, d, b, c), la, lc, ld, lb);
-      } else if (bits & face_bits::diag_bc) {
-        if (bits & face_bits::tri0) credit(cross_norm(f, a, c, a, b), la, lc, lb, -1);
-        if (bits & face_bits::tri1) credit(cross_norm(f, b, c, b, d), lb, lc, ld, -1);
-      } else {
-        if (bits & face_bits::tri0) credit(cross_norm(f, a, d, a, b), la, ld, lb, -1);
-        if (bits & face_bits::tri1) credit(cross_norm(f, a, c, a, d), la, lc, ld, -1);
-      }
+      credit_cell(bits, point(a), point(b), point(c), point(d), la, lb, lc, ld, area);
     }
   }
   area[run_label] += 0.5 * run_area;
