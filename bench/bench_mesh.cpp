@@ -65,7 +65,7 @@ void BM_ExtractFaces(benchmark::State& state) {
     rangeseg::extract_faces(mesh, compact, faces);
     benchmark::DoNotOptimize(faces.indices.data());
   }
-  state.counters["faces"] = static_cast<double>(faces.indices.size() / 3);
+  state.counters["faces"] = static_cast<double>(faces.indices.size()) / 3.0;
 }
 BENCHMARK(BM_ExtractFaces)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 

@@ -416,7 +416,7 @@ std::vector<std::optional<PlaneParams>> fit_planes(const OrganizedCloud& cloud,
     cov << m.ss[0], m.ss[1], m.ss[2], m.ss[1], m.ss[3], m.ss[4], m.ss[2], m.ss[4], m.ss[5];
     cov = cov * inv_n - mean * mean.transpose();
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(cov);
-    const Eigen::Vector3d lambda = solver.eigenvalues();  // ascending
+    const Eigen::Vector3d& lambda = solver.eigenvalues();  // ascending
     // Points on (nearly) one line or one point do not define a plane.
     if (!(lambda(2) > 0.0) || lambda(1) <= 1e-12 * lambda(2)) continue;
     Eigen::Vector3d normal = solver.eigenvectors().col(0).normalized();

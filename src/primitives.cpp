@@ -195,7 +195,7 @@ CylinderFit fit_cylinder(std::span<const Point3> points, std::span<const Point3>
     if (finite(nv)) normal_scatter += nv * nv.transpose();
   }
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> normal_solver(normal_scatter);
-  const Vector3d ev = normal_solver.eigenvalues();
+  const Vector3d& ev = normal_solver.eigenvalues();
 
   const auto evaluate = [&](const CylinderParams& p, Eigen::Matrix<double, 5, 5>* jtj,
                             Eigen::Matrix<double, 5, 1>* jtr) {

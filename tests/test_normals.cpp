@@ -65,7 +65,7 @@ Scene plane_scene(int w, int h, Vec n, double dist) {
   });
 }
 
-Scene sphere_scene(int w, int h, Vec centre, double r) {
+Scene sphere_scene(int w, int h, const Vec& centre, double r) {
   return render(w, h, [=](const Vec& d, Vec& n) {
     const double a = d.dot(d), b = -2 * d.dot(centre), c = centre.dot(centre) - r * r;
     const double disc = b * b - 4 * a * c;
@@ -77,7 +77,7 @@ Scene sphere_scene(int w, int h, Vec centre, double r) {
 }
 
 // Cylinder with a vertical (y) axis through `centre`.
-Scene cylinder_scene(int w, int h, Vec centre, double r) {
+Scene cylinder_scene(int w, int h, const Vec& centre, double r) {
   return render(w, h, [=](const Vec& d, Vec& n) {
     const double a = d.x() * d.x() + d.z() * d.z();
     const double b = -2 * (d.x() * centre.x() + d.z() * centre.z());

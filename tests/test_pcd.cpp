@@ -279,7 +279,7 @@ OrganizedCloud synthetic_cloud(int w, int h) {
   for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
       const int i = v * w + u;
-      c.x(u, v) = 0.001f * static_cast<float>(u - w / 2) / 3.0f;
+      c.x(u, v) = 0.001f * (static_cast<float>(u) - static_cast<float>(w / 2)) / 3.0f;
       c.y(u, v) = -1e-30f * static_cast<float>(v + 1);
       c.z(u, v) = 1.0f + std::ldexp(static_cast<float>(i), -20) + 1e7f * (i % 7 == 0);
       c.intensity(u, v) = i % 5 == 0 ? nan : static_cast<float>(i) * 0.1f;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -523,7 +524,8 @@ TEST_P(RowBands, BandsAreBitIdenticalToTheWholeImage) {
     for (int v = 0; v < kHeight; ++v) {
       for (int u = 0; u < kWidth; ++u) {
         const auto same = [](float a, float b) {
-          return std::memcmp(&a, &b, sizeof a) == 0;  // bit-identical, NaN included
+          // bit-identical, NaN included
+          return std::bit_cast<std::uint32_t>(a) == std::bit_cast<std::uint32_t>(b);
         };
         ASSERT_TRUE(same(out.x(u, v), whole.cloud.x(u, v))) << bands << " bands " << u << "," << v;
         ASSERT_TRUE(same(out.y(u, v), whole.cloud.y(u, v))) << bands << " bands " << u << "," << v;

@@ -89,6 +89,7 @@ SizeResult measure(const OrganizedCloud& cloud, const PipelineSettings& settings
   const Clock::time_point parallel_start = Clock::now();
   {
     std::vector<std::jthread> workers;
+    workers.reserve(static_cast<std::size_t>(threads));
     for (int t = 0; t < threads; ++t) {
       workers.emplace_back([&, t] {
         while (next++ < frames) pipelines[static_cast<std::size_t>(t)]->process(cloud);

@@ -7,15 +7,17 @@
 #include "commands.hpp"
 
 int main(int argc, char** argv) {
-  CLI::App app{"rangeseg: fast range image meshing, smoothing and segmentation"};
-  app.require_subcommand(1);
-  app.set_version_flag("--version", "rangeseg 0.1.0");
-  rangeseg::cli::register_commands(app);
   try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    const int rc = app.exit(e);
-    return rc == 0 ? 0 : rangeseg::cli::kExitUsage;
+    CLI::App app{"rangeseg: fast range image meshing, smoothing and segmentation"};
+    app.require_subcommand(1);
+    app.set_version_flag("--version", "rangeseg 0.1.0");
+    rangeseg::cli::register_commands(app);
+    try {
+      app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+      const int rc = app.exit(e);
+      return rc == 0 ? 0 : rangeseg::cli::kExitUsage;
+    }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "rangeseg: error: %s\n", e.what());
     return rangeseg::cli::kExitInput;

@@ -185,7 +185,9 @@ PlyMesh decode_ply(const std::uint8_t* data, std::size_t size, const std::string
       if (section == Section::vertex) {
         std::string property;
         words >> property;
-        vertex_properties.push_back(type + " " + property);
+        type += ' ';
+        type += property;
+        vertex_properties.push_back(type);
       } else if (section == Section::face) {
         std::string count_type, index_type, property;
         words >> count_type >> index_type >> property;

@@ -598,10 +598,11 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
         for (int i = kb, j = ke - 1; i < ke; j = i++) {
           const int a = sc.keep[static_cast<std::size_t>(j)],
                     b = sc.keep[static_cast<std::size_t>(i)];
-          sc.edges.push_back({base[2 * a], base[2 * a + 1], base[2 * b], base[2 * b + 1],
-                              sc.raw_idx[static_cast<std::size_t>(r.first + a)],
-                              sc.raw_idx[static_cast<std::size_t>(r.first + b)],
-                              static_cast<int>(k)});
+          sc.edges.push_back(
+              {base[2 * a], base[2 * a + 1], base[2 * b], base[2 * b + 1],
+               sc.raw_idx[static_cast<std::size_t>(r.first) + static_cast<std::size_t>(a)],
+               sc.raw_idx[static_cast<std::size_t>(r.first) + static_cast<std::size_t>(b)],
+               static_cast<int>(k)});
         }
       }
       sc.bad.assign(nk, 0);
@@ -642,7 +643,8 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
         out.points3d.push_back({static_cast<float>(fr.origin[0] + x * fr.e1[0] + y * fr.e2[0]),
                                 static_cast<float>(fr.origin[1] + x * fr.e1[1] + y * fr.e2[1]),
                                 static_cast<float>(fr.origin[2] + x * fr.e1[2] + y * fr.e2[2])});
-        const auto [pu, pv] = sc.raw_uv[static_cast<std::size_t>(r.first + vi)];
+        const auto [pu, pv] =
+            sc.raw_uv[static_cast<std::size_t>(r.first) + static_cast<std::size_t>(vi)];
         out.pixels.push_back({static_cast<float>(pu), static_cast<float>(pv)});
       }
       polygons_detail::area_perimeter(sc.hull_xy.data(), lp.count, a, p);

@@ -319,15 +319,16 @@ void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha,
   std::vector<double> xy;
   std::vector<int> loop_first;
   polygons_detail::TraceSteps steps;
-  polygons_detail::trace_loops(mask.data(), pos.data(), stride, 1, starts, steps, walk, stack,
-                               [&](const std::int32_t* idx, int n) {
-                                 loop_first.push_back(static_cast<int>(xy.size() / 2));
-                                 // The tracer's orientation is for y down; reverse for y up.
-                                 for (int k = n - 1; k >= 0; --k) {
-                                   xy.push_back(x0 + (idx[k] % vw) * h);
-                                   xy.push_back(y0 + (idx[k] / vw) * h);
-                                 }
-                               });
+  polygons_detail::trace_loops(
+      mask.data(), pos.data(), stride, 1, starts, steps, walk, stack,
+      [&](const std::int32_t* idx, int n) {
+        loop_first.push_back(static_cast<int>(xy.size() / 2));
+        // The tracer's orientation is for y down; reverse for y up.
+        for (int k = n - 1; k >= 0; --k) {
+          xy.push_back(x0 + (idx[k] % vw) * h);
+          xy.push_back(y0 + static_cast<double>(idx[k] / vw) * h);  // row index
+        }
+      });
   loop_first.push_back(static_cast<int>(xy.size() / 2));
   const std::size_t n_loops = loop_first.size() - 1;
   std::vector<double> tol(n_loops, alpha / 4);

@@ -140,8 +140,9 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
         for (std::size_t oh = hi; oh < holes.size() && clear; ++oh) {
           const PolygonLoop& o = polygons.loops[static_cast<std::size_t>(holes[oh])];
           for (int e = 0; e < o.count && clear; ++e) {
-            clear = !segments_cross(pm, pp, pts[static_cast<std::size_t>(o.first + e)],
-                                    pts[static_cast<std::size_t>(o.first + (e + 1) % o.count)]);
+            const auto first = static_cast<std::size_t>(o.first);
+            clear = !segments_cross(pm, pp, pts[first + static_cast<std::size_t>(e)],
+                                    pts[first + static_cast<std::size_t>((e + 1) % o.count)]);
           }
         }
         if (clear) {
