@@ -97,7 +97,10 @@ struct EvalOptions {
 /// "3 (over: 7 9)" style partner list.
 std::string partner_list(const std::vector<int>& partners) {
   std::string text;
-  for (const int p : partners) text += (text.empty() ? "" : " ") + std::to_string(p);
+  for (const int p : partners) {
+    if (!text.empty()) text += ' ';
+    text += std::to_string(p);
+  }
   return text.empty() ? "-" : text;
 }
 
@@ -248,7 +251,9 @@ void add_eval(CLI::App& app) {
   cmd->callback([o] {
     GroundTruth gt = load_ground_truth(o->gt);
     if (!o->cloud.empty()) {
-      OrganizedCloud cloud = load_input({.path = o->cloud}).cloud;
+      InputOptions cloud_options;
+      cloud_options.path = o->cloud;
+      OrganizedCloud cloud = load_input(cloud_options).cloud;
       if (cloud.width() != gt.labels.width() || cloud.height() != gt.labels.height()) {
         throw std::runtime_error(o->cloud + ": the cloud is " + std::to_string(cloud.width()) +
                                  "x" + std::to_string(cloud.height()) + ", the ground truth " +
