@@ -13,11 +13,11 @@
 namespace rangeseg {
 
 /// Workers wait for a new generation of work, run their band and count down; the caller runs
-/// band 0 and waits for the count to reach zero. Both sides spin for a few microseconds before
+/// band 0 and waits for the count to reach zero. Both sides spin for some microseconds before
 /// sleeping on a condition variable: the bands of one frame follow each other within
 /// microseconds, and waking a sleeping thread costs tens of them.
 struct ThreadPool::Workers {
-  static constexpr int kSpins = 4000;  // ~10-20 us of pause instructions
+  static constexpr int kSpins = 4000;  // 10-150 us of pause instructions, by CPU
 
   std::mutex mutex;
   std::condition_variable work_ready;
