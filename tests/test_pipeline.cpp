@@ -142,7 +142,9 @@ TEST(ThreadPoolTest, BandsCoverRowsAndPropagateExceptions) {
         ++calls;
         EXPECT_TRUE(band >= 0 && band < 3);
         EXPECT_LE(v0, v1);
-        if (v0 > 0 && v0 < v1) EXPECT_EQ(v0 % align, 0) << v0 << " align " << align;
+        if (v0 > 0 && v0 < v1) {
+          EXPECT_EQ(v0 % align, 0) << v0 << " align " << align;
+        }
         for (int v = v0; v < v1; ++v) ++hits[static_cast<std::size_t>(v)];
       });
       EXPECT_EQ(calls.load(), 3);
