@@ -202,8 +202,8 @@ void build_mesh_rows(const OrganizedCloud& cloud, const MeshSettings& settings, 
   const int byte_len = blocks * cells_per_block + 2 * kBytePad;
 
   // Reused across calls on the same thread: no allocation per frame.
-  thread_local std::vector<float> float_buffer;
-  thread_local std::vector<std::uint8_t> byte_buffer;
+  thread_local detail::CacheLineVector<float> float_buffer;
+  thread_local detail::CacheLineVector<std::uint8_t> byte_buffer;
   float_buffer.resize(static_cast<std::size_t>(3 * kFloatsPerPixel + 3) * float_len);
   byte_buffer.assign(static_cast<std::size_t>(8) * byte_len, 0);
   std::array<PixelRow, 3> rows{};

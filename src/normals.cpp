@@ -129,8 +129,8 @@ void compute_normals_rows(const OrganizedCloud& cloud, const Mesh& mesh,
   constexpr int kFloatRows = kPointRows + kSumRows + kOutRows;
 
   // Reused across calls on the same thread: no allocation per frame.
-  thread_local std::vector<float> float_buffer;
-  thread_local std::vector<std::uint8_t> byte_buffer;
+  thread_local detail::CacheLineVector<float> float_buffer;
+  thread_local detail::CacheLineVector<std::uint8_t> byte_buffer;
   float_buffer.resize(static_cast<std::size_t>(kFloatRows) * row_len);
   std::fill(float_buffer.begin(), float_buffer.begin() + kPointRows * row_len, kNaN);
   std::fill(float_buffer.begin() + kPointRows * row_len, float_buffer.end(), 0.0f);

@@ -151,8 +151,8 @@ struct PassLayout {
 /// The scratch of a pass: float rows and one byte row, laid out for a row length and vector
 /// width, reused while they stay the same.
 struct PassScratch {
-  std::vector<float>& floats;
-  std::vector<std::uint8_t>& bytes;
+  detail::CacheLineVector<float>& floats;
+  detail::CacheLineVector<std::uint8_t>& bytes;
   std::size_t& layout;  // row length the buffers were laid out for
 
   PassLayout lay_out(int len, int lanes) {

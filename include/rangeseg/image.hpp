@@ -5,6 +5,7 @@
 #include <cassert>
 #include <cstddef>
 #include <cstdint>
+#include <new>
 #include <vector>
 
 namespace rangeseg {
@@ -31,9 +32,30 @@ struct View {
   operator View<const T>() const { return {data, width, height, stride}; }  // NOLINT: intended
 };
 
-/// Owning image plane. The row stride is the width rounded up to 16 elements so that every row
-/// starts aligned for vector loads. `resize` keeps the allocation when it is large enough, so a
-/// plane reused frame after frame allocates only once.
+namespace detail {
+/// Allocates on cache-line (64-byte) boundaries. With the row stride a multiple of 16 elements,
+/// every row of a float or int32 plane then starts on a cache line, so that no 16-lane vector
+/// load or store of a row straddles two lines.
+template <class T>
+struct CacheLineAllocator {
+  using value_type = T;
+  static constexpr std::align_val_t kAlignment{64};
+  CacheLineAllocator() = default;
+  template <class U>
+  CacheLineAllocator(const CacheLineAllocator<U>& /*unused*/) noexcept {}  // NOLINT: rebinding
+  T* allocate(std::size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), kAlignment)); }
+  void deallocate(T* p, std::size_t /*n*/) noexcept { ::operator delete(p, kAlignment); }
+  friend bool operator==(const CacheLineAllocator&, const CacheLineAllocator&) { return true; }
+};
+/// A vector on cache-line boundaries, for row scratch buffers of the kernels.
+template <class T>
+using CacheLineVector = std::vector<T, CacheLineAllocator<T>>;
+}  // namespace detail
+
+/// Owning image plane. The row stride is the width rounded up to 16 elements on cache-line
+/// aligned storage, so that every row of a 4-byte plane starts on a cache line. `resize` keeps
+/// the allocation when it is large enough, so a plane reused frame after frame allocates only
+/// once.
 template <class T>
 class Plane {
  public:
@@ -70,7 +92,7 @@ class Plane {
   View<const T> view() const { return {buffer_.data(), width_, height_, stride_}; }
 
  private:
-  std::vector<T> buffer_;
+  detail::CacheLineVector<T> buffer_;
   int width_ = 0;
   int height_ = 0;
   std::ptrdiff_t stride_ = 0;

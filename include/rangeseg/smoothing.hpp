@@ -115,12 +115,12 @@ class Smoother {
   NormalMap scratch_normals_;
   FloatPlane grey_;
   OrganizedCloud shifted_;               ///< points relative to a non-zero viewpoint
-  std::vector<float> rows_;              ///< per-row inputs, scales and sums of a pass
-  std::vector<std::uint8_t> row_bytes_;  ///< one row of edge bytes
+  detail::CacheLineVector<float> rows_;              ///< per-row inputs, scales, sums of a pass
+  detail::CacheLineVector<std::uint8_t> row_bytes_;  ///< one row of edge bytes
   std::size_t rows_layout_ = 0;          ///< layout rows_ was made for
   // The same per band 1.. of a threaded run (band 0 uses the buffers above).
-  std::vector<std::vector<float>> band_rows_;
-  std::vector<std::vector<std::uint8_t>> band_row_bytes_;
+  std::vector<detail::CacheLineVector<float>> band_rows_;
+  std::vector<detail::CacheLineVector<std::uint8_t>> band_row_bytes_;
   std::vector<std::size_t> band_rows_layout_;
 
   void run_passes(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,

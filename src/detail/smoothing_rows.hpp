@@ -29,8 +29,8 @@ struct SmoothRowsInput {
 
 /// Row buffers of one thread; reuse across calls so that nothing is allocated per band.
 struct SmoothRowsScratch {
-  std::vector<float> rows;
-  std::vector<std::uint8_t> bytes;
+  CacheLineVector<float> rows;
+  CacheLineVector<std::uint8_t> bytes;
   std::size_t layout = 0;
 };
 

@@ -67,7 +67,7 @@ struct Segmenter::Scratch {
   std::vector<std::int32_t> cell_order;
   std::vector<std::int32_t> cell_queue;
   std::vector<double> cell_normal_noise;    ///< per complete cell (normal_noise_constant)
-  std::vector<float> cell_sums;             ///< per-column sums of one cell row (cells.cpp)
+  detail::CacheLineVector<float> cell_sums;             ///< per-column sums of one cell row (cells.cpp)
   std::vector<std::uint8_t> cell_complete;  ///< per cell of one cell row (cells.cpp)
   // post-processing
   std::vector<detail::PlaneFit> fits;
@@ -77,7 +77,7 @@ struct Segmenter::Scratch {
   std::vector<std::int32_t> compact;
   std::vector<std::uint8_t> queued;
   std::vector<double> area;
-  std::vector<float> cell_area;          ///< twice the mesh area of each cell of one row
+  detail::CacheLineVector<float> cell_area;          ///< twice the mesh area of each cell of one row
   std::vector<std::int32_t> row_pixels;  ///< columns of one row picked by a vector scan
   std::vector<std::int32_t> order;
 };
