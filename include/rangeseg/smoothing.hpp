@@ -114,10 +114,10 @@ class Smoother {
   OrganizedCloud scratch_cloud_;
   NormalMap scratch_normals_;
   FloatPlane grey_;
-  OrganizedCloud shifted_;               ///< points relative to a non-zero viewpoint
+  OrganizedCloud shifted_;                           ///< points relative to a non-zero viewpoint
   detail::CacheLineVector<float> rows_;              ///< per-row inputs, scales, sums of a pass
   detail::CacheLineVector<std::uint8_t> row_bytes_;  ///< one row of edge bytes
-  std::size_t rows_layout_ = 0;          ///< layout rows_ was made for
+  std::size_t rows_layout_ = 0;                      ///< layout rows_ was made for
   // The same per band 1.. of a threaded run (band 0 uses the buffers above).
   std::vector<detail::CacheLineVector<float>> band_rows_;
   std::vector<detail::CacheLineVector<std::uint8_t>> band_row_bytes_;

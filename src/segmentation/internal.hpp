@@ -66,9 +66,9 @@ struct Segmenter::Scratch {
   std::vector<std::int32_t> cell_label;  ///< raw label of a cell grown as a unit; -1 = broken
   std::vector<std::int32_t> cell_order;
   std::vector<std::int32_t> cell_queue;
-  std::vector<double> cell_normal_noise;    ///< per complete cell (normal_noise_constant)
-  detail::CacheLineVector<float> cell_sums;             ///< per-column sums of one cell row (cells.cpp)
-  std::vector<std::uint8_t> cell_complete;  ///< per cell of one cell row (cells.cpp)
+  std::vector<double> cell_normal_noise;     ///< per complete cell (normal_noise_constant)
+  detail::CacheLineVector<float> cell_sums;  ///< per-column sums of one cell row (cells.cpp)
+  std::vector<std::uint8_t> cell_complete;   ///< per cell of one cell row (cells.cpp)
   // post-processing
   std::vector<detail::PlaneFit> fits;
   std::vector<std::int32_t> parent;  ///< union-find over raw labels
@@ -77,8 +77,8 @@ struct Segmenter::Scratch {
   std::vector<std::int32_t> compact;
   std::vector<std::uint8_t> queued;
   std::vector<double> area;
-  detail::CacheLineVector<float> cell_area;          ///< twice the mesh area of each cell of one row
-  std::vector<std::int32_t> row_pixels;  ///< columns of one row picked by a vector scan
+  detail::CacheLineVector<float> cell_area;  ///< twice the mesh area of each cell of one row
+  std::vector<std::int32_t> row_pixels;      ///< columns of one row picked by a vector scan
   std::vector<std::int32_t> order;
 };
 
