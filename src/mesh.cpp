@@ -198,8 +198,9 @@ void build_mesh_rows(const OrganizedCloud& cloud, const MeshSettings& settings, 
   // Float rows are read up to index blocks * cells_per_block (the right neighbour of the last
   // cell of the last block), byte rows from -1 to that index.
   const int float_len = blocks * cells_per_block + k.lanes;
+  const auto row_step = static_cast<std::ptrdiff_t>(float_len);
   constexpr int kBytePad = 64;
-  const int byte_len = blocks * cells_per_block + 2 * kBytePad;
+  const std::ptrdiff_t byte_len = blocks * cells_per_block + 2 * kBytePad;
 
   // Reused across calls on the same thread: no allocation per frame.
   thread_local detail::CacheLineVector<float> float_buffer;
@@ -211,17 +212,17 @@ void build_mesh_rows(const OrganizedCloud& cloud, const MeshSettings& settings, 
     float* base = float_buffer.data() + static_cast<std::size_t>(r * kFloatsPerPixel) * float_len;
     rows[r] = {base,
                base + float_len,
-               base + 2 * float_len,
-               base + 3 * float_len,
-               base + 4 * float_len,
-               base + 5 * float_len,
-               base + 6 * float_len};
+               base + 2 * row_step,
+               base + 3 * row_step,
+               base + 4 * row_step,
+               base + 5 * row_step,
+               base + 6 * row_step};
   }
   // Gathered input row at stride > 1; all NaN first, to fill the padding of the pixel rows.
   float* gathered = float_buffer.data() + static_cast<std::size_t>(3 * kFloatsPerPixel) * float_len;
   float* gx = gathered;
   float* gy = gathered + float_len;
-  float* gz = gathered + 2 * float_len;
+  float* gz = gathered + 2 * row_step;
   std::fill(gathered, gathered + 3 * static_cast<std::size_t>(float_len), kNaN);
   for (const PixelRow& row : rows) k.quantities(gx, gy, gz, float_len, params, row);
 
@@ -243,7 +244,7 @@ void build_mesh_rows(const OrganizedCloud& cloud, const MeshSettings& settings, 
     const float* xs = cloud.x.row(v);
     const float* ys = cloud.y.row(v);
     const float* zs = cloud.z.row(v);
-    for (int i = 0; i < n; ++i) gx[i] = xs[i * s], gy[i] = ys[i * s], gz[i] = zs[i * s];
+    for (std::ptrdiff_t i = 0; i < n; ++i) gx[i] = xs[i * s], gy[i] = ys[i * s], gz[i] = zs[i * s];
     k.quantities(gx, gy, gz, n, params, out);
   };
   const auto faces_and_rings = k.faces[static_cast<int>(settings.type)];
@@ -273,7 +274,9 @@ void build_mesh_rows(const OrganizedCloud& cloud, const MeshSettings& settings, 
         std::memcpy(face_row, faces, static_cast<std::size_t>(n));
         std::memcpy(edge_row, edges, static_cast<std::size_t>(n));
       } else {
-        for (int i = 0; i < n; ++i) face_row[i * s] = faces[i], edge_row[i * s] = edges[i];
+        for (std::ptrdiff_t i = 0; i < n; ++i) {
+          face_row[i * s] = faces[i], edge_row[i * s] = edges[i];
+        }
       }
     }
     std::swap(cand, cand_below);

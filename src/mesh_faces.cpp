@@ -100,7 +100,7 @@ void extract_faces(const Mesh& mesh, bool remove_unused_vertices, TriangleList& 
         const std::int32_t a = top, c = bottom;
         const std::array<std::int32_t, 4> idx{a, a + (e0[u] != 0), c, c + (e1[u] != 0)};
         for (int k = 0; k < 6; ++k) dst[k] = idx[cell.corner[k]];
-        dst += cell.count * per_face;
+        dst += static_cast<std::ptrdiff_t>(cell.count) * per_face;
         top += e0[u] != 0;
         bottom += e1[u] != 0;
       }
@@ -113,7 +113,7 @@ void extract_faces(const Mesh& mesh, bool remove_unused_vertices, TriangleList& 
         const CellFaces& cell = kCellFaces[f[u] & 15];
         const std::array<std::int32_t, 4> idx{top + u, top + u + s, bottom + u, bottom + u + s};
         for (int k = 0; k < 6; ++k) dst[k] = idx[cell.corner[k]];
-        dst += cell.count * per_face;
+        dst += static_cast<std::ptrdiff_t>(cell.count) * per_face;
       }
     }
   }

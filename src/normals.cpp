@@ -122,7 +122,7 @@ void compute_normals_rows(const OrganizedCloud& cloud, const Mesh& mesh,
   const int blocks = (n + lanes - 1) / lanes;
   // Every float row: `lanes` elements of padding on the left (index -1 is read), the vectors,
   // and one more vector on the right (index blocks * lanes is read).
-  const int row_len = (blocks + 2) * lanes;
+  const std::ptrdiff_t row_len = static_cast<std::ptrdiff_t>(blocks + 2) * lanes;
   constexpr int kPointRows = 3 * 3;  // ring of 3 lattice rows of x, y, z
   constexpr int kSumRows = 2 * 3;    // c + d sums of the cell rows above and below
   constexpr int kOutRows = 4;        // compact nx, ny, nz, curvature at stride > 1
@@ -166,7 +166,9 @@ void compute_normals_rows(const OrganizedCloud& cloud, const Mesh& mesh,
       std::memcpy(dst.y, ys, sizeof(float) * n);
       std::memcpy(dst.z, zs, sizeof(float) * n);
     } else {
-      for (int i = 0; i < n; ++i) dst.x[i] = xs[i * s], dst.y[i] = ys[i * s], dst.z[i] = zs[i * s];
+      for (std::ptrdiff_t i = 0; i < n; ++i) {
+        dst.x[i] = xs[i * s], dst.y[i] = ys[i * s], dst.z[i] = zs[i * s];
+      }
     }
   };
   const auto load_bytes = [&](const BytePlane& plane, int j, std::uint8_t* dst) {
@@ -174,7 +176,7 @@ void compute_normals_rows(const OrganizedCloud& cloud, const Mesh& mesh,
     if (s == 1) {
       std::memcpy(dst, src, static_cast<std::size_t>(n));
     } else {
-      for (int i = 0; i < n; ++i) dst[i] = src[i * s];
+      for (std::ptrdiff_t i = 0; i < n; ++i) dst[i] = src[i * s];
     }
   };
 
@@ -214,7 +216,7 @@ void compute_normals_rows(const OrganizedCloud& cloud, const Mesh& mesh,
         float* oy = out.ny.row(v);
         float* oz = out.nz.row(v);
         float* oc = out.curvature.row(v);
-        for (int i = 0; i < n; ++i) {
+        for (std::ptrdiff_t i = 0; i < n; ++i) {
           ox[i * s] = nx[i], oy[i * s] = ny[i], oz[i * s] = nz[i], oc[i * s] = curvature[i];
         }
       }

@@ -112,8 +112,8 @@ struct SumRow {
 /// The row buffers of a pass inside the scratch vectors: every float row has `lanes` elements
 /// of padding on each side of `len` (whole vectors) columns.
 struct PassLayout {
-  static constexpr int kInputRows = 7;  // x, y, z, nx, ny, nz, intensity
-  static constexpr int kSumRows = 7;
+  static constexpr std::size_t kInputRows = 7;  // x, y, z, nx, ny, nz, intensity
+  static constexpr std::size_t kSumRows = 7;
   float* base = nullptr;
   std::uint8_t* bytes = nullptr;
   std::size_t row_len = 0;
@@ -121,7 +121,7 @@ struct PassLayout {
 
   float* row(std::size_t r) const { return base + r * row_len + pad; }
   float* input(int slot, int a) const {
-    return row(static_cast<std::size_t>(slot) * kInputRows + a);
+    return row(static_cast<std::size_t>(slot) * kInputRows + static_cast<std::size_t>(a));
   }
   float* hd(int slot) const { return row(2 * kInputRows + static_cast<std::size_t>(slot)); }
   float* hn(int slot) const { return row(2 * kInputRows + 2 + static_cast<std::size_t>(slot)); }
@@ -142,7 +142,7 @@ struct PassLayout {
     if (s == 1) {
       std::memcpy(dst, src, static_cast<std::size_t>(n));
     } else {
-      for (int i = 0; i < n; ++i) dst[i] = src[i * s];
+      for (std::ptrdiff_t i = 0; i < n; ++i) dst[i] = src[i * s];
     }
     return dst;
   }
@@ -206,7 +206,7 @@ inline InRow copy_lattice_row(const OrganizedCloud& src, const NormalMap& nm, co
     if (s == 1) {
       std::copy(from, from + n, rows[a]);
     } else {
-      for (int i = 0; i < n; ++i) rows[a][i] = from[i * s];
+      for (std::ptrdiff_t i = 0; i < n; ++i) rows[a][i] = from[i * s];
     }
   }
   return {rows[0], rows[1], rows[2], rows[3], rows[4], rows[5], rows[6]};
@@ -252,7 +252,7 @@ void scatter_row(const float* o, std::size_t len, int n, int s, int v, Organized
   const int count = kFilterNormals ? 6 : 3;
   for (int a = 0; a < count; ++a) {
     const float* from = o + static_cast<std::size_t>(a) * len;
-    for (int i = 0; i < n; ++i) rows[a][i * s] = from[i];
+    for (std::ptrdiff_t i = 0; i < n; ++i) rows[a][i * s] = from[i];
   }
 }
 
