@@ -4,7 +4,7 @@ BUILD_ASAN ?= build-asan
 JOBS       ?= $(shell nproc)
 OUT        ?= out
 
-.PHONY: all deps build run test asan-build test-asan fuzz-smoke bench format clean
+.PHONY: all deps build run test asan-build test-asan fuzz-smoke lint bench format clean
 all: build
 
 deps:
@@ -34,6 +34,13 @@ test-asan: asan-build
 
 fuzz-smoke: asan-build
 	./scripts/fuzz-smoke.sh $(BUILD_ASAN)
+
+# clang-tidy (checks in .clang-tidy, every finding an error) over the library, CLI, tests and
+# benchmarks, and clang-format (.clang-format) over every source file.
+lint: build
+	RANGESEG_WITH_LINT=1 ./scripts/install-deps.sh
+	run-clang-tidy -quiet -p $(BUILD) -j $(JOBS) '$(CURDIR)/(src|apps|tests|bench)/'
+	find include src apps tests bench fuzz -name '*.[ch]pp' | xargs clang-format --dry-run --Werror
 
 bench: build
 	$(BUILD)/bench/rangeseg_bench

@@ -1,3 +1,4 @@
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 
@@ -13,7 +14,7 @@ void take_every(const Plane<T>& in, int factor, int out_width, int out_height, P
   for (int v = 0; v < out_height; ++v) {
     const T* src = in.row(v * factor);
     T* dst = out.row(v);
-    for (int u = 0; u < out_width; ++u) dst[u] = src[u * factor];
+    for (int u = 0; u < out_width; ++u) dst[u] = src[static_cast<std::ptrdiff_t>(u) * factor];
   }
 }
 

@@ -276,10 +276,11 @@ OrganizedCloud synthetic_cloud(int w, int h) {
   c.add_rgb();
   c.add_label();
   const float nan = std::numeric_limits<float>::quiet_NaN();
+  const int centre_column = w / 2;
   for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
       const int i = v * w + u;
-      c.x(u, v) = 0.001f * (static_cast<float>(u) - static_cast<float>(w / 2)) / 3.0f;
+      c.x(u, v) = 0.001f * static_cast<float>(u - centre_column) / 3.0f;
       c.y(u, v) = -1e-30f * static_cast<float>(v + 1);
       c.z(u, v) = 1.0f + std::ldexp(static_cast<float>(i), -20) + 1e7f * (i % 7 == 0);
       c.intensity(u, v) = i % 5 == 0 ? nan : static_cast<float>(i) * 0.1f;
@@ -354,10 +355,10 @@ TEST(PcdRoundTrip, PlainXyzUnorganizedAndExtraFields) {
     expect_same_cloud(c, back);
     if (enc == PcdEncoding::binary) {
       // Binary layout: 5 floats per point, the extras after x y z.
-      const std::size_t data = bytes.size() - 5 * 5 * 4;
+      const std::size_t data = bytes.size() - std::size_t{5} * 5 * 4;
       for (int u = 0; u < 5; ++u) {
         float value;
-        std::memcpy(&value, bytes.data() + data + (u * 5 + 3) * 4, 4);
+        std::memcpy(&value, bytes.data() + data + (static_cast<std::size_t>(u) * 5 + 3) * 4, 4);
         EXPECT_EQ(value, nx(u, 0));
       }
     }

@@ -99,16 +99,18 @@ TEST(Ply, HeaderAndBinaryLayoutAreExactlyAsDocumented) {
       "element face 2\nproperty list uchar int vertex_indices\nend_header\n";
   ASSERT_EQ(text.substr(0, expected_header.size()), expected_header);
   const std::size_t body = expected_header.size();
-  ASSERT_EQ(bytes.size(), body + 4 * 27 + 2 * 13);
+  constexpr std::size_t kVertexBytes = 6 * 4 + 3;  // x y z nx ny nz (float), red green blue
+  constexpr std::size_t kFaceBytes = 1 + 3 * 4;    // uchar count, 3 int indices
+  ASSERT_EQ(bytes.size(), body + 4 * kVertexBytes + 2 * kFaceBytes);
   float z1 = 0;
-  std::memcpy(&z1, bytes.data() + body + 27 + 8, 4);  // vertex 1, z
+  std::memcpy(&z1, bytes.data() + body + kVertexBytes + 8, 4);  // vertex 1, z
   EXPECT_EQ(z1, 1.0f);
-  EXPECT_EQ(bytes[body + 3 * 27 + 24], 7);  // vertex 3, red
-  const std::size_t faces = body + 4 * 27;
+  EXPECT_EQ(bytes[body + 3 * kVertexBytes + 24], 7);  // vertex 3, red
+  const std::size_t faces = body + 4 * kVertexBytes;
   EXPECT_EQ(bytes[faces], 3);
-  EXPECT_EQ(bytes[faces + 13], 3);
+  EXPECT_EQ(bytes[faces + kFaceBytes], 3);
   std::int32_t last = 0;
-  std::memcpy(&last, bytes.data() + faces + 13 + 1 + 8, 4);
+  std::memcpy(&last, bytes.data() + faces + kFaceBytes + 1 + 8, 4);
   EXPECT_EQ(last, 3);
 }
 

@@ -784,8 +784,10 @@ TEST(Polygons, PointSortMatchesComparisonSort) {
       std::shuffle(order.begin(), order.end(), rng);
       std::vector<int> expected = order;
       std::sort(expected.begin(), expected.end(), [&](int a, int b) {
-        if (xy[2 * a] != xy[2 * b]) return xy[2 * a] < xy[2 * b];
-        if (xy[2 * a + 1] != xy[2 * b + 1]) return xy[2 * a + 1] < xy[2 * b + 1];
+        const std::size_t ia = 2 * static_cast<std::size_t>(a),
+                          ib = 2 * static_cast<std::size_t>(b);
+        if (xy[ia] != xy[ib]) return xy[ia] < xy[ib];
+        if (xy[ia + 1] != xy[ib + 1]) return xy[ia + 1] < xy[ib + 1];
         return a < b;
       });
       polygons_detail::sort_points_xy(xy.data(), order, scratch);

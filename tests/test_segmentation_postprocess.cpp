@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -71,7 +72,9 @@ std::vector<std::pair<std::string, SegmentationSettings>> variants() {
   return out;
 }
 
-bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+bool same_bits(double a, double b) {
+  return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
+}
 
 /// Every label and every Segment field equal bit for bit.
 void expect_identical(const Segmentation& a, const Segmentation& b, const std::string& what) {

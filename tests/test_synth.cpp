@@ -279,7 +279,7 @@ TEST(Synth, DropoutsAtDepthJumpsNotInsideFlatSurfaces) {
   const Rendering noisy = render(scene, {.noise = Noise::kinect, .seed = 11});
   // Edge pixels from the noise-free depth (jumps of 1.5 m); interior: > 3 pixels from any edge.
   const int w = 640, h = 480;
-  std::vector<int> edge(w * h, 0);
+  std::vector<int> edge(static_cast<std::size_t>(w) * h, 0);
   for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
       const float z = clean.cloud.z(u, v);
@@ -323,7 +323,7 @@ TEST(Synth, DropoutsAtDepthJumpsNotInsideFlatSurfaces) {
 
 TEST(Synth, DemoSceneShowsEverything) {
   const Rendering r = render(demo_scene());
-  const std::int64_t total = 640 * 480;
+  const std::int64_t total = std::int64_t{640} * 480;
   EXPECT_EQ(static_cast<std::int64_t>(r.cloud.count_valid()), total);  // a closed view
   EXPECT_GT(count_of(r, "floor"), total / 20);
   EXPECT_GT(count_of(r, "left_wall"), total / 20);

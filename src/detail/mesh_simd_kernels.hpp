@@ -98,7 +98,8 @@ RANGESEG_KERNEL void edge_bits(const PixelRow& top_row, const PixelRow* below_ro
             edge_ok(edge_point(top, i), V::load(top.cos2_r2 + i), edge_point(top, i + 1), len2_ab) &
             bit_ab;
       }
-      V::storeb(out + blk * kBlock, V::pack4(bits[0], bits[1], bits[2], bits[3]));
+      V::storeb(out + static_cast<std::ptrdiff_t>(blk) * kBlock,
+                V::pack4(bits[0], bits[1], bits[2], bits[3]));
     }
     return;
   }
@@ -121,7 +122,8 @@ RANGESEG_KERNEL void edge_bits(const PixelRow& top_row, const PixelRow* below_ro
       bits[part] =
           (ab & bit_ab) | (ad & bit_ad) | (ac & bit_ac) | (bc & bit_bc) | (shorter & bit_shorter);
     }
-    V::storeb(out + blk * kBlock, V::pack4(bits[0], bits[1], bits[2], bits[3]));
+    V::storeb(out + static_cast<std::ptrdiff_t>(blk) * kBlock,
+              V::pack4(bits[0], bits[1], bits[2], bits[3]));
   }
 }
 

@@ -99,7 +99,7 @@ struct PlaneStats {
     cov(2, 1) = cov(1, 2);
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(cov);
     if (solver.info() != Eigen::Success) return f;
-    const Eigen::Vector3d ev = solver.eigenvalues();  // ascending
+    const Eigen::Vector3d& ev = solver.eigenvalues();  // ascending
     // Collinear (or single-point) sets have two vanishing eigenvalues: no unique plane.
     if (!(ev(1) > 1e-12 * std::max(ev(2), 1e-300))) return f;
     Eigen::Vector3d n = solver.eigenvectors().col(0);

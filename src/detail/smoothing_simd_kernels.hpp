@@ -158,26 +158,28 @@ RANGESEG_KERNEL RANGESEG_SIMD_INLINE Terms shifted(const Terms& previous, const 
 
 template <bool kAlongRay, bool kFilterNormals>
 RANGESEG_KERNEL RANGESEG_SIMD_INLINE Terms load_sums(const SumRow& r, int i) {
-  const float* p = r.base + 7 * i;  // the block of column i (a multiple of kLanes)
+  constexpr std::ptrdiff_t L = kLanes;
+  const float* p = r.base + 7 * static_cast<std::ptrdiff_t>(i);  // column i's block (i % L == 0)
   Terms t{};
   t.w = V::load(p);
-  t.a0 = V::load(p + kLanes);
-  if constexpr (!kAlongRay) t.a1 = V::load(p + 2 * kLanes), t.a2 = V::load(p + 3 * kLanes);
+  t.a0 = V::load(p + L);
+  if constexpr (!kAlongRay) t.a1 = V::load(p + 2 * L), t.a2 = V::load(p + 3 * L);
   if constexpr (kFilterNormals) {
-    t.n0 = V::load(p + 4 * kLanes), t.n1 = V::load(p + 5 * kLanes);
-    t.n2 = V::load(p + 6 * kLanes);
+    t.n0 = V::load(p + 4 * L), t.n1 = V::load(p + 5 * L);
+    t.n2 = V::load(p + 6 * L);
   }
   return t;
 }
 template <bool kAlongRay, bool kFilterNormals>
 RANGESEG_KERNEL RANGESEG_SIMD_INLINE void store_sums(const SumRow& r, int i, const Terms& t) {
-  float* p = r.base + 7 * i;
+  constexpr std::ptrdiff_t L = kLanes;
+  float* p = r.base + 7 * static_cast<std::ptrdiff_t>(i);
   V::store(p, t.w);
-  V::store(p + kLanes, t.a0);
-  if constexpr (!kAlongRay) V::store(p + 2 * kLanes, t.a1), V::store(p + 3 * kLanes, t.a2);
+  V::store(p + L, t.a0);
+  if constexpr (!kAlongRay) V::store(p + 2 * L, t.a1), V::store(p + 3 * L, t.a2);
   if constexpr (kFilterNormals) {
-    V::store(p + 4 * kLanes, t.n0), V::store(p + 5 * kLanes, t.n1);
-    V::store(p + 6 * kLanes, t.n2);
+    V::store(p + 4 * L, t.n0), V::store(p + 5 * L, t.n1);
+    V::store(p + 6 * L, t.n2);
   }
 }
 template <bool kAlongRay, bool kFilterNormals>
@@ -275,9 +277,10 @@ RANGESEG_KERNEL void finish_row(const InRow& in, const SumRow& sums, int count, 
     finish_block<kAlongRay, kFilterNormals>(c, load_sums<kAlongRay, kFilterNormals>(sums, i), i, k,
                                             o);
   }
-  if (i < count)
+  if (i < count) {
     finish<kAlongRay, kFilterNormals>(c, load_sums<kAlongRay, kFilterNormals>(sums, i), i, count, k,
                                       out);
+  }
 }
 
 /// The forward edges of lattice row `c` (with the row below `q_off` elements further on in

@@ -133,7 +133,7 @@ std::vector<std::uint8_t> encode_pcd(const OrganizedCloud& cloud, const PcdWrite
       for (int v = 0; v < h; ++v) {
         for (int u = 0; u < w; ++u) {
           for (const OutField& f : fields) {
-            std::memcpy(dst, f.row(v) + u * 4, 4);
+            std::memcpy(dst, f.row(v) + static_cast<std::ptrdiff_t>(u) * 4, 4);
             dst += 4;
           }
         }
@@ -173,7 +173,7 @@ std::vector<std::uint8_t> encode_pcd(const OrganizedCloud& cloud, const PcdWrite
         for (int u = 0; u < w; ++u) {
           for (std::size_t i = 0; i < nf; ++i) {
             const OutField& f = fields[i];
-            const std::uint8_t* p = f.row(v) + u * 4;
+            const std::uint8_t* p = f.row(v) + static_cast<std::ptrdiff_t>(u) * 4;
             std::to_chars_result r;
             if (f.type == 'U' || f.name == "rgb") {
               // Integers for label, and for rgb as PCL does (its float rendering is a subnormal).

@@ -270,7 +270,7 @@ PlyMesh decode_ply(const std::uint8_t* data, std::size_t size, const std::string
                  " vertices, face 0 has " + std::to_string(mesh.vertices_per_face) +
                  " (mixed polygon sizes are not supported)");
     }
-    if (size - pos < 4u * static_cast<unsigned>(count)) {
+    if (size - pos < 4 * static_cast<std::size_t>(count)) {
       throw fail("truncated in face " + std::to_string(f));
     }
     for (int k = 0; k < count; ++k) {

@@ -7,6 +7,7 @@
 #include <png.h>
 
 #include <csetjmp>
+#include <cstddef>
 #include <cstdio>
 #include <cstring>
 #include <new>
@@ -167,7 +168,8 @@ void decode_gray(const std::uint8_t* data, std::size_t size, const std::string& 
     T* dst = out.row(y);
     if (bytes_per_sample == 2) {
       for (int x = 0; x < width; ++x) {
-        dst[x] = static_cast<T>((static_cast<unsigned>(src[2 * x]) << 8) | src[2 * x + 1]);
+        const std::ptrdiff_t i = 2 * static_cast<std::ptrdiff_t>(x);
+        dst[x] = static_cast<T>((static_cast<unsigned>(src[i]) << 8) | src[i + 1]);
       }
     } else {
       for (int x = 0; x < width; ++x) dst[x] = static_cast<T>(src[x]);
@@ -241,8 +243,9 @@ std::vector<std::uint8_t> encode_gray16(View<const std::uint16_t> image) {
     const std::uint16_t* src = image.row(y);
     std::uint8_t* dst = pixels.data() + y * row_bytes;
     for (int x = 0; x < image.width; ++x) {
-      dst[2 * x] = static_cast<std::uint8_t>(src[x] >> 8);
-      dst[2 * x + 1] = static_cast<std::uint8_t>(src[x] & 0xff);
+      const std::ptrdiff_t i = 2 * static_cast<std::ptrdiff_t>(x);
+      dst[i] = static_cast<std::uint8_t>(src[x] >> 8);
+      dst[i + 1] = static_cast<std::uint8_t>(src[x] & 0xff);
     }
   }
   return encode(image.width, image.height, 16, PNG_COLOR_TYPE_GRAY, pixels, row_bytes);

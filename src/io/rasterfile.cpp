@@ -42,7 +42,7 @@ BytePlane decode_rasterfile(const std::uint8_t* data, std::size_t size, const st
     throw fail("file has " + std::to_string(size) + " bytes, shorter than the 32-byte header");
   }
   std::array<std::uint32_t, 8> h{};
-  for (int i = 0; i < 8; ++i) h[i] = read_be32(data + 4 * i);
+  for (std::size_t i = 0; i < 8; ++i) h[i] = read_be32(data + 4 * i);
   const auto [magic, width, height, depth, length, type, maptype, maplength] = h;
   if (magic != kRasterMagic) {
     char hex[16];
@@ -105,7 +105,7 @@ std::vector<std::uint8_t> encode_rasterfile(View<const std::uint8_t> image) {
                                    1,
                                    0,
                                    0};
-  for (int i = 0; i < 8; ++i) write_be32(bytes.data() + 4 * i, header[i]);
+  for (std::size_t i = 0; i < 8; ++i) write_be32(bytes.data() + 4 * i, header[i]);
   for (int y = 0; y < image.height; ++y) {
     std::memcpy(bytes.data() + kHeaderBytes + y * row_bytes, image.row(y),
                 static_cast<std::size_t>(image.width));

@@ -18,6 +18,7 @@
 namespace rangeseg {
 
 using polygons_detail::CheckEdge;
+using polygons_detail::xy_point;
 
 namespace {
 
@@ -112,8 +113,9 @@ void project_scalar(const OrganizedCloud& cloud, const std::array<std::int32_t, 
       q = {p[0] - dist * fr.normal[0], p[1] - dist * fr.normal[1], p[2] - dist * fr.normal[2]};
     }
     const Vec rel{q[0] - fr.origin[0], q[1] - fr.origin[1], q[2] - fr.origin[2]};
-    xy[2 * i] = dot(rel, fr.e1);
-    xy[2 * i + 1] = dot(rel, fr.e2);
+    double* dst = xy_point(xy, i);
+    dst[0] = dot(rel, fr.e1);
+    dst[1] = dot(rel, fr.e2);
   }
 }
 
@@ -193,8 +195,9 @@ __attribute__((target("avx2"))) void project_avx2(const OrganizedCloud& cloud,
     const __m256d y = dot3(r0, r1, r2, e20, e21, e22);
     // Interleave: (x0, y0, x1, y1), (x2, y2, x3, y3).
     const __m256d lo = _mm256_unpacklo_pd(x, y), hi = _mm256_unpackhi_pd(x, y);
-    _mm256_storeu_pd(xy + 2 * i, _mm256_permute2f128_pd(lo, hi, 0x20));
-    _mm256_storeu_pd(xy + 2 * i + 4, _mm256_permute2f128_pd(lo, hi, 0x31));
+    double* dst = xy_point(xy, i);
+    _mm256_storeu_pd(dst, _mm256_permute2f128_pd(lo, hi, 0x20));
+    _mm256_storeu_pd(dst + 4, _mm256_permute2f128_pd(lo, hi, 0x31));
   }
   project_scalar(cloud, uv, i, n, pr, xy);
 }
@@ -553,7 +556,8 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
     sc.xy.resize(2 * n_points);  // capacity only grows
     for (std::size_t k = 0; k < sc.kept.size(); ++k) {
       const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.kept[k])];
-      project(cloud, sc.raw_uv.data() + r.first, r.count, pr, sc.xy.data() + 2 * sc.xy_first[k]);
+      project(cloud, sc.raw_uv.data() + r.first, r.count, pr,
+              xy_point(sc.xy.data(), sc.xy_first[k]));
     }
 
     // Simplify; loops that cross another loop (or themselves) get half the tolerance, and after a
@@ -564,7 +568,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
     sc.raw_perimeter.resize(nk);
     for (std::size_t k = 0; k < nk; ++k) {
       const int n = sc.xy_first[k + 1] - sc.xy_first[k];
-      polygons_detail::area_perimeter(sc.xy.data() + 2 * sc.xy_first[k], n, sc.raw_area[k],
+      polygons_detail::area_perimeter(xy_point(sc.xy.data(), sc.xy_first[k]), n, sc.raw_area[k],
                                       sc.raw_perimeter[k]);
       sc.tolerance[k] = std::max(settings.simplify_tolerance,
                                  settings.simplify_tolerance_pixels * sc.raw_perimeter[k] / n);
@@ -581,7 +585,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
           continue;
         }
         const int n = sc.xy_first[k + 1] - sc.xy_first[k];
-        polygons_detail::simplify_closed(sc.xy.data() + 2 * sc.xy_first[k], n, sc.tolerance[k],
+        polygons_detail::simplify_closed(xy_point(sc.xy.data(), sc.xy_first[k]), n, sc.tolerance[k],
                                          sc.keep_next, sc.dp_stack);
       }
       sc.keep_first_next.push_back(static_cast<int>(sc.keep_next.size()));
@@ -594,12 +598,13 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       for (std::size_t k = 0; k < nk; ++k) {
         const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.kept[k])];
         const int kb = sc.keep_first[k], ke = sc.keep_first[k + 1];
-        const double* base = sc.xy.data() + 2 * sc.xy_first[k];
+        const double* base = xy_point(sc.xy.data(), sc.xy_first[k]);
         for (int i = kb, j = ke - 1; i < ke; j = i++) {
           const int a = sc.keep[static_cast<std::size_t>(j)],
                     b = sc.keep[static_cast<std::size_t>(i)];
+          const double *pa = xy_point(base, a), *pb = xy_point(base, b);
           sc.edges.push_back(
-              {base[2 * a], base[2 * a + 1], base[2 * b], base[2 * b + 1],
+              {pa[0], pa[1], pb[0], pb[1],
                sc.raw_idx[static_cast<std::size_t>(r.first) + static_cast<std::size_t>(a)],
                sc.raw_idx[static_cast<std::size_t>(r.first) + static_cast<std::size_t>(b)],
                static_cast<int>(k)});
@@ -619,7 +624,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
     // Write the loops.
     for (std::size_t k = 0; k < nk; ++k) {
       const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.kept[k])];
-      const double* base = sc.xy.data() + 2 * sc.xy_first[k];
+      const double* base = xy_point(sc.xy.data(), sc.xy_first[k]);
       PolygonLoop lp;
       lp.segment = static_cast<int>(si);
       lp.label = sp.label;
@@ -636,7 +641,8 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       sc.hull_xy.clear();
       for (int i = kb; i < ke; ++i) {
         const int vi = sc.keep[static_cast<std::size_t>(i)];
-        const double x = base[2 * vi], y = base[2 * vi + 1];
+        const double* pt = xy_point(base, vi);
+        const double x = pt[0], y = pt[1];
         sc.hull_xy.push_back(x);
         sc.hull_xy.push_back(y);
         out.points2d.push_back({static_cast<float>(x), static_cast<float>(y)});
@@ -666,8 +672,9 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       sc.hull_xy.resize(2 * static_cast<std::size_t>(n_pts));
       for (int i = 0; i < n_pts; ++i) {
         const int o = sc.hull_order[static_cast<std::size_t>(i)];
-        sc.hull_xy[2 * static_cast<std::size_t>(i)] = xy[2 * o];
-        sc.hull_xy[2 * static_cast<std::size_t>(i) + 1] = xy[2 * o + 1];
+        const double* pt = xy_point(xy, o);
+        sc.hull_xy[2 * static_cast<std::size_t>(i)] = pt[0];
+        sc.hull_xy[2 * static_cast<std::size_t>(i) + 1] = pt[1];
       }
       polygons_detail::monotone_chain_sorted(sc.hull_xy.data(), n_pts, sc.hull_idx);
       // Vertex o of the concatenated outer loops -> its mesh vertex, for the pixel.
@@ -677,7 +684,8 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
         while (sc.xy_first[k + 1] <= o) ++k;
         const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.kept[k])];
         const auto [pu, pv] = sc.raw_uv[static_cast<std::size_t>(r.first + o - sc.xy_first[k])];
-        const double x = xy[2 * o], y = xy[2 * o + 1];
+        const double* pt = xy_point(xy, o);
+        const double x = pt[0], y = pt[1];
         out.hull_points2d.push_back({static_cast<float>(x), static_cast<float>(y)});
         out.hull_points3d.push_back(
             {static_cast<float>(fr.origin[0] + x * fr.e1[0] + y * fr.e2[0]),
@@ -690,8 +698,9 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       sc.hull_xy.clear();
       for (int hi : sc.hull_idx) {
         const int o = sc.hull_order[static_cast<std::size_t>(hi)];
-        sc.hull_xy.push_back(xy[2 * o]);
-        sc.hull_xy.push_back(xy[2 * o + 1]);
+        const double* pt = xy_point(xy, o);
+        sc.hull_xy.push_back(pt[0]);
+        sc.hull_xy.push_back(pt[1]);
       }
       if (sp.hull_count >= 3) {
         polygons_detail::area_perimeter(sc.hull_xy.data(), sp.hull_count, a, p);

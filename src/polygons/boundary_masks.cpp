@@ -256,7 +256,7 @@ RANGESEG_SIMD_AVX2_TARGET void cell_sides_avx2(const std::uint16_t* e0, const st
       }
     }
     __m256i fe[2];
-    for (int h = 0; h < 2; ++h) {
+    for (std::ptrdiff_t h = 0; h < 2; ++h) {
       const std::uint16_t* a = e0 + u + 16 * h;
       const std::uint16_t* c = e1 + u + 16 * h;
       const __m256i ea = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(a));
@@ -349,7 +349,7 @@ RANGESEG_SIMD_AVX2_TARGET void masks_avx2(View<const std::int32_t> labels,
   scratch.label_map[n_labels] = 0;
   // Label rows with kChunk + 1 zeros after them; cell rows with a zero before and kChunk after.
   const std::size_t label_len = static_cast<std::size_t>(width) + kChunk + 16;
-  const std::size_t side_len = static_cast<std::size_t>(width) + 2 * kChunk;
+  const std::size_t side_len = static_cast<std::size_t>(width) + 2 * std::size_t{kChunk};
   scratch.labels16.assign(2 * label_len, 0);
   scratch.sides.assign(2 * side_len + kChunk, 0);
   std::uint16_t* e0 = scratch.labels16.data();

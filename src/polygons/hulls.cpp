@@ -8,6 +8,7 @@
 #endif
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -38,7 +39,8 @@ void extremes_scalar(const double* xy, int begin, int end, Extremes<kDirs>& e) {
   static_assert(kDirs == 8 || kDirs == 16);
   constexpr int kStep = kDirs / 8;
   for (int i = begin; i < end; ++i) {
-    const double x = xy[2 * i], y = xy[2 * i + 1];
+    const double* pt = xy_point(xy, i);
+    const double x = pt[0], y = pt[1];
     double d[kDirs];
     const double d45[8] = {x, x + y, y, y - x, -x, -x - y, -y, x - y};
     for (int k = 0; k < 8; ++k) d[k * kStep] = d45[k];
@@ -80,10 +82,11 @@ Polygon<kDirs> make_polygon(const double* xy, int n, const Extremes<kDirs>& e) {
   for (int k = 0; k < kDirs && n > 0; ++k) {
     const int a = e.index[k], b = e.index[(k + 1) % kDirs];
     if (a == b) continue;
-    o.ax[o.edges] = xy[2 * a];
-    o.ay[o.edges] = xy[2 * a + 1];
-    o.ex[o.edges] = xy[2 * b] - o.ax[o.edges];
-    o.ey[o.edges] = xy[2 * b + 1] - o.ay[o.edges];
+    const double *pa = xy_point(xy, a), *pb = xy_point(xy, b);
+    o.ax[o.edges] = pa[0];
+    o.ay[o.edges] = pa[1];
+    o.ex[o.edges] = pb[0] - o.ax[o.edges];
+    o.ey[o.edges] = pb[1] - o.ay[o.edges];
     ++o.edges;
   }
   return o;
@@ -93,9 +96,10 @@ template <int kDirs>
 void outside_scalar(const double* xy, int begin, int end, const Polygon<kDirs>& o,
                     std::vector<int>& out) {
   for (int i = begin; i < end; ++i) {
+    const double* pt = xy_point(xy, i);
     bool inside = o.edges >= 3;
     for (int e = 0; e < o.edges && inside; ++e) {
-      inside = o.ex[e] * (xy[2 * i + 1] - o.ay[e]) - o.ey[e] * (xy[2 * i] - o.ax[e]) > o.eps;
+      inside = o.ex[e] * (pt[1] - o.ay[e]) - o.ey[e] * (pt[0] - o.ax[e]) > o.eps;
     }
     if (!inside) out.push_back(i);
   }
@@ -131,7 +135,7 @@ RANGESEG_SIMD_AVX2_TARGET void hull_candidates_avx2(const double* xy, int n,
   const __m256d four = _mm256_set1_pd(4.0);
   for (int i = 0; i < n4; i += 4) {
     __m256d x, y;
-    load_xy(xy + 2 * i, x, y);
+    load_xy(xy_point(xy, i), x, y);
     const __m256d nx = _mm256_xor_pd(x, sign), ny = _mm256_xor_pd(y, sign);
     const __m256d a = _mm256_mul_pd(cos22, x), b = _mm256_mul_pd(sin22, y);
     const __m256d c = _mm256_mul_pd(sin22, x), f = _mm256_mul_pd(cos22, y);
@@ -175,7 +179,7 @@ RANGESEG_SIMD_AVX2_TARGET void hull_candidates_avx2(const double* xy, int n,
   const __m256d eps = _mm256_set1_pd(o.eps);
   for (int i = 0; i < n4; i += 4) {
     __m256d x, y;
-    load_xy(xy + 2 * i, x, y);
+    load_xy(xy_point(xy, i), x, y);
     __m256d inside = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
     for (int k = 0; k < o.edges; ++k) {
       const __m256d cross = _mm256_sub_pd(
@@ -209,6 +213,8 @@ void hull_candidates(const double* xy, int n, std::vector<int>& out) {
 }
 
 }  // namespace polygons_detail
+
+using polygons_detail::xy_point;
 
 void convex_hull(const std::vector<std::array<float, 2>>& points,
                  std::vector<std::array<float, 2>>& hull) {
@@ -319,16 +325,16 @@ void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha,
   std::vector<double> xy;
   std::vector<int> loop_first;
   polygons_detail::TraceSteps steps;
-  polygons_detail::trace_loops(
-      mask.data(), pos.data(), stride, 1, starts, steps, walk, stack,
-      [&](const std::int32_t* idx, int n) {
-        loop_first.push_back(static_cast<int>(xy.size() / 2));
-        // The tracer's orientation is for y down; reverse for y up.
-        for (int k = n - 1; k >= 0; --k) {
-          xy.push_back(x0 + (idx[k] % vw) * h);
-          xy.push_back(y0 + static_cast<double>(idx[k] / vw) * h);  // row index
-        }
-      });
+  polygons_detail::trace_loops(mask.data(), pos.data(), stride, 1, starts, steps, walk, stack,
+                               [&](const std::int32_t* idx, int n) {
+                                 loop_first.push_back(static_cast<int>(xy.size() / 2));
+                                 // The tracer's orientation is for y down; reverse for y up.
+                                 for (int k = n - 1; k >= 0; --k) {
+                                   const auto [row, column] = std::div(idx[k], vw);
+                                   xy.push_back(x0 + column * h);
+                                   xy.push_back(y0 + row * h);
+                                 }
+                               });
   loop_first.push_back(static_cast<int>(xy.size() / 2));
   const std::size_t n_loops = loop_first.size() - 1;
   std::vector<double> tol(n_loops, alpha / 4);
@@ -341,17 +347,18 @@ void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha,
     keep_first.clear();
     for (std::size_t k = 0; k < n_loops; ++k) {
       keep_first.push_back(static_cast<int>(keep.size()));
-      polygons_detail::simplify_closed(xy.data() + 2 * loop_first[k],
+      polygons_detail::simplify_closed(xy_point(xy.data(), loop_first[k]),
                                        loop_first[k + 1] - loop_first[k], tol[k], keep, dp_stack);
     }
     keep_first.push_back(static_cast<int>(keep.size()));
     edges.clear();
     for (std::size_t k = 0; k < n_loops; ++k) {
-      const double* base = xy.data() + 2 * loop_first[k];
+      const double* base = xy_point(xy.data(), loop_first[k]);
       for (int i = keep_first[k], j = keep_first[k + 1] - 1; i < keep_first[k + 1]; j = i++) {
         const int a = keep[static_cast<std::size_t>(j)], b = keep[static_cast<std::size_t>(i)];
-        edges.push_back({base[2 * a], base[2 * a + 1], base[2 * b], base[2 * b + 1],
-                         loop_first[k] + a, loop_first[k] + b, static_cast<int>(k)});
+        const double *pa = xy_point(base, a), *pb = xy_point(base, b);
+        edges.push_back({pa[0], pa[1], pb[0], pb[1], loop_first[k] + a, loop_first[k] + b,
+                         static_cast<int>(k)});
       }
     }
     // Corner ids are per loop; loops touching at a lattice corner share coordinates, so identify
@@ -367,14 +374,15 @@ void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha,
     }
   }
   for (std::size_t k = 0; k < n_loops; ++k) {
-    const double* base = xy.data() + 2 * loop_first[k];
+    const double* base = xy_point(xy.data(), loop_first[k]);
     out.first.push_back(static_cast<int>(out.points.size()));
     double area2 = 0;
     const int kb = keep_first[k], ke = keep_first[k + 1];
     for (int i = kb, j = ke - 1; i < ke; j = i++) {
       const int a = keep[static_cast<std::size_t>(j)], b = keep[static_cast<std::size_t>(i)];
-      area2 += base[2 * a] * base[2 * b + 1] - base[2 * b] * base[2 * a + 1];
-      out.points.push_back({static_cast<float>(base[2 * b]), static_cast<float>(base[2 * b + 1])});
+      const double *pa = xy_point(base, a), *pb = xy_point(base, b);
+      area2 += pa[0] * pb[1] - pb[0] * pa[1];
+      out.points.push_back({static_cast<float>(pb[0]), static_cast<float>(pb[1])});
     }
     out.count.push_back(ke - kb);
     out.is_hole.push_back(area2 < 0 ? 1 : 0);

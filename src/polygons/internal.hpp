@@ -13,6 +13,11 @@
 
 namespace rangeseg::polygons_detail {
 
+/// Point i of x, y interleaved coordinates: xy + 2 i, with the offset computed in
+/// std::ptrdiff_t (an int product would overflow first).
+inline const double* xy_point(const double* xy, std::ptrdiff_t i) { return xy + 2 * i; }
+inline double* xy_point(double* xy, std::ptrdiff_t i) { return xy + 2 * i; }
+
 /// kNextDir[mask][k_in]: the outgoing boundary edge at a vertex with outgoing-edge mask `mask`
 /// after arriving along direction k_in: the first edge met rotating clockwise on the image
 /// (increasing k) from the reversed incoming direction, i.e. the edge bounding the same wedge
@@ -43,7 +48,7 @@ inline constexpr NextDirTable kNextDir{};
 /// offset 0 for none). One load per step of a walk instead of a direction and then an offset:
 /// the walk is a chain of dependent loads, so its latency is the cost.
 struct TraceSteps {
-  std::array<std::int32_t, 256 * 8> entry{};
+  std::array<std::int32_t, std::size_t{256} * 8> entry{};
   std::array<std::ptrdiff_t, 8> offset{};
   std::ptrdiff_t stride = -1;
   int s = -1;

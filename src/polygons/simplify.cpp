@@ -78,7 +78,7 @@ int farthest_from_chord_scalar(const double* xy, int lo, int hi, const double* a
                                double worst_d2) {
   int worst = -1;
   for (int i = lo + 1; i < hi; ++i) {
-    const double d2 = dist2_segment(xy + 2 * i, a, b);
+    const double d2 = dist2_segment(xy_point(xy, i), a, b);
     if (d2 > worst_d2) {
       worst_d2 = d2;
       worst = i;
@@ -108,7 +108,8 @@ RANGESEG_SIMD_AVX2_TARGET int farthest_from_chord_avx2(const double* xy, int lo,
   const __m256d four = _mm256_set1_pd(4.0);
   int i = lo + 1;
   for (; i + 4 <= hi; i += 4) {
-    const __m256d p01 = _mm256_loadu_pd(xy + 2 * i), p23 = _mm256_loadu_pd(xy + 2 * i + 4);
+    const double* pt = xy_point(xy, i);
+    const __m256d p01 = _mm256_loadu_pd(pt), p23 = _mm256_loadu_pd(pt + 4);
     const __m256d px = _mm256_sub_pd(_mm256_unpacklo_pd(p01, p23), ax);
     const __m256d py = _mm256_sub_pd(_mm256_unpackhi_pd(p01, p23), ay);
     __m256d t = _mm256_div_pd(_mm256_add_pd(_mm256_mul_pd(px, vex), _mm256_mul_pd(py, vey)), vlen2);
@@ -135,7 +136,7 @@ RANGESEG_SIMD_AVX2_TARGET int farthest_from_chord_avx2(const double* xy, int lo,
     }
   }
   for (; i < hi; ++i) {
-    const double d2 = dist2_segment(xy + 2 * i, a, b);
+    const double d2 = dist2_segment(xy_point(xy, i), a, b);
     if (d2 > worst_d2) {
       worst_d2 = d2;
       worst = i;
@@ -166,7 +167,8 @@ void simplify_closed(const double* xy, int n, double tolerance, std::vector<int>
   int far = 1;
   double best = -1;
   for (int i = 1; i < n; ++i) {
-    const double dx = xy[2 * i] - xy[0], dy = xy[2 * i + 1] - xy[1];
+    const double* pt = xy_point(xy, i);
+    const double dx = pt[0] - xy[0], dy = pt[1] - xy[1];
     const double d2 = dx * dx + dy * dy;
     if (d2 > best) {
       best = d2;
@@ -184,7 +186,7 @@ void simplify_closed(const double* xy, int n, double tolerance, std::vector<int>
     const auto [lo, hi] = stack.back();
     stack.pop_back();
     if (hi - lo < 2) continue;
-    const int worst = farthest(xy, lo, hi, xy + 2 * lo, xy + 2 * (hi % n), tol2);
+    const int worst = farthest(xy, lo, hi, xy_point(xy, lo), xy_point(xy, hi % n), tol2);
     if (worst < 0) continue;
     keep.push_back(worst);
     stack.push_back({lo, worst});
@@ -197,7 +199,7 @@ void simplify_closed(const double* xy, int n, double tolerance, std::vector<int>
     double extra_d2 = -1;
     for (int i = 1; i < n; ++i) {
       if (i == far) continue;
-      const double d2 = dist2_segment(xy + 2 * i, xy, xy + 2 * far);
+      const double d2 = dist2_segment(xy_point(xy, i), xy, xy_point(xy, far));
       if (d2 > extra_d2) {
         extra_d2 = d2;
         extra = i;
@@ -210,11 +212,12 @@ void simplify_closed(const double* xy, int n, double tolerance, std::vector<int>
   // Vertex 0 was an anchor by position only: drop it when it lies on a straight stretch.
   if (keep.size() - base > 3) {
     const int prev = keep.back(), next = keep[base + 1];
-    if (dist2_segment(xy, xy + 2 * prev, xy + 2 * next) <= tol2) {
+    const double *p_prev = xy_point(xy, prev), *p_next = xy_point(xy, next);
+    if (dist2_segment(xy, p_prev, p_next) <= tol2) {
       // Every dropped vertex between prev and next must stay within tolerance too.
       bool fine = true;
       for (int i = prev + 1; i < n + next && fine; ++i) {
-        fine = dist2_segment(xy + 2 * (i % n), xy + 2 * prev, xy + 2 * next) <= tol2;
+        fine = dist2_segment(xy_point(xy, i % n), p_prev, p_next) <= tol2;
       }
       if (fine) keep.erase(keep.begin() + static_cast<std::ptrdiff_t>(base));
     }
@@ -256,8 +259,9 @@ bool mark_crossings(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& ba
 void sort_points_xy(const double* xy, std::vector<int>& order, PointSortScratch& sc) {
   const std::size_t n = order.size();
   const auto less = [xy](int a, int b) {
-    if (xy[2 * a] != xy[2 * b]) return xy[2 * a] < xy[2 * b];
-    if (xy[2 * a + 1] != xy[2 * b + 1]) return xy[2 * a + 1] < xy[2 * b + 1];
+    const double *pa = xy_point(xy, a), *pb = xy_point(xy, b);
+    if (pa[0] != pb[0]) return pa[0] < pb[0];
+    if (pa[1] != pb[1]) return pa[1] < pb[1];
     return a < b;
   };
   constexpr std::size_t kRadixMin = 256;
@@ -270,7 +274,7 @@ void sort_points_xy(const double* xy, std::vector<int>& order, PointSortScratch&
   sc.order_tmp.resize(n);
   for (auto& c : sc.counts) c.fill(0);
   for (std::size_t i = 0; i < n; ++i) {
-    const std::uint64_t key = sort_key(xy[2 * order[i]]);
+    const std::uint64_t key = sort_key(xy_point(xy, order[i])[0]);
     sc.keys[i] = key;
     for (int b = 0; b < 8; ++b) ++sc.counts[static_cast<std::size_t>(b)][(key >> (8 * b)) & 255u];
   }
@@ -310,8 +314,9 @@ void sort_points_xy(const double* xy, std::vector<int>& order, PointSortScratch&
 void area_perimeter(const double* xy, int n, double& area, double& perimeter) {
   double a = 0, p = 0;
   for (int i = 0, j = n - 1; i < n; j = i++) {
-    a += xy[2 * j] * xy[2 * i + 1] - xy[2 * i] * xy[2 * j + 1];
-    const double dx = xy[2 * i] - xy[2 * j], dy = xy[2 * i + 1] - xy[2 * j + 1];
+    const double *pi = xy_point(xy, i), *pj = xy_point(xy, j);
+    a += pj[0] * pi[1] - pi[0] * pj[1];
+    const double dx = pi[0] - pj[0], dy = pi[1] - pj[1];
     p += std::sqrt(dx * dx + dy * dy);
   }
   area = 0.5 * a;
@@ -322,7 +327,8 @@ void monotone_chain_sorted(const double* xy, int n, std::vector<int>& hull) {
   hull.clear();
   if (n <= 0) return;
   auto turn = [&](int o, int a, int b) {
-    return cross(xy[2 * o], xy[2 * o + 1], xy[2 * a], xy[2 * a + 1], xy[2 * b], xy[2 * b + 1]);
+    const double *po = xy_point(xy, o), *pa = xy_point(xy, a), *pb = xy_point(xy, b);
+    return cross(po[0], po[1], pa[0], pa[1], pb[0], pb[1]);
   };
   hull.resize(2 * static_cast<std::size_t>(n) + 1);
   std::size_t k = 0;

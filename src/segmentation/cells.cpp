@@ -40,7 +40,8 @@ const CellRowFn& cell_row_kernel() { RANGESEG_SIMD_PICK(CellRowFn, RANGESEG_CELL
 
 /// Whether the cell at `origin` is complete: every vertex has a point, a normal and its
 /// right/down edges inside the cell. Branch-free (NaN fails every comparison).
-bool cell_complete(const Frame& f, std::ptrdiff_t origin, int step, std::ptrdiff_t down) {
+bool cell_complete(const Frame& f, std::ptrdiff_t origin, std::ptrdiff_t step,
+                   std::ptrdiff_t down) {
   constexpr int last = kCellSide - 1;
   constexpr unsigned right_bit = 1u << 0, down_bit = 1u << 2;
   int complete = 1;
@@ -60,8 +61,8 @@ bool cell_complete(const Frame& f, std::ptrdiff_t origin, int step, std::ptrdiff
 /// The per-column sums of the cell at `origin` into sums[k * plane + column]: one float
 /// accumulator per column and quantity, so that every column is an independent chain of float
 /// additions in row order (the vector kernels compute the same chains lane by lane).
-void cell_column_sums(const Frame& f, std::ptrdiff_t origin, int step, std::ptrdiff_t down,
-                      float* sums, std::ptrdiff_t plane) {
+void cell_column_sums(const Frame& f, std::ptrdiff_t origin, std::ptrdiff_t step,
+                      std::ptrdiff_t down, float* sums, std::ptrdiff_t plane) {
   const float x0 = f.x[origin], y0 = f.y[origin], z0 = f.z[origin];
   float acc[kCellSums][kCellSide]{};
   for (int j = 0; j < kCellSide; ++j) {
@@ -102,7 +103,7 @@ void finish_cell(const float* sums, std::ptrdiff_t plane, float x0, float y0, fl
   constexpr double n = kCellSide * kCellSide;
   const double X = x0, Y = y0, Z = z0;
   detail::PlaneStats& st = cell.stats;
-  st.count = kCellSide * kCellSide;
+  st.count = std::int64_t{kCellSide} * kCellSide;
   st.sx = sx + n * X;
   st.sy = sy + n * Y;
   st.sz = sz + n * Z;
@@ -140,7 +141,7 @@ void compute_cells(const Frame& f, Segmenter::Scratch& s) {
   const std::ptrdiff_t down = static_cast<std::ptrdiff_t>(step) * f.stride;
   const CellRowFn kernel = step == 1 ? cell_row_kernel() : nullptr;
   for (int cv = 0; cv < rows; ++cv) {
-    const std::ptrdiff_t row_origin = cv * kCellSide * down;
+    const std::ptrdiff_t row_origin = static_cast<std::ptrdiff_t>(cv) * kCellSide * down;
     int done = 0;
     if (kernel != nullptr) {
       const CellRowInput in{f.x + row_origin,         f.y + row_origin,     f.z + row_origin,
@@ -149,16 +150,18 @@ void compute_cells(const Frame& f, Segmenter::Scratch& s) {
       done = kernel(in, cols, sums, complete);
     }
     for (int cu = done; cu < cols; ++cu) {
-      const std::ptrdiff_t origin = row_origin + cu * kCellSide * step;
+      const std::ptrdiff_t column = static_cast<std::ptrdiff_t>(cu) * kCellSide;
+      const std::ptrdiff_t origin = row_origin + column * step;
       complete[cu] = cell_complete(f, origin, step, down) ? 1 : 0;
-      if (complete[cu]) cell_column_sums(f, origin, step, down, sums + cu * kCellSide, plane);
+      if (complete[cu]) cell_column_sums(f, origin, step, down, sums + column, plane);
     }
     for (int cu = 0; cu < cols; ++cu) {
       Cell& cell = s.cells[static_cast<std::size_t>(cv) * cols + cu];
       cell = Cell{};
       if (!complete[cu]) continue;
-      const std::ptrdiff_t origin = row_origin + cu * kCellSide * step;
-      finish_cell(sums + cu * kCellSide, plane, f.x[origin], f.y[origin], f.z[origin], cell);
+      const std::ptrdiff_t column = static_cast<std::ptrdiff_t>(cu) * kCellSide;
+      const std::ptrdiff_t origin = row_origin + column * step;
+      finish_cell(sums + column, plane, f.x[origin], f.y[origin], f.z[origin], cell);
     }
   }
 }

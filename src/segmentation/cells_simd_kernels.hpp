@@ -39,7 +39,7 @@ RANGESEG_KERNEL int cell_row_sums(const CellRowInput& in, int count, float* sums
     for (int j = 0; j < kCellSide; ++j) {
       const std::ptrdiff_t row = j * in.stride + base;
       for (int r = 0; r < kVectorsPerRow; ++r) {
-        const std::ptrdiff_t p = row + r * kLanes;
+        const std::ptrdiff_t p = row + static_cast<std::ptrdiff_t>(r) * kLanes;
         const M need = need_right[r] | (j < last ? need_down : zero);
         const F nz = V::load(in.nz + p);
         const M bits = V::bytes_to_lanes(in.edges + p);
@@ -74,7 +74,7 @@ RANGESEG_KERNEL int cell_row_sums(const CellRowInput& in, int count, float* sums
     for (int j = 0; j < kCellSide; ++j) {
       const std::ptrdiff_t row = j * in.stride + base;
       for (int r = 0; r < kVectorsPerRow; ++r) {
-        const std::ptrdiff_t p = row + r * kLanes;
+        const std::ptrdiff_t p = row + static_cast<std::ptrdiff_t>(r) * kLanes;
         const F x = V::load(in.x + p) - x0, y = V::load(in.y + p) - y0, z = V::load(in.z + p) - z0;
         acc[0][r] += x;
         acc[1][r] += y;
@@ -92,8 +92,9 @@ RANGESEG_KERNEL int cell_row_sums(const CellRowInput& in, int count, float* sums
       }
     }
     for (int k = 0; k < kCellSums; ++k) {
-      for (int r = 0; r < kVectorsPerRow; ++r)
-        V::store(sums + k * plane + base + r * kLanes, acc[k][r]);
+      for (int r = 0; r < kVectorsPerRow; ++r) {
+        V::store(sums + k * plane + base + static_cast<std::ptrdiff_t>(r) * kLanes, acc[k][r]);
+      }
     }
   }
   return cu;

@@ -108,8 +108,9 @@ class PlaneModel {
     if (!(dot >= cos_max_angle_)) return false;
     const double z = c.stats.sz / static_cast<double>(c.stats.count), dz = z - z0_;
     if (!angle_within_noise(static_cast<float>(dot), static_cast<float>(z),
-                            static_cast<float>(a_ + b_ * dz * dz)))
+                            static_cast<float>(a_ + b_ * dz * dz))) {
       return false;
+    }
     return cell_within(c, nx_, ny_, nz_, d_);
   }
 

@@ -59,7 +59,7 @@ inline bool cell_free(const Frame& f, std::ptrdiff_t origin) {
   std::int32_t any = 0;
   for (int j = 0; j < kCellSide; ++j) {
     const std::int32_t* row = f.labels + origin + static_cast<std::ptrdiff_t>(j) * s * f.stride;
-    for (int i = 0; i < kCellSide; ++i) any |= row[i * s];
+    for (std::ptrdiff_t i = 0; i < kCellSide; ++i) any |= row[i * s];
   }
   return any == 0;
 }
@@ -68,7 +68,7 @@ inline void label_cell(const Frame& f, std::ptrdiff_t origin, std::int32_t label
   const int s = f.pixel_stride;
   for (int j = 0; j < kCellSide; ++j) {
     std::int32_t* row = f.labels + origin + static_cast<std::ptrdiff_t>(j) * s * f.stride;
-    for (int i = 0; i < kCellSide; ++i) row[i * s] = label;
+    for (std::ptrdiff_t i = 0; i < kCellSide; ++i) row[i * s] = label;
   }
 }
 
@@ -84,7 +84,7 @@ inline bool cells_connected(const Frame& f, std::ptrdiff_t origin, int k) {
     return (f.edges[corner] & bit) != 0;
   }
   unsigned any = 0;
-  for (int t = 0; t < kCellSide; ++t) {
+  for (std::ptrdiff_t t = 0; t < kCellSide; ++t) {
     const std::ptrdiff_t p = du > 0   ? origin + last + t * down
                              : du < 0 ? origin + t * down
                              : dv > 0 ? origin + (kCellSide - 1) * down + t * f.pixel_stride
@@ -328,7 +328,8 @@ void grow_cells(const Frame& f, Model& model, Segmenter::Scratch& s, std::int32_
           if (left && top) touches |= 1u << 5;
           if (right && top) touches |= 1u << 7;
           if (touches & outside) {
-            queue[ptail++] = static_cast<std::int32_t>(origin + jv * down + iu * step);
+            queue[ptail++] = static_cast<std::int32_t>(origin + jv * down +
+                                                       static_cast<std::ptrdiff_t>(iu) * step);
           }
         }
       }

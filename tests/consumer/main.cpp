@@ -6,7 +6,7 @@
 #include <vector>
 
 int main() {
-  std::vector<std::uint16_t> depth(4 * 3, 1000);
+  std::vector<std::uint16_t> depth(std::size_t{4} * 3, 1000);  // 4 x 3 pixels
   depth[5] = 0;
   const rangeseg::CameraIntrinsics cam{.fx = 2, .fy = 2, .cx = 1.5, .cy = 1};
   const rangeseg::OrganizedCloud cloud =
