@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <map>
 #include <random>
 #include <string>
@@ -387,6 +388,42 @@ TEST(Segmentation, ReassignmentAcrossMeshCutsReachesIsolatedPoints) {
   }
 }
 
+/// A face too small to keep (6 columns, below min_region_size here) meets a large plane at a
+/// right-angle crease 1.5 m away. Its points next to the crease lie within 3 sigma(z) of the
+/// large plane, so re-assignment by distance alone gives them to it; their normals are 90 deg
+/// off, and with the normal test (default 60 deg) only the crease pixels, whose 1-ring normals
+/// mix both faces, may join.
+TEST(Segmentation, ReassignmentLeavesPointsOfAnotherFace) {
+  const double a_end = 6.0 / kF;  // the strip: columns 320..325, then no data
+  // Left: the plane x + z = 1.5; right: z - x = 1.5 (normals (1, 0, 1) and (-1, 0, 1) / sqrt 2).
+  const OrganizedCloud cloud = cast(640, 480, [&](double a, double) {
+    if (a <= 0) return 1.5 / (1.0 + a);
+    return a < a_end ? 1.5 / (1.0 - a) : std::numeric_limits<double>::quiet_NaN();
+  });
+  const Mesh mesh = build_mesh(cloud);
+  const NormalMap normals = compute_normals(cloud, mesh);
+  SegmentationSettings settings = preset("kinect");
+  settings.min_region_size = 6 * 480 + 1;  // the strip's own segment is dissolved
+  const auto joined = [&](double max_angle) {
+    settings.reassign_max_normal_angle = max_angle;
+    const Segmentation seg = segment(cloud, mesh, normals, settings);
+    expect_consistent(cloud, seg, settings);
+    const int left = seg.labels(100, 240);
+    EXPECT_NE(left, 0);
+    int count = 0;  // strip pixels off the crease in the large plane's segment
+    for (int v = 0; v < 480; ++v) {
+      for (int u = 321; u < 640; ++u) count += left != 0 && seg.labels(u, v) == left;
+    }
+    return count;
+  };
+  const int by_distance = joined(kPi);
+  const int with_normals = joined(preset("kinect").reassign_max_normal_angle);
+  std::printf("strip pixels joining the large plane: distance only %d, with the normal test %d\n",
+              by_distance, with_normals);
+  EXPECT_GE(by_distance, 480);  // at least a column
+  EXPECT_EQ(with_normals, 0);
+}
+
 TEST(Segmentation, HolesAreNeverLabelledAndAreaIsCorrect) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
@@ -595,6 +632,8 @@ TEST(Segmentation, PresetsAndValidation) {
   EXPECT_THROW(segment(cloud, mesh, normals, {.normal_noise_sigmas = -1}, out),
                std::invalid_argument);
   EXPECT_THROW(segment(cloud, mesh, normals, {.min_normal_angle = 4}, out), std::invalid_argument);
+  EXPECT_THROW(segment(cloud, mesh, normals, {.reassign_max_normal_angle = -0.1}, out),
+               std::invalid_argument);
   EXPECT_THROW(segment(OrganizedCloud(64, 1), mesh, normals, {}, out), std::invalid_argument);
 }
 

@@ -95,7 +95,7 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
                     "min_normal_angle", "max_smooth_angle", "max_curvature", "max_seed_curvature",
                     "min_region_size", "merge_planes", "merge_angle", "merge_distance_sigmas",
                     "merge_rms_sigmas", "merge_rms_max_angle", "reassign_boundary",
-                    "reassign_across_mesh_cuts"},
+                    "reassign_max_normal_angle", "reassign_across_mesh_cuts"},
                    where);
     auto& t = s.segmentation;
     if (m.contains("model")) {
@@ -119,6 +119,7 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
     take(m, "merge_rms_sigmas", t.merge_rms_sigmas, where);
     take(m, "merge_rms_max_angle", t.merge_rms_max_angle, where);
     take(m, "reassign_boundary", t.reassign_boundary, where);
+    take(m, "reassign_max_normal_angle", t.reassign_max_normal_angle, where);
     take(m, "reassign_across_mesh_cuts", t.reassign_across_mesh_cuts, where);
   }
   validate(s.smoothing);

@@ -104,6 +104,13 @@ struct SegmentationSettings {
   /// plane: unlabelled valid points adjacent (mesh 1-ring) to a plane segment join the closest
   /// adjacent plane if within `max_distance_sigmas` * sigma(z) of it (perpendicular distance).
   bool reassign_boundary = true;
+  /// ... and, unless `reassign_across_mesh_cuts`, if the point's normal is within this angle
+  /// [rad] of the plane's normal (60 deg; a point without a normal is placed by distance
+  /// alone). A point on a crease has a 1-ring normal between the two faces (45 deg from each at
+  /// a right angle), while a point of the other face is ~90 deg off, although near the crease
+  /// it lies within the distance bound of both planes. (Where mesh cuts are crossed, the points
+  /// are those of grazing surfaces whose 1-ring normals are unreliable: distance alone.)
+  double reassign_max_normal_angle = 1.047;
   /// plane, with `reassign_boundary`: adjacency also over the image 8-neighbours the mesh's
   /// depth-jump gate cut off. For sensors whose noise is far below the pixel footprint (abw
   /// preset), the gate cuts surfaces seen at grazing incidence into single columns, whose points

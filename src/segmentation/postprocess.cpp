@@ -424,6 +424,14 @@ inline unsigned reassign_mask(const Frame& f, std::ptrdiff_t i) {
 /// if within k sigma(z) of it; newly labelled points make their neighbours candidates in turn,
 /// so dissolved small regions that lie on an adjacent plane are absorbed whole. Neighbours are
 /// those of `reassign_mask`.
+/// The point's normal is within the angle (cosine `cos_max_angle`) of the plane's, up to sign,
+/// or the point has no normal.
+inline bool normal_fits(const detail::PlaneFit& fit, const Frame& f, std::int32_t q,
+                        double cos_max_angle) {
+  const double dot = fit.normal[0] * f.nx[q] + fit.normal[1] * f.ny[q] + fit.normal[2] * f.nz[q];
+  return std::isnan(dot) || std::fabs(dot) >= cos_max_angle;
+}
+
 template <bool kAcrossCuts>
 void reassign_boundary_points(const Frame& f, const SegmentationSettings& settings,
                               Segmenter::Scratch& s) {
@@ -475,6 +483,7 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
     for (; u < f.width; u += step) consider(row, u, v);
   }
   const double k = settings.max_distance_sigmas;
+  const double cos_max_angle = std::cos(settings.reassign_max_normal_angle);
   while (size > 0) {
     const std::int32_t q = ring[head];
     if (++head == capacity) head = 0;
@@ -493,7 +502,7 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
       if (label == 0) unlabelled |= 1u << n;
       if (label == 0 || label == best || !s.fits[label].ok) continue;
       const double d = std::fabs(s.fits[label].distance(x, y, z));
-      if (d <= best_distance) {
+      if (d <= best_distance && (kAcrossCuts || normal_fits(s.fits[label], f, q, cos_max_angle))) {
         best_distance = d;
         best = label;
       }

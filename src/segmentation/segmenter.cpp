@@ -57,6 +57,8 @@ void validate(const SegmentationSettings& s) {
           s.merge_rms_sigmas, "finite and >= 0");
   require(s.merge_rms_max_angle >= 0 && s.merge_rms_max_angle <= pi, "merge_rms_max_angle",
           s.merge_rms_max_angle, "in [0, pi] rad");
+  require(s.reassign_max_normal_angle >= 0 && s.reassign_max_normal_angle <= pi,
+          "reassign_max_normal_angle", s.reassign_max_normal_angle, "in [0, pi] rad");
   require(s.merge_distance_sigmas > 0 && std::isfinite(s.merge_distance_sigmas),
           "merge_distance_sigmas", s.merge_distance_sigmas, "finite and > 0");
 }
