@@ -420,10 +420,6 @@ inline unsigned reassign_mask(const Frame& f, std::ptrdiff_t i) {
                                     static_cast<int>(i / f.stride));
 }
 
-/// Unlabelled valid points next to a plane segment join the adjacent plane they are closest to,
-/// if within k sigma(z) of it; newly labelled points make their neighbours candidates in turn,
-/// so dissolved small regions that lie on an adjacent plane are absorbed whole. Neighbours are
-/// those of `reassign_mask`.
 /// The point's normal is within the angle (cosine `cos_max_angle`) of the plane's, up to sign,
 /// or the point has no normal.
 inline bool normal_fits(const detail::PlaneFit& fit, const Frame& f, std::int32_t q,
@@ -432,6 +428,11 @@ inline bool normal_fits(const detail::PlaneFit& fit, const Frame& f, std::int32_
   return std::isnan(dot) || std::fabs(dot) >= cos_max_angle;
 }
 
+/// Unlabelled valid points next to a plane segment join the adjacent plane they are closest to,
+/// if within k sigma(z) of it and (unless kAcrossCuts) with its normal within
+/// reassign_max_normal_angle of the plane's; newly labelled points make their neighbours
+/// candidates in turn, so dissolved small regions that lie on an adjacent plane are absorbed
+/// whole. Neighbours are those of `reassign_mask`.
 template <bool kAcrossCuts>
 void reassign_boundary_points(const Frame& f, const SegmentationSettings& settings,
                               Segmenter::Scratch& s) {
