@@ -197,8 +197,7 @@ void build_mesh_rows(const OrganizedCloud& cloud, const MeshSettings& settings, 
   const int blocks = (n + cells_per_block - 1) / cells_per_block;
   // Float rows are read up to index blocks * cells_per_block (the right neighbour of the last
   // cell of the last block), byte rows from -1 to that index.
-  const int float_len = blocks * cells_per_block + k.lanes;
-  const auto row_step = static_cast<std::ptrdiff_t>(float_len);
+  const std::ptrdiff_t float_len = blocks * cells_per_block + k.lanes;
   constexpr int kBytePad = 64;
   const std::ptrdiff_t byte_len = blocks * cells_per_block + 2 * kBytePad;
 
@@ -212,19 +211,21 @@ void build_mesh_rows(const OrganizedCloud& cloud, const MeshSettings& settings, 
     float* base = float_buffer.data() + static_cast<std::size_t>(r * kFloatsPerPixel) * float_len;
     rows[r] = {base,
                base + float_len,
-               base + 2 * row_step,
-               base + 3 * row_step,
-               base + 4 * row_step,
-               base + 5 * row_step,
-               base + 6 * row_step};
+               base + 2 * float_len,
+               base + 3 * float_len,
+               base + 4 * float_len,
+               base + 5 * float_len,
+               base + 6 * float_len};
   }
   // Gathered input row at stride > 1; all NaN first, to fill the padding of the pixel rows.
   float* gathered = float_buffer.data() + static_cast<std::size_t>(3 * kFloatsPerPixel) * float_len;
   float* gx = gathered;
   float* gy = gathered + float_len;
-  float* gz = gathered + 2 * row_step;
+  float* gz = gathered + 2 * float_len;
   std::fill(gathered, gathered + 3 * static_cast<std::size_t>(float_len), kNaN);
-  for (const PixelRow& row : rows) k.quantities(gx, gy, gz, float_len, params, row);
+  for (const PixelRow& row : rows) {
+    k.quantities(gx, gy, gz, static_cast<int>(float_len), params, row);
+  }
 
   const auto byte_row = [&](int r) { return byte_buffer.data() + r * byte_len + kBytePad; };
   std::uint8_t* cand = byte_row(0);
