@@ -66,7 +66,7 @@ class IncrementalPlaneModel {
   }
 
   bool seed_ok(const Frame& f, std::int32_t seed) const {
-    return ring_normals_agree(f, seed, cos_max_angle_);
+    return seed_ring_ok(f, seed, cos_max_angle_);
   }
 
   bool accepts(const Frame& f, std::int32_t /*from*/, std::int32_t q) const {

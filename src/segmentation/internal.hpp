@@ -86,16 +86,22 @@ struct Segmenter::Scratch {
 
 namespace rangeseg::seg {
 
-/// True when every mesh neighbour of `seed` has its normal within the angle whose cosine is
-/// `cos_angle` of the seed's normal (NaN normals fail): a region started from a normal that its
-/// neighbours contradict would follow noise, and noisy areas would spawn one region per pixel.
-inline bool ring_normals_agree(const Frame& f, std::int32_t seed, float cos_angle) {
+/// Whether `seed` may start a region: it has mesh neighbours, none of them is labelled, and all
+/// their normals are within the angle whose cosine is `cos_angle` of the seed's normal (NaN
+/// normals fail). A region started from a normal that its neighbours contradict would follow
+/// noise, and noisy areas would spawn one region per pixel. A pixel next to a region is one that
+/// region rejected: seeds there start slivers along region boundaries, which keep two pieces of
+/// one surface from being adjacent when they are merged; such pixels are left to boundary
+/// re-assignment.
+inline bool seed_ring_ok(const Frame& f, std::int32_t seed, float cos_angle) {
   const float nx = f.nx[seed], ny = f.ny[seed], nz = f.nz[seed];
   unsigned mask = f.edges[seed];
+  if (mask == 0) return false;
   while (mask != 0) {
     const int k = std::countr_zero(mask);
     mask &= mask - 1;
     const std::ptrdiff_t q = seed + f.neighbour_offset[k];
+    if (f.labels[q] != 0) return false;
     if (!(nx * f.nx[q] + ny * f.ny[q] + nz * f.nz[q] >= cos_angle)) return false;
   }
   return true;

@@ -49,7 +49,7 @@ class PlaneModel {
   }
 
   bool seed_ok(const Frame& f, std::int32_t seed) const {
-    return ring_normals_agree(f, seed, cos_seed_angle_);
+    return seed_ring_ok(f, seed, cos_seed_angle_);
   }
 
   bool accepts(const Frame& f, std::int32_t /*from*/, std::int32_t q) const {
