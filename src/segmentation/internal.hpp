@@ -134,6 +134,13 @@ void grow_planes(const Frame& frame, const SegmentationSettings& settings,
 void grow_smooth(const Frame& frame, const SegmentationSettings& settings,
                  Segmenter::Scratch& scratch);
 
+/// Columns u in [begin, end) of a label row (stride 1; `row` and `below` readable from begin - 1
+/// to end) whose label is not 0 and differs from a forward neighbour's (right, down-left, down,
+/// down-right), into `out` in ascending order (`found` of them); returns the column up to which
+/// the row was scanned (the caller does the rest). Vectorised for the CPU.
+int adjacency_pixels(const std::int32_t* row, const std::int32_t* below, int begin, int end,
+                     std::int32_t* out, int& found);
+
 /// Refit, merge, small-region removal, boundary re-assignment, compaction and the Segment list.
 void postprocess(const Frame& frame, const SegmentationSettings& settings,
                  Segmenter::Scratch& scratch, Segmentation& out);

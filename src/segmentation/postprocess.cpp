@@ -695,4 +695,9 @@ void set_plane_fields(const PlaneStats& stats, Segment& seg) {
   fill_plane_fields(stats, stats.fit(), seg);
 }
 
+int adjacency_pixels(const std::int32_t* row, const std::int32_t* below, int begin, int end,
+                     std::int32_t* out, int& found) {
+  return adjacency_pixels_kernel()(row, below, begin, end, out, found);
+}
+
 }  // namespace rangeseg::seg

@@ -119,7 +119,7 @@ struct Scratch {
   std::vector<detail::PlaneStats> stats;
   std::vector<Model> models;
   std::vector<Point3> points, normals;
-  std::vector<std::int32_t> queue, remap, order;
+  std::vector<std::int32_t> queue, remap, order, row_pixels;
   std::vector<std::uint8_t> queued, changed, final_changed;
   std::vector<Segment> segments;
 };
@@ -191,26 +191,38 @@ class PrimitivePass {
     s_.pairs.clear();
     std::uint64_t last = 0;
     const int step = f_.pixel_stride;
+    // Right and down neighbours (mesh directions 0 and 2): 4-connected adjacency suffices to
+    // find the facets of one surface and halves the work.
+    const auto visit = [&](std::ptrdiff_t i) {
+      const std::int32_t a = f_.labels[i];
+      unsigned mask = f_.edges[i] & 0x05u;
+      if (a == 0 || mask == 0) return;
+      while (mask != 0) {
+        const int k = std::countr_zero(mask);
+        mask &= mask - 1;
+        const std::int32_t b = f_.labels[i + f_.neighbour_offset[k]];
+        if (b == 0 || b == a) continue;
+        const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) |
+                                  static_cast<std::uint32_t>(std::max(a, b));
+        if (key != last) s_.pairs.push_back(key);
+        last = key;
+      }
+    };
+    // At stride 1 the inner rows are screened a vector at a time: only a pixel whose label
+    // differs from a forward neighbour's can add a pair.
+    const bool screen = step == 1 && f_.width > 2;
+    if (screen) s_.row_pixels.resize(static_cast<std::size_t>(f_.width));
     for (int v = 0; v < f_.height; v += step) {
       const std::ptrdiff_t row = v * f_.stride;
-      for (int u = 0; u < f_.width; u += step) {
-        const std::ptrdiff_t i = row + u;
-        const std::int32_t a = f_.labels[i];
-        // Right and down neighbours (mesh directions 0 and 2): 4-connected adjacency suffices
-        // to find the facets of one surface and halves the work.
-        unsigned mask = f_.edges[i] & 0x05u;
-        if (a == 0 || mask == 0) continue;
-        while (mask != 0) {
-          const int k = std::countr_zero(mask);
-          mask &= mask - 1;
-          const std::int32_t b = f_.labels[i + f_.neighbour_offset[k]];
-          if (b == 0 || b == a) continue;
-          const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) |
-                                    static_cast<std::uint32_t>(std::max(a, b));
-          if (key != last) s_.pairs.push_back(key);
-          last = key;
-        }
+      int u = 0;
+      if (screen && v + 1 < f_.height) {
+        visit(row);
+        int found = 0;
+        u = adjacency_pixels(f_.labels + row, f_.labels + row + f_.stride, 1, f_.width - 1,
+                             s_.row_pixels.data(), found);
+        for (int j = 0; j < found; ++j) visit(row + s_.row_pixels[static_cast<std::size_t>(j)]);
       }
+      for (; u < f_.width; u += step) visit(row + u);
     }
     std::sort(s_.pairs.begin(), s_.pairs.end());
     s_.pairs.erase(std::unique(s_.pairs.begin(), s_.pairs.end()), s_.pairs.end());
