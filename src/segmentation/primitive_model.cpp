@@ -162,10 +162,26 @@ class PrimitivePass {
   void group_pixels_by_label() {
     s_.start.assign(static_cast<std::size_t>(n_) + 2, 0);
     const int step = f_.pixel_stride;
-    for (int v = 0; v < f_.height; v += step) {
-      const std::int32_t* row = f_.labels + v * f_.stride;
-      for (int u = 0; u < f_.width; u += step) ++s_.start[static_cast<std::size_t>(row[u]) + 1];
-    }
+    // Calls fn(label, first pixel, pixel count) for the runs of equal labels along each lattice
+    // row: a count or a block of consecutive slots per run instead of a dependent update of the
+    // same counter per pixel.
+    const auto for_each_run = [&](auto&& fn) {
+      for (int v = 0; v < f_.height; v += step) {
+        const std::ptrdiff_t row = v * f_.stride;
+        const std::int32_t* const labels = f_.labels + row;
+        for (int u = 0; u < f_.width;) {
+          const std::int32_t l = labels[u];
+          const int first = u;
+          do {
+            u += step;
+          } while (u < f_.width && labels[u] == l);
+          fn(l, row + first, (u - first + step - 1) / step);
+        }
+      }
+    };
+    for_each_run([&](std::int32_t l, std::ptrdiff_t, int n) {
+      s_.start[static_cast<std::size_t>(l) + 1] += n;
+    });
     // start[l] = first slot of label l (label 0 included, then ignored).
     std::int32_t total = 0;
     for (std::size_t l = 0; l <= static_cast<std::size_t>(n_); ++l) {
@@ -174,14 +190,12 @@ class PrimitivePass {
       total += c;
     }
     s_.pixels.resize(static_cast<std::size_t>(total));
-    for (int v = 0; v < f_.height; v += step) {
-      const std::ptrdiff_t row = v * f_.stride;
-      for (int u = 0; u < f_.width; u += step) {
-        const std::int32_t l = f_.labels[row + u];
-        s_.pixels[static_cast<std::size_t>(s_.start[static_cast<std::size_t>(l) + 1]++)] =
-            static_cast<std::int32_t>(row + u);
-      }
-    }
+    for_each_run([&](std::int32_t l, std::ptrdiff_t i, int n) {
+      std::int32_t& next = s_.start[static_cast<std::size_t>(l) + 1];
+      std::int32_t* const out = s_.pixels.data() + next;
+      for (int j = 0; j < n; ++j) out[j] = static_cast<std::int32_t>(i + std::ptrdiff_t{j} * step);
+      next += n;
+    });
     // Now start[l + 1] is the end of label l, i.e. start[l] is the beginning of label l.
   }
   std::int32_t begin(std::int32_t l) const { return s_.start[static_cast<std::size_t>(l)]; }
