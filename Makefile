@@ -39,14 +39,14 @@ fuzz-smoke: asan-build
 # benchmarks, and clang-format (.clang-format) over every source file.
 lint: build
 	RANGESEG_WITH_LINT=1 ./scripts/install-deps.sh
-	run-clang-tidy -quiet -p $(BUILD) -j $(JOBS) '$(CURDIR)/(src|apps|tests|bench)/'
-	find include src apps tests bench fuzz -name '*.[ch]pp' | xargs clang-format --dry-run --Werror
+	run-clang-tidy -quiet -p $(BUILD) -j $(JOBS) '$(CURDIR)/(src|apps|tests|bench|examples)/'
+	find include src apps tests bench fuzz examples -name '*.[ch]pp' | xargs clang-format --dry-run --Werror
 
 bench: build
 	$(BUILD)/bench/rangeseg_bench
 
 format:
-	find include src apps tests bench fuzz -name '*.[ch]pp' | xargs clang-format -i
+	find include src apps tests bench fuzz examples -name '*.[ch]pp' | xargs clang-format -i
 
 clean:
 	rm -rf $(BUILD) $(BUILD_ASAN) $(OUT)
