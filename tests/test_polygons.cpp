@@ -796,5 +796,54 @@ TEST(Polygons, PointSortMatchesComparisonSort) {
   }
 }
 
+// The crossing check's grid (large edge sets) against the plain x sweep: random short edges on
+// lattice points (many shared ends and touching pairs), long edges across everything (the case
+// the grid is for), vertical and zero-length edges, sizes on both sides of the grid threshold.
+TEST(Polygons, CrossingGridMatchesSweep) {
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> lattice(0, 60);
+  std::uniform_int_distribution<int> step(-2, 2);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  int crossing_sets = 0;
+  for (int n : {10, 128, 129, 400, 3000}) {
+    for (int loops : {1, 7, 40}) {
+      std::vector<polygons_detail::CheckEdge> edges;
+      for (int i = 0; i < n; ++i) {
+        const int u = lattice(rng), v = lattice(rng);
+        int du = step(rng), dv = step(rng);
+        if (unit(rng) < 0.02) {  // a long edge across the field
+          du = 60 - 2 * u;
+          dv = 60 - 2 * v;
+        }
+        const double h = 0.01;  // [m] lattice spacing
+        edges.push_back({u * h, v * h, (u + du) * h, (v + dv) * h, std::int64_t{u} * 1000 + v,
+                         std::int64_t{u + du} * 1000 + v + dv, i % loops});
+      }
+      std::vector<polygons_detail::CheckEdge> copy = edges;
+      std::vector<std::uint8_t> grid_bad(static_cast<std::size_t>(loops), 0), sweep_bad = grid_bad;
+      const bool grid_any = polygons_detail::mark_crossings(edges, grid_bad);
+      const bool sweep_any = polygons_detail::mark_crossings_sweep(copy, sweep_bad);
+      EXPECT_EQ(grid_any, sweep_any) << "n " << n << " loops " << loops;
+      EXPECT_EQ(grid_bad, sweep_bad) << "n " << n << " loops " << loops;
+      crossing_sets += sweep_any;
+      // Both leave the edges in the same (sorted) order.
+      for (std::size_t i = 0; i < edges.size(); ++i) {
+        EXPECT_EQ(edges[i].x0, copy[i].x0);
+        EXPECT_EQ(edges[i].id0, copy[i].id0);
+      }
+    }
+  }
+  EXPECT_GT(crossing_sets, 5);  // the sets do cross (else the comparison proves little)
+  // Disjoint loops: nothing to mark on either path.
+  std::vector<polygons_detail::CheckEdge> apart;
+  for (int i = 0; i < 300; ++i) {
+    const double x = 0.1 * i;
+    apart.push_back({x, 0.0, x + 0.05, 0.0, 2 * i, 2 * i + 1, i});
+  }
+  std::vector<std::uint8_t> none(300, 0);
+  EXPECT_FALSE(polygons_detail::mark_crossings(apart, none));
+  EXPECT_EQ(std::count(none.begin(), none.end(), 1), 0);
+}
+
 }  // namespace
 }  // namespace rangeseg

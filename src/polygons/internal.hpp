@@ -190,7 +190,10 @@ struct CheckEdge {
 /// Marks in `bad` (indexed by CheckEdge::loop, sized by the caller) every loop one of whose
 /// edges crosses or touches another edge (of any loop) not sharing an end id. Sorts `edges`.
 /// Returns whether any was found.
+/// Large sets are bucketed on a grid over the edges' boxes (the same pairs, each tested once).
 bool mark_crossings(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& bad);
+/// The same by a sweep in x alone (the reference; quadratic under long edges).
+bool mark_crossings_sweep(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& bad);
 
 /// Signed area (counter-clockwise positive) and perimeter of a closed 2D loop.
 void area_perimeter(const double* xy, int n, double& area, double& perimeter);

@@ -224,7 +224,38 @@ void simplify_closed(const double* xy, int n, double tolerance, std::vector<int>
   }
 }
 
-bool mark_crossings(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& bad) {
+namespace {
+
+/// The pair test of mark_crossings for edges[i] before edges[j] in x0 order: f starts within e's
+/// x extent (plus margin) and their y ranges overlap, they share no end, and they touch.
+bool pair_touches(const CheckEdge& e, const CheckEdge& f) {
+  const double margin = 1e-5 * (1.0 + std::abs(e.x1) + std::abs(e.y0) + std::abs(e.y1));
+  if (f.x0 > e.x1 + margin) return false;
+  const double ylo = std::min(e.y0, e.y1) - margin, yhi = std::max(e.y0, e.y1) + margin;
+  if (std::max(f.y0, f.y1) < ylo || std::min(f.y0, f.y1) > yhi) return false;
+  if (e.id0 == f.id0 || e.id0 == f.id1 || e.id1 == f.id0 || e.id1 == f.id1) return false;
+  const double scale =
+      1.0 + std::max({std::abs(e.x0), std::abs(e.y0), std::abs(e.x1), std::abs(e.y1)});
+  return segments_touch(e, f, 1e-6 * scale);
+}
+
+/// Buckets of a uniform grid over the edges' boxes (each widened by its margin), reused across
+/// calls on a thread.
+struct CrossingGrid {
+  std::vector<std::int32_t> cells;  ///< per edge: first cell x, last x, first y, last y
+  std::vector<std::int32_t> start;  ///< per grid cell: first entry in `items`, then one past
+  std::vector<std::int32_t> items;  ///< edge indices grouped by cell, ascending in each
+};
+
+/// Sets of more edges than this go through the grid; fewer are swept in x order.
+constexpr std::size_t kGridMinEdges = 128;
+
+}  // namespace
+
+namespace {
+
+/// Both implementations start here: every edge left to right, sorted by x0.
+void sort_edges(std::vector<CheckEdge>& edges) {
   for (CheckEdge& e : edges) {
     if (e.x0 > e.x1) {
       std::swap(e.x0, e.x1);
@@ -234,22 +265,103 @@ bool mark_crossings(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& ba
   }
   std::sort(edges.begin(), edges.end(),
             [](const CheckEdge& a, const CheckEdge& b) { return a.x0 < b.x0; });
+}
+
+void mark_pair(const CheckEdge& e, const CheckEdge& f, std::vector<std::uint8_t>& bad) {
+  bad[e.loop] = 1;
+  bad[f.loop] = 1;
+}
+
+bool sweep_sorted(const std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& bad) {
   bool any = false;
   const std::size_t n = edges.size();
   for (std::size_t i = 0; i < n; ++i) {
     const CheckEdge& e = edges[i];
     const double margin = 1e-5 * (1.0 + std::abs(e.x1) + std::abs(e.y0) + std::abs(e.y1));
-    const double ylo = std::min(e.y0, e.y1) - margin, yhi = std::max(e.y0, e.y1) + margin;
     for (std::size_t j = i + 1; j < n && edges[j].x0 <= e.x1 + margin; ++j) {
-      const CheckEdge& f = edges[j];
-      if (std::max(f.y0, f.y1) < ylo || std::min(f.y0, f.y1) > yhi) continue;
-      if (e.id0 == f.id0 || e.id0 == f.id1 || e.id1 == f.id0 || e.id1 == f.id1) continue;
-      const double scale =
-          1.0 + std::max({std::abs(e.x0), std::abs(e.y0), std::abs(e.x1), std::abs(e.y1)});
-      if (segments_touch(e, f, 1e-6 * scale)) {
-        bad[e.loop] = 1;
-        bad[f.loop] = 1;
+      if (pair_touches(e, edges[j])) {
+        mark_pair(e, edges[j], bad);
         any = true;
+      }
+    }
+  }
+  return any;
+}
+
+}  // namespace
+
+bool mark_crossings_sweep(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& bad) {
+  sort_edges(edges);
+  return sweep_sorted(edges, bad);
+}
+
+bool mark_crossings(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& bad) {
+  sort_edges(edges);
+  const std::size_t n = edges.size();
+  if (n <= kGridMinEdges) return sweep_sorted(edges, bad);
+  bool any = false;
+  // A sweep in x alone meets every edge under a long one (the outline of a wall with many holes
+  // is quadratic). The grid finds the same pairs: an edge is entered in every cell its widened box
+  // covers, and a pair is tested once, in the first cell both cover, with the sweep's own test.
+  thread_local CrossingGrid grid;
+  double x_lo = edges.front().x0, x_hi = x_lo, y_lo = edges.front().y0, y_hi = y_lo;
+  for (const CheckEdge& e : edges) {
+    const double margin = 1e-5 * (1.0 + std::abs(e.x1) + std::abs(e.y0) + std::abs(e.y1));
+    x_hi = std::max(x_hi, e.x1 + margin);
+    y_lo = std::min(y_lo, std::min(e.y0, e.y1) - margin);
+    y_hi = std::max(y_hi, std::max(e.y0, e.y1) + margin);
+  }
+  const int side = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
+  const double to_x = side / std::max(x_hi - x_lo, 1e-300);
+  const double to_y = side / std::max(y_hi - y_lo, 1e-300);
+  const auto cell = [side](double t) {  // NaN and out-of-range values are clamped first
+    return !(t > 0) ? 0 : t >= side - 1 ? side - 1 : static_cast<int>(t);
+  };
+  grid.cells.resize(4 * n);
+  grid.start.assign(static_cast<std::size_t>(side) * side + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const CheckEdge& e = edges[i];
+    const double margin = 1e-5 * (1.0 + std::abs(e.x1) + std::abs(e.y0) + std::abs(e.y1));
+    std::int32_t* const c = grid.cells.data() + 4 * i;
+    c[0] = cell((e.x0 - x_lo) * to_x);
+    c[1] = cell((e.x1 + margin - x_lo) * to_x);
+    c[2] = cell((std::min(e.y0, e.y1) - margin - y_lo) * to_y);
+    c[3] = cell((std::max(e.y0, e.y1) + margin - y_lo) * to_y);
+    for (int cy = c[2]; cy <= c[3]; ++cy) {
+      for (int cx = c[0]; cx <= c[1]; ++cx)
+        ++grid.start[static_cast<std::size_t>(cy * side + cx) + 1];
+    }
+  }
+  for (std::size_t k = 1; k < grid.start.size(); ++k) grid.start[k] += grid.start[k - 1];
+  grid.items.resize(static_cast<std::size_t>(grid.start.back()));
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::int32_t* const c = grid.cells.data() + 4 * i;
+    for (int cy = c[2]; cy <= c[3]; ++cy) {
+      for (int cx = c[0]; cx <= c[1]; ++cx) {
+        grid.items[static_cast<std::size_t>(
+            grid.start[static_cast<std::size_t>(cy * side + cx)]++)] = static_cast<std::int32_t>(i);
+      }
+    }
+  }
+  // start[k] is now the end of cell k, i.e. start[k - 1] its beginning.
+  for (int cy = 0; cy < side; ++cy) {
+    for (int cx = 0; cx < side; ++cx) {
+      const std::size_t k = static_cast<std::size_t>(cy * side + cx);
+      const std::int32_t begin = k == 0 ? 0 : grid.start[k - 1], end = grid.start[k];
+      for (std::int32_t p = begin; p < end; ++p) {
+        const std::int32_t i = grid.items[static_cast<std::size_t>(p)];
+        const std::int32_t* const ci = grid.cells.data() + 4 * static_cast<std::size_t>(i);
+        for (std::int32_t q = p + 1; q < end; ++q) {
+          const std::int32_t j = grid.items[static_cast<std::size_t>(q)];
+          const std::int32_t* const cj = grid.cells.data() + 4 * static_cast<std::size_t>(j);
+          if (std::max(ci[0], cj[0]) != cx || std::max(ci[2], cj[2]) != cy) continue;
+          const CheckEdge& e = edges[static_cast<std::size_t>(i)];
+          const CheckEdge& f = edges[static_cast<std::size_t>(j)];
+          if (pair_touches(e, f)) {
+            mark_pair(e, f, bad);
+            any = true;
+          }
+        }
       }
     }
   }
