@@ -838,7 +838,7 @@ TEST(Polygons, CrossingGridMatchesSweep) {
   std::vector<polygons_detail::CheckEdge> apart;
   for (int i = 0; i < 300; ++i) {
     const double x = 0.1 * i;
-    apart.push_back({x, 0.0, x + 0.05, 0.0, 2 * i, 2 * i + 1, i});
+    apart.push_back({x, 0.0, x + 0.05, 0.0, std::int64_t{2} * i, std::int64_t{2} * i + 1, i});
   }
   std::vector<std::uint8_t> none(300, 0);
   EXPECT_FALSE(polygons_detail::mark_crossings(apart, none));

@@ -319,6 +319,10 @@ bool mark_crossings(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& ba
   };
   grid.cells.resize(4 * n);
   grid.start.assign(static_cast<std::size_t>(side) * side + 1, 0);
+  const auto cell_index = [side](int cx, int cy) {
+    return static_cast<std::size_t>(cy) * static_cast<std::size_t>(side) +
+           static_cast<std::size_t>(cx);
+  };
   for (std::size_t i = 0; i < n; ++i) {
     const CheckEdge& e = edges[i];
     const double margin = 1e-5 * (1.0 + std::abs(e.x1) + std::abs(e.y0) + std::abs(e.y1));
@@ -328,8 +332,7 @@ bool mark_crossings(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& ba
     c[2] = cell((std::min(e.y0, e.y1) - margin - y_lo) * to_y);
     c[3] = cell((std::max(e.y0, e.y1) + margin - y_lo) * to_y);
     for (int cy = c[2]; cy <= c[3]; ++cy) {
-      for (int cx = c[0]; cx <= c[1]; ++cx)
-        ++grid.start[static_cast<std::size_t>(cy * side + cx) + 1];
+      for (int cx = c[0]; cx <= c[1]; ++cx) ++grid.start[cell_index(cx, cy) + 1];
     }
   }
   for (std::size_t k = 1; k < grid.start.size(); ++k) grid.start[k] += grid.start[k - 1];
@@ -338,15 +341,15 @@ bool mark_crossings(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& ba
     const std::int32_t* const c = grid.cells.data() + 4 * i;
     for (int cy = c[2]; cy <= c[3]; ++cy) {
       for (int cx = c[0]; cx <= c[1]; ++cx) {
-        grid.items[static_cast<std::size_t>(
-            grid.start[static_cast<std::size_t>(cy * side + cx)]++)] = static_cast<std::int32_t>(i);
+        grid.items[static_cast<std::size_t>(grid.start[cell_index(cx, cy)]++)] =
+            static_cast<std::int32_t>(i);
       }
     }
   }
   // start[k] is now the end of cell k, i.e. start[k - 1] its beginning.
   for (int cy = 0; cy < side; ++cy) {
     for (int cx = 0; cx < side; ++cx) {
-      const std::size_t k = static_cast<std::size_t>(cy * side + cx);
+      const std::size_t k = cell_index(cx, cy);
       const std::int32_t begin = k == 0 ? 0 : grid.start[k - 1], end = grid.start[k];
       for (std::int32_t p = begin; p < end; ++p) {
         const std::int32_t i = grid.items[static_cast<std::size_t>(p)];
