@@ -250,10 +250,6 @@ struct CrossingGrid {
 /// Sets of more edges than this go through the grid; fewer are swept in x order.
 constexpr std::size_t kGridMinEdges = 128;
 
-}  // namespace
-
-namespace {
-
 /// Both implementations start here: every edge left to right, sorted by x0.
 void sort_edges(std::vector<CheckEdge>& edges) {
   for (CheckEdge& e : edges) {
