@@ -806,7 +806,8 @@ TEST(Polygons, CrossingGridMatchesSweep) {
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   int crossing_sets = 0;
   for (int n : {10, 128, 129, 400, 3000}) {
-    for (int loops : {1, 7, 40}) {
+    // One loop per edge (loops == n) compares the marks edge by edge.
+    for (int loops : {1, 7, 40, n}) {
       std::vector<polygons_detail::CheckEdge> edges;
       for (int i = 0; i < n; ++i) {
         const int u = lattice(rng), v = lattice(rng);
