@@ -2,6 +2,7 @@
 // renderer's ground truth and, when present, the SegComp ABW and OSD data.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <cmath>
@@ -228,6 +229,50 @@ TEST(Segmentation, SeedsNeedAFreeRingOfAgreeingNormals) {
   const seg::Frame h = seg::make_frame(cloud, cut, normals, out.labels);
   EXPECT_FALSE(seg::seed_ring_ok(h, at(10, 10), cos_angle));
 }
+
+#if defined(__SSE2__)
+// Boundary re-assignment decides a pixel whose labelled neighbours share one label with one
+// plane test (single_neighbour_label, three vector loads); the label must be the one every
+// labelled neighbour carries, and the unlabelled neighbours exactly the zero ones, whatever the
+// direction mask and the labels outside the 3 x 3 block.
+TEST(Segmentation, NeighbourLabelBlockMatchesTheRing) {
+  constexpr std::ptrdiff_t stride = 7;
+  std::mt19937 rng(5);
+  std::array<std::int32_t, 3 * stride> labels{};
+  const std::ptrdiff_t q = stride + 2;  // (2, 1): its block spans columns 1-4 of rows 0-2
+  int single = 0, mixed = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    // Few distinct labels, so that one shared label is common; 0 = unlabelled.
+    for (auto& l : labels) l = static_cast<std::int32_t>(rng() % (trial % 2 == 0 ? 2 : 4));
+    const unsigned directions = rng() & 0xFFu;
+    unsigned unlabelled = 0;
+    std::vector<std::int32_t> seen;
+    for (int k = 0; k < 8; ++k) {
+      if ((directions >> k & 1u) == 0) continue;
+      const std::int32_t l = labels[q + kNeighbourDv[k] * stride + kNeighbourDu[k]];
+      if (l == 0) {
+        unlabelled |= 1u << k;
+      } else if (std::find(seen.begin(), seen.end(), l) == seen.end()) {
+        seen.push_back(l);
+      }
+    }
+    const seg::NeighbourLabels got =
+        seg::single_neighbour_label(labels.data(), stride, q, directions);
+    ASSERT_EQ(got.unlabelled, unlabelled) << "trial " << trial;
+    ASSERT_EQ(got.single, seen.size() <= 1) << "trial " << trial;
+    if (seen.size() == 1) {
+      ASSERT_EQ(got.label, seen[0]) << "trial " << trial;
+    }
+    if (seen.empty()) {
+      ASSERT_EQ(got.label, 0) << "trial " << trial;
+    }
+    (got.single ? single : mixed) += 1;
+  }
+  // Both outcomes occur (the test would pass vacuously otherwise).
+  EXPECT_GT(single, 1000);
+  EXPECT_GT(mixed, 1000);
+}
+#endif
 
 /// Fraction of the labelled pixels of `a` whose segment's best match in `b` holds them.
 double agreement(const LabelImage& a, const LabelImage& b) {

@@ -7,7 +7,12 @@
 #include <cstdint>
 #include <vector>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "detail/plane_stats.hpp"
+#include "rangeseg/mesh.hpp"
 #include "rangeseg/segmentation.hpp"
 
 namespace rangeseg::seg {
@@ -31,6 +36,60 @@ struct Frame {
   /// Index offset of the 8 mesh neighbour directions (kNeighbourDu/Dv, scaled by s).
   std::array<std::ptrdiff_t, 8> neighbour_offset{};
 };
+
+/// Direction bits (kNeighbourDu/Dv order) of the 3 x 3 block around a pixel, from 3 bits per
+/// row (columns -1, 0, +1) of the rows above, at and below it: index up | mid << 3 | down << 6.
+inline constexpr auto kBlockDirections = [] {
+  std::array<std::uint8_t, 512> table{};
+  for (unsigned i = 0; i < 512; ++i) {
+    const unsigned up = i & 7u, mid = (i >> 3) & 7u, down = (i >> 6) & 7u;
+    unsigned d = 0;
+    for (int k = 0; k < 8; ++k) {
+      const unsigned row = kNeighbourDv[k] < 0 ? up : kNeighbourDv[k] > 0 ? down : mid;
+      d |= ((row >> (kNeighbourDu[k] + 1)) & 1u) << k;
+    }
+    table[i] = static_cast<std::uint8_t>(d);
+  }
+  return table;
+}();
+
+#if defined(__SSE2__)
+struct NeighbourLabels {
+  std::int32_t label = 0;   ///< the one label of the labelled neighbours (0: none)
+  unsigned unlabelled = 0;  ///< direction bits of the unlabelled neighbours
+  bool single = false;      ///< all labelled neighbours carry `label` (or there are none)
+};
+
+/// The labels of the neighbours of pixel q in `directions` (bit k: direction k, lattice step 1),
+/// from three vector loads of the 3 x 4 block starting at q - stride - 1, which must lie inside
+/// the label plane.
+inline NeighbourLabels single_neighbour_label(const std::int32_t* labels, std::ptrdiff_t stride,
+                                              std::ptrdiff_t q, unsigned directions) {
+  const std::int32_t* const left = labels + q - 1;
+  const __m128i up = _mm_loadu_si128(reinterpret_cast<const __m128i*>(left - stride));
+  const __m128i mid = _mm_loadu_si128(reinterpret_cast<const __m128i*>(left));
+  const __m128i down = _mm_loadu_si128(reinterpret_cast<const __m128i*>(left + stride));
+  const auto bits_of = [](__m128i a, __m128i b, __m128i c, __m128i value) {
+    const auto bits = [&](__m128i row) {
+      return static_cast<unsigned>(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(row, value)))) &
+             7u;
+    };
+    return static_cast<unsigned>(kBlockDirections[bits(a) | bits(b) << 3 | bits(c) << 6]);
+  };
+  NeighbourLabels out;
+  out.unlabelled = bits_of(up, mid, down, _mm_setzero_si128()) & directions;
+  const unsigned labelled = directions & ~out.unlabelled;
+  if (labelled == 0) {
+    out.single = true;
+    return out;
+  }
+  const int first = std::countr_zero(labelled);
+  const std::ptrdiff_t offset = kNeighbourDv[first] * stride + kNeighbourDu[first];
+  out.label = labels[q + offset];
+  out.single = (labelled & ~bits_of(up, mid, down, _mm_set1_epi32(out.label))) == 0;
+  return out;
+}
+#endif
 
 /// Side of the square cells of the coarse growing level [lattice steps] (8 x 8 vertices).
 inline constexpr int kCellSide = 8;

@@ -485,6 +485,9 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
   }
   const double k = settings.max_distance_sigmas;
   const double cos_max_angle = std::cos(settings.reassign_max_normal_angle);
+  // Pixels whose 3 x 4 label block starting at q - stride - 1 lies inside the plane (step 1).
+  const std::ptrdiff_t block_first = f.stride + 1;
+  const std::ptrdiff_t block_last = step == 1 ? (f.height - 1) * f.stride - 3 : -1;
   while (size > 0) {
     const std::int32_t q = ring[head];
     if (++head == capacity) head = 0;
@@ -496,6 +499,23 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
     double best_distance = k * settings.noise.sigma(z);
     unsigned mask = reassign_mask<kAcrossCuts>(f, q);
     unsigned unlabelled = 0;  // neighbours to queue if q joins a segment
+#if defined(__SSE2__)
+    // Nearly always the labelled neighbours carry one label: one test decides, as in the loop
+    // below (which would repeat the same test for each of them).
+    if (q >= block_first && q <= block_last) {
+      const NeighbourLabels around = single_neighbour_label(f.labels, f.stride, q, mask);
+      if (around.single) {
+        unlabelled = around.unlabelled;
+        const detail::PlaneFit& fit = s.fits[around.label];
+        const double d = std::fabs(fit.distance(x, y, z));
+        if (fit.ok && d <= best_distance &&
+            (kAcrossCuts || normal_fits(fit, f, q, cos_max_angle))) {
+          best = around.label;
+        }
+        mask = 0;
+      }
+    }
+#endif
     while (mask != 0) {
       const int n = std::countr_zero(mask);
       mask &= mask - 1;

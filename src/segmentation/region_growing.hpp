@@ -124,22 +124,6 @@ inline unsigned candidate_neighbours(const std::int32_t* labels, const std::ptrd
 }
 
 #if defined(__SSE2__)
-/// Direction bits (kNeighbourDu/Dv order) of the 3 x 3 block around a pixel, from 3 bits per
-/// row (columns -1, 0, +1) of the rows above, at and below it: index up | mid << 3 | down << 6.
-inline constexpr auto kBlockDirections = [] {
-  std::array<std::uint8_t, 512> table{};
-  for (unsigned i = 0; i < 512; ++i) {
-    const unsigned up = i & 7u, mid = (i >> 3) & 7u, down = (i >> 6) & 7u;
-    unsigned d = 0;
-    for (int k = 0; k < 8; ++k) {
-      const unsigned row = kNeighbourDv[k] < 0 ? up : kNeighbourDv[k] > 0 ? down : mid;
-      d |= ((row >> (kNeighbourDu[k] + 1)) & 1u) << k;
-    }
-    table[i] = static_cast<std::uint8_t>(d);
-  }
-  return table;
-}();
-
 /// `candidate_neighbours` for lattice step 1 and a pixel whose 3 x 4 block starting at
 /// p - stride - 1 lies inside the label plane: three vector loads instead of a loop.
 inline unsigned candidate_block(const std::int32_t* labels, std::ptrdiff_t stride, std::int32_t p,
