@@ -113,9 +113,28 @@ void Pipeline::process(const OrganizedCloud& cloud) {
     times_.smoothing = ms_since(t);
   }
   if (settings_.segment) {
-    segmenter_.segment(this->cloud(), mesh_, normals(), settings_.segmentation, segmentation_);
+    // With threads, the segments' areas are summed alongside the polygons (which do not read
+    // them); the auto model needs them earlier, to add up the areas of the pieces it joins.
+    const bool areas_alongside = pool != nullptr && settings_.polygons &&
+                                 settings_.segmentation.compute_area &&
+                                 settings_.segmentation.model != RegionModel::automatic;
+    SegmentationSettings segmentation = settings_.segmentation;
+    if (areas_alongside) segmentation.compute_area = false;
+    segmenter_.segment(this->cloud(), mesh_, normals(), segmentation, segmentation_);
     times_.segmentation = ms_since(t);
-    if (settings_.polygons) {
+    if (areas_alongside) {
+      pool->for_each_band(2, 1, [&](int, int task_begin, int task_end) {
+        for (int task = task_begin; task < task_end; ++task) {
+          if (task == 0) {
+            segmenter_.compute_areas(this->cloud(), mesh_, segmentation_);
+          } else {
+            polygon_extractor_.extract(this->cloud(), mesh_, segmentation_, settings_.polygon,
+                                       polygons_);
+          }
+        }
+      });
+      times_.polygons = ms_since(t);
+    } else if (settings_.polygons) {
       polygon_extractor_.extract(this->cloud(), mesh_, segmentation_, settings_.polygon, polygons_);
       times_.polygons = ms_since(t);
     } else {

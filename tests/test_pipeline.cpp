@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cstdlib>
 #include <cstring>
 #include <new>
@@ -130,6 +131,15 @@ TEST(Pipeline, ThreadsInsideAFrameGiveIdenticalResults) {
       EXPECT_TRUE(same_bits(threaded.segmentation().labels, reference.segmentation().labels))
           << what;
       ASSERT_EQ(threaded.segmentation().segments.size(), reference.segmentation().segments.size());
+      ASSERT_FALSE(reference.segmentation().segments.empty());
+      // Areas are summed alongside the polygons with threads: the same sums.
+      for (std::size_t j = 0; j < reference.segmentation().segments.size(); ++j) {
+        const double area = reference.segmentation().segments[j].area_m2;
+        EXPECT_GT(area, 0.0) << what << " segment " << j;
+        EXPECT_EQ(std::bit_cast<std::uint64_t>(threaded.segmentation().segments[j].area_m2),
+                  std::bit_cast<std::uint64_t>(area))
+            << what << " segment " << j;
+      }
       EXPECT_EQ(threaded.polygons().points3d, reference.polygons().points3d) << what;
     }
   }

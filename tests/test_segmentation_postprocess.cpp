@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -184,6 +185,35 @@ TEST(SegmentationPostprocess, AreasEqualPerFaceSums) {
       }
     }
   }
+}
+
+TEST(SegmentationPostprocess, AreasComputedLaterEqualAreasComputedInline) {
+  for (const int stride : {1, 2}) {
+    const Input in = synthetic_input(6, false, stride);
+    SegmentationSettings settings = preset("kinect");
+    const Segmentation inline_areas = segment(in.cloud, in.mesh, in.normals, settings);
+    settings.compute_area = false;
+    Segmenter segmenter;
+    Segmentation later;
+    segmenter.segment(in.cloud, in.mesh, in.normals, settings, later);
+    ASSERT_GT(later.segments.size(), 2u);
+    for (const Segment& segment : later.segments) EXPECT_EQ(segment.area_m2, 0.0);
+    segmenter.compute_areas(in.cloud, in.mesh, later);
+    expect_identical(inline_areas, later, "stride " + std::to_string(stride));
+  }
+  // A label that names no segment, or a label image of another size, is rejected.
+  const Input in = synthetic_input(6, false, 1);
+  Segmenter segmenter;
+  Segmentation out;
+  segmenter.segment(in.cloud, in.mesh, in.normals, preset("kinect"), out);
+  Segmentation bad = out;
+  bad.labels(5, 7) = static_cast<std::int32_t>(out.segments.size()) + 1;
+  EXPECT_THROW(segmenter.compute_areas(in.cloud, in.mesh, bad), std::invalid_argument);
+  bad.labels(5, 7) = -1;
+  EXPECT_THROW(segmenter.compute_areas(in.cloud, in.mesh, bad), std::invalid_argument);
+  bad = out;
+  bad.labels.resize(10, 10, 0);
+  EXPECT_THROW(segmenter.compute_areas(in.cloud, in.mesh, bad), std::invalid_argument);
 }
 
 TEST(SegmentationPostprocess, ReusedSegmenterMatchesFreshOne) {

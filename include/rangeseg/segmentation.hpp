@@ -176,6 +176,14 @@ class Segmenter {
   void segment(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
                const SegmentationSettings& settings, Segmentation& out);
 
+  /// Sets Segment::area_m2 of every segment of `out` (a segmentation of this cloud and mesh,
+  /// e.g. made with compute_area = false) [m^2]: a third of each mesh triangle's area and a
+  /// quarter of each quad's go to each of its labelled corners, label j + 1 being segments[j].
+  /// Reads only the labels, points and faces and writes only the areas, so it may run while
+  /// another thread reads the rest of `out` (Pipeline does so alongside the polygons). Throws
+  /// std::invalid_argument for mismatched sizes or a label outside [0, segments.size()].
+  void compute_areas(const OrganizedCloud& cloud, const Mesh& mesh, Segmentation& out);
+
   struct Scratch;
 
  private:

@@ -200,7 +200,13 @@ void grow_smooth(const Frame& frame, const SegmentationSettings& settings,
 int adjacency_pixels(const std::int32_t* row, const std::int32_t* below, int begin, int end,
                      std::int32_t* out, int& found);
 
-/// Refit, merge, small-region removal, boundary re-assignment, compaction and the Segment list.
+/// Segment::area_m2 of every segment (label j + 1 for segments[j]; every label of the frame at
+/// most segments.size()): a third of each triangle's area and a quarter of each quad's per
+/// labelled corner.
+void segment_areas(const Frame& frame, Segmenter::Scratch& scratch, std::vector<Segment>& segments);
+
+/// Refit, merge, small-region removal, boundary re-assignment, compaction and the Segment list
+/// (areas 0: see segment_areas).
 void postprocess(const Frame& frame, const SegmentationSettings& settings,
                  Segmenter::Scratch& scratch, Segmentation& out);
 

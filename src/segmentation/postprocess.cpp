@@ -688,20 +688,12 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
   remap_labels(labels, remap, static_cast<int>(pixels));
 
   const std::size_t n = s.order.size();
-  s.area.assign(n + 1, 0.0);
-  if (settings.compute_area) {
-    if (f.pixel_stride != 1 || f.width < 2 || !accumulate_areas_vector(f, s)) {
-      s.area.assign(n + 1, 0.0);
-      accumulate_areas(f, s);
-    }
-  }
-
   out.segments.resize(n);
   for (std::size_t j = 0; j < n; ++j) {
     Segment& seg = out.segments[j];
     seg.label = static_cast<int>(j + 1);
     seg.model = settings.model;
-    seg.area_m2 = s.area[j + 1];
+    seg.area_m2 = 0;
     // After merging, the fit of every surviving region is that of its final statistics.
     if (planes && settings.merge_planes) {
       fill_plane_fields(s.regions[s.order[j]], s.fits[s.order[j]], seg);
@@ -709,6 +701,16 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
       fill_plane_fields(s.regions[s.order[j]], s.regions[s.order[j]].fit(), seg);
     }
   }
+}
+
+void segment_areas(const Frame& f, Segmenter::Scratch& s, std::vector<Segment>& segments) {
+  const std::size_t n = segments.size();
+  s.area.assign(n + 1, 0.0);
+  if (f.pixel_stride != 1 || f.width < 2 || !accumulate_areas_vector(f, s)) {
+    s.area.assign(n + 1, 0.0);
+    accumulate_areas(f, s);
+  }
+  for (std::size_t j = 0; j < n; ++j) segments[j].area_m2 = s.area[j + 1];
 }
 
 void set_plane_fields(const PlaneStats& stats, Segment& seg) {

@@ -1,4 +1,5 @@
 // Segmentation entry points: validation, seed ordering, and dispatch to the region models.
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -228,6 +229,7 @@ void Segmenter::segment(const OrganizedCloud& cloud, const Mesh& mesh, const Nor
       for (Segment& segment : out.segments) segment.model = settings.model;
     }
   }
+  if (settings.compute_area) seg::segment_areas(f, s, out.segments);
   if (settings.model == RegionModel::automatic) {
     seg::fit_primitives(f, settings, out);
   } else {
@@ -238,6 +240,51 @@ void Segmenter::segment(const OrganizedCloud& cloud, const Mesh& mesh, const Nor
       segment.surface_rms = segment.rms_residual;
     }
   }
+}
+
+void Segmenter::compute_areas(const OrganizedCloud& cloud, const Mesh& mesh, Segmentation& out) {
+  require_size("the mesh", mesh.width(), mesh.height(), cloud);
+  require_size("the label image", out.labels.width(), out.labels.height(), cloud);
+  if (mesh.pixel_stride < 1) {
+    throw std::invalid_argument("compute_areas: mesh.pixel_stride = " +
+                                std::to_string(mesh.pixel_stride) + " must be >= 1");
+  }
+  // Labels index the per-segment sums: each must name a segment.
+  const auto segments = static_cast<std::int32_t>(out.segments.size());
+  for (int v = 0; v < out.labels.height(); ++v) {
+    const std::int32_t* row = out.labels.row(v);
+    std::int32_t low = 0, high = 0;
+    for (int u = 0; u < out.labels.width(); ++u) {
+      low = std::min(low, row[u]);
+      high = std::max(high, row[u]);
+    }
+    if (low < 0 || high > segments) {
+      throw std::invalid_argument("compute_areas: label " + std::to_string(low < 0 ? low : high) +
+                                  " in row " + std::to_string(v) + " is not in [0, " +
+                                  std::to_string(segments) + "] (one per segment)");
+    }
+  }
+  if (!scratch_) scratch_ = std::make_unique<Scratch>();
+  seg::Frame f;
+  f.x = cloud.x.row(0);
+  f.y = cloud.y.row(0);
+  f.z = cloud.z.row(0);
+  f.faces = mesh.faces.row(0);
+  f.labels = out.labels.row(0);
+  f.width = cloud.width();
+  f.height = cloud.height();
+  f.stride = cloud.z.stride();
+  f.pixel_stride = mesh.pixel_stride;
+  for (const std::ptrdiff_t stride :
+       {cloud.x.stride(), cloud.y.stride(), mesh.faces.stride(), out.labels.stride()}) {
+    if (stride != f.stride) {
+      throw std::invalid_argument(
+          "compute_areas: planes of equal width have different row "
+          "strides (" +
+          std::to_string(stride) + " vs " + std::to_string(f.stride) + ")");
+    }
+  }
+  seg::segment_areas(f, *scratch_, out.segments);
 }
 
 void segment(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
