@@ -1,11 +1,15 @@
 // Triangulation of polygons with holes (hole bridging + ear clipping) and the OBJ writer.
 //
-// Polygons here are the simplified loops: tens of vertices, so the O(n^2) bridging and ear
-// clipping are cheap and simple to get right.
+// Polygons are the simplified loops: mostly tens of vertices, but a surface seen through much
+// clutter can have thousands of holes, so neither step may scan the whole polygon per vertex.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/polygons.hpp"
@@ -47,47 +51,144 @@ bool in_wedge(const std::vector<int>& poly, std::size_t j, const std::vector<P2>
   return orient(prev, p, next) >= 0 ? (left_prev && left_next) : (left_prev || left_next);
 }
 
-// Ear clipping of a weakly simple CCW polygon (bridges repeat vertices).
-void ear_clip(std::vector<int> poly, const std::vector<P2>& pts,
-              std::vector<std::array<int, 3>>& tris) {
-  auto pt = [&](int i) -> const P2& { return pts[static_cast<std::size_t>(i)]; };
-  while (poly.size() > 3) {
+/// The vertices of a polygon bucketed by a uniform grid over their bounding box (about one
+/// vertex per cell), so that the vertices inside a small triangle are found without visiting
+/// all of them.
+class VertexGrid {
+ public:
+  VertexGrid(const std::vector<int>& poly, const std::vector<P2>& pts) {
     const std::size_t n = poly.size();
-    std::size_t ear = n;
-    for (std::size_t i = 0; i < n && ear == n; ++i) {
-      const int a = poly[(i + n - 1) % n], b = poly[i], c = poly[(i + 1) % n];
-      if (orient(pt(a), pt(b), pt(c)) <= 0) continue;
-      bool empty = true;
-      for (std::size_t k = 0; k < n && empty; ++k) {
-        const int q = poly[k];
-        if (q == a || q == b || q == c) continue;
-        const P2& p = pt(q);
-        if (p == pt(a) || p == pt(b) || p == pt(c)) continue;
-        empty = !(orient(pt(a), pt(b), p) >= 0 && orient(pt(b), pt(c), p) >= 0 &&
-                  orient(pt(c), pt(a), p) >= 0);
+    lo_ = hi_ = pts[static_cast<std::size_t>(poly[0])];
+    for (const int i : poly) {
+      const P2& p = pts[static_cast<std::size_t>(i)];
+      for (int k = 0; k < 2; ++k) {
+        lo_[k] = std::min(lo_[k], p[k]);
+        hi_[k] = std::max(hi_[k], p[k]);
       }
-      if (empty) ear = i;
     }
-    if (ear == n) {
-      // Numerically degenerate remainder: clip the most convex vertex to terminate.
-      double best = -INFINITY;
-      for (std::size_t i = 0; i < n; ++i) {
-        const double o = orient(pt(poly[(i + n - 1) % n]), pt(poly[i]), pt(poly[(i + 1) % n]));
-        if (o > best) {
-          best = o;
-          ear = i;
+    const double w = std::max(static_cast<double>(hi_[0]) - lo_[0], 1e-12);
+    const double h = std::max(static_cast<double>(hi_[1]) - lo_[1], 1e-12);
+    const double cell = std::sqrt(w * h / static_cast<double>(n)) + 1e-12;
+    cols_ = static_cast<int>(std::clamp(std::ceil(w / cell), 1.0, 4096.0));
+    rows_ = static_cast<int>(std::clamp(std::ceil(h / cell), 1.0, 4096.0));
+    sx_ = cols_ / w;
+    sy_ = rows_ / h;
+    start_.assign(static_cast<std::size_t>(cols_) * rows_ + 1, 0);
+    std::vector<std::size_t> cell_of(n);
+    for (std::size_t j = 0; j < n; ++j) {
+      cell_of[j] = cell_index(pts[static_cast<std::size_t>(poly[j])]);
+      ++start_[cell_of[j] + 1];
+    }
+    for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+    items_.resize(n);
+    std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
+    for (std::size_t j = 0; j < n; ++j) items_[fill[cell_of[j]]++] = j;
+  }
+
+  /// Calls fn(j) for every vertex position j in a cell the box [lo, hi] overlaps, until fn
+  /// returns false; returns whether it never did.
+  template <class F>
+  bool all_in_box(const P2& lo, const P2& hi, F&& fn) const {
+    const int c0 = column(lo[0]), c1 = column(hi[0]), r0 = row(lo[1]), r1 = row(hi[1]);
+    for (int r = r0; r <= r1; ++r) {
+      for (int c = c0; c <= c1; ++c) {
+        const std::size_t cell = static_cast<std::size_t>(r) * cols_ + c;
+        for (std::size_t k = start_[cell]; k < start_[cell + 1]; ++k) {
+          if (!fn(items_[k])) return false;
         }
       }
-      if (best <= 0) {
-        poly.erase(poly.begin() + static_cast<std::ptrdiff_t>(ear));
-        continue;
+    }
+    return true;
+  }
+
+ private:
+  int column(float x) const {
+    return static_cast<int>(std::clamp((x - lo_[0]) * sx_, 0.0, cols_ - 1.0));
+  }
+  int row(float y) const {
+    return static_cast<int>(std::clamp((y - lo_[1]) * sy_, 0.0, rows_ - 1.0));
+  }
+  std::size_t cell_index(const P2& p) const {
+    return static_cast<std::size_t>(row(p[1])) * cols_ + static_cast<std::size_t>(column(p[0]));
+  }
+
+  P2 lo_{}, hi_{};
+  int cols_ = 1, rows_ = 1;
+  double sx_ = 1, sy_ = 1;
+  std::vector<std::size_t> start_, items_;
+};
+
+// Ear clipping of a weakly simple CCW polygon (bridges repeat vertices): the vertices are a
+// linked ring; the walk clips every ear it meets and goes on from the next vertex, and a
+// candidate ear is tested only against the remaining vertices the grid puts near it. O(n) ear
+// tests on typical outlines instead of the O(n^2) of rescanning from the start, which took
+// minutes on outlines with thousands of holes.
+void ear_clip(const std::vector<int>& poly, const std::vector<P2>& pts,
+              std::vector<std::array<int, 3>>& tris) {
+  const std::size_t n = poly.size();
+  if (n < 3) return;
+  auto pt = [&](std::size_t j) -> const P2& { return pts[static_cast<std::size_t>(poly[j])]; };
+  std::vector<std::size_t> prev(n), next(n);
+  std::vector<std::uint8_t> alive(n, 1);
+  for (std::size_t j = 0; j < n; ++j) {
+    prev[j] = (j + n - 1) % n;
+    next[j] = (j + 1) % n;
+  }
+  const VertexGrid grid(poly, pts);
+  const auto is_ear = [&](std::size_t j) {
+    const std::size_t ja = prev[j], jc = next[j];
+    const P2 &a = pt(ja), &b = pt(j), &c = pt(jc);
+    if (orient(a, b, c) <= 0) return false;
+    const P2 lo{std::min({a[0], b[0], c[0]}), std::min({a[1], b[1], c[1]})};
+    const P2 hi{std::max({a[0], b[0], c[0]}), std::max({a[1], b[1], c[1]})};
+    const int ia = poly[ja], ib = poly[j], ic = poly[jc];
+    return grid.all_in_box(lo, hi, [&](std::size_t k) {
+      if (!alive[k]) return true;
+      const int q = poly[k];
+      if (q == ia || q == ib || q == ic) return true;
+      const P2& p = pt(k);
+      if (p == a || p == b || p == c) return true;
+      return !(orient(a, b, p) >= 0 && orient(b, c, p) >= 0 && orient(c, a, p) >= 0);
+    });
+  };
+  const auto remove = [&](std::size_t j) {
+    alive[j] = 0;
+    next[prev[j]] = next[j];
+    prev[next[j]] = prev[j];
+  };
+  std::size_t left = n, j = 0, unclipped = 0;  // vertices visited since the last clip
+  while (left > 3) {
+    if (is_ear(j)) {
+      tris.push_back({poly[prev[j]], poly[j], poly[next[j]]});
+      const std::size_t after = next[j];
+      remove(j);
+      --left;
+      // The previous vertex may have become an ear: step back to it.
+      j = prev[after];
+      unclipped = 0;
+      continue;
+    }
+    j = next[j];
+    if (++unclipped <= left) continue;
+    // A whole turn without an ear (numerically degenerate remainder): clip the most convex
+    // vertex, or drop a flat one, to terminate.
+    double best = -INFINITY;
+    std::size_t ear = j;
+    for (std::size_t k = j, t = 0; t < left; k = next[k], ++t) {
+      const double o = orient(pt(prev[k]), pt(k), pt(next[k]));
+      if (o > best) {
+        best = o;
+        ear = k;
       }
     }
-    tris.push_back({poly[(ear + n - 1) % n], poly[ear], poly[(ear + 1) % n]});
-    poly.erase(poly.begin() + static_cast<std::ptrdiff_t>(ear));
+    if (best > 0) tris.push_back({poly[prev[ear]], poly[ear], poly[next[ear]]});
+    j = next[ear];
+    remove(ear);
+    --left;
+    unclipped = 0;
   }
-  if (poly.size() == 3 && orient(pt(poly[0]), pt(poly[1]), pt(poly[2])) > 0) {
-    tris.push_back({poly[0], poly[1], poly[2]});
+  if (orient(pt(prev[j]), pt(j), pt(next[j])) > 0) {
+    tris.push_back({poly[prev[j]], poly[j], poly[next[j]]});
   }
 }
 
@@ -97,6 +198,7 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
   triangles.clear();
   const std::vector<P2>& pts = polygons.points2d;
   std::vector<int> poly, holes;
+  std::vector<std::pair<double, std::size_t>> candidates;  // (squared distance, index in poly)
   for (std::size_t li = 0; li < polygons.loops.size(); ++li) {
     const PolygonLoop& outer = polygons.loops[li];
     if (outer.is_hole) continue;
@@ -125,13 +227,25 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
       const PolygonLoop& hl = polygons.loops[static_cast<std::size_t>(holes[hi])];
       const int m = max_x_vertex(holes[hi]);
       const P2& pm = pts[static_cast<std::size_t>(m)];
-      std::size_t best = poly.size();
-      double best_d = INFINITY;
+      // The bridge goes to the nearest vertex (first in polygon order among equals) that sees
+      // pm; candidates are tried nearest first, so usually only one pays for the visibility
+      // test (O(n) edges each: trying all made a polygon with hundreds of holes take minutes).
+      candidates.clear();
       for (std::size_t j = 0; j < poly.size(); ++j) {
         const P2& pp = pts[static_cast<std::size_t>(poly[j])];
-        const double d =
-            std::hypot(static_cast<double>(pp[0]) - pm[0], static_cast<double>(pp[1]) - pm[1]);
-        if (d >= best_d || !in_wedge(poly, j, pts, pm)) continue;
+        const double dx = static_cast<double>(pp[0]) - pm[0],
+                     dy = static_cast<double>(pp[1]) - pm[1];
+        candidates.push_back({dx * dx + dy * dy, j});
+      }
+      // A min-heap: building it is O(n), and only the few nearest are popped.
+      std::make_heap(candidates.begin(), candidates.end(), std::greater<>{});
+      std::size_t best = poly.size();
+      while (!candidates.empty()) {
+        std::pop_heap(candidates.begin(), candidates.end(), std::greater<>{});
+        const std::size_t j = candidates.back().second;
+        candidates.pop_back();
+        const P2& pp = pts[static_cast<std::size_t>(poly[j])];
+        if (!in_wedge(poly, j, pts, pm)) continue;
         bool clear = true;
         for (std::size_t e = 0; e < poly.size() && clear; ++e) {
           clear = !segments_cross(pm, pp, pts[static_cast<std::size_t>(poly[e])],
@@ -147,7 +261,7 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
         }
         if (clear) {
           best = j;
-          best_d = d;
+          break;
         }
       }
       if (best == poly.size()) continue;  // no visible vertex (degenerate input): skip the hole
