@@ -597,8 +597,9 @@ TEST(Polygons, ObjTriangulationOfOutlinesWithManyHoles) {
   int most_holes = 0;
   for (const SegmentPolygons& sp : ps.segments) {
     int holes = 0;
-    for (int l = sp.first_loop; l < sp.first_loop + sp.loop_count; ++l)
+    for (int l = sp.first_loop; l < sp.first_loop + sp.loop_count; ++l) {
       holes += ps.loops[l].is_hole;
+    }
     most_holes = std::max(most_holes, holes);
   }
   ASSERT_GT(most_holes, 1000);
