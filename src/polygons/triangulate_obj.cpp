@@ -17,11 +17,11 @@
 namespace rangeseg {
 namespace {
 
-using P2 = std::array<float, 2>;
+// Double: vertices where loops touch are moved by a thousandth of an edge.
+using P2 = std::array<double, 2>;
 
 double orient(const P2& a, const P2& b, const P2& c) {
-  return (static_cast<double>(b[0]) - a[0]) * (static_cast<double>(c[1]) - a[1]) -
-         (static_cast<double>(b[1]) - a[1]) * (static_cast<double>(c[0]) - a[0]);
+  return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
 }
 
 // Proper crossing or touching of segments a-b and c-d, ignoring shared end points.
@@ -102,10 +102,10 @@ class VertexGrid {
   }
 
  private:
-  int column(float x) const {
+  int column(double x) const {
     return static_cast<int>(std::clamp((x - lo_[0]) * sx_, 0.0, cols_ - 1.0));
   }
-  int row(float y) const {
+  int row(double y) const {
     return static_cast<int>(std::clamp((y - lo_[1]) * sy_, 0.0, rows_ - 1.0));
   }
   std::size_t cell_index(const P2& p) const {
@@ -192,11 +192,88 @@ void ear_clip(const std::vector<int>& poly, const std::vector<P2>& pts,
   }
 }
 
+/// Unit vector from p into the region a loop encloses (the solid for a counter-clockwise outer
+/// loop, the hole for a clockwise one) at vertex p with neighbours u (before) and w (after):
+/// the bisector of the enclosed angle.
+P2 into_enclosed(const P2& u, const P2& p, const P2& w, bool counter_clockwise) {
+  const auto unit = [](double x, double y) {
+    const double n = std::hypot(x, y);
+    return n > 0 ? P2{x / n, y / n} : P2{0, 0};
+  };
+  const P2 a = unit(u[0] - p[0], u[1] - p[1]), b = unit(w[0] - p[0], w[1] - p[1]);
+  P2 d = unit(a[0] + b[0], a[1] + b[1]);
+  const double turn = orient(u, p, w);
+  if (d == P2{0, 0}) {
+    // Straight through p: the normal on the enclosed side (left of u -> w when CCW).
+    d = counter_clockwise ? P2{-b[1], b[0]} : P2{b[1], -b[0]};
+  } else if ((turn > 0) != counter_clockwise) {
+    d = {-d[0], -d[1]};  // a reflex corner of the enclosed region
+  }
+  return d;
+}
+
+/// Where loops of one segment touch (a vertex of one at the position of a vertex of another,
+/// or a loop through one point twice), moves the touching vertices a little into the region
+/// their loop encloses, so that every outline with its holes is a simple polygon: ear clipping
+/// is exact only for those (touching loops made it emit overlapping triangles). A hole's vertex
+/// moves into the hole; a vertex of an outer loop moves into its solid only when another outer
+/// vertex is there too (a hole's hole-side wedge lies inside the outline's solid-side wedge, so
+/// moving the outline's vertex could cross the hole). The move is a thousandth of the shorter
+/// adjacent edge: the triangles keep the original vertex indices.
+void separate_touching_vertices(const PolygonSet& polygons, std::vector<P2>& pts) {
+  std::vector<int> loop_of(pts.size(), -1);
+  for (std::size_t l = 0; l < polygons.loops.size(); ++l) {
+    const PolygonLoop& loop = polygons.loops[l];
+    for (int i = loop.first; i < loop.first + loop.count; ++i) {
+      loop_of[static_cast<std::size_t>(i)] = static_cast<int>(l);
+    }
+  }
+  std::vector<int> order;
+  order.reserve(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    if (loop_of[i] >= 0) order.push_back(static_cast<int>(i));
+  }
+  const std::vector<P2> original = pts;
+  const auto at = [&](int i) -> const P2& { return original[static_cast<std::size_t>(i)]; };
+  std::sort(order.begin(), order.end(),
+            [&](int a, int b) { return at(a) != at(b) ? at(a) < at(b) : a < b; });
+  for (std::size_t g = 0; g < order.size();) {
+    std::size_t end = g + 1;
+    while (end < order.size() && at(order[end]) == at(order[g])) ++end;
+    if (end - g > 1) {
+      int outer = 0;
+      for (std::size_t k = g; k < end; ++k) {
+        outer += !polygons.loops[static_cast<std::size_t>(loop_of[order[k]])].is_hole;
+      }
+      for (std::size_t k = g; k < end; ++k) {
+        const auto i = static_cast<std::size_t>(order[k]);
+        const PolygonLoop& loop = polygons.loops[static_cast<std::size_t>(loop_of[i])];
+        if (!loop.is_hole && outer < 2) continue;
+        const int j = static_cast<int>(i) - loop.first;
+        const int before = loop.first + (j + loop.count - 1) % loop.count;
+        const int after = loop.first + (j + 1) % loop.count;
+        const P2& u = original[static_cast<std::size_t>(before)];
+        const P2& w = original[static_cast<std::size_t>(after)];
+        const P2& p = original[i];
+        const double step = 1e-3 * std::min(std::hypot(u[0] - p[0], u[1] - p[1]),
+                                            std::hypot(w[0] - p[0], w[1] - p[1]));
+        const P2 d = into_enclosed(u, p, w, !loop.is_hole);
+        pts[i] = {p[0] + step * d[0], p[1] + step * d[1]};
+      }
+    }
+    g = end;
+  }
+}
+
 }  // namespace
 
 void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int, 3>>& triangles) {
   triangles.clear();
-  const std::vector<P2>& pts = polygons.points2d;
+  std::vector<P2> pts(polygons.points2d.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    pts[i] = {polygons.points2d[i][0], polygons.points2d[i][1]};
+  }
+  separate_touching_vertices(polygons, pts);
   std::vector<int> poly, holes;
   std::vector<std::pair<double, std::size_t>> candidates;  // (squared distance, index in poly)
   for (std::size_t li = 0; li < polygons.loops.size(); ++li) {
@@ -274,6 +351,15 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
     }
     ear_clip(poly, pts, triangles);
   }
+  // Slivers at moved vertices can be flat or flipped in the original coordinates (of negligible
+  // area; a viewer would show them as back faces).
+  const auto original = [&](int i) {
+    const auto& p = polygons.points2d[static_cast<std::size_t>(i)];
+    return P2{p[0], p[1]};
+  };
+  std::erase_if(triangles, [&](const std::array<int, 3>& t) {
+    return !(orient(original(t[0]), original(t[1]), original(t[2])) > 0);
+  });
 }
 
 std::string polygons_to_obj(const PolygonSet& polygons) {
