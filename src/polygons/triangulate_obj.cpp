@@ -66,8 +66,8 @@ class VertexGrid {
         hi_[k] = std::max(hi_[k], p[k]);
       }
     }
-    const double w = std::max(static_cast<double>(hi_[0]) - lo_[0], 1e-12);
-    const double h = std::max(static_cast<double>(hi_[1]) - lo_[1], 1e-12);
+    const double w = std::max(hi_[0] - lo_[0], 1e-12);
+    const double h = std::max(hi_[1] - lo_[1], 1e-12);
     const double cell = std::sqrt(w * h / static_cast<double>(n)) + 1e-12;
     cols_ = static_cast<int>(std::clamp(std::ceil(w / cell), 1.0, 4096.0));
     rows_ = static_cast<int>(std::clamp(std::ceil(h / cell), 1.0, 4096.0));
@@ -310,8 +310,7 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
       candidates.clear();
       for (std::size_t j = 0; j < poly.size(); ++j) {
         const P2& pp = pts[static_cast<std::size_t>(poly[j])];
-        const double dx = static_cast<double>(pp[0]) - pm[0],
-                     dy = static_cast<double>(pp[1]) - pm[1];
+        const double dx = pp[0] - pm[0], dy = pp[1] - pm[1];
         candidates.push_back({dx * dx + dy * dy, j});
       }
       // A min-heap: building it is O(n), and only the few nearest are popped.
