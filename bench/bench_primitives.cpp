@@ -10,11 +10,12 @@
 #include "rangeseg/pipeline.hpp"
 #include "rangeseg/segmentation.hpp"
 #include "rangeseg/synth.hpp"
+#include "rangeseg/thread_pool.hpp"
 
 namespace {
 
 void run(benchmark::State& state, const rangeseg::OrganizedCloud& cloud,
-         rangeseg::RegionModel model) {
+         rangeseg::RegionModel model, int threads = 1) {
   rangeseg::PipelineSettings settings = rangeseg::pipeline_preset("kinect");
   settings.segment = false;
   settings.polygons = false;
@@ -24,8 +25,9 @@ void run(benchmark::State& state, const rangeseg::OrganizedCloud& cloud,
   seg.model = model;
   rangeseg::Segmenter segmenter;
   rangeseg::Segmentation out;
+  rangeseg::ThreadPool pool(threads);
   for (auto _ : state) {
-    segmenter.segment(pipeline.cloud(), pipeline.mesh(), pipeline.normals(), seg, out);
+    segmenter.segment(pipeline.cloud(), pipeline.mesh(), pipeline.normals(), seg, out, pool);
     benchmark::DoNotOptimize(out.labels.row(0));
   }
   int curved = 0;
@@ -34,13 +36,13 @@ void run(benchmark::State& state, const rangeseg::OrganizedCloud& cloud,
   state.counters["curved"] = curved;
 }
 
-void kinect_frame(benchmark::State& state, rangeseg::RegionModel model) {
+void kinect_frame(benchmark::State& state, rangeseg::RegionModel model, int threads = 1) {
   const std::string path = RANGESEG_SOURCE_DIR "/../shared/data/kinect/grabber_frame0.pcd";
   if (!std::filesystem::exists(path)) {
     state.SkipWithError(("shared data not found: " + path).c_str());
     return;
   }
-  run(state, rangeseg::io::read_pcd(path), model);
+  run(state, rangeseg::io::read_pcd(path), model, threads);
 }
 
 void mixed_scene(benchmark::State& state, rangeseg::RegionModel model) {
@@ -51,6 +53,10 @@ void mixed_scene(benchmark::State& state, rangeseg::RegionModel model) {
 
 void BM_KinectFramePlanes(benchmark::State& state) {
   kinect_frame(state, rangeseg::RegionModel::plane);
+}
+/// The plane model with the frame-wide passes on `state.range(0)` threads (growing is serial).
+void BM_KinectFramePlanesThreads(benchmark::State& state) {
+  kinect_frame(state, rangeseg::RegionModel::plane, static_cast<int>(state.range(0)));
 }
 void BM_KinectFrameAuto(benchmark::State& state) {
   kinect_frame(state, rangeseg::RegionModel::automatic);
@@ -68,6 +74,11 @@ void BM_MixedSceneAuto(benchmark::State& state) {
 }  // namespace
 
 BENCHMARK(BM_KinectFramePlanes)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_KinectFramePlanesThreads)
+    ->Arg(1)
+    ->Arg(2)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_KinectFrameAuto)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_KinectFrameIncrementalPlanes)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_MixedScenePlanes)->Unit(benchmark::kMillisecond);

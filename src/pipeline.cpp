@@ -120,7 +120,11 @@ void Pipeline::process(const OrganizedCloud& cloud) {
                                  settings_.segmentation.model != RegionModel::automatic;
     SegmentationSettings segmentation = settings_.segmentation;
     if (areas_alongside) segmentation.compute_area = false;
-    segmenter_.segment(this->cloud(), mesh_, normals(), segmentation, segmentation_);
+    if (pool != nullptr) {
+      segmenter_.segment(this->cloud(), mesh_, normals(), segmentation, segmentation_, *pool);
+    } else {
+      segmenter_.segment(this->cloud(), mesh_, normals(), segmentation, segmentation_);
+    }
     times_.segmentation = ms_since(t);
     if (areas_alongside) {
       pool->for_each_band(2, 1, [&](int, int task_begin, int task_end) {

@@ -320,7 +320,7 @@ TEST(Smoothing, ValidityUnitNormalsAndRays) {
         }
         if (!in.cloud.valid(u, v)) continue;
         if (in.mesh.edges(u, v) == 0) {
-          ASSERT_EQ(out.cloud.z(u, v), in.cloud.z(u, v));  // no ring: unchanged
+          ASSERT_EQ(out.cloud.z(u, v), in.cloud.z(u, v)) << u << "," << v;  // no ring: unchanged
         }
         if (along_ray) {
           ASSERT_NEAR(out.cloud.x(u, v) / out.cloud.z(u, v), in.cloud.x(u, v) / in.cloud.z(u, v),

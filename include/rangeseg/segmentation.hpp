@@ -14,6 +14,7 @@
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/normals.hpp"
 #include "rangeseg/sensor.hpp"
+#include "rangeseg/thread_pool.hpp"
 
 namespace rangeseg {
 
@@ -175,6 +176,12 @@ class Segmenter {
   /// invalid settings.
   void segment(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
                const SegmentationSettings& settings, Segmentation& out);
+  /// As above, with the passes over the whole frame (cell statistics, seed scan, label remaps,
+  /// the scans for boundary and adjacent pixels) split into `pool.threads()` row bands that run
+  /// concurrently; region growing itself stays serial. The result is bit-identical to the
+  /// single-threaded call.
+  void segment(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
+               const SegmentationSettings& settings, Segmentation& out, ThreadPool& pool);
 
   /// Sets Segment::area_m2 of every segment of `out` (a segmentation of this cloud and mesh,
   /// e.g. made with compute_area = false) [m^2]: a third of each mesh triangle's area and a
@@ -187,6 +194,9 @@ class Segmenter {
   struct Scratch;
 
  private:
+  void run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
+           const SegmentationSettings& settings, Segmentation& out, ThreadPool* pool);
+
   std::unique_ptr<Scratch> scratch_;
 };
 

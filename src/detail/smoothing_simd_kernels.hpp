@@ -204,7 +204,10 @@ RANGESEG_KERNEL RANGESEG_SIMD_INLINE void finish_block(const InRow& c, const Ter
     // mean projected onto the viewing ray; the centre's own term of the sum is q . q.
     const F qq = V::mul_add(qz, qz, V::mul_add(qy, qy, qx * qx));
     const F sum_t = qq + s.a0;
-    const F scale = V::pick((M)(qq > k.zero), sum_t * V::reciprocal(sum_w * qq), k.one);
+    // Without a ring term the point stays where it is: the estimated reciprocal is not exact,
+    // and qq / qq would move it by an ulp.
+    const M moves = (M)(qq > k.zero) & (M)(s.w > k.zero);
+    const F scale = V::pick(moves, sum_t * V::reciprocal(sum_w * qq), k.one);
     V::store(o.x, V::mul_add(qx, scale, k.ox));
     V::store(o.y, V::mul_add(qy, scale, k.oy));
     V::store(o.z, V::mul_add(qz, scale, k.oz));

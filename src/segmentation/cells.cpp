@@ -120,27 +120,15 @@ void finish_cell(const float* sums, std::ptrdiff_t plane, float x0, float y0, fl
   cell.complete = true;
 }
 
-}  // namespace
-
-// Sums relative to each cell's first point in float (a cell spans centimetres), one accumulator
-// per column so that the columns are vector lanes; shifted to absolute double sums once per cell.
-void compute_cells(const Frame& f, Segmenter::Scratch& s) {
+/// Cell rows [cv_begin, cv_end): `sums` and `complete` hold one cell row at a time.
+void compute_cell_rows(const Frame& f, Segmenter::Scratch& s, int cv_begin, int cv_end, float* sums,
+                       std::uint8_t* complete) {
   const int step = f.pixel_stride;
-  const int lattice_width = (f.width + step - 1) / step;
-  const int lattice_height = (f.height + step - 1) / step;
-  const int cols = lattice_width / kCellSide, rows = lattice_height / kCellSide;
-  s.cell_cols = cols;
-  s.cell_rows = rows;
-  s.cells.resize(static_cast<std::size_t>(cols) * rows);
-  s.cell_label.assign(static_cast<std::size_t>(cols) * rows, 0);
+  const int cols = s.cell_cols;
   const std::ptrdiff_t plane = static_cast<std::ptrdiff_t>(cols) * kCellSide;
-  s.cell_sums.resize(static_cast<std::size_t>(kCellSums) * plane);
-  s.cell_complete.resize(cols);
-  float* const sums = s.cell_sums.data();
-  std::uint8_t* const complete = s.cell_complete.data();
   const std::ptrdiff_t down = static_cast<std::ptrdiff_t>(step) * f.stride;
   const CellRowFn kernel = step == 1 ? cell_row_kernel() : nullptr;
-  for (int cv = 0; cv < rows; ++cv) {
+  for (int cv = cv_begin; cv < cv_end; ++cv) {
     const std::ptrdiff_t row_origin = static_cast<std::ptrdiff_t>(cv) * kCellSide * down;
     int done = 0;
     if (kernel != nullptr) {
@@ -164,6 +152,41 @@ void compute_cells(const Frame& f, Segmenter::Scratch& s) {
       finish_cell(sums + column, plane, f.x[origin], f.y[origin], f.z[origin], cell);
     }
   }
+}
+
+}  // namespace
+
+// Sums relative to each cell's first point in float (a cell spans centimetres), one accumulator
+// per column so that the columns are vector lanes; shifted to absolute double sums once per cell.
+// Cells depend only on their own pixels, so bands of cell rows run concurrently.
+void compute_cells(const Frame& f, Segmenter::Scratch& s) {
+  const int step = f.pixel_stride;
+  const int lattice_width = (f.width + step - 1) / step;
+  const int lattice_height = (f.height + step - 1) / step;
+  const int cols = lattice_width / kCellSide, rows = lattice_height / kCellSide;
+  s.cell_cols = cols;
+  s.cell_rows = rows;
+  s.cells.resize(static_cast<std::size_t>(cols) * rows);
+  s.cell_label.assign(static_cast<std::size_t>(cols) * rows, 0);
+  const std::size_t sums = static_cast<std::size_t>(kCellSums) * cols * kCellSide;
+  const auto bands = static_cast<std::size_t>(band_count(s));
+  s.cell_sums.resize(sums);
+  s.cell_complete.resize(cols);
+  if (s.band_cell_sums.size() < bands) {
+    s.band_cell_sums.resize(bands);
+    s.band_cell_complete.resize(bands);
+  }
+  for (std::size_t b = 1; b < bands; ++b) {
+    s.band_cell_sums[b].resize(sums);
+    s.band_cell_complete[b].resize(cols);
+  }
+  for_each_band(s, rows, 1, [&](int band, int cv_begin, int cv_end) {
+    const auto b = static_cast<std::size_t>(band);
+    float* const band_sums = b == 0 ? s.cell_sums.data() : s.band_cell_sums[b].data();
+    std::uint8_t* const band_complete =
+        b == 0 ? s.cell_complete.data() : s.band_cell_complete[b].data();
+    compute_cell_rows(f, s, cv_begin, cv_end, band_sums, band_complete);
+  });
 }
 
 }  // namespace rangeseg::seg

@@ -139,11 +139,36 @@ struct Segmenter::Scratch {
   detail::CacheLineVector<float> cell_area;  ///< twice the mesh area of each cell of one row
   std::vector<std::int32_t> row_pixels;      ///< columns of one row picked by a vector scan
   std::vector<std::int32_t> order;
+  // threads: the pool of the current call (null: one thread) and per-band buffers of bands 1..
+  ThreadPool* pool = nullptr;
+  std::vector<detail::CacheLineVector<float>> band_cell_sums;
+  std::vector<std::vector<std::uint8_t>> band_cell_complete;
+  std::vector<std::vector<std::int32_t>> band_row_pixels;
+  std::vector<std::vector<std::uint64_t>> band_adjacency;
+  std::vector<std::int32_t> band_seed_counts;  ///< kSeedBuckets per band
+  std::vector<std::size_t> band_found;         ///< items each band found
 };
 
 }  // namespace rangeseg
 
 namespace rangeseg::seg {
+
+/// Number of row bands the passes over the frame are split into (scratch.pool's threads, or 1).
+inline int band_count(const Segmenter::Scratch& s) {
+  return s.pool != nullptr ? s.pool->threads() : 1;
+}
+
+/// Calls fn(band, row_begin, row_end) for band_count(s) disjoint bands covering [0, rows)
+/// (concurrently on scratch.pool, or as one band on this thread); band starts but the first are
+/// multiples of `align`.
+template <class F>
+void for_each_band(Segmenter::Scratch& s, int rows, int align, F&& fn) {
+  if (s.pool != nullptr) {
+    s.pool->for_each_band(rows, align, fn);
+  } else {
+    fn(0, 0, rows);
+  }
+}
 
 /// Whether `seed` may start a region: it has mesh neighbours, none of them is labelled, and all
 /// their normals are within the angle whose cosine is `cos_angle` of the seed's normal (NaN

@@ -314,10 +314,28 @@ bool lies_on_merged_plane(const PlaneFit& merged, const PlaneStats& sa, const Pl
                       k * floored_normal_stderr(a_smaller ? sa : sb, small_fit, small_sigma);
 }
 
-void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
-                           Segmenter::Scratch& s) {
-  const auto& regions = s.regions;
-  s.adjacency.clear();
+/// Per-band buffers of the row scans: band 0 uses scratch.row_pixels, band b > 0
+/// band_row_pixels[b], each one row long; band_found holds two numbers per band.
+void ensure_band_buffers(Segmenter::Scratch& s, int width) {
+  const auto bands = static_cast<std::size_t>(band_count(s));
+  s.row_pixels.resize(static_cast<std::size_t>(width));
+  if (s.band_row_pixels.size() < bands) s.band_row_pixels.resize(bands);
+  if (s.band_adjacency.size() < bands) s.band_adjacency.resize(bands);
+  for (std::size_t b = 1; b < bands; ++b) {
+    s.band_row_pixels[b].resize(static_cast<std::size_t>(width));
+  }
+  s.band_found.resize(2 * bands);
+}
+
+std::int32_t* row_pixels_of(Segmenter::Scratch& s, int band) {
+  return band == 0 ? s.row_pixels.data() : s.band_row_pixels[static_cast<std::size_t>(band)].data();
+}
+
+/// The label pairs (smaller << 32 | larger) of mesh edges that start in rows [v_begin, v_end)
+/// and join two regions both large enough to fit, appended to `pairs` (with repeats).
+/// `row_pixels`: one row.
+void adjacent_pairs(const Frame& f, const std::vector<PlaneStats>& regions, int v_begin, int v_end,
+                    std::int32_t* row_pixels, std::vector<std::uint64_t>& pairs) {
   std::uint64_t last = 0;
   const int step = f.pixel_stride;
   const std::ptrdiff_t right = f.neighbour_offset[0], down = f.neighbour_offset[2];
@@ -332,7 +350,7 @@ void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
       if (b == 0 || b == a || regions[b].count < kMinFitPixels) continue;
       const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) |
                                 static_cast<std::uint32_t>(std::max(a, b));
-      if (key != last) s.adjacency.push_back(key);
+      if (key != last) pairs.push_back(key);
       last = key;
     }
   };
@@ -343,18 +361,17 @@ void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
   };
   // At stride 1 the inner pixels of inner rows are screened a vector at a time.
   const bool screen = step == 1 && f.width > 2;
-  if (screen) s.row_pixels.resize(static_cast<std::size_t>(f.width));
   const AdjacencyPixelsFn adjacency_pixels = adjacency_pixels_kernel();
-  for (int v = 0; v < f.height; v += step) {
+  for (int v = v_begin; v < v_end; v += step) {
     const std::ptrdiff_t row = v * f.stride;
     const bool inner_row = v + step < f.height;
     int u = 0;
     if (inner_row && screen) {
       visit(row, f.labels[row]);
       int found = 0;
-      u = adjacency_pixels(f.labels + row, f.labels + row + f.stride, 1, f.width - 1,
-                           s.row_pixels.data(), found);
-      for (int j = 0; j < found; ++j) visit(row + s.row_pixels[j], f.labels[row + s.row_pixels[j]]);
+      u = adjacency_pixels(f.labels + row, f.labels + row + f.stride, 1, f.width - 1, row_pixels,
+                           found);
+      for (int j = 0; j < found; ++j) visit(row + row_pixels[j], f.labels[row + row_pixels[j]]);
     }
     for (; u < f.width; u += step) {
       const std::ptrdiff_t i = row + u;
@@ -362,6 +379,22 @@ void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
       if (inner_row && u >= step && u + step < f.width && interior(i, a)) continue;
       visit(i, a);
     }
+  }
+}
+
+void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
+                           Segmenter::Scratch& s) {
+  // Row bands collect their pairs concurrently; sorting the union makes the list independent
+  // of the bands.
+  ensure_band_buffers(s, f.width);
+  for_each_band(s, f.height, f.pixel_stride, [&](int band, int v_begin, int v_end) {
+    auto& pairs = band == 0 ? s.adjacency : s.band_adjacency[static_cast<std::size_t>(band)];
+    pairs.clear();
+    adjacent_pairs(f, s.regions, v_begin, v_end, row_pixels_of(s, band), pairs);
+  });
+  for (int band = 1; band < band_count(s); ++band) {
+    const auto& pairs = s.band_adjacency[static_cast<std::size_t>(band)];
+    s.adjacency.insert(s.adjacency.end(), pairs.begin(), pairs.end());
   }
   std::sort(s.adjacency.begin(), s.adjacency.end());
   s.adjacency.erase(std::unique(s.adjacency.begin(), s.adjacency.end()), s.adjacency.end());
@@ -428,6 +461,49 @@ inline bool normal_fits(const detail::PlaneFit& fit, const Frame& f, std::int32_
   return std::isnan(dot) || std::fabs(dot) >= cos_max_angle;
 }
 
+/// The unlabelled points of rows [v_begin, v_end) that have a labelled re-assignment neighbour,
+/// in scan order into `out`, flagged in `queued`; returns how many. `row_pixels`: one row.
+template <bool kAcrossCuts>
+std::size_t reassign_candidates(const Frame& f, int v_begin, int v_end, std::int32_t* row_pixels,
+                                std::uint8_t* queued, std::int32_t* out) {
+  std::size_t n = 0;
+  const auto has_labelled_neighbour = [&](std::ptrdiff_t i, int u, int v) {
+    unsigned mask = reassign_mask<kAcrossCuts>(f, i, u, v);
+    while (mask != 0) {
+      const int k = std::countr_zero(mask);
+      mask &= mask - 1;
+      if (f.labels[i + f.neighbour_offset[k]] != 0) return true;
+    }
+    return false;
+  };
+  const int step = f.pixel_stride;
+  const auto consider = [&](std::ptrdiff_t row, int u, int v) {
+    const std::ptrdiff_t i = row + u;
+    const bool candidate = kAcrossCuts ? std::isfinite(f.z[i]) : f.edges[i] != 0;
+    if (f.labels[i] == 0 && candidate && has_labelled_neighbour(i, u, v)) {
+      queued[i] = 1;
+      out[n++] = static_cast<std::int32_t>(i);
+    }
+  };
+  // At stride 1 the inner pixels of inner rows are first screened a vector at a time: only an
+  // unlabelled pixel with a labelled one among its 8 neighbours can be a candidate.
+  const bool screen = step == 1 && f.width > 2;
+  const BorderPixelsFn border_pixels = border_pixels_kernel();
+  for (int v = v_begin; v < v_end; v += step) {
+    const std::ptrdiff_t row = v * f.stride;
+    int u = 0;
+    if (screen && v > 0 && v + 1 < f.height) {
+      consider(row, 0, v);
+      int found = 0;
+      u = border_pixels(f.labels + row - f.stride, f.labels + row, f.labels + row + f.stride, 1,
+                        f.width - 1, row_pixels, found);
+      for (int j = 0; j < found; ++j) consider(row, row_pixels[j], v);
+    }
+    for (; u < f.width; u += step) consider(row, u, v);
+  }
+  return n;
+}
+
 /// Unlabelled valid points next to a plane segment join the adjacent plane they are closest to,
 /// if within k sigma(z) of it and (unless kAcrossCuts) with its normal within
 /// reassign_max_normal_angle of the plane's; newly labelled points make their neighbours
@@ -449,40 +525,24 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
     ring[slot] = i;
     ++size;
   };
-  const auto has_labelled_neighbour = [&](std::ptrdiff_t i, int u, int v) {
-    unsigned mask = reassign_mask<kAcrossCuts>(f, i, u, v);
-    while (mask != 0) {
-      const int k = std::countr_zero(mask);
-      mask &= mask - 1;
-      if (f.labels[i + f.neighbour_offset[k]] != 0) return true;
-    }
-    return false;
-  };
-  const int step = f.pixel_stride;
-  const auto consider = [&](std::ptrdiff_t row, int u, int v) {
-    const std::ptrdiff_t i = row + u;
-    const bool candidate = kAcrossCuts ? std::isfinite(f.z[i]) : f.edges[i] != 0;
-    if (f.labels[i] == 0 && candidate && has_labelled_neighbour(i, u, v)) {
-      push(static_cast<std::int32_t>(i));
-    }
-  };
-  // At stride 1 the inner pixels of inner rows are first screened a vector at a time: only an
-  // unlabelled pixel with a labelled one among its 8 neighbours can be a candidate.
-  const bool screen = step == 1 && f.width > 2;
-  if (screen) s.row_pixels.resize(static_cast<std::size_t>(f.width));
-  const BorderPixelsFn border_pixels = border_pixels_kernel();
-  for (int v = 0; v < f.height; v += step) {
-    const std::ptrdiff_t row = v * f.stride;
-    int u = 0;
-    if (screen && v > 0 && v + 1 < f.height) {
-      consider(row, 0, v);
-      int found = 0;
-      u = border_pixels(f.labels + row - f.stride, f.labels + row, f.labels + row + f.stride, 1,
-                        f.width - 1, s.row_pixels.data(), found);
-      for (int j = 0; j < found; ++j) consider(row, s.row_pixels[j], v);
-    }
-    for (; u < f.width; u += step) consider(row, u, v);
+  // The first candidates: row bands scanned concurrently, each into the ring from its first
+  // pixel on (a band has fewer candidates than pixels), then moved together in band order.
+  const auto bands = static_cast<std::size_t>(band_count(s));
+  ensure_band_buffers(s, f.width);
+  for_each_band(s, f.height, f.pixel_stride, [&](int band, int v_begin, int v_end) {
+    const std::size_t first = static_cast<std::size_t>(v_begin) * f.stride;
+    const auto b = static_cast<std::size_t>(band);
+    s.band_found[2 * b] = first;
+    s.band_found[2 * b + 1] = reassign_candidates<kAcrossCuts>(
+        f, v_begin, v_end, row_pixels_of(s, band), s.queued.data(), ring + first);
+  });
+  for (std::size_t band = 0; band < bands; ++band) {
+    const std::int32_t* const found = ring + s.band_found[2 * band];
+    const std::size_t n = s.band_found[2 * band + 1];
+    if (found != ring + size) std::copy(found, found + n, ring + size);
+    size += n;
   }
+  const int step = f.pixel_stride;
   const double k = settings.max_distance_sigmas;
   const double cos_max_angle = std::cos(settings.reassign_max_normal_angle);
   // Pixels whose 3 x 4 label block starting at q - stride - 1 lies inside the plane (step 1).
@@ -627,6 +687,15 @@ void fill_plane_fields(const PlaneStats& stats, const PlaneFit& fit, Segment& se
 
 }  // namespace
 
+/// labels = remap[labels] over the whole label plane, in concurrent row bands.
+void remap_all_labels(const Frame& f, Segmenter::Scratch& s, const std::int32_t* remap) {
+  const RemapLabelsFn remap_labels = remap_labels_kernel();
+  for_each_band(s, f.height, 1, [&](int, int v_begin, int v_end) {
+    remap_labels(f.labels + static_cast<std::ptrdiff_t>(v_begin) * f.stride, remap,
+                 static_cast<int>(static_cast<std::ptrdiff_t>(v_end - v_begin) * f.stride));
+  });
+}
+
 void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s,
                  Segmentation& out) {
   const auto region_count = static_cast<std::int32_t>(s.regions.size());  // incl. label 0
@@ -645,11 +714,8 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
       if (!s.fits[r].ok) s.fits[r] = s.regions[r].fit();
     }
   }
-  const std::size_t pixels = static_cast<std::size_t>(f.stride) * f.height;
-  std::int32_t* const labels = f.labels;
-  const RemapLabelsFn remap_labels = remap_labels_kernel();
   const std::int32_t* const remap = s.remap.data();
-  remap_labels(labels, remap, static_cast<int>(pixels));
+  remap_all_labels(f, s, remap);
 
   if (planes && settings.reassign_boundary) {
     if (settings.reassign_across_mesh_cuts) {
@@ -685,7 +751,7 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
     s.compact[s.order[j]] = static_cast<std::int32_t>(j + 1);
   }
   for (std::int32_t r = 1; r < region_count; ++r) s.remap[r] = s.compact[s.remap[r]];
-  remap_labels(labels, remap, static_cast<int>(pixels));
+  remap_all_labels(f, s, remap);
 
   const std::size_t n = s.order.size();
   out.segments.resize(n);

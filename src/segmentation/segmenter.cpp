@@ -75,25 +75,14 @@ inline std::uint32_t float_key(float c) { return std::bit_cast<std::uint32_t>(c)
 
 namespace seg {
 
-void collect_seeds(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s) {
-  float max_curvature = static_cast<float>(std::fmin(settings.max_seed_curvature, 3e38));
-  if (settings.model == RegionModel::smooth) {
-    max_curvature = std::fmin(max_curvature, static_cast<float>(settings.max_curvature));
-  }
+namespace {
+
+/// The seed candidates of lattice rows [v_begin, v_end) (pixel rows, multiples of the lattice
+/// step) into pixel / key_of in scan order, counted per bucket; returns how many.
+std::size_t scan_seed_rows(const Frame& f, float max_curvature, int v_begin, int v_end,
+                           std::int32_t* pixel, std::uint16_t* key_of, std::int32_t* count) {
   const std::uint32_t floor_key = float_key(kSeedKeyFloor);
   const int step = f.pixel_stride;
-  s.bucket_start.assign(kSeedBuckets + 1, 0);
-  std::int32_t* const count = s.bucket_start.data() + 1;
-  // Written by index (at most one candidate per lattice vertex): push_back costs a quarter of
-  // the scan. The buffers only grow, so the zero fill of resize is paid once per Segmenter.
-  const std::size_t lattice =
-      static_cast<std::size_t>((f.width + step - 1) / step) * ((f.height + step - 1) / step);
-  if (s.candidate_pixel.size() < lattice) {
-    s.candidate_pixel.resize(lattice);
-    s.candidate_key.resize(lattice);
-  }
-  std::int32_t* const pixel = s.candidate_pixel.data();
-  std::uint16_t* const key_of = s.candidate_key.data();
   std::size_t n = 0;
   const auto add = [&](std::ptrdiff_t i) {
     const std::uint32_t key = float_key(std::fabs(f.curvature[i]));
@@ -111,7 +100,7 @@ void collect_seeds(const Frame& f, const SegmentationSettings& settings, Segment
       add(i);
     }
   };
-  for (int v = 0; v < f.height; v += step) {
+  for (int v = v_begin; v < v_end; v += step) {
     const std::ptrdiff_t row = v * f.stride;
     int u = 0;
 #if defined(__SSE2__)
@@ -140,10 +129,62 @@ void collect_seeds(const Frame& f, const SegmentationSettings& settings, Segment
 #endif
     for (; u < f.width; u += step) consider(row + u);
   }
-  for (int b = 0; b < kSeedBuckets; ++b) s.bucket_start[b + 1] += s.bucket_start[b];
-  s.seeds.resize(n);
-  std::int32_t* const next = s.bucket_start.data();
-  for (std::size_t j = 0; j < n; ++j) s.seeds[next[key_of[j]]++] = pixel[j];
+  return n;
+}
+
+}  // namespace
+
+// Row bands are scanned concurrently, each into its own slice of the candidate arrays (at most
+// one candidate per lattice vertex) with its own bucket counts; the seeds of a bucket are placed
+// band after band, so the order is the single-threaded scan order whatever the band count.
+void collect_seeds(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s) {
+  float max_curvature = static_cast<float>(std::fmin(settings.max_seed_curvature, 3e38));
+  if (settings.model == RegionModel::smooth) {
+    max_curvature = std::fmin(max_curvature, static_cast<float>(settings.max_curvature));
+  }
+  const int step = f.pixel_stride;
+  const std::size_t lattice_width = (f.width + step - 1) / step;
+  // Written by index: push_back costs a quarter of the scan. The buffers only grow, so the zero
+  // fill of resize is paid once per Segmenter.
+  const std::size_t lattice = lattice_width * ((f.height + step - 1) / step);
+  if (s.candidate_pixel.size() < lattice) {
+    s.candidate_pixel.resize(lattice);
+    s.candidate_key.resize(lattice);
+  }
+  const auto bands = static_cast<std::size_t>(band_count(s));
+  s.band_seed_counts.assign(bands * kSeedBuckets, 0);
+  s.band_found.assign(bands * 2, 0);  // per band: first lattice vertex, candidates found
+  for_each_band(s, f.height, step, [&](int band, int v_begin, int v_end) {
+    const std::size_t first = static_cast<std::size_t>(v_begin / step) * lattice_width;
+    const auto b = static_cast<std::size_t>(band);
+    s.band_found[2 * b] = first;
+    s.band_found[2 * b + 1] = scan_seed_rows(
+        f, max_curvature, v_begin, v_end, s.candidate_pixel.data() + first,
+        s.candidate_key.data() + first, s.band_seed_counts.data() + b * kSeedBuckets);
+  });
+  // bucket_start: where each bucket begins; then band_seed_counts: where each band's part does.
+  s.bucket_start.assign(kSeedBuckets + 1, 0);
+  for (int b = 0; b < kSeedBuckets; ++b) {
+    std::int32_t at = s.bucket_start[b];
+    for (std::size_t band = 0; band < bands; ++band) {
+      std::int32_t& count = s.band_seed_counts[band * kSeedBuckets + b];
+      const std::int32_t c = count;
+      count = at;
+      at += c;
+    }
+    s.bucket_start[b + 1] = at;
+  }
+  s.seeds.resize(static_cast<std::size_t>(s.bucket_start[kSeedBuckets]));
+  for_each_band(s, static_cast<int>(bands), 1, [&](int, int band_begin, int band_end) {
+    for (auto band = static_cast<std::size_t>(band_begin);
+         band < static_cast<std::size_t>(band_end); ++band) {
+      std::int32_t* const next = s.band_seed_counts.data() + band * kSeedBuckets;
+      const std::size_t first = s.band_found[2 * band], n = s.band_found[2 * band + 1];
+      const std::int32_t* const pixel = s.candidate_pixel.data() + first;
+      const std::uint16_t* const key_of = s.candidate_key.data() + first;
+      for (std::size_t j = 0; j < n; ++j) s.seeds[next[key_of[j]]++] = pixel[j];
+    }
+  });
 }
 
 Frame make_frame(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
@@ -188,6 +229,16 @@ Segmenter& Segmenter::operator=(Segmenter&&) noexcept = default;
 
 void Segmenter::segment(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
                         const SegmentationSettings& settings, Segmentation& out) {
+  run(cloud, mesh, normals, settings, out, nullptr);
+}
+
+void Segmenter::segment(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
+                        const SegmentationSettings& settings, Segmentation& out, ThreadPool& pool) {
+  run(cloud, mesh, normals, settings, out, pool.threads() > 1 ? &pool : nullptr);
+}
+
+void Segmenter::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
+                    const SegmentationSettings& settings, Segmentation& out, ThreadPool* pool) {
   require_organized(cloud, "segment");
   require_size("the mesh", mesh.width(), mesh.height(), cloud);
   require_size("the mesh faces", mesh.faces.width(), mesh.faces.height(), cloud);
@@ -206,6 +257,12 @@ void Segmenter::segment(const OrganizedCloud& cloud, const Mesh& mesh, const Nor
   const seg::Frame f = seg::make_frame(cloud, mesh, normals, out.labels);
 
   Scratch& s = *scratch_;
+  // The pool is only borrowed for this call.
+  struct PoolGuard {
+    Scratch& s;
+    ~PoolGuard() { s.pool = nullptr; }
+  } const guard{s};
+  s.pool = pool;
   s.queue.resize(static_cast<std::size_t>(f.stride) * f.height);
   // The plane model collects its pixel seeds itself, after growing over cells.
   const bool cell_seeds =
