@@ -217,6 +217,11 @@ void grow_planes(const Frame& frame, const SegmentationSettings& settings,
                  Segmenter::Scratch& scratch);
 void grow_smooth(const Frame& frame, const SegmentationSettings& settings,
                  Segmenter::Scratch& scratch);
+/// After plane post-processing (labels 1..N = out.segments): regions of surface continuity
+/// over the unlabelled pixels; those of at least min_region_size pixels are appended to `out`
+/// as segments N+1.. (plane fields from their points), the rest stay unlabelled.
+void grow_smooth_leftovers(const Frame& frame, const SegmentationSettings& settings,
+                           Segmenter::Scratch& scratch, Segmentation& out);
 
 /// Columns u in [begin, end) of a label row (stride 1; `row` and `below` readable from begin - 1
 /// to end) whose label is not 0 and differs from a forward neighbour's (right, down-left, down,

@@ -286,6 +286,7 @@ void Segmenter::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalM
       for (Segment& segment : out.segments) segment.model = settings.model;
     }
   }
+  if (settings.model == RegionModel::automatic) seg::grow_smooth_leftovers(f, settings, s, out);
   if (settings.compute_area) seg::segment_areas(f, s, out.segments);
   if (settings.model == RegionModel::automatic) {
     seg::fit_primitives(f, settings, out);

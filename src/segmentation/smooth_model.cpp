@@ -1,4 +1,5 @@
 // The smooth-surface region model (local surface continuity): no global model.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
@@ -43,6 +44,45 @@ void grow_smooth(const Frame& frame, const SegmentationSettings& settings,
                  Segmenter::Scratch& scratch) {
   SmoothModel model(settings);
   grow_regions(frame, model, scratch);
+}
+
+// The plane model leaves a curved surface unlabelled where its facets stay below
+// min_region_size (a sphere or a thin cylinder far away, or one without noise, where the normal
+// test allows only a few degrees of bend per facet). Such leftovers are grown again by surface
+// continuity; regions large enough become segments, for the primitive pass to classify.
+void grow_smooth_leftovers(const Frame& f, const SegmentationSettings& settings,
+                           Segmenter::Scratch& s, Segmentation& out) {
+  SegmentationSettings smooth = settings;
+  smooth.model = RegionModel::smooth;
+  collect_seeds(f, smooth, s);
+  SmoothModel model(smooth);
+  std::int32_t* const queue = s.queue.data();
+  auto label = static_cast<std::int32_t>(out.segments.size());
+  constexpr std::int32_t kTooSmall = -1;  // blocks growth like a label; cleared below
+  std::size_t rejected = 0;
+  for (const std::int32_t seed : s.seeds) {
+    if (f.labels[seed] != 0) continue;
+    f.labels[seed] = label + 1;
+    model.init(f, seed);
+    queue[0] = seed;
+    const std::int32_t tail = grow_pixels(f, model, label + 1, queue, 0, 1, s.queue.size());
+    if (model.stats().count < settings.min_region_size) {
+      for (std::int32_t j = 0; j < tail; ++j) f.labels[queue[j]] = kTooSmall;
+      rejected += static_cast<std::size_t>(tail);
+      continue;
+    }
+    ++label;
+    Segment segment;
+    segment.label = label;
+    segment.model = RegionModel::automatic;
+    set_plane_fields(model.stats(), segment);
+    out.segments.push_back(segment);
+  }
+  if (rejected == 0) return;
+  for (int v = 0; v < f.height; v += f.pixel_stride) {
+    std::int32_t* const row = f.labels + static_cast<std::ptrdiff_t>(v) * f.stride;
+    for (int u = 0; u < f.width; u += f.pixel_stride) row[u] = std::max(row[u], 0);
+  }
 }
 
 }  // namespace rangeseg::seg
