@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -332,6 +333,13 @@ class IntensityRange {
     }
     return high >= low ? high - low : 0.0f;
   }
+  /// Adds the points another accumulator has seen.
+  void merge(const IntensityRange& other) {
+    for (int i = 0; i < kLanes; ++i) {
+      lo_[i] = std::min(lo_[i], other.lo_[i]);
+      hi_[i] = std::max(hi_[i], other.hi_[i]);
+    }
+  }
 
  private:
   static constexpr float kInf = std::numeric_limits<float>::infinity();
@@ -344,40 +352,61 @@ class IntensityRange {
   std::array<float, kLanes> lo_, hi_;
 };
 
-/// Grey from RGB into `grey` (sized by the caller) and, when `range` is set, its range over
-/// the valid points, in one sweep while each grey row is in cache.
-RANGESEG_INLINE void rgb_to_grey_body(const OrganizedCloud& cloud, FloatPlane& grey, float* range) {
-  IntensityRange acc;
-  for (int v = 0; v < cloud.height(); ++v) {
+/// Grey from RGB into rows [v_begin, v_end) of `grey` (sized by the caller) and, when `range`
+/// is set, their range over the valid points into it, in one sweep while each grey row is in
+/// cache.
+RANGESEG_INLINE void rgb_to_grey_body(const OrganizedCloud& cloud, FloatPlane& grey, int v_begin,
+                                      int v_end, IntensityRange* range) {
+  for (int v = v_begin; v < v_end; ++v) {
     grey_row(cloud, v, grey.row(v));
-    if (range != nullptr) acc.add_row(cloud.z.row(v), grey.row(v), cloud.width());
+    if (range != nullptr) range->add_row(cloud.z.row(v), grey.row(v), cloud.width());
   }
-  if (range != nullptr) *range = acc.range();
 }
 
-void rgb_to_grey_generic(const OrganizedCloud& cloud, FloatPlane& grey, float* range) {
-  rgb_to_grey_body(cloud, grey, range);
+void rgb_to_grey_generic(const OrganizedCloud& cloud, FloatPlane& grey, int v_begin, int v_end,
+                         IntensityRange* range) {
+  rgb_to_grey_body(cloud, grey, v_begin, v_end, range);
 }
 
 #if RANGESEG_SIMD_X86
 // AVX2 without FMA: products and sums stay separately rounded, so the grey values equal the
 // generic build's bit for bit.
 __attribute__((target("avx2"))) void rgb_to_grey_avx2(const OrganizedCloud& cloud, FloatPlane& grey,
-                                                      float* range) {
-  rgb_to_grey_body(cloud, grey, range);
+                                                      int v_begin, int v_end,
+                                                      IntensityRange* range) {
+  rgb_to_grey_body(cloud, grey, v_begin, v_end, range);
 }
 #endif
 
-/// Grey from RGB (and its range over the valid points into *range, unless nullptr).
-void rgb_to_grey(const OrganizedCloud& cloud, FloatPlane& grey, float* range) {
+/// Grey from RGB (and its range over the valid points into *range, unless nullptr), in row
+/// bands on `pool` if given (min and max are exact, so the range does not depend on the bands).
+void rgb_to_grey(const OrganizedCloud& cloud, FloatPlane& grey, float* range, ThreadPool* pool) {
   ensure_size(grey, cloud.width(), cloud.height());
+  IntensityRange total;
+  std::mutex merging;
+  const auto band = [&](int, int v_begin, int v_end) {
+    IntensityRange part;
+    IntensityRange* const acc = range != nullptr ? &part : nullptr;
 #if RANGESEG_SIMD_X86
-  if (detail::simd::cpu_has_avx2()) {
-    rgb_to_grey_avx2(cloud, grey, range);
-    return;
-  }
+    if (detail::simd::cpu_has_avx2()) {
+      rgb_to_grey_avx2(cloud, grey, v_begin, v_end, acc);
+    } else {
+      rgb_to_grey_generic(cloud, grey, v_begin, v_end, acc);
+    }
+#else
+    rgb_to_grey_generic(cloud, grey, v_begin, v_end, acc);
 #endif
-  rgb_to_grey_generic(cloud, grey, range);
+    if (acc != nullptr) {
+      const std::lock_guard<std::mutex> lock(merging);
+      total.merge(part);
+    }
+  };
+  if (pool != nullptr) {
+    pool->for_each_band(cloud.height(), 1, band);
+  } else {
+    band(0, 0, cloud.height());
+  }
+  if (range != nullptr) *range = total.range();
 }
 
 RANGESEG_INLINE float intensity_range_body(const OrganizedCloud& cloud,
@@ -564,7 +593,7 @@ void Smoother::run_passes(const OrganizedCloud& cloud, const Mesh& mesh, const N
       intensity = &cloud.intensity;
       if (frame_range) range = detail::frame_intensity_range(cloud, *intensity);
     } else {
-      rgb_to_grey(cloud, grey_, frame_range ? &range : nullptr);
+      rgb_to_grey(cloud, grey_, frame_range ? &range : nullptr, pool);
       intensity = &grey_;
     }
     if (!frame_range) range = st.intensity_range;
