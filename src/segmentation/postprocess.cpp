@@ -685,8 +685,6 @@ void fill_plane_fields(const PlaneStats& stats, const PlaneFit& fit, Segment& se
   }
 }
 
-}  // namespace
-
 /// labels = remap[labels] over the whole label plane, in concurrent row bands.
 void remap_all_labels(const Frame& f, Segmenter::Scratch& s, const std::int32_t* remap) {
   const RemapLabelsFn remap_labels = remap_labels_kernel();
@@ -695,6 +693,8 @@ void remap_all_labels(const Frame& f, Segmenter::Scratch& s, const std::int32_t*
                  static_cast<int>(static_cast<std::ptrdiff_t>(v_end - v_begin) * f.stride));
   });
 }
+
+}  // namespace
 
 void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s,
                  Segmentation& out) {
