@@ -202,9 +202,10 @@ Frame make_frame(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap&
                  LabelImage& labels);
 
 /// Fills scratch.seeds with the unlabelled seed pixels in ascending curvature order (counting
-/// sort).
+/// sort). Given `ring_cos`, only pixels that pass seed_ring_ok(frame, pixel, ring_cos) now: labels
+/// only appear while regions grow, so a pixel failing it now fails it for good.
 void collect_seeds(const Frame& frame, const SegmentationSettings& settings,
-                   Segmenter::Scratch& scratch);
+                   Segmenter::Scratch& scratch, const float* ring_cos = nullptr);
 
 /// Fills scratch.cells (cell_cols x cell_rows cells of kCellSide x kCellSide lattice vertices
 /// covering the image from the top-left; a partial last column/row of cells is left out) and

@@ -51,6 +51,7 @@ class PlaneModel {
   bool seed_ok(const Frame& f, std::int32_t seed) const {
     return seed_ring_ok(f, seed, cos_seed_angle_);
   }
+  float seed_ring_cos() const { return cos_seed_angle_; }
 
   bool accepts(const Frame& f, std::int32_t /*from*/, std::int32_t q) const {
     const float dot = nx_ * f.nx[q] + ny_ * f.ny[q] + nz_ * f.nz[q];
@@ -218,6 +219,7 @@ struct PixelPlaneModel {
   PlaneModel& m;
   void init(const Frame& f, std::int32_t seed) { m.init(f, seed); }
   bool seed_ok(const Frame& f, std::int32_t seed) const { return m.seed_ok(f, seed); }
+  float seed_ring_cos() const { return m.seed_ring_cos(); }
   bool accepts(const Frame& f, std::int32_t p, std::int32_t q) const { return m.accepts(f, p, q); }
   void add(const Frame& f, std::int32_t q) { m.add(f, q); }
   const detail::PlaneStats& stats() const { return m.stats(); }

@@ -338,7 +338,15 @@ void grow_regions(const Frame& f, Model& model, Segmenter::Scratch& s,
   s.regions.emplace_back();  // raw label 0: none
   std::int32_t label = 0;
   if constexpr (CellGrowingModel<Model>) grow_cells(f, model, s, label);
-  if (seed_settings != nullptr) collect_seeds(f, *seed_settings, s);
+  if (seed_settings != nullptr) {
+    // A model whose seed test is seed_ring_ok lets the scan drop the seeds it would veto.
+    if constexpr (requires { model.seed_ring_cos(); }) {
+      const float ring_cos = model.seed_ring_cos();
+      collect_seeds(f, *seed_settings, s, &ring_cos);
+    } else {
+      collect_seeds(f, *seed_settings, s);
+    }
+  }
   for (const std::int32_t seed : s.seeds) {
     if (labels[seed] != 0) continue;
     if constexpr (requires { model.seed_ok(f, seed); }) {
