@@ -6,6 +6,8 @@
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "rangeseg/synth.hpp"
 
@@ -382,6 +384,91 @@ TEST(Synth, MinSurfacePixelsClearsSmallSurfaces) {
   EXPECT_EQ(std::memcmp(big.cloud.label.row(0), big.labels.row(0),
                         sizeof(std::int32_t) * big.labels.stride() * big.labels.height()),
             0);
+}
+
+// 8-connected parts of each label's pixels: parts[l] for label l (index 0 unused).
+std::vector<int> parts_per_label(const LabelImage& labels, std::size_t label_count) {
+  const int w = labels.width(), h = labels.height();
+  std::vector<int> parts(label_count + 1, 0);
+  std::vector<char> seen(static_cast<std::size_t>(w) * h, 0);
+  std::vector<std::pair<int, int>> stack;
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      const int label = labels(u, v);
+      if (label == 0 || seen[static_cast<std::size_t>(v) * w + u]) continue;
+      ++parts[label];
+      seen[static_cast<std::size_t>(v) * w + u] = 1;
+      stack.assign(1, {u, v});
+      while (!stack.empty()) {
+        const auto [pu, pv] = stack.back();
+        stack.pop_back();
+        for (int dv = -1; dv <= 1; ++dv) {
+          for (int du = -1; du <= 1; ++du) {
+            const int nu = pu + du, nv = pv + dv;
+            if (nu < 0 || nv < 0 || nu >= w || nv >= h || labels(nu, nv) != label) continue;
+            char& s = seen[static_cast<std::size_t>(nv) * w + nu];
+            if (s == 0) stack.emplace_back(nu, nv);
+            s = 1;
+          }
+        }
+      }
+    }
+  }
+  return parts;
+}
+
+TEST(Synth, SurfaceSplitByAnOccluderIsTwoRegions) {
+  // A wall at 3 m and a pole 0.4 m wide at 1.5 m, right of centre and taller than the view.
+  Scene scene = plane_scene(3.0);
+  scene.boxes.push_back(
+      {.centre = {0.3, 0.0, 1.5}, .half_extent = {0.2, 5.0, 0.2}, .name = "pole"});
+  const Rendering split = render(scene);
+  const Rendering whole = render(scene, {.split_disconnected = false});
+  ASSERT_EQ(whole.surfaces.size(), 7u);
+  ASSERT_EQ(split.surfaces.size(), 8u);
+  EXPECT_EQ(split.surfaces[7].name, "plane#2");
+  EXPECT_EQ(split.surfaces[7].normal, split.surfaces[0].normal);
+  EXPECT_EQ(split.surfaces[7].offset, split.surfaces[0].offset);
+  // The larger (left) part keeps the label; the pixel counts add up to the unsplit surface.
+  EXPECT_EQ(split.surfaces[split.labels(5, 240) - 1].name, "plane");
+  EXPECT_EQ(split.surfaces[split.labels(634, 240) - 1].name, "plane#2");
+  EXPECT_GT(split.pixel_counts[0], split.pixel_counts[7]);
+  EXPECT_GT(split.pixel_counts[7], 1000);
+  EXPECT_EQ(split.pixel_counts[0] + split.pixel_counts[7], whole.pixel_counts[0]);
+  EXPECT_EQ(whole.labels(5, 240), whole.labels(634, 240));
+  EXPECT_EQ(parts_per_label(whole.labels, whole.surfaces.size())[1], 2);
+}
+
+TEST(Synth, EveryGroundTruthRegionIsConnected) {
+  std::size_t extra_parts = 0;
+  for (std::uint64_t seed = 1; seed <= 8; ++seed) {
+    const Scene scene = random_scene(seed, true);
+    const Rendering split = render(scene, {.camera = kSmallCamera});
+    const Rendering whole = render(scene, {.camera = kSmallCamera, .split_disconnected = false});
+    const std::vector<int> parts = parts_per_label(split.labels, split.surfaces.size());
+    for (std::size_t l = 1; l < parts.size(); ++l) {
+      EXPECT_LE(parts[l], 1) << "seed " << seed << " " << split.surfaces[l - 1].name;
+      EXPECT_EQ(parts[l], split.pixel_counts[l - 1] > 0 ? 1 : 0) << split.surfaces[l - 1].name;
+    }
+    // Each surface's parts add up to its pixels, and the points are the same.
+    std::vector<std::int64_t> total(
+        split.pixel_counts.begin(),
+        split.pixel_counts.begin() + static_cast<std::ptrdiff_t>(whole.surfaces.size()));
+    for (std::size_t i = whole.surfaces.size(); i < split.surfaces.size(); ++i) {
+      const std::string& name = split.surfaces[i].name;
+      const std::string base = name.substr(0, name.rfind('#'));
+      for (std::size_t j = 0; j < whole.surfaces.size(); ++j) {
+        if (whole.surfaces[j].name == base) total[j] += split.pixel_counts[i];
+      }
+    }
+    for (std::size_t j = 0; j < whole.surfaces.size(); ++j) {
+      EXPECT_EQ(total[j], whole.pixel_counts[j])
+          << "seed " << seed << " " << whole.surfaces[j].name;
+    }
+    EXPECT_EQ(split.cloud.count_valid(), whole.cloud.count_valid());
+    extra_parts += split.surfaces.size() - whole.surfaces.size();
+  }
+  EXPECT_GT(extra_parts, 0u);  // some of these scenes have occluded surfaces
 }
 
 TEST(Synth, RejectsInvalidInput) {

@@ -101,7 +101,8 @@ struct Room {
 };
 
 /// Surfaces are labelled in this order: room faces, rectangles, boxes (6 each), cylinders
-/// (3 each), spheres (1 each). Label l describes Rendering::surfaces[l - 1].
+/// (3 each), spheres (1 each); Label l describes Rendering::surfaces[l - 1] (see
+/// RenderSettings::split_disconnected for the labels after these).
 struct Scene {
   std::optional<Room> room;
   std::vector<Rectangle> rectangles;
@@ -137,12 +138,20 @@ struct RenderSettings {
   std::uint64_t seed = 1;  ///< noise and dropouts are a deterministic function of the seed
   /// Pixels of surfaces with fewer visible pixels than this keep their points but get label 0.
   int min_surface_pixels = 0;
+  /// Each 8-connected part of a surface in the noise-free image is its own ground-truth region:
+  /// the largest part keeps the surface's label, the others get new labels after the scene's
+  /// surfaces (Rendering::surfaces holds a copy of the description, named "<name>#2", ...). A
+  /// segment is a connected image region (region growing, SegComp's hand-made ground truth), so a
+  /// floor seen on both sides of a box is two regions. false: one label per surface.
+  bool split_disconnected = true;
 };
 
 struct Rendering {
   OrganizedCloud cloud;  ///< points, NaN where nothing was hit or measured; cloud.label = labels
   LabelImage labels;     ///< ground-truth surface label per pixel, 0 = none
-  std::vector<Surface> surfaces;  ///< every surface of the scene; surfaces[l - 1] is label l
+  /// every surface of the scene, then the extra parts (RenderSettings::split_disconnected);
+  /// surfaces[l - 1] describes label l
+  std::vector<Surface> surfaces;
   std::vector<std::int64_t> pixel_counts;  ///< labelled pixels per surface, same indexing
 };
 

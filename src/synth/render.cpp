@@ -3,10 +3,80 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "synth/tracer.hpp"
 
 namespace rangeseg::synth {
+namespace {
+
+/// Gives every 8-connected part of a surface but its largest its own label (appended to
+/// `surfaces`, a copy of the surface's description named "<name>#k"). Runs on the noise-free
+/// labels, so only occlusion splits a surface, not drop-outs.
+void split_disconnected_parts(LabelImage& labels, std::vector<Surface>& surfaces) {
+  const int width = labels.width(), height = labels.height();
+  const auto at = [&](int u, int v) -> std::int32_t& { return labels.row(v)[u]; };
+  std::vector<std::int32_t> part(static_cast<std::size_t>(width) * height, -1);
+  struct Part {
+    std::int32_t label;
+    std::int64_t pixels;
+  };
+  std::vector<Part> parts;
+  std::vector<std::pair<int, int>> stack;
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      const std::int32_t label = at(u, v);
+      if (label == 0 || part[static_cast<std::size_t>(v) * width + u] >= 0) continue;
+      const auto id = static_cast<std::int32_t>(parts.size());
+      parts.push_back({label, 0});
+      part[static_cast<std::size_t>(v) * width + u] = id;
+      stack.assign(1, {u, v});
+      while (!stack.empty()) {
+        const auto [pu, pv] = stack.back();
+        stack.pop_back();
+        ++parts[id].pixels;
+        for (int dv = -1; dv <= 1; ++dv) {
+          for (int du = -1; du <= 1; ++du) {
+            const int nu = pu + du, nv = pv + dv;
+            if (nu < 0 || nv < 0 || nu >= width || nv >= height || at(nu, nv) != label) continue;
+            std::int32_t& p = part[static_cast<std::size_t>(nv) * width + nu];
+            if (p >= 0) continue;
+            p = id;
+            stack.emplace_back(nu, nv);
+          }
+        }
+      }
+    }
+  }
+  // The largest part keeps the surface's label (the first in scan order among equals).
+  std::vector<std::int32_t> largest(surfaces.size() + 1, -1);
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    std::int32_t& best = largest[parts[i].label];
+    if (best < 0 || parts[i].pixels > parts[best].pixels) best = static_cast<std::int32_t>(i);
+  }
+  std::vector<std::int32_t> new_label(parts.size());
+  std::vector<int> count(surfaces.size() + 1, 1);
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    const std::int32_t label = parts[i].label;
+    if (largest[label] == static_cast<std::int32_t>(i)) {
+      new_label[i] = label;
+      continue;
+    }
+    Surface copy = surfaces[label - 1];
+    copy.name.append(1, '#').append(std::to_string(++count[label]));
+    surfaces.push_back(std::move(copy));
+    new_label[i] = static_cast<std::int32_t>(surfaces.size());
+  }
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      const std::int32_t p = part[static_cast<std::size_t>(v) * width + u];
+      if (p >= 0) at(u, v) = new_label[p];
+    }
+  }
+}
+
+}  // namespace
 
 Rendering render(const Scene& scene, const RenderSettings& settings) {
   const CameraIntrinsics& camera = settings.camera;
@@ -42,6 +112,8 @@ Rendering render(const Scene& scene, const RenderSettings& settings) {
       }
     }
   }
+
+  if (settings.split_disconnected) split_disconnected_parts(out.labels, out.surfaces);
 
   if (settings.noise == Noise::kinect) {
     detail::apply_kinect_noise(settings.kinect, camera, settings.seed, depth, out.labels);
