@@ -427,6 +427,8 @@ TEST(Synth, SurfaceSplitByAnOccluderIsTwoRegions) {
   ASSERT_EQ(whole.surfaces.size(), 7u);
   ASSERT_EQ(split.surfaces.size(), 8u);
   EXPECT_EQ(split.surfaces[7].name, "plane#2");
+  EXPECT_EQ(split.part_of, (std::vector<std::int32_t>{1, 2, 3, 4, 5, 6, 7, 1}));
+  EXPECT_EQ(whole.part_of, (std::vector<std::int32_t>{1, 2, 3, 4, 5, 6, 7}));
   EXPECT_EQ(split.surfaces[7].normal, split.surfaces[0].normal);
   EXPECT_EQ(split.surfaces[7].offset, split.surfaces[0].offset);
   // The larger (left) part keeps the label; the pixel counts add up to the unsplit surface.
@@ -456,10 +458,10 @@ TEST(Synth, EveryGroundTruthRegionIsConnected) {
         split.pixel_counts.begin() + static_cast<std::ptrdiff_t>(whole.surfaces.size()));
     for (std::size_t i = whole.surfaces.size(); i < split.surfaces.size(); ++i) {
       const std::string& name = split.surfaces[i].name;
-      const std::string base = name.substr(0, name.rfind('#'));
-      for (std::size_t j = 0; j < whole.surfaces.size(); ++j) {
-        if (whole.surfaces[j].name == base) total[j] += split.pixel_counts[i];
-      }
+      const auto base = static_cast<std::size_t>(split.part_of[i] - 1);
+      ASSERT_LT(base, whole.surfaces.size());
+      EXPECT_EQ(name.substr(0, name.rfind('#')), whole.surfaces[base].name);
+      total[base] += split.pixel_counts[i];
     }
     for (std::size_t j = 0; j < whole.surfaces.size(); ++j) {
       EXPECT_EQ(total[j], whole.pixel_counts[j])

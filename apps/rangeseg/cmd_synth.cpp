@@ -55,7 +55,8 @@ nlohmann::json surfaces_json(const synth::Rendering& r) {
     nlohmann::json j{{"label", i + 1},
                      {"name", s.name},
                      {"type", type_name(s.type)},
-                     {"pixels", r.pixel_counts[i]}};
+                     {"pixels", r.pixel_counts[i]},
+                     {"part_of", r.part_of[i]}};
     if (s.type == synth::SurfaceType::plane) {
       j["normal"] = s.normal;
       j["offset"] = s.offset;

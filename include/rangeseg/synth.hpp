@@ -153,6 +153,9 @@ struct Rendering {
   /// surfaces[l - 1] describes label l
   std::vector<Surface> surfaces;
   std::vector<std::int64_t> pixel_counts;  ///< labelled pixels per surface, same indexing
+  /// per label, same indexing: the label of the scene surface it is a part of (itself for the
+  /// scene's surfaces), to count one region per surface instead
+  std::vector<std::int32_t> part_of;
 };
 
 /// Ray-casts `scene` (nearest surface wins) and applies the noise model.

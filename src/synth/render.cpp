@@ -14,7 +14,8 @@ namespace {
 /// Gives every 8-connected part of a surface but its largest its own label (appended to
 /// `surfaces`, a copy of the surface's description named "<name>#k"). Runs on the noise-free
 /// labels, so only occlusion splits a surface, not drop-outs.
-void split_disconnected_parts(LabelImage& labels, std::vector<Surface>& surfaces) {
+void split_disconnected_parts(LabelImage& labels, std::vector<Surface>& surfaces,
+                              std::vector<std::int32_t>& part_of) {
   const int width = labels.width(), height = labels.height();
   const auto at = [&](int u, int v) -> std::int32_t& { return labels.row(v)[u]; };
   std::vector<std::int32_t> part(static_cast<std::size_t>(width) * height, -1);
@@ -66,6 +67,7 @@ void split_disconnected_parts(LabelImage& labels, std::vector<Surface>& surfaces
     Surface copy = surfaces[label - 1];
     copy.name.append(1, '#').append(std::to_string(++count[label]));
     surfaces.push_back(std::move(copy));
+    part_of.push_back(label);
     new_label[i] = static_cast<std::int32_t>(surfaces.size());
   }
   for (int v = 0; v < height; ++v) {
@@ -113,7 +115,13 @@ Rendering render(const Scene& scene, const RenderSettings& settings) {
     }
   }
 
-  if (settings.split_disconnected) split_disconnected_parts(out.labels, out.surfaces);
+  out.part_of.resize(out.surfaces.size());
+  for (std::size_t i = 0; i < out.part_of.size(); ++i) {
+    out.part_of[i] = static_cast<std::int32_t>(i + 1);
+  }
+  if (settings.split_disconnected) {
+    split_disconnected_parts(out.labels, out.surfaces, out.part_of);
+  }
 
   if (settings.noise == Noise::kinect) {
     detail::apply_kinect_noise(settings.kinect, camera, settings.seed, depth, out.labels);
