@@ -101,7 +101,7 @@ struct Room {
 };
 
 /// Surfaces are labelled in this order: room faces, rectangles, boxes (6 each), cylinders
-/// (3 each), spheres (1 each); Label l describes Rendering::surfaces[l - 1] (see
+/// (3 each), spheres (1 each); label l describes Rendering::surfaces[l - 1] (see
 /// RenderSettings::split_disconnected for the labels after these).
 struct Scene {
   std::optional<Room> room;
