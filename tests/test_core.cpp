@@ -1,9 +1,15 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
+#include <numeric>
+#include <random>
 #include <stdexcept>
+#include <vector>
 
+#include "detail/radix_sort.hpp"
 #include "rangeseg/camera.hpp"
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/image.hpp"
@@ -85,4 +91,36 @@ TEST(File, AtomicWriteLeavesNoTemporary) {
   EXPECT_THROW(io::read_file((dir / "nope").string()), std::runtime_error);
   EXPECT_THROW(io::read_file(path, 2), std::runtime_error);
   EXPECT_EQ(io::extension("a/b.PCD"), ".pcd");
+}
+
+// The radix sort must give exactly the order of a stable comparison sort of the float values,
+// ties (including -0 against +0) in input order, also for negative and infinite keys.
+TEST(RadixSort, EqualsStableSortOfTheFloatValues) {
+  std::mt19937 random(7);
+  for (const int n : {0, 1, 2, 5, 300, 5000}) {
+    std::vector<float> values(static_cast<std::size_t>(n));
+    std::uniform_real_distribution<float> uniform(-50.0f, 50.0f);
+    for (float& v : values) {
+      const auto pick = random() % 10;
+      v = pick == 0   ? 0.0f
+          : pick == 1 ? -0.0f
+          : pick == 2 ? std::round(uniform(random))  // many ties
+          : pick == 3 ? (random() % 2 == 0 ? INFINITY : -INFINITY)
+          : pick == 4 ? uniform(random) * 1e-30f
+                      : uniform(random);
+    }
+    std::vector<std::int32_t> expected(values.size());
+    std::iota(expected.begin(), expected.end(), 0);
+    std::stable_sort(expected.begin(), expected.end(),
+                     [&](std::int32_t a, std::int32_t b) { return values[a] < values[b]; });
+    std::vector<std::int32_t> items(values.size()), item_tmp;
+    std::iota(items.begin(), items.end(), 0);
+    std::vector<std::uint32_t> keys, key_tmp;
+    for (const float v : values) keys.push_back(rangeseg::detail::float_order_key(v));
+    rangeseg::detail::radix_sort_by_key(items, keys, item_tmp, key_tmp);
+    EXPECT_EQ(items, expected) << n << " items";
+    for (std::size_t j = 0; j < items.size(); ++j) {
+      ASSERT_EQ(keys[j], rangeseg::detail::float_order_key(values[items[j]]));
+    }
+  }
 }

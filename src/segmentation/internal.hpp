@@ -124,6 +124,9 @@ struct Segmenter::Scratch {
   int cell_cols = 0, cell_rows = 0;
   std::vector<std::int32_t> cell_label;  ///< raw label of a cell grown as a unit; -1 = broken
   std::vector<std::int32_t> cell_order;
+  std::vector<std::uint32_t> cell_keys;  ///< detail::float_order_key of cell_order's curvatures
+  std::vector<std::int32_t> sort_items;  ///< radix sort scratch
+  std::vector<std::uint32_t> sort_keys;  ///< radix sort scratch
   std::vector<std::int32_t> cell_queue;
   std::vector<double> cell_normal_noise;     ///< per complete cell (normal_noise_constant)
   detail::CacheLineVector<float> cell_sums;  ///< per-column sums of one cell row (cells.cpp)

@@ -14,6 +14,7 @@
 #include <emmintrin.h>
 #endif
 
+#include "detail/radix_sort.hpp"
 #include "segmentation/internal.hpp"
 
 namespace rangeseg::seg {
@@ -234,14 +235,16 @@ void grow_cells(const Frame& f, Model& model, Segmenter::Scratch& s, std::int32_
   const int cols = s.cell_cols, rows = s.cell_rows;
   const auto& cells = s.cells;
   auto& cell_label = s.cell_label;
+  // Ascending curvature, ties in index order (a stable sort of the cells in index order).
   s.cell_order.clear();
+  s.cell_keys.clear();
   for (std::int32_t c = 0; c < cols * rows; ++c) {
-    if (cells[c].complete && model.cell_seed_ok(cells[c])) s.cell_order.push_back(c);
+    if (cells[c].complete && model.cell_seed_ok(cells[c])) {
+      s.cell_order.push_back(c);
+      s.cell_keys.push_back(detail::float_order_key(cells[c].curvature));
+    }
   }
-  std::sort(s.cell_order.begin(), s.cell_order.end(), [&](std::int32_t a, std::int32_t b) {
-    return cells[a].curvature != cells[b].curvature ? cells[a].curvature < cells[b].curvature
-                                                    : a < b;
-  });
+  detail::radix_sort_by_key(s.cell_order, s.cell_keys, s.sort_items, s.sort_keys);
   s.cell_queue.resize(static_cast<std::size_t>(cols) * rows);
   std::int32_t* const cell_queue = s.cell_queue.data();
   std::int32_t* const queue = s.queue.data();
