@@ -239,6 +239,19 @@ int adjacency_pixels(const std::int32_t* row, const std::int32_t* below, int beg
 /// labelled corner.
 void segment_areas(const Frame& frame, Segmenter::Scratch& scratch, std::vector<Segment>& segments);
 
+/// Between the coarse level and the pixel seeds of the plane model: each unlabelled valid point
+/// on the mesh 1-ring of a region of at least min_region_size pixels joins the closest such
+/// region's least-squares plane when within max_distance_sigmas sigma(z) of it, with its normal
+/// within reassign_max_normal_angle of the plane's (the test of boundary re-assignment, over
+/// mesh edges only whatever reassign_across_mesh_cuts). Unlike the final re-assignment, points
+/// that join do not make their neighbours candidates. The growth test bounds the normal far
+/// tighter, so in noisy data (Kinect at a few metres) it leaves scattered points inside and
+/// around every large plane, which would otherwise seed hundreds of tiny regions that
+/// post-processing dissolves and re-assigns to the same plane; without propagation the points
+/// of a small real face next to a large plane keep all but the crease for their own seeds.
+void reassign_before_seeds(const Frame& frame, const SegmentationSettings& settings,
+                           Segmenter::Scratch& scratch);
+
 /// Refit, merge, small-region removal, boundary re-assignment, compaction and the Segment list
 /// (areas 0: see segment_areas).
 void postprocess(const Frame& frame, const SegmentationSettings& settings,

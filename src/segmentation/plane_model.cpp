@@ -260,7 +260,9 @@ void grow_planes(const Frame& frame, const SegmentationSettings& settings,
                            normal_noise_constant(scratch, settings.noise));
   }
   if (settings.coarse_cells) {
-    grow_regions(frame, model, scratch, &settings);
+    grow_regions(frame, model, scratch, &settings, [&] {
+      if (settings.reassign_boundary) reassign_before_seeds(frame, settings, scratch);
+    });
   } else {
     PixelPlaneModel pixels{model};
     grow_regions(frame, pixels, scratch, &settings);

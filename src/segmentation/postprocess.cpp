@@ -506,10 +506,10 @@ std::size_t reassign_candidates(const Frame& f, int v_begin, int v_end, std::int
 
 /// Unlabelled valid points next to a plane segment join the adjacent plane they are closest to,
 /// if within k sigma(z) of it and (unless kAcrossCuts) with its normal within
-/// reassign_max_normal_angle of the plane's; newly labelled points make their neighbours
-/// candidates in turn, so dissolved small regions that lie on an adjacent plane are absorbed
-/// whole. Neighbours are those of `reassign_mask`.
-template <bool kAcrossCuts>
+/// reassign_max_normal_angle of the plane's; with kPropagate newly labelled points make their
+/// neighbours candidates in turn, so dissolved small regions that lie on an adjacent plane are
+/// absorbed whole. Neighbours are those of `reassign_mask`.
+template <bool kAcrossCuts, bool kPropagate = true>
 void reassign_boundary_points(const Frame& f, const SegmentationSettings& settings,
                               Segmenter::Scratch& s) {
   const std::size_t pixels = static_cast<std::size_t>(f.stride) * f.height;
@@ -591,6 +591,7 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
     if (best == 0) continue;
     f.labels[q] = best;
     s.regions[best].add(x, y, z);
+    if (!kPropagate) continue;
     while (unlabelled != 0) {
       const int n = std::countr_zero(unlabelled);
       unlabelled &= unlabelled - 1;
@@ -695,6 +696,20 @@ void remap_all_labels(const Frame& f, Segmenter::Scratch& s, const std::int32_t*
 }
 
 }  // namespace
+
+void reassign_before_seeds(const Frame& f, const SegmentationSettings& settings,
+                           Segmenter::Scratch& s) {
+  const auto region_count = static_cast<std::int32_t>(s.regions.size());  // incl. label 0
+  s.fits.assign(region_count, PlaneFit{});
+  bool any = false;
+  for (std::int32_t r = 1; r < region_count; ++r) {
+    if (s.regions[r].count >= settings.min_region_size) {
+      s.fits[r] = s.regions[r].fit();
+      any = any || s.fits[r].ok;
+    }
+  }
+  if (any) reassign_boundary_points<false, false>(f, settings, s);
+}
 
 void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s,
                  Segmentation& out) {

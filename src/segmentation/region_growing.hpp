@@ -332,15 +332,18 @@ void grow_cells(const Frame& f, Model& model, Segmenter::Scratch& s, std::int32_
 /// then only start regions in what the cells left unlabelled. The pixel seeds are
 /// scratch.seeds as the caller filled them (`collect_seeds`), or, given `seed_settings`, are
 /// collected here after the coarse level (only the pixels it left unlabelled).
-template <RegionGrowingModel Model>
-void grow_regions(const Frame& f, Model& model, Segmenter::Scratch& s,
-                  const SegmentationSettings* seed_settings = nullptr) {
+/// `after_cells()` runs between the coarse level and the pixel seeds.
+template <RegionGrowingModel Model, class AfterCells = void (*)()>
+void grow_regions(
+    const Frame& f, Model& model, Segmenter::Scratch& s,
+    const SegmentationSettings* seed_settings = nullptr, AfterCells&& after_cells = [] {}) {
   std::int32_t* const labels = f.labels;
   std::int32_t* const queue = s.queue.data();
   s.regions.clear();
   s.regions.emplace_back();  // raw label 0: none
   std::int32_t label = 0;
   if constexpr (CellGrowingModel<Model>) grow_cells(f, model, s, label);
+  after_cells();
   if (seed_settings != nullptr) {
     // A model whose seed test is seed_ring_ok lets the scan drop the seeds it would veto.
     if constexpr (requires { model.seed_ring_cos(); }) {
