@@ -5,6 +5,7 @@
 #include <bit>
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #if defined(__SSE2__)
@@ -117,8 +118,10 @@ struct Segmenter::Scratch {
   std::vector<std::int32_t> seeds;
   // region growing
   std::vector<std::int32_t> queue;
-  std::vector<std::int32_t> marked;         ///< pixels rejected by a region (grow_pixels)
-  std::vector<detail::PlaneStats> regions;  ///< per raw region label; [0] unused
+  std::vector<std::int32_t> marked;    ///< pixels rejected by a region (grow_pixels)
+  std::vector<std::int32_t> rejected;  ///< `marked` of all regions of the cell level
+  std::vector<std::pair<std::int32_t, std::int32_t>> joins;  ///< (pixel, label) re-assignments
+  std::vector<detail::PlaneStats> regions;                   ///< per raw region label; [0] unused
   // coarse level (models with a cell interface)
   std::vector<seg::Cell> cells;  ///< row-major, cell_cols x cell_rows
   int cell_cols = 0, cell_rows = 0;

@@ -504,20 +504,19 @@ std::size_t reassign_candidates(const Frame& f, int v_begin, int v_end, std::int
   return n;
 }
 
-/// Unlabelled valid points next to a plane segment join the adjacent plane they are closest to,
-/// if within k sigma(z) of it and (unless kAcrossCuts) with its normal within
-/// reassign_max_normal_angle of the plane's; with kPropagate newly labelled points make their
-/// neighbours candidates in turn, so dissolved small regions that lie on an adjacent plane are
-/// absorbed whole. Neighbours are those of `reassign_mask`.
-template <bool kAcrossCuts, bool kPropagate = true>
-void reassign_boundary_points(const Frame& f, const SegmentationSettings& settings,
-                              Segmenter::Scratch& s) {
-  const std::size_t pixels = static_cast<std::size_t>(f.stride) * f.height;
-  // Every pixel queued below is dequeued again (and its flag cleared) before this returns.
-  if (s.queued.size() != pixels) s.queued.assign(pixels, 0);
+/// The re-assignment of the candidates ring[0, size) of s.queue (flagged in s.queued): each
+/// unlabelled one joins the adjacent plane it is closest to, if within k sigma(z) of it and
+/// (unless kAcrossCuts) with its normal within reassign_max_normal_angle of the plane's; with
+/// kPropagate newly labelled points make their neighbours candidates in turn, so dissolved small
+/// regions that lie on an adjacent plane are absorbed whole; without, every candidate is decided
+/// on the labels as they were before any joined. Neighbours are those of `reassign_mask`; planes
+/// are s.fits (by label; `ok` ones only).
+template <bool kAcrossCuts, bool kPropagate>
+void reassign_queued(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s,
+                     std::size_t size) {
   std::int32_t* const ring = s.queue.data();
   const std::size_t capacity = s.queue.size();
-  std::size_t head = 0, size = 0;
+  std::size_t head = 0;
   const auto push = [&](std::int32_t i) {
     s.queued[i] = 1;
     std::size_t slot = head + size;
@@ -525,29 +524,13 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
     ring[slot] = i;
     ++size;
   };
-  // The first candidates: row bands scanned concurrently, each into the ring from its first
-  // pixel on (a band has fewer candidates than pixels), then moved together in band order.
-  const auto bands = static_cast<std::size_t>(band_count(s));
-  ensure_band_buffers(s, f.width);
-  for_each_band(s, f.height, f.pixel_stride, [&](int band, int v_begin, int v_end) {
-    const std::size_t first = static_cast<std::size_t>(v_begin) * f.stride;
-    const auto b = static_cast<std::size_t>(band);
-    s.band_found[2 * b] = first;
-    s.band_found[2 * b + 1] = reassign_candidates<kAcrossCuts>(
-        f, v_begin, v_end, row_pixels_of(s, band), s.queued.data(), ring + first);
-  });
-  for (std::size_t band = 0; band < bands; ++band) {
-    const std::int32_t* const found = ring + s.band_found[2 * band];
-    const std::size_t n = s.band_found[2 * band + 1];
-    if (found != ring + size) std::copy(found, found + n, ring + size);
-    size += n;
-  }
   const int step = f.pixel_stride;
   const double k = settings.max_distance_sigmas;
   const double cos_max_angle = std::cos(settings.reassign_max_normal_angle);
   // Pixels whose 3 x 4 label block starting at q - stride - 1 lies inside the plane (step 1).
   const std::ptrdiff_t block_first = f.stride + 1;
   const std::ptrdiff_t block_last = step == 1 ? (f.height - 1) * f.stride - 3 : -1;
+  s.joins.clear();
   while (size > 0) {
     const std::int32_t q = ring[head];
     if (++head == capacity) head = 0;
@@ -589,16 +572,56 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
       }
     }
     if (best == 0) continue;
-    f.labels[q] = best;
-    s.regions[best].add(x, y, z);
-    if (!kPropagate) continue;
-    while (unlabelled != 0) {
-      const int n = std::countr_zero(unlabelled);
-      unlabelled &= unlabelled - 1;
-      const std::int32_t r = static_cast<std::int32_t>(q + f.neighbour_offset[n]);
-      if (!s.queued[r] && (!kAcrossCuts || std::isfinite(f.z[r]))) push(r);
+    if constexpr (kPropagate) {
+      f.labels[q] = best;
+      s.regions[best].add(x, y, z);
+      while (unlabelled != 0) {
+        const int n = std::countr_zero(unlabelled);
+        unlabelled &= unlabelled - 1;
+        const std::int32_t r = static_cast<std::int32_t>(q + f.neighbour_offset[n]);
+        if (!s.queued[r] && (!kAcrossCuts || std::isfinite(f.z[r]))) push(r);
+      }
+    } else {
+      // Decided against the labels as they were: the candidates' order does not matter.
+      s.joins.push_back({q, best});
     }
   }
+  if constexpr (!kPropagate) {
+    for (const auto& [q, best] : s.joins) {
+      f.labels[q] = best;
+      s.regions[best].add(f.x[q], f.y[q], f.z[q]);
+    }
+  }
+}
+
+/// Unlabelled valid points next to a plane segment join the adjacent plane they are closest to
+/// (`reassign_queued`, with propagation); the candidates are found by a scan of the frame.
+template <bool kAcrossCuts>
+void reassign_boundary_points(const Frame& f, const SegmentationSettings& settings,
+                              Segmenter::Scratch& s) {
+  const std::size_t pixels = static_cast<std::size_t>(f.stride) * f.height;
+  // Every pixel queued is dequeued again (and its flag cleared) before reassign_queued returns.
+  if (s.queued.size() != pixels) s.queued.assign(pixels, 0);
+  std::int32_t* const ring = s.queue.data();
+  std::size_t size = 0;
+  // The first candidates: row bands scanned concurrently, each into the ring from its first
+  // pixel on (a band has fewer candidates than pixels), then moved together in band order.
+  const auto bands = static_cast<std::size_t>(band_count(s));
+  ensure_band_buffers(s, f.width);
+  for_each_band(s, f.height, f.pixel_stride, [&](int band, int v_begin, int v_end) {
+    const std::size_t first = static_cast<std::size_t>(v_begin) * f.stride;
+    const auto b = static_cast<std::size_t>(band);
+    s.band_found[2 * b] = first;
+    s.band_found[2 * b + 1] = reassign_candidates<kAcrossCuts>(
+        f, v_begin, v_end, row_pixels_of(s, band), s.queued.data(), ring + first);
+  });
+  for (std::size_t band = 0; band < bands; ++band) {
+    const std::int32_t* const found = ring + s.band_found[2 * band];
+    const std::size_t n = s.band_found[2 * band + 1];
+    if (found != ring + size) std::copy(found, found + n, ring + size);
+    size += n;
+  }
+  reassign_queued<kAcrossCuts, true>(f, settings, s, size);
 }
 
 /// Adds a third of every triangle's area (a quarter of every quad's) to each labelled corner.
@@ -708,7 +731,20 @@ void reassign_before_seeds(const Frame& f, const SegmentationSettings& settings,
       any = any || s.fits[r].ok;
     }
   }
-  if (any) reassign_boundary_points<false, false>(f, settings, s);
+  if (!any) return;
+  // The unlabelled points on a region's mesh 1-ring are those its growth rejected: every free
+  // mesh neighbour of a region point was tested, but for the inner points of cells grown as
+  // units, whose neighbours are all labelled.
+  const std::size_t pixels = static_cast<std::size_t>(f.stride) * f.height;
+  if (s.queued.size() != pixels) s.queued.assign(pixels, 0);
+  std::int32_t* const ring = s.queue.data();
+  std::size_t size = 0;
+  for (const std::int32_t q : s.rejected) {
+    if (f.labels[q] != 0 || s.queued[q] != 0) continue;
+    s.queued[q] = 1;
+    ring[size++] = q;
+  }
+  reassign_queued<false, false>(f, settings, s, size);
 }
 
 void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s,

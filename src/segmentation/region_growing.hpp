@@ -246,6 +246,7 @@ void grow_cells(const Frame& f, Model& model, Segmenter::Scratch& s, std::int32_
   }
   detail::radix_sort_by_key(s.cell_order, s.cell_keys, s.sort_items, s.sort_keys);
   s.cell_queue.resize(static_cast<std::size_t>(cols) * rows);
+  s.rejected.clear();
   std::int32_t* const cell_queue = s.cell_queue.data();
   std::int32_t* const queue = s.queue.data();
   const int step = f.pixel_stride;
@@ -322,6 +323,7 @@ void grow_cells(const Frame& f, Model& model, Segmenter::Scratch& s, std::int32_
       }
     }
     grow_pixels(f, model, label, queue, 0, ptail, s.queue.size(), &s.marked);
+    s.rejected.insert(s.rejected.end(), s.marked.begin(), s.marked.end());
     s.regions.push_back(model.stats());
   }
 }
