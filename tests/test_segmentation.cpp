@@ -230,6 +230,79 @@ TEST(Segmentation, SeedsNeedAFreeRingOfAgreeingNormals) {
   EXPECT_FALSE(seg::seed_ring_ok(h, at(10, 10), cos_angle));
 }
 
+// A pixel seed of the plane model also needs a clear (2r + 1)^2 block: no labelled pixel within
+// r lattice steps (Chebyshev), clipped at the image border, on the mesh's lattice only.
+TEST(Segmentation, SeedsNeedClearanceFromLabelledPixels) {
+  const OrganizedCloud cloud = cast(32, 24, [](double, double) { return 2.0; });
+  const Mesh mesh = build_mesh(cloud);
+  const NormalMap normals = compute_normals(cloud, mesh);
+  Segmentation out;
+  out.labels.resize(cloud.width(), cloud.height(), 0);
+  const seg::Frame f = seg::make_frame(cloud, mesh, normals, out.labels);
+  const auto at = [&](int u, int v) { return static_cast<std::int32_t>(v * f.stride + u); };
+  for (int r = 0; r <= 4; ++r) EXPECT_TRUE(seg::seed_clear(f, at(10, 10), r));
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      out.labels(u, v) = 7;
+      for (const int r : {1, 3}) {
+        const bool near = std::abs(u - 10) <= r && std::abs(v - 10) <= r;
+        ASSERT_EQ(seg::seed_clear(f, at(10, 10), r), !near) << u << "," << v << " r " << r;
+        ASSERT_EQ(seg::seed_passes(f, at(10, 10), {.ring_cos = -1, .clearance = r}), !near);
+      }
+      EXPECT_TRUE(seg::seed_clear(f, at(10, 10), 0));
+      out.labels(u, v) = 0;
+    }
+  }
+  // Corners: the block is clipped, nothing outside the image is read.
+  out.labels(3, 3) = 1;
+  EXPECT_FALSE(seg::seed_clear(f, at(0, 0), 3));
+  EXPECT_TRUE(seg::seed_clear(f, at(0, 0), 2));
+  EXPECT_FALSE(seg::seed_clear(f, at(31, 23), 30));
+  out.labels(3, 3) = 0;
+  // Lattice step 2: only lattice pixels count, and r counts lattice steps.
+  seg::Frame g = f;
+  g.pixel_stride = 2;
+  out.labels(11, 10) = 5;  // off the lattice
+  EXPECT_TRUE(seg::seed_clear(g, at(10, 10), 3));
+  out.labels(11, 10) = 0;
+  out.labels(16, 10) = 5;  // three lattice steps away
+  EXPECT_FALSE(seg::seed_clear(g, at(10, 10), 3));
+  EXPECT_TRUE(seg::seed_clear(g, at(10, 10), 2));
+}
+
+// Along a crease the growth leaves a band of mixed 1-ring normals; with no clearance its
+// pixels seed slivers, with the default they do not, and the two faces are found either way.
+TEST(Segmentation, SeedClearanceKeepsSliversOutOfCreaseBands) {
+  const synth::Rendering r =
+      synth::render(synth::random_scene(3),
+                    {.noise = synth::Noise::kinect, .seed = 3, .min_surface_pixels = 1000});
+  const Mesh mesh = build_mesh(r.cloud);
+  OrganizedCloud cloud;
+  NormalMap normals;
+  smooth(r.cloud, mesh, compute_normals(r.cloud, mesh), {}, cloud, normals);
+  SegmentationSettings settings = preset("kinect");
+  settings.min_region_size = 1;  // keep every region, so that slivers stay visible
+  settings.merge_planes = false;
+  settings.reassign_boundary = false;
+  const Segmentation with = segment(cloud, mesh, normals, settings);
+  settings.seed_clearance = 0;
+  const Segmentation without = segment(cloud, mesh, normals, settings);
+  const auto small = [](const Segmentation& s) {
+    return std::count_if(s.segments.begin(), s.segments.end(),
+                         [](const Segment& x) { return x.pixel_count < 50; });
+  };
+  std::printf("segments below 50 px: %td with clearance, %td without\n", small(with),
+              small(without));
+  EXPECT_LT(2 * small(with), small(without));
+  settings = preset("kinect");
+  const eval::EvalResult a =
+      eval::evaluate(r.labels, segment(cloud, mesh, normals, settings).labels, {.tolerance = 0.8});
+  settings.seed_clearance = 0;
+  const eval::EvalResult b =
+      eval::evaluate(r.labels, segment(cloud, mesh, normals, settings).labels, {.tolerance = 0.8});
+  EXPECT_GE(a.correct, b.correct);
+}
+
 #if defined(__SSE2__)
 // Boundary re-assignment decides a pixel whose labelled neighbours share one label with one
 // plane test (single_neighbour_label, three vector loads); the label must be the one every
@@ -721,6 +794,7 @@ TEST(Segmentation, PresetsAndValidation) {
   EXPECT_THROW(segment(cloud, mesh, normals, {.min_normal_angle = 4}, out), std::invalid_argument);
   EXPECT_THROW(segment(cloud, mesh, normals, {.reassign_max_normal_angle = -0.1}, out),
                std::invalid_argument);
+  EXPECT_THROW(segment(cloud, mesh, normals, {.seed_clearance = -1}, out), std::invalid_argument);
   EXPECT_THROW(segment(OrganizedCloud(64, 1), mesh, normals, {}, out), std::invalid_argument);
 }
 

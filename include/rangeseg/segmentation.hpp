@@ -72,6 +72,13 @@ struct SegmentationSettings {
   double max_curvature = 50.0;
   /// Pixels with larger curvature are not used as seeds [1/m] (both models; inf = all).
   double max_seed_curvature = 1e30;
+  /// plane: a pixel seed needs every pixel within this many lattice steps of it (a square of
+  /// 2r + 1 pixels) to be unlabelled. Between two regions the growth test leaves a band a few
+  /// pixels wide where 1-ring normals (and smoothing) mix both surfaces, at creases and
+  /// occlusion boundaries; regions seeded there are slivers, which post-processing dissolves
+  /// again (on a 640x480 Kinect frame hundreds of them). A face narrower than 2r + 1 pixels
+  /// between labelled regions gets no pixel seed [lattice steps] (0 = no such test).
+  int seed_clearance = 3;
   /// plane: grow over 8x8-vertex cells first (cf. CAPE): a cell whose points and normals pass
   /// the region tests as a whole (from its moments) joins as a unit, the rest of the region is
   /// grown pixel by pixel from the border of its cells. Same model, ~10x fewer per-pixel tests;

@@ -197,6 +197,33 @@ inline bool seed_ring_ok(const Frame& f, std::int32_t seed, float cos_angle) {
   return true;
 }
 
+/// Whether every pixel within `radius` lattice steps of `seed` (Chebyshev distance, inside the
+/// image) is unlabelled (labels >= 0).
+inline bool seed_clear(const Frame& f, std::int32_t seed, int radius) {
+  if (radius <= 0) return true;
+  const int step = f.pixel_stride;
+  const int u = static_cast<int>(seed % f.stride), v = static_cast<int>(seed / f.stride);
+  const int u0 = std::max(u - radius * step, u % step), v0 = std::max(v - radius * step, v % step);
+  const int u1 = std::min(u + radius * step, f.width - 1),
+            v1 = std::min(v + radius * step, f.height - 1);
+  std::int32_t any = 0;
+  for (int r = v0; r <= v1; r += step) {
+    const std::int32_t* row = f.labels + static_cast<std::ptrdiff_t>(r) * f.stride;
+    for (int c = u0; c <= u1; c += step) any |= row[c];
+    if (any != 0) return false;
+  }
+  return true;
+}
+
+/// What a pixel seed must pass beyond the scan's own tests (see seed_ring_ok and seed_clear).
+struct SeedVeto {
+  float ring_cos = -1;  ///< seed_ring_ok's cosine
+  int clearance = 0;    ///< seed_clear's radius [lattice steps]
+};
+inline bool seed_passes(const Frame& f, std::int32_t seed, const SeedVeto& veto) {
+  return seed_ring_ok(f, seed, veto.ring_cos) && seed_clear(f, seed, veto.clearance);
+}
+
 /// Sets a segment's pixel count, centroid and least-squares plane (normal, offset, RMS) from its
 /// point statistics. Collinear points (a one-pixel strip) have no plane: the plane facing the
 /// sensor through the centroid is reported instead.
@@ -208,10 +235,10 @@ Frame make_frame(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap&
                  LabelImage& labels);
 
 /// Fills scratch.seeds with the unlabelled seed pixels in ascending curvature order (counting
-/// sort). Given `ring_cos`, only pixels that pass seed_ring_ok(frame, pixel, ring_cos) now: labels
+/// sort). Given `veto`, only pixels that pass seed_passes(frame, pixel, *veto) now: labels
 /// only appear while regions grow, so a pixel failing it now fails it for good.
 void collect_seeds(const Frame& frame, const SegmentationSettings& settings,
-                   Segmenter::Scratch& scratch, const float* ring_cos = nullptr);
+                   Segmenter::Scratch& scratch, const SeedVeto* veto = nullptr);
 
 /// Fills scratch.cells (cell_cols x cell_rows cells of kCellSide x kCellSide lattice vertices
 /// covering the image from the top-left; a partial last column/row of cells is left out) and

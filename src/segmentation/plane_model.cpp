@@ -32,7 +32,8 @@ class PlaneModel {
         z0_(static_cast<float>(s.noise.z0)),
         max_seed_curvature_(static_cast<float>(std::fmin(s.max_seed_curvature, 3e38))),
         cos_min_angle_(
-            static_cast<float>(std::cos(std::min(s.min_normal_angle, s.max_normal_angle)))) {}
+            static_cast<float>(std::cos(std::min(s.min_normal_angle, s.max_normal_angle)))),
+        veto_{.ring_cos = cos_seed_angle_, .clearance = s.seed_clearance} {}
 
   /// Sets c of the noise-derived angle bound (see SegmentationSettings::normal_noise_sigmas);
   /// kc2_ = 2 / (k c)^2 so that the test reads 2 (1 - dot) z^2 <= (k c sigma)^2.
@@ -48,10 +49,8 @@ class PlaneModel {
     add(f, seed);
   }
 
-  bool seed_ok(const Frame& f, std::int32_t seed) const {
-    return seed_ring_ok(f, seed, cos_seed_angle_);
-  }
-  float seed_ring_cos() const { return cos_seed_angle_; }
+  bool seed_ok(const Frame& f, std::int32_t seed) const { return seed_passes(f, seed, veto_); }
+  SeedVeto seed_veto() const { return veto_; }
 
   bool accepts(const Frame& f, std::int32_t /*from*/, std::int32_t q) const {
     const float dot = nx_ * f.nx[q] + ny_ * f.ny[q] + nz_ * f.nz[q];
@@ -203,6 +202,7 @@ class PlaneModel {
   }
 
   float cos_max_angle_, cos_seed_angle_, k_, a_, b_, z0_, max_seed_curvature_, cos_min_angle_;
+  SeedVeto veto_;
   bool adaptive_ = false;
   float kc2_ = 0;
   detail::PlaneStats stats_;
@@ -219,7 +219,7 @@ struct PixelPlaneModel {
   PlaneModel& m;
   void init(const Frame& f, std::int32_t seed) { m.init(f, seed); }
   bool seed_ok(const Frame& f, std::int32_t seed) const { return m.seed_ok(f, seed); }
-  float seed_ring_cos() const { return m.seed_ring_cos(); }
+  SeedVeto seed_veto() const { return m.seed_veto(); }
   bool accepts(const Frame& f, std::int32_t p, std::int32_t q) const { return m.accepts(f, p, q); }
   void add(const Frame& f, std::int32_t q) { m.add(f, q); }
   const detail::PlaneStats& stats() const { return m.stats(); }

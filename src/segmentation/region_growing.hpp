@@ -347,10 +347,10 @@ void grow_regions(
   if constexpr (CellGrowingModel<Model>) grow_cells(f, model, s, label);
   after_cells();
   if (seed_settings != nullptr) {
-    // A model whose seed test is seed_ring_ok lets the scan drop the seeds it would veto.
-    if constexpr (requires { model.seed_ring_cos(); }) {
-      const float ring_cos = model.seed_ring_cos();
-      collect_seeds(f, *seed_settings, s, &ring_cos);
+    // A model whose seed test is seed_passes lets the scan drop the seeds it would veto.
+    if constexpr (requires { model.seed_veto(); }) {
+      const SeedVeto veto = model.seed_veto();
+      collect_seeds(f, *seed_settings, s, &veto);
     } else {
       collect_seeds(f, *seed_settings, s);
     }

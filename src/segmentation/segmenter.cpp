@@ -53,6 +53,8 @@ void validate(const SegmentationSettings& s) {
   require(s.max_curvature > 0, "max_curvature", s.max_curvature, "> 0");
   require(s.max_seed_curvature > 0, "max_seed_curvature", s.max_seed_curvature, "> 0");
   require(s.min_region_size >= 1, "min_region_size", s.min_region_size, ">= 1");
+  require(s.seed_clearance >= 0 && s.seed_clearance <= 64, "seed_clearance", s.seed_clearance,
+          "in [0, 64] lattice steps");
   require(s.merge_angle > 0 && s.merge_angle <= pi, "merge_angle", s.merge_angle, "in (0, pi] rad");
   require(s.merge_rms_sigmas >= 0 && std::isfinite(s.merge_rms_sigmas), "merge_rms_sigmas",
           s.merge_rms_sigmas, "finite and >= 0");
@@ -79,14 +81,14 @@ namespace {
 
 /// The seed candidates of lattice rows [v_begin, v_end) (pixel rows, multiples of the lattice
 /// step) into pixel / key_of in scan order, counted per bucket; returns how many.
-std::size_t scan_seed_rows(const Frame& f, float max_curvature, const float* ring_cos, int v_begin,
+std::size_t scan_seed_rows(const Frame& f, float max_curvature, const SeedVeto* veto, int v_begin,
                            int v_end, std::int32_t* pixel, std::uint16_t* key_of,
                            std::int32_t* count) {
   const std::uint32_t floor_key = float_key(kSeedKeyFloor);
   const int step = f.pixel_stride;
   std::size_t n = 0;
   const auto add = [&](std::ptrdiff_t i) {
-    if (ring_cos != nullptr && !seed_ring_ok(f, static_cast<std::int32_t>(i), *ring_cos)) return;
+    if (veto != nullptr && !seed_passes(f, static_cast<std::int32_t>(i), *veto)) return;
     const std::uint32_t key = float_key(std::fabs(f.curvature[i]));
     const std::uint32_t bucket =
         key <= floor_key ? 0u : std::min<std::uint32_t>(key - floor_key, kSeedBuckets - 1);
@@ -140,7 +142,7 @@ std::size_t scan_seed_rows(const Frame& f, float max_curvature, const float* rin
 // one candidate per lattice vertex) with its own bucket counts; the seeds of a bucket are placed
 // band after band, so the order is the single-threaded scan order whatever the band count.
 void collect_seeds(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s,
-                   const float* ring_cos) {
+                   const SeedVeto* veto) {
   float max_curvature = static_cast<float>(std::fmin(settings.max_seed_curvature, 3e38));
   if (settings.model == RegionModel::smooth) {
     max_curvature = std::fmin(max_curvature, static_cast<float>(settings.max_curvature));
@@ -162,7 +164,7 @@ void collect_seeds(const Frame& f, const SegmentationSettings& settings, Segment
     const auto b = static_cast<std::size_t>(band);
     s.band_found[2 * b] = first;
     s.band_found[2 * b + 1] = scan_seed_rows(
-        f, max_curvature, ring_cos, v_begin, v_end, s.candidate_pixel.data() + first,
+        f, max_curvature, veto, v_begin, v_end, s.candidate_pixel.data() + first,
         s.candidate_key.data() + first, s.band_seed_counts.data() + b * kSeedBuckets);
   });
   // bucket_start: where each bucket begins; then band_seed_counts: where each band's part does.
