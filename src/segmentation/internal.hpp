@@ -151,8 +151,9 @@ struct Segmenter::Scratch {
   std::vector<std::vector<std::uint8_t>> band_cell_complete;
   std::vector<std::vector<std::int32_t>> band_row_pixels;
   std::vector<std::vector<std::uint64_t>> band_adjacency;
-  std::vector<std::int32_t> band_seed_counts;  ///< kSeedBuckets per band
-  std::vector<std::size_t> band_found;         ///< items each band found
+  std::vector<std::int32_t> band_seed_counts;               ///< kSeedBuckets per band
+  std::vector<std::vector<std::uint64_t>> band_label_bits;  ///< seed scan's label masks per band
+  std::vector<std::size_t> band_found;                      ///< items each band found
 };
 
 }  // namespace rangeseg

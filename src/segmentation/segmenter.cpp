@@ -7,6 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -53,8 +54,8 @@ void validate(const SegmentationSettings& s) {
   require(s.max_curvature > 0, "max_curvature", s.max_curvature, "> 0");
   require(s.max_seed_curvature > 0, "max_seed_curvature", s.max_seed_curvature, "> 0");
   require(s.min_region_size >= 1, "min_region_size", s.min_region_size, ">= 1");
-  require(s.seed_clearance >= 0 && s.seed_clearance <= 64, "seed_clearance", s.seed_clearance,
-          "in [0, 64] lattice steps");
+  require(s.seed_clearance >= 0 && s.seed_clearance <= 32, "seed_clearance", s.seed_clearance,
+          "in [0, 32] lattice steps");
   require(s.merge_angle > 0 && s.merge_angle <= pi, "merge_angle", s.merge_angle, "in (0, pi] rad");
   require(s.merge_rms_sigmas >= 0 && std::isfinite(s.merge_rms_sigmas), "merge_rms_sigmas",
           s.merge_rms_sigmas, "finite and >= 0");
@@ -79,16 +80,39 @@ namespace seg {
 
 namespace {
 
+/// Bits of the labelled pixels of rows [row_begin, row_end) (stride 1), `words` 64-bit words a
+/// row, pixel u of a row in bit u % 64 of word u / 64.
+void labelled_bits(const Frame& f, int row_begin, int row_end, int words, std::uint64_t* bits) {
+  for (int v = row_begin; v < row_end; ++v) {
+    const std::int32_t* labels = f.labels + static_cast<std::ptrdiff_t>(v) * f.stride;
+    std::uint64_t* out = bits + static_cast<std::ptrdiff_t>(v - row_begin) * words;
+    std::fill(out, out + words, 0);
+    int u = 0;
+#if defined(__SSE2__)
+    const __m128i zero = _mm_setzero_si128();
+    for (; u + 4 <= f.width; u += 4) {
+      const __m128i l = _mm_loadu_si128(reinterpret_cast<const __m128i*>(labels + u));
+      const auto free =
+          static_cast<std::uint64_t>(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(l, zero))));
+      out[u / 64] |= (free ^ 15u) << (u % 64);  // u % 4 == 0: the four bits share a word
+    }
+#endif
+    for (; u < f.width; ++u) {
+      out[u / 64] |= static_cast<std::uint64_t>(labels[u] != 0) << (u % 64);
+    }
+  }
+}
+
 /// The seed candidates of lattice rows [v_begin, v_end) (pixel rows, multiples of the lattice
-/// step) into pixel / key_of in scan order, counted per bucket; returns how many.
+/// step) into pixel / key_of in scan order, counted per bucket; returns how many. `bits`:
+/// scratch for labelled_bits of the rows within veto->clearance of the band (step 1).
 std::size_t scan_seed_rows(const Frame& f, float max_curvature, const SeedVeto* veto, int v_begin,
                            int v_end, std::int32_t* pixel, std::uint16_t* key_of,
-                           std::int32_t* count) {
+                           std::int32_t* count, std::vector<std::uint64_t>& bits) {
   const std::uint32_t floor_key = float_key(kSeedKeyFloor);
   const int step = f.pixel_stride;
   std::size_t n = 0;
   const auto add = [&](std::ptrdiff_t i) {
-    if (veto != nullptr && !seed_passes(f, static_cast<std::int32_t>(i), *veto)) return;
     const std::uint32_t key = float_key(std::fabs(f.curvature[i]));
     const std::uint32_t bucket =
         key <= floor_key ? 0u : std::min<std::uint32_t>(key - floor_key, kSeedBuckets - 1);
@@ -98,40 +122,62 @@ std::size_t scan_seed_rows(const Frame& f, float max_curvature, const SeedVeto* 
     ++n;
   };
   // A seed needs a point and a normal; NaN curvature fails the comparison.
-  const auto consider = [&](std::ptrdiff_t i) {
-    if (f.labels[i] == 0 && f.curvature[i] <= max_curvature && std::isfinite(f.nz[i]) &&
-        std::isfinite(f.z[i])) {
-      add(i);
-    }
+  const auto valid = [&](std::ptrdiff_t i) {
+    return f.curvature[i] <= max_curvature && std::isfinite(f.nz[i]) && std::isfinite(f.z[i]);
   };
-  for (int v = v_begin; v < v_end; v += step) {
-    const std::ptrdiff_t row = v * f.stride;
-    int u = 0;
-#if defined(__SSE2__)
-    if (step == 1) {
-      // Four pixels at a time, branch-free (most are labelled by the coarse level already).
-      const __m128 limit = _mm_set1_ps(max_curvature);
-      const __m128 infinity = _mm_set1_ps(std::numeric_limits<float>::infinity());
-      const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7FFFFFFF));
-      const __m128i zero = _mm_setzero_si128();
-      for (; u + 4 <= f.width; u += 4) {
-        const std::ptrdiff_t i = row + u;
-        const __m128i labels = _mm_loadu_si128(reinterpret_cast<const __m128i*>(f.labels + i));
-        const __m128 unlabelled = _mm_castsi128_ps(_mm_cmpeq_epi32(labels, zero));
-        const __m128 flat = _mm_cmple_ps(_mm_loadu_ps(f.curvature + i), limit);
-        // |x| < infinity fails for infinities and NaN.
-        const __m128 normal = _mm_cmplt_ps(_mm_and_ps(_mm_loadu_ps(f.nz + i), abs_mask), infinity);
-        const __m128 point = _mm_cmplt_ps(_mm_and_ps(_mm_loadu_ps(f.z + i), abs_mask), infinity);
-        auto bits = static_cast<unsigned>(
-            _mm_movemask_ps(_mm_and_ps(_mm_and_ps(unlabelled, flat), _mm_and_ps(normal, point))));
-        while (bits != 0) {
-          add(i + std::countr_zero(bits));
-          bits &= bits - 1;
+  if (step != 1) {
+    for (int v = v_begin; v < v_end; v += step) {
+      for (int u = 0; u < f.width; u += step) {
+        const std::ptrdiff_t i = v * f.stride + u;
+        if (f.labels[i] == 0 && valid(i) &&
+            (veto == nullptr || seed_passes(f, static_cast<std::int32_t>(i), *veto))) {
+          add(i);
         }
       }
     }
-#endif
-    for (; u < f.width; u += step) consider(row + u);
+    return n;
+  }
+  // Most pixels are labelled by the coarse level, or lie within the clearance of one: those are
+  // found from bit masks of the labels (a row's mask ORed over the rows within the clearance,
+  // then widened by it along the row) before any other plane is read.
+  const int r = veto != nullptr ? veto->clearance : 0;
+  const int words = (f.width + 63) / 64;
+  const int row_begin = std::max(0, v_begin - r), row_end = std::min(f.height, v_end + r);
+  bits.resize(static_cast<std::size_t>(row_end - row_begin + 2) * words);
+  labelled_bits(f, row_begin, row_end, words, bits.data());
+  std::uint64_t* const near =
+      bits.data() + static_cast<std::ptrdiff_t>(row_end - row_begin) * words;
+  std::uint64_t* const wide = near + words;
+  const std::uint64_t last_word =
+      f.width % 64 == 0 ? ~std::uint64_t{0} : (std::uint64_t{1} << (f.width % 64)) - 1;
+  for (int v = v_begin; v < v_end; ++v) {
+    const int first = std::max(row_begin, v - r), last = std::min(row_end - 1, v + r);
+    std::copy_n(bits.data() + static_cast<std::ptrdiff_t>(first - row_begin) * words, words, near);
+    for (int t = first + 1; t <= last; ++t) {
+      const std::uint64_t* row = bits.data() + static_cast<std::ptrdiff_t>(t - row_begin) * words;
+      for (int w = 0; w < words; ++w) near[w] |= row[w];
+    }
+    for (int w = 0; w < words; ++w) {
+      std::uint64_t m = near[w];
+      const std::uint64_t before = w > 0 ? near[w - 1] : 0, after = w + 1 < words ? near[w + 1] : 0;
+      for (int d = 1; d <= r; ++d) {
+        m |= near[w] << d | before >> (64 - d) | near[w] >> d | after << (64 - d);
+      }
+      wide[w] = m;
+    }
+    const std::ptrdiff_t row = v * f.stride;
+    for (int w = 0; w < words; ++w) {
+      std::uint64_t free = ~wide[w] & (w + 1 == words ? last_word : ~std::uint64_t{0});
+      while (free != 0) {
+        const std::ptrdiff_t i = row + 64 * w + std::countr_zero(free);
+        free &= free - 1;
+        // The labels within the clearance are all 0, so seed_passes reduces to the ring normals.
+        if (valid(i) &&
+            (veto == nullptr || seed_ring_ok(f, static_cast<std::int32_t>(i), veto->ring_cos))) {
+          add(i);
+        }
+      }
+    }
   }
   return n;
 }
@@ -159,13 +205,15 @@ void collect_seeds(const Frame& f, const SegmentationSettings& settings, Segment
   const auto bands = static_cast<std::size_t>(band_count(s));
   s.band_seed_counts.assign(bands * kSeedBuckets, 0);
   s.band_found.assign(bands * 2, 0);  // per band: first lattice vertex, candidates found
+  if (s.band_label_bits.size() < bands) s.band_label_bits.resize(bands);
   for_each_band(s, f.height, step, [&](int band, int v_begin, int v_end) {
     const std::size_t first = static_cast<std::size_t>(v_begin / step) * lattice_width;
     const auto b = static_cast<std::size_t>(band);
     s.band_found[2 * b] = first;
-    s.band_found[2 * b + 1] = scan_seed_rows(
-        f, max_curvature, veto, v_begin, v_end, s.candidate_pixel.data() + first,
-        s.candidate_key.data() + first, s.band_seed_counts.data() + b * kSeedBuckets);
+    s.band_found[2 * b + 1] =
+        scan_seed_rows(f, max_curvature, veto, v_begin, v_end, s.candidate_pixel.data() + first,
+                       s.candidate_key.data() + first, s.band_seed_counts.data() + b * kSeedBuckets,
+                       s.band_label_bits[b]);
   });
   // bucket_start: where each bucket begins; then band_seed_counts: where each band's part does.
   s.bucket_start.assign(kSeedBuckets + 1, 0);
