@@ -169,7 +169,7 @@ std::size_t scan_seed_rows(const Frame& f, float max_curvature, const SeedVeto* 
     for (int w = 0; w < words; ++w) {
       std::uint64_t free = ~wide[w] & (w + 1 == words ? last_word : ~std::uint64_t{0});
       while (free != 0) {
-        const std::ptrdiff_t i = row + 64 * w + std::countr_zero(free);
+        const std::ptrdiff_t i = row + std::ptrdiff_t{64} * w + std::countr_zero(free);
         free &= free - 1;
         // The labels within the clearance are all 0, so seed_passes reduces to the ring normals.
         if (valid(i) &&
