@@ -122,5 +122,16 @@ TEST(RadixSort, EqualsStableSortOfTheFloatValues) {
     for (std::size_t j = 0; j < items.size(); ++j) {
       ASSERT_EQ(keys[j], rangeseg::detail::float_order_key(values[items[j]]));
     }
+    // 64-bit keys: the value, then a small tie-breaker in the low bits.
+    std::stable_sort(expected.begin(), expected.end(), [&](std::int32_t a, std::int32_t b) {
+      return values[a] != values[b] ? values[a] < values[b] : a % 7 < b % 7;
+    });
+    std::iota(items.begin(), items.end(), 0);
+    std::vector<std::uint64_t> wide, wide_tmp;
+    for (std::size_t j = 0; j < values.size(); ++j) {
+      wide.push_back(std::uint64_t{rangeseg::detail::float_order_key(values[j])} << 32 | j % 7);
+    }
+    rangeseg::detail::radix_sort_by_key(items, wide, item_tmp, wide_tmp);
+    EXPECT_EQ(items, expected) << n << " items, 64-bit keys";
   }
 }

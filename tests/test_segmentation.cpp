@@ -12,6 +12,7 @@
 #include <map>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "detail/plane_stats.hpp"
@@ -189,18 +190,33 @@ TEST(Segmentation, CellStatisticsEqualDirectSums) {
   }
 }
 
+/// A cloud with its mesh, normals, an empty label image and the segmentation's flat view of them.
+struct FrameOf {
+  explicit FrameOf(OrganizedCloud c)
+      : cloud(std::move(c)), mesh(build_mesh(cloud)), normals(compute_normals(cloud, mesh)) {
+    out.labels.resize(cloud.width(), cloud.height(), 0);
+    f = seg::make_frame(cloud, mesh, normals, out.labels);
+  }
+  std::int32_t at(int u, int v) const { return static_cast<std::int32_t>(v * f.stride + u); }
+
+  OrganizedCloud cloud;
+  Mesh mesh;
+  NormalMap normals;
+  Segmentation out;
+  seg::Frame f;
+};
+
 /// A seed needs a mesh 1-ring of unlabelled pixels whose normals agree with its own: a pixel
 /// next to a region is one that region rejected, and seeds there start slivers along region
 /// boundaries (on the SegComp ABW images: strips 2-7 pixels wide, counted as noise regions).
 TEST(Segmentation, SeedsNeedAFreeRingOfAgreeingNormals) {
-  const OrganizedCloud cloud =
-      cast(32, 24, [](double a, double b) { return 2.0 / (1.0 + 0.3 * a - 0.2 * b); });
-  const Mesh mesh = build_mesh(cloud);
-  const NormalMap normals = compute_normals(cloud, mesh);
-  Segmentation out;
-  out.labels.resize(cloud.width(), cloud.height(), 0);
-  const seg::Frame f = seg::make_frame(cloud, mesh, normals, out.labels);
-  const auto at = [&](int u, int v) { return static_cast<std::int32_t>(v * f.stride + u); };
+  FrameOf t(cast(32, 24, [](double a, double b) { return 2.0 / (1.0 + 0.3 * a - 0.2 * b); }));
+  const OrganizedCloud& cloud = t.cloud;
+  const Mesh& mesh = t.mesh;
+  const NormalMap& normals = t.normals;
+  Segmentation& out = t.out;
+  const seg::Frame& f = t.f;
+  const auto at = [&](int u, int v) { return t.at(u, v); };
   const float cos_angle = static_cast<float>(std::cos(25 * kDeg));
   const unsigned ring = f.edges[at(10, 10)];
   ASSERT_GE(std::popcount(ring), 6);  // one diagonal per quad
@@ -233,13 +249,11 @@ TEST(Segmentation, SeedsNeedAFreeRingOfAgreeingNormals) {
 // A pixel seed of the plane model also needs a clear (2r + 1)^2 block: no labelled pixel within
 // r lattice steps (Chebyshev), clipped at the image border, on the mesh's lattice only.
 TEST(Segmentation, SeedsNeedClearanceFromLabelledPixels) {
-  const OrganizedCloud cloud = cast(32, 24, [](double, double) { return 2.0; });
-  const Mesh mesh = build_mesh(cloud);
-  const NormalMap normals = compute_normals(cloud, mesh);
-  Segmentation out;
-  out.labels.resize(cloud.width(), cloud.height(), 0);
-  const seg::Frame f = seg::make_frame(cloud, mesh, normals, out.labels);
-  const auto at = [&](int u, int v) { return static_cast<std::int32_t>(v * f.stride + u); };
+  FrameOf t(cast(32, 24, [](double, double) { return 2.0; }));
+  const OrganizedCloud& cloud = t.cloud;
+  Segmentation& out = t.out;
+  const seg::Frame& f = t.f;
+  const auto at = [&](int u, int v) { return t.at(u, v); };
   for (int r = 0; r <= 4; ++r) EXPECT_TRUE(seg::seed_clear(f, at(10, 10), r));
   for (int v = 0; v < cloud.height(); ++v) {
     for (int u = 0; u < cloud.width(); ++u) {

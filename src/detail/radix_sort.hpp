@@ -2,10 +2,12 @@
 // allocate per frame (std::stable_sort does) and are hot enough that a comparison sort shows.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <cassert>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 namespace rangeseg::detail {
@@ -17,13 +19,15 @@ inline std::uint32_t float_order_key(float value) {
   return (bits & 0x80000000u) != 0 ? ~bits : bits | 0x80000000u;
 }
 
-/// Sorts `items` by ascending keys[j] (keys[j] belongs to items[j]), stably: items with equal
-/// keys keep their order. `keys` is reordered alongside; `item_tmp` and `key_tmp` are scratch
-/// (resized to items.size(), never shrunk). Three passes of 11 bits, each skipped when all keys
-/// share that digit.
-inline void radix_sort_by_key(std::vector<std::int32_t>& items, std::vector<std::uint32_t>& keys,
-                              std::vector<std::int32_t>& item_tmp,
-                              std::vector<std::uint32_t>& key_tmp) {
+/// Sorts `items` by ascending keys[j] (keys[j] belongs to items[j]; Key is std::uint32_t or
+/// std::uint64_t), stably: items with equal keys keep their order. `keys` is reordered
+/// alongside; `item_tmp` and `key_tmp` are scratch (resized to items.size(), never shrunk).
+/// Passes of 11 bits (3 for 32-bit keys, 6 for 64-bit ones), each skipped when all keys share
+/// that digit.
+template <class Key>
+void radix_sort_by_key(std::vector<std::int32_t>& items, std::vector<Key>& keys,
+                       std::vector<std::int32_t>& item_tmp, std::vector<Key>& key_tmp) {
+  static_assert(std::is_same_v<Key, std::uint32_t> || std::is_same_v<Key, std::uint64_t>);
   assert(items.size() == keys.size());
   const std::size_t n = items.size();
   if (n < 2) return;
@@ -32,13 +36,16 @@ inline void radix_sort_by_key(std::vector<std::int32_t>& items, std::vector<std:
   constexpr int kBits = 11;
   constexpr std::uint32_t kDigits = 1u << kBits;
   std::int32_t* from_items = items.data();
-  std::uint32_t* from_keys = keys.data();
+  Key* from_keys = keys.data();
   std::int32_t* to_items = item_tmp.data();
-  std::uint32_t* to_keys = key_tmp.data();
-  for (int shift = 0; shift < 32; shift += kBits) {
+  Key* to_keys = key_tmp.data();
+  const auto digit = [](Key key, int shift) {
+    return static_cast<std::uint32_t>(key >> shift) & (kDigits - 1);
+  };
+  for (int shift = 0; shift < static_cast<int>(8 * sizeof(Key)); shift += kBits) {
     std::array<std::uint32_t, kDigits> start{};
-    for (std::size_t j = 0; j < n; ++j) ++start[(from_keys[j] >> shift) & (kDigits - 1)];
-    if (start[(from_keys[0] >> shift) & (kDigits - 1)] == n) continue;  // one digit: order kept
+    for (std::size_t j = 0; j < n; ++j) ++start[digit(from_keys[j], shift)];
+    if (start[digit(from_keys[0], shift)] == n) continue;  // one digit: order kept
     std::uint32_t at = 0;
     for (std::uint32_t& s : start) {
       const std::uint32_t count = s;
@@ -46,7 +53,7 @@ inline void radix_sort_by_key(std::vector<std::int32_t>& items, std::vector<std:
       at += count;
     }
     for (std::size_t j = 0; j < n; ++j) {
-      const std::uint32_t slot = start[(from_keys[j] >> shift) & (kDigits - 1)]++;
+      const std::uint32_t slot = start[digit(from_keys[j], shift)]++;
       to_items[slot] = from_items[j];
       to_keys[slot] = from_keys[j];
     }

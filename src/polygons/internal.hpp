@@ -209,12 +209,12 @@ void hull_candidates(const double* xy, int n, std::vector<int>& out);
 struct PointSortScratch {
   std::vector<std::uint64_t> keys, keys_tmp;
   std::vector<int> order_tmp;
-  std::array<std::array<std::uint32_t, 256>, 8> counts{};
 };
 /// Sorts `order` (indices into xy, x and y interleaved; no NaN) by (x, y, index), a total order,
 /// so the result is the one of any correct sort. Comparison sorts mispredict about every other
-/// comparison on such keys; large sets take an LSD radix sort on the bits of x (bytes on which
-/// all keys agree are skipped), then each run of equal x (rare) is sorted by (y, index).
+/// comparison on such keys; large sets take an LSD radix sort on the bits of x (11-bit digits on
+/// which all keys agree are skipped, detail::radix_sort_by_key), then each run of equal x (rare)
+/// is sorted by (y, index).
 void sort_points_xy(const double* xy, std::vector<int>& order, PointSortScratch& scratch);
 
 /// Andrew's monotone chain on points sorted by (x, y) ascending: writes hull indices,

@@ -10,6 +10,7 @@
 #include <bit>
 #include <cmath>
 
+#include "detail/radix_sort.hpp"
 #include "detail/simd.hpp"
 #include "polygons/internal.hpp"
 
@@ -381,36 +382,9 @@ void sort_points_xy(const double* xy, std::vector<int>& order, PointSortScratch&
     return;
   }
   sc.keys.resize(n);
-  sc.keys_tmp.resize(n);
-  sc.order_tmp.resize(n);
-  for (auto& c : sc.counts) c.fill(0);
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::uint64_t key = sort_key(xy_point(xy, order[i])[0]);
-    sc.keys[i] = key;
-    for (int b = 0; b < 8; ++b) ++sc.counts[static_cast<std::size_t>(b)][(key >> (8 * b)) & 255u];
-  }
-  std::uint64_t* keys = sc.keys.data();
-  std::uint64_t* keys_out = sc.keys_tmp.data();
-  int* idx = order.data();
-  int* idx_out = sc.order_tmp.data();
-  for (int b = 0; b < 8; ++b) {
-    std::array<std::uint32_t, 256>& count = sc.counts[static_cast<std::size_t>(b)];
-    if (count[(keys[0] >> (8 * b)) & 255u] == n) continue;  // one value: order unchanged
-    std::uint32_t sum = 0;
-    for (std::uint32_t& c : count) {
-      const std::uint32_t c0 = c;
-      c = sum;
-      sum += c0;
-    }
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::uint32_t at = count[(keys[i] >> (8 * b)) & 255u]++;
-      keys_out[at] = keys[i];
-      idx_out[at] = idx[i];
-    }
-    std::swap(keys, keys_out);
-    std::swap(idx, idx_out);
-  }
-  if (idx != order.data()) std::copy(idx, idx + n, order.data());
+  for (std::size_t i = 0; i < n; ++i) sc.keys[i] = sort_key(xy_point(xy, order[i])[0]);
+  detail::radix_sort_by_key(order, sc.keys, sc.order_tmp, sc.keys_tmp);
+  const std::uint64_t* const keys = sc.keys.data();
   for (std::size_t i = 0; i + 1 < n;) {  // runs of equal x: by (y, index)
     std::size_t j = i + 1;
     while (j < n && keys[j] == keys[i]) ++j;
