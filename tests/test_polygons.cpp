@@ -872,6 +872,23 @@ TEST(Polygons, CrossingGridMatchesSweep) {
         EXPECT_EQ(edges[i].x0, copy[i].x0);
         EXPECT_EQ(edges[i].id0, copy[i].id0);
       }
+      // With some loops marked as changed only their pairs are tested: a changed loop is marked
+      // exactly when it is without the mask, any loop at most when it is, on both paths.
+      std::vector<std::uint8_t> changed(static_cast<std::size_t>(loops));
+      for (auto& c : changed) c = unit(rng) < 0.3 ? 1 : 0;
+      std::vector<std::uint8_t> grid_part(changed.size(), 0), sweep_part = grid_part;
+      polygons_detail::mark_crossings(edges, grid_part, changed.data());
+      polygons_detail::mark_crossings_sweep(copy, sweep_part, changed.data());
+      EXPECT_EQ(grid_part, sweep_part) << "n " << n << " loops " << loops;
+      for (std::size_t k = 0; k < changed.size(); ++k) {
+        if (changed[k] != 0) {
+          EXPECT_EQ(grid_part[k], grid_bad[k]) << "loop " << k;
+        }
+        EXPECT_LE(grid_part[k], grid_bad[k]) << "loop " << k;
+      }
+      std::vector<std::uint8_t> all_changed(changed.size(), 1), grid_all(changed.size(), 0);
+      polygons_detail::mark_crossings(edges, grid_all, all_changed.data());
+      EXPECT_EQ(grid_all, grid_bad);
     }
   }
   EXPECT_GT(crossing_sets, 5);  // the sets do cross (else the comparison proves little)

@@ -246,6 +246,7 @@ struct PolygonExtractor::Scratch {
   std::vector<std::array<int, 2>> dp_stack;
   std::vector<CheckEdge> edges;
   std::vector<std::uint8_t> bad;
+  std::vector<std::uint8_t> changed;  ///< loops simplified again in this attempt
   std::vector<int> hull_order, hull_idx;
   polygons_detail::PointSortScratch hull_sort;
   std::vector<double> hull_xy;
@@ -610,8 +611,14 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
                static_cast<int>(k)});
         }
       }
+      // After the first check only pairs with a loop simplified again can newly touch: a pair of
+      // unchanged loops that touched marked both, and they changed, unless already unsimplified.
+      sc.changed.assign(sc.bad.begin(), sc.bad.end());
       sc.bad.assign(nk, 0);
-      if (!polygons_detail::mark_crossings(sc.edges, sc.bad)) break;
+      if (!polygons_detail::mark_crossings(sc.edges, sc.bad,
+                                           attempt > 0 ? sc.changed.data() : nullptr)) {
+        break;
+      }
       for (std::size_t k = 0; k < nk; ++k) {
         if (!sc.bad[k]) continue;
         const double tolerance = attempt >= 4 ? 0.0 : 0.5 * sc.tolerance[k];

@@ -189,11 +189,14 @@ struct CheckEdge {
 };
 /// Marks in `bad` (indexed by CheckEdge::loop, sized by the caller) every loop one of whose
 /// edges crosses or touches another edge (of any loop) not sharing an end id. Sorts `edges`.
-/// Returns whether any was found.
+/// Returns whether any was found. Given `changed` (per loop), only pairs with an edge of a
+/// changed loop are tested: the others were, in an earlier check of the same loops.
 /// Large sets are bucketed on a grid over the edges' boxes (the same pairs, each tested once).
-bool mark_crossings(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& bad);
+bool mark_crossings(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& bad,
+                    const std::uint8_t* changed = nullptr);
 /// The same by a sweep in x alone (the reference; quadratic under long edges).
-bool mark_crossings_sweep(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& bad);
+bool mark_crossings_sweep(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& bad,
+                          const std::uint8_t* changed = nullptr);
 
 /// Signed area (counter-clockwise positive) and perimeter of a closed 2D loop.
 void area_perimeter(const double* xy, int n, double& area, double& perimeter);
