@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <iterator>
 #include <numeric>
 #include <random>
 #include <stdexcept>
@@ -134,4 +135,11 @@ TEST(RadixSort, EqualsStableSortOfTheFloatValues) {
     rangeseg::detail::radix_sort_by_key(items, wide, item_tmp, wide_tmp);
     EXPECT_EQ(items, expected) << n << " items, 64-bit keys";
   }
+  // The double key orders like the values, -0 and +0 alike.
+  const double ordered[] = {-INFINITY, -1e300, -2.5, -1e-300, 0.0, 1e-300, 3.0, 1e300, INFINITY};
+  for (std::size_t j = 0; j + 1 < std::size(ordered); ++j) {
+    EXPECT_LT(rangeseg::detail::double_order_key(ordered[j]),
+              rangeseg::detail::double_order_key(ordered[j + 1]));
+  }
+  EXPECT_EQ(rangeseg::detail::double_order_key(-0.0), rangeseg::detail::double_order_key(0.0));
 }

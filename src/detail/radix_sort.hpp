@@ -1,5 +1,6 @@
-// Internal: a stable LSD radix sort of int32 items by float keys, for orders that must not
-// allocate per frame (std::stable_sort does) and are hot enough that a comparison sort shows.
+// Internal: a stable LSD radix sort of int32 items by unsigned keys (order-preserving maps of
+// floats or doubles, below), for orders that must not allocate per frame (std::stable_sort does)
+// and are hot enough that a comparison sort shows.
 #pragma once
 
 #include <algorithm>
@@ -17,6 +18,12 @@ namespace rangeseg::detail {
 inline std::uint32_t float_order_key(float value) {
   const auto bits = std::bit_cast<std::uint32_t>(value + 0.0f);  // -0 + 0 = +0
   return (bits & 0x80000000u) != 0 ? ~bits : bits | 0x80000000u;
+}
+
+/// The same for a double.
+inline std::uint64_t double_order_key(double value) {
+  const auto bits = std::bit_cast<std::uint64_t>(value + 0.0);
+  return (bits >> 63) != 0 ? ~bits : bits | (std::uint64_t{1} << 63);
 }
 
 /// Sorts `items` by ascending keys[j] (keys[j] belongs to items[j]; Key is std::uint32_t or

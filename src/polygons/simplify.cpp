@@ -7,7 +7,6 @@
 #pragma GCC optimize("fp-contract=off")
 #endif
 #include <algorithm>
-#include <bit>
 #include <cmath>
 
 #include "detail/radix_sort.hpp"
@@ -16,12 +15,6 @@
 
 namespace rangeseg::polygons_detail {
 namespace {
-
-// Order-preserving map of a double to an unsigned integer (-0 and +0 map alike).
-std::uint64_t sort_key(double x) {
-  const auto bits = std::bit_cast<std::uint64_t>(x + 0.0);
-  return (bits >> 63) != 0 ? ~bits : bits | (std::uint64_t{1} << 63);
-}
 
 // Squared distance of p from the segment a-b.
 double dist2_segment(const double* p, const double* a, const double* b) {
@@ -273,7 +266,7 @@ void sort_edges(std::vector<CheckEdge>& edges) {
       std::swap(e.id0, e.id1);
     }
     sc.order[i] = static_cast<std::int32_t>(i);
-    sc.keys[i] = sort_key(e.x0);
+    sc.keys[i] = detail::double_order_key(e.x0);
   }
   detail::radix_sort_by_key(sc.order, sc.keys, sc.order_tmp, sc.keys_tmp);
   sc.sorted.resize(n);
@@ -408,7 +401,9 @@ void sort_points_xy(const double* xy, std::vector<int>& order, PointSortScratch&
     return;
   }
   sc.keys.resize(n);
-  for (std::size_t i = 0; i < n; ++i) sc.keys[i] = sort_key(xy_point(xy, order[i])[0]);
+  for (std::size_t i = 0; i < n; ++i) {
+    sc.keys[i] = detail::double_order_key(xy_point(xy, order[i])[0]);
+  }
   detail::radix_sort_by_key(order, sc.keys, sc.order_tmp, sc.keys_tmp);
   const std::uint64_t* const keys = sc.keys.data();
   for (std::size_t i = 0; i + 1 < n;) {  // runs of equal x: by (y, index)
