@@ -79,6 +79,7 @@ TEST(Pipeline, NoAllocationPerFrameAfterTheFirst) {
   for (const int threads : {1, 2}) {
     PipelineSettings settings = pipeline_preset("kinect");
     settings.threads = threads;
+    settings.segmentation.growth_bands = threads;
     Pipeline pipeline(settings);
     for (int warmup = 0; warmup < 3; ++warmup) {
       pipeline.process(a.cloud);
@@ -104,12 +105,14 @@ bool same_bits(const Plane<T>& a, const Plane<T>& b) {
 }
 
 /// Every output of a threaded frame equals the single-threaded one bit for bit, for 2 and 3
-/// threads (uneven bands) and both the smoothed and the raw path.
+/// threads (uneven bands) and both the smoothed and the raw path (the latter grown in 3 growth
+/// bands).
 TEST(Pipeline, ThreadsInsideAFrameGiveIdenticalResults) {
   const synth::Rendering scene = qvga(3);
   for (const bool smooth : {true, false}) {
     PipelineSettings settings = pipeline_preset("kinect");
     settings.smooth = smooth;
+    settings.segmentation.growth_bands = smooth ? 1 : 3;  // 3 bands on 2 and 3 threads
     settings.smoothing.iterations = 2;
     Pipeline reference(settings);
     reference.process(scene.cloud);

@@ -90,13 +90,14 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
   if (j.contains("segmentation")) {
     const json& m = j["segmentation"];
     const std::string where = path + " [segmentation]";
-    reject_unknown(m,
-                   {"model", "max_normal_angle", "max_distance_sigmas", "normal_noise_sigmas",
-                    "min_normal_angle", "max_smooth_angle", "max_curvature", "max_seed_curvature",
-                    "seed_clearance", "min_region_size", "merge_planes", "merge_angle",
-                    "merge_distance_sigmas", "merge_rms_sigmas", "merge_rms_max_angle",
-                    "reassign_boundary", "reassign_max_normal_angle", "reassign_across_mesh_cuts"},
-                   where);
+    reject_unknown(
+        m,
+        {"model", "max_normal_angle", "max_distance_sigmas", "normal_noise_sigmas",
+         "min_normal_angle", "max_smooth_angle", "max_curvature", "max_seed_curvature",
+         "seed_clearance", "growth_bands", "min_region_size", "merge_planes", "merge_angle",
+         "merge_distance_sigmas", "merge_rms_sigmas", "merge_rms_max_angle", "reassign_boundary",
+         "reassign_max_normal_angle", "reassign_across_mesh_cuts"},
+        where);
     auto& t = s.segmentation;
     if (m.contains("model")) {
       try {
@@ -113,6 +114,7 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
     take(m, "max_curvature", t.max_curvature, where);
     take(m, "max_seed_curvature", t.max_seed_curvature, where);
     take(m, "seed_clearance", t.seed_clearance, where);
+    take(m, "growth_bands", t.growth_bands, where);
     take(m, "min_region_size", t.min_region_size, where);
     take(m, "merge_planes", t.merge_planes, where);
     take(m, "merge_angle", t.merge_angle, where);

@@ -5,6 +5,7 @@
 #include <bit>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -154,6 +155,13 @@ struct Segmenter::Scratch {
   std::vector<std::int32_t> band_seed_counts;               ///< kSeedBuckets per band
   std::vector<std::vector<std::uint64_t>> band_label_bits;  ///< seed scan's label masks per band
   std::vector<std::size_t> band_found;                      ///< items each band found
+  // growth bands (SegmentationSettings::growth_bands): first row of each band and the frame's
+  // height; each band's own scratch, whose `edges` is a copy of the band's mesh edges without
+  // those crossing a seam.
+  std::vector<int> growth_rows;
+  std::vector<seg::Frame> band_frames;
+  std::vector<std::unique_ptr<Scratch>> growth;
+  std::vector<std::uint8_t> edges;
 };
 
 }  // namespace rangeseg
@@ -245,6 +253,21 @@ void collect_seeds(const Frame& frame, const SegmentationSettings& settings,
 /// covering the image from the top-left; a partial last column/row of cells is left out) and
 /// resets scratch.cell_label to 0.
 void compute_cells(const Frame& frame, Segmenter::Scratch& scratch);
+
+/// Splits the frame into growth bands (see SegmentationSettings::growth_bands): equal shares of
+/// the whole cell rows, the last band also taking the rows below the last cell row. Fills
+/// scratch.growth_rows and makes a scratch per band; returns the number of bands.
+int plan_growth_bands(const Frame& frame, int requested, Segmenter::Scratch& scratch);
+
+/// The frame of rows [growth_rows[band], growth_rows[band + 1]), whose mesh edges (copied into
+/// the band's scratch) end at the seams: growth in one band neither reads nor writes another.
+Frame growth_band_frame(const Frame& frame, Segmenter::Scratch& scratch, int band);
+
+/// After every band grew its regions (raw labels 1..R_b in its rows, statistics in its
+/// scratch's regions): scratch.regions holds them all in band order and the labels are made
+/// unique by offsetting each band's by the regions of the bands above it. The regions a seam
+/// cut are joined later, by merging and re-assignment over the whole frame.
+void join_growth_bands(const Frame& frame, Segmenter::Scratch& scratch);
 
 /// Grows regions from the seeds; writes raw labels 1..R into frame.labels and their point
 /// statistics into scratch.regions[1..R].

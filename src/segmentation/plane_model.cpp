@@ -232,16 +232,20 @@ static_assert(VersionedModel<PlaneModel> && VersionedModel<PixelPlaneModel>);
 /// c of the normal noise model sigma_n(z) = c sigma(z) / z: the median over complete cells of
 /// s z / sigma(z), where s = sqrt(1 - |mean normal|) is a cell's per-axis normal spread
 /// (1 - |mean n| = s^2 for small isotropic deviations). 0 when fewer than 16 cells are complete.
-double normal_noise_constant(Segmenter::Scratch& scratch, const SensorNoise& noise) {
+/// The cells are those of `scratch`, or of its growth bands' scratches (`bands` > 1).
+double normal_noise_constant(Segmenter::Scratch& scratch, int bands, const SensorNoise& noise) {
   std::vector<double>& c = scratch.cell_normal_noise;
   c.clear();
-  for (const Cell& cell : scratch.cells) {
-    if (!cell.complete) continue;
-    const double n = static_cast<double>(cell.stats.count);
-    const double length =
-        std::sqrt(cell.snx * cell.snx + cell.sny * cell.sny + cell.snz * cell.snz) / n;
-    const double z = cell.stats.sz / n;
-    c.push_back(std::sqrt(std::max(0.0, 1.0 - length)) * z / noise.sigma(z));
+  for (int b = 0; b < bands; ++b) {
+    const Segmenter::Scratch& cells_of = bands > 1 ? *scratch.growth[b] : scratch;
+    for (const Cell& cell : cells_of.cells) {
+      if (!cell.complete) continue;
+      const double n = static_cast<double>(cell.stats.count);
+      const double length =
+          std::sqrt(cell.snx * cell.snx + cell.sny * cell.sny + cell.snz * cell.snz) / n;
+      const double z = cell.stats.sz / n;
+      c.push_back(std::sqrt(std::max(0.0, 1.0 - length)) * z / noise.sigma(z));
+    }
   }
   if (c.size() < 16) return 0;
   const auto middle = c.begin() + static_cast<std::ptrdiff_t>(c.size() / 2);
@@ -249,16 +253,9 @@ double normal_noise_constant(Segmenter::Scratch& scratch, const SensorNoise& noi
   return *middle;
 }
 
-}  // namespace
-
-void grow_planes(const Frame& frame, const SegmentationSettings& settings,
-                 Segmenter::Scratch& scratch) {
-  PlaneModel model(settings);
-  if (settings.coarse_cells || settings.normal_noise_sigmas > 0) compute_cells(frame, scratch);
-  if (settings.normal_noise_sigmas > 0) {
-    model.set_normal_noise(settings.normal_noise_sigmas *
-                           normal_noise_constant(scratch, settings.noise));
-  }
+/// Region growing of one frame or growth band (its cells computed).
+void grow_plane_regions(const Frame& frame, const SegmentationSettings& settings,
+                        Segmenter::Scratch& scratch, PlaneModel& model) {
   if (settings.coarse_cells) {
     grow_regions(frame, model, scratch, &settings, [&] {
       if (settings.reassign_boundary) reassign_before_seeds(frame, settings, scratch);
@@ -267,6 +264,44 @@ void grow_planes(const Frame& frame, const SegmentationSettings& settings,
     PixelPlaneModel pixels{model};
     grow_regions(frame, pixels, scratch, &settings);
   }
+}
+
+}  // namespace
+
+// With growth bands, each band computes its cells and grows its regions on its own (the bands
+// split among the threads); only the normal noise constant, a median over all cells, is
+// computed between the two steps, so it is that of the whole frame.
+void grow_planes(const Frame& frame, const SegmentationSettings& settings,
+                 Segmenter::Scratch& scratch) {
+  PlaneModel model(settings);
+  const bool cells = settings.coarse_cells || settings.normal_noise_sigmas > 0;
+  const int bands = plan_growth_bands(frame, settings.growth_bands, scratch);
+  if (bands == 1) {
+    if (cells) compute_cells(frame, scratch);
+  } else {
+    scratch.band_frames.resize(static_cast<std::size_t>(bands));
+    for_each_band(scratch, bands, 1, [&](int, int b_begin, int b_end) {
+      for (int b = b_begin; b < b_end; ++b) {
+        scratch.band_frames[b] = growth_band_frame(frame, scratch, b);
+        if (cells) compute_cells(scratch.band_frames[b], *scratch.growth[b]);
+      }
+    });
+  }
+  if (settings.normal_noise_sigmas > 0) {
+    model.set_normal_noise(settings.normal_noise_sigmas *
+                           normal_noise_constant(scratch, bands, settings.noise));
+  }
+  if (bands == 1) {
+    grow_plane_regions(frame, settings, scratch, model);
+    return;
+  }
+  for_each_band(scratch, bands, 1, [&](int, int b_begin, int b_end) {
+    for (int b = b_begin; b < b_end; ++b) {
+      PlaneModel band_model = model;
+      grow_plane_regions(scratch.band_frames[b], settings, *scratch.growth[b], band_model);
+    }
+  });
+  join_growth_bands(frame, scratch);
 }
 
 }  // namespace rangeseg::seg

@@ -56,6 +56,8 @@ void validate(const SegmentationSettings& s) {
   require(s.min_region_size >= 1, "min_region_size", s.min_region_size, ">= 1");
   require(s.seed_clearance >= 0 && s.seed_clearance <= 32, "seed_clearance", s.seed_clearance,
           "in [0, 32] lattice steps");
+  require(s.growth_bands >= 1 && s.growth_bands <= 64, "growth_bands", s.growth_bands,
+          "in [1, 64]");
   require(s.merge_angle > 0 && s.merge_angle <= pi, "merge_angle", s.merge_angle, "in (0, pi] rad");
   require(s.merge_rms_sigmas >= 0 && std::isfinite(s.merge_rms_sigmas), "merge_rms_sigmas",
           s.merge_rms_sigmas, "finite and >= 0");
