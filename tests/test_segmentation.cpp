@@ -804,30 +804,37 @@ TEST(Segmentation, GrowthBandSeamsAreJoinedButCreasesAreNot) {
 }
 
 /// A band is at least 4 cell rows tall: more bands than that allows give the largest count
-/// that fits (7 at 240 rows = 30 cell rows, 1 at 48 rows), and the results with a thread pool
-/// equal those without (bands are split among the threads, never the other way round).
+/// that fits (7 at 240 rows = 30 cell rows; 3 at 241 rows with mesh stride 2 = 15 cell rows of
+/// lattice rows, the last band taking the partial cell row; 1 at 48 rows), and the results with
+/// a thread pool equal those without (bands are split among the threads, never the other way
+/// round).
 TEST(Segmentation, GrowthBandsAreClampedAndIndependentOfThreads) {
   const auto boxes = [](double a, double b) {
     return a < -0.1 ? 1.2 : (b > 0.05 ? 1.0 / (0.8 + 0.4 * b) : 1.6 - 0.5 * a);
   };
-  for (const int height : {240, 48}) {
-    const OrganizedCloud cloud = cast(320, height, boxes);
-    const Mesh mesh = build_mesh(cloud);
+  struct Case {
+    int height, stride, bands;
+  };
+  for (const Case c : {Case{240, 1, 7}, Case{241, 2, 3}, Case{48, 1, 1}}) {
+    const OrganizedCloud cloud = cast(320, c.height, boxes);
+    const Mesh mesh = build_mesh(cloud, {.pixel_stride = c.stride});
     const NormalMap normals = compute_normals(cloud, mesh);
     SegmentationSettings settings = preset("kinect");
-    settings.growth_bands = height == 240 ? 7 : 1;
+    settings.growth_bands = c.bands;
     const Segmentation expected = segment(cloud, mesh, normals, settings);
-    ASSERT_GE(expected.segments.size(), 2u) << height;
+    expect_consistent(cloud, expected, settings);
+    ASSERT_GE(expected.segments.size(), 2u) << c.height;
     settings.growth_bands = 64;
     for (const int threads : {1, 2, 3}) {
       Segmenter segmenter;
       ThreadPool pool(threads);
       Segmentation out;
       segmenter.segment(cloud, mesh, normals, settings, out, pool);
-      ASSERT_EQ(out.segments.size(), expected.segments.size()) << height << " " << threads;
-      for (int v = 0; v < height; ++v) {
+      ASSERT_EQ(out.segments.size(), expected.segments.size()) << c.height << " " << threads;
+      for (int v = 0; v < c.height; ++v) {
         for (int u = 0; u < 320; ++u) {
-          ASSERT_EQ(out.labels(u, v), expected.labels(u, v)) << u << "," << v << " " << threads;
+          ASSERT_EQ(out.labels(u, v), expected.labels(u, v))
+              << u << "," << v << " " << c.height << " " << threads;
         }
       }
     }
