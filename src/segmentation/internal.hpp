@@ -155,6 +155,7 @@ struct Segmenter::Scratch {
   std::vector<std::int32_t> band_seed_counts;               ///< kSeedBuckets per band
   std::vector<std::vector<std::uint64_t>> band_label_bits;  ///< seed scan's label masks per band
   std::vector<std::size_t> band_found;                      ///< items each band found
+  std::vector<std::vector<std::pair<std::int32_t, std::int32_t>>> band_joins;  ///< `joins`
   // growth bands (SegmentationSettings::growth_bands): first row of each band and the frame's
   // height; each band's own scratch, whose `edges` is a copy of the band's mesh edges without
   // those crossing a seam.

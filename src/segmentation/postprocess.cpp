@@ -504,14 +504,77 @@ std::size_t reassign_candidates(const Frame& f, int v_begin, int v_end, std::int
   return n;
 }
 
+/// The test of boundary re-assignment for one unlabelled candidate q: the adjacent plane (over
+/// `reassign_mask` neighbours; planes are s.fits by label, `ok` ones only) it is closest to, if
+/// within k sigma(z) of it and (unless kAcrossCuts) with its normal within
+/// reassign_max_normal_angle of the plane's; 0 for none. `unlabelled` gets the direction bits of
+/// q's unlabelled neighbours.
+template <bool kAcrossCuts>
+class ReassignTest {
+ public:
+  ReassignTest(const Frame& f, const SegmentationSettings& settings, const Segmenter::Scratch& s)
+      : f_(f),
+        s_(s),
+        settings_(settings),
+        k_(settings.max_distance_sigmas),
+        cos_max_angle_(std::cos(settings.reassign_max_normal_angle)),
+        block_first_(f.stride + 1),
+        block_last_(f.pixel_stride == 1 ? (f.height - 1) * f.stride - 3 : -1) {}
+
+  std::int32_t operator()(std::int32_t q, unsigned& unlabelled) const {
+    const Frame& f = f_;
+    const double x = f.x[q], y = f.y[q], z = f.z[q];
+    std::int32_t best = 0;
+    double best_distance = k_ * settings_.noise.sigma(z);
+    unsigned mask = reassign_mask<kAcrossCuts>(f, q);
+    unlabelled = 0;
+#if defined(__SSE2__)
+    // Nearly always the labelled neighbours carry one label: one test decides, as in the loop
+    // below (which would repeat the same test for each of them). The 3 x 4 label block starting
+    // at q - stride - 1 must lie inside the plane (lattice step 1).
+    if (q >= block_first_ && q <= block_last_) {
+      const NeighbourLabels around = single_neighbour_label(f.labels, f.stride, q, mask);
+      if (around.single) {
+        unlabelled = around.unlabelled;
+        const detail::PlaneFit& fit = s_.fits[around.label];
+        const double d = std::fabs(fit.distance(x, y, z));
+        if (fit.ok && d <= best_distance &&
+            (kAcrossCuts || normal_fits(fit, f, q, cos_max_angle_))) {
+          best = around.label;
+        }
+        return best;
+      }
+    }
+#endif
+    while (mask != 0) {
+      const int n = std::countr_zero(mask);
+      mask &= mask - 1;
+      const std::int32_t label = f.labels[q + f.neighbour_offset[n]];
+      if (label == 0) unlabelled |= 1u << n;
+      if (label == 0 || label == best || !s_.fits[label].ok) continue;
+      const double d = std::fabs(s_.fits[label].distance(x, y, z));
+      if (d <= best_distance &&
+          (kAcrossCuts || normal_fits(s_.fits[label], f, q, cos_max_angle_))) {
+        best_distance = d;
+        best = label;
+      }
+    }
+    return best;
+  }
+
+ private:
+  const Frame& f_;
+  const Segmenter::Scratch& s_;
+  const SegmentationSettings& settings_;
+  double k_, cos_max_angle_;
+  std::ptrdiff_t block_first_, block_last_;
+};
+
 /// The re-assignment of the candidates ring[0, size) of s.queue (flagged in s.queued): each
-/// unlabelled one joins the adjacent plane it is closest to, if within k sigma(z) of it and
-/// (unless kAcrossCuts) with its normal within reassign_max_normal_angle of the plane's; with
-/// kPropagate newly labelled points make their neighbours candidates in turn, so dissolved small
-/// regions that lie on an adjacent plane are absorbed whole; without, every candidate is decided
-/// on the labels as they were before any joined. Neighbours are those of `reassign_mask`; planes
-/// are s.fits (by label; `ok` ones only).
-template <bool kAcrossCuts, bool kPropagate>
+/// unlabelled one joins the plane of `ReassignTest`, and newly labelled points make their
+/// neighbours candidates in turn, so dissolved small regions that lie on an adjacent plane are
+/// absorbed whole.
+template <bool kAcrossCuts>
 void reassign_queued(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s,
                      std::size_t size) {
   std::int32_t* const ring = s.queue.data();
@@ -524,72 +587,23 @@ void reassign_queued(const Frame& f, const SegmentationSettings& settings, Segme
     ring[slot] = i;
     ++size;
   };
-  const int step = f.pixel_stride;
-  const double k = settings.max_distance_sigmas;
-  const double cos_max_angle = std::cos(settings.reassign_max_normal_angle);
-  // Pixels whose 3 x 4 label block starting at q - stride - 1 lies inside the plane (step 1).
-  const std::ptrdiff_t block_first = f.stride + 1;
-  const std::ptrdiff_t block_last = step == 1 ? (f.height - 1) * f.stride - 3 : -1;
-  s.joins.clear();
+  const ReassignTest<kAcrossCuts> best_plane(f, settings, s);
   while (size > 0) {
     const std::int32_t q = ring[head];
     if (++head == capacity) head = 0;
     --size;
     s.queued[q] = 0;
     if (f.labels[q] != 0) continue;
-    const double x = f.x[q], y = f.y[q], z = f.z[q];
-    std::int32_t best = 0;
-    double best_distance = k * settings.noise.sigma(z);
-    unsigned mask = reassign_mask<kAcrossCuts>(f, q);
     unsigned unlabelled = 0;  // neighbours to queue if q joins a segment
-#if defined(__SSE2__)
-    // Nearly always the labelled neighbours carry one label: one test decides, as in the loop
-    // below (which would repeat the same test for each of them).
-    if (q >= block_first && q <= block_last) {
-      const NeighbourLabels around = single_neighbour_label(f.labels, f.stride, q, mask);
-      if (around.single) {
-        unlabelled = around.unlabelled;
-        const detail::PlaneFit& fit = s.fits[around.label];
-        const double d = std::fabs(fit.distance(x, y, z));
-        if (fit.ok && d <= best_distance &&
-            (kAcrossCuts || normal_fits(fit, f, q, cos_max_angle))) {
-          best = around.label;
-        }
-        mask = 0;
-      }
-    }
-#endif
-    while (mask != 0) {
-      const int n = std::countr_zero(mask);
-      mask &= mask - 1;
-      const std::int32_t label = f.labels[q + f.neighbour_offset[n]];
-      if (label == 0) unlabelled |= 1u << n;
-      if (label == 0 || label == best || !s.fits[label].ok) continue;
-      const double d = std::fabs(s.fits[label].distance(x, y, z));
-      if (d <= best_distance && (kAcrossCuts || normal_fits(s.fits[label], f, q, cos_max_angle))) {
-        best_distance = d;
-        best = label;
-      }
-    }
+    const std::int32_t best = best_plane(q, unlabelled);
     if (best == 0) continue;
-    if constexpr (kPropagate) {
-      f.labels[q] = best;
-      s.regions[best].add(x, y, z);
-      while (unlabelled != 0) {
-        const int n = std::countr_zero(unlabelled);
-        unlabelled &= unlabelled - 1;
-        const std::int32_t r = static_cast<std::int32_t>(q + f.neighbour_offset[n]);
-        if (!s.queued[r] && (!kAcrossCuts || std::isfinite(f.z[r]))) push(r);
-      }
-    } else {
-      // Decided against the labels as they were: the candidates' order does not matter.
-      s.joins.push_back({q, best});
-    }
-  }
-  if constexpr (!kPropagate) {
-    for (const auto& [q, best] : s.joins) {
-      f.labels[q] = best;
-      s.regions[best].add(f.x[q], f.y[q], f.z[q]);
+    f.labels[q] = best;
+    s.regions[best].add(f.x[q], f.y[q], f.z[q]);
+    while (unlabelled != 0) {
+      const int n = std::countr_zero(unlabelled);
+      unlabelled &= unlabelled - 1;
+      const std::int32_t r = static_cast<std::int32_t>(q + f.neighbour_offset[n]);
+      if (!s.queued[r] && (!kAcrossCuts || std::isfinite(f.z[r]))) push(r);
     }
   }
 }
@@ -621,7 +635,7 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
     if (found != ring + size) std::copy(found, found + n, ring + size);
     size += n;
   }
-  reassign_queued<kAcrossCuts, true>(f, settings, s, size);
+  reassign_queued<kAcrossCuts>(f, settings, s, size);
 }
 
 /// Adds a third of every triangle's area (a quarter of every quad's) to each labelled corner.
@@ -744,7 +758,28 @@ void reassign_before_seeds(const Frame& f, const SegmentationSettings& settings,
     s.queued[q] = 1;
     ring[size++] = q;
   }
-  reassign_queued<false, false>(f, settings, s, size);
+  // Every candidate is decided on the labels as they were before any joined, so the candidates
+  // are split among the bands (each collects its joins), and the joins applied in order.
+  const auto bands = static_cast<std::size_t>(band_count(s));
+  if (s.band_joins.size() < bands) s.band_joins.resize(bands);
+  const ReassignTest<false> best_plane(f, settings, s);
+  for_each_band(s, static_cast<int>(size), 1, [&](int band, int begin, int end) {
+    auto& joins = band == 0 ? s.joins : s.band_joins[static_cast<std::size_t>(band)];
+    joins.clear();
+    unsigned unlabelled = 0;
+    for (int j = begin; j < end; ++j) {
+      const std::int32_t q = ring[j];
+      s.queued[q] = 0;
+      const std::int32_t best = best_plane(q, unlabelled);
+      if (best != 0) joins.emplace_back(q, best);
+    }
+  });
+  for (std::size_t band = 0; band < bands; ++band) {
+    for (const auto& [q, best] : band == 0 ? s.joins : s.band_joins[band]) {
+      f.labels[q] = best;
+      s.regions[best].add(f.x[q], f.y[q], f.z[q]);
+    }
+  }
 }
 
 void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s,
