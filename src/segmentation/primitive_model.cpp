@@ -66,8 +66,12 @@ constexpr double kMaxSurfaceSigmas = 1.5;
 /// far away, but their normals cluster in two directions instead of turning continuously.
 /// (Normals of the smoothed Kinect points at 2-3 m scatter by ~15 degrees about the truth.)
 constexpr double kMaxMeanNormalAngle = 25.0 * kDeg;
-/// Adjacent plane segments are merge candidates when their normals differ by at most this.
-constexpr double kMaxPairAngle = 60.0 * kDeg;
+/// Adjacent plane segments are merge candidates when their normals differ by at most this. The
+/// plane pieces of a curved surface face the mean direction of their arcs, so two pieces of a
+/// half cylinder or hemisphere (the visible part of a ball) differ by up to 90 deg; 80 keeps the
+/// right-angle creases of boxes, the commonest adjacent pair, out of the curved fits (those that
+/// enter are rejected by the residual and normal tests).
+constexpr double kMaxPairAngle = 80.0 * kDeg;
 /// Curved models with radii outside this range are planes or noise [m].
 constexpr double kMinRadius = 0.01, kMaxRadius = 1.5;
 /// ... and so are patches covering less than a ~30 degree arc of their model (Model::spread):
