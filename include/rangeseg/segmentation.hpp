@@ -111,11 +111,14 @@ struct SegmentationSettings {
   /// into slightly tilted pieces), their normals agree within `merge_rms_max_angle` plus this
   /// many standard errors of the smaller part's normal (its residual floored at sigma(z), so a
   /// thin strip such as one range-quantisation terrace may join) and the merged RMS stays within
-  /// 1.5 times the larger part's RMS plus sigma(z) / 2.
+  /// 1.5 times the larger part's RMS plus sigma(z) / 2 (plus nothing when the parts' normals
+  /// differ by more than `merge_angle` plus this many of the smaller part's standard errors:
+  /// two compact, well-fitted faces a few degrees apart stay two segments).
   double merge_distance_sigmas = 3.0;
   /// Adjacent segments also merge when one least-squares plane fits the union of their points
   /// with an RMS residual of at most this many sigma(z) (and not much more than the parts' own
-  /// residuals), e.g. the strips range quantisation cuts a grazing surface into (dimensionless).
+  /// residuals, as bounded under `merge_distance_sigmas`), e.g. the strips range quantisation
+  /// cuts a grazing surface into (dimensionless).
   double merge_rms_sigmas = 1.0;
   /// ... provided their normals are within this angle [rad] (20 deg).
   double merge_rms_max_angle = 0.349;
