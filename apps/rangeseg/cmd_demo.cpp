@@ -69,7 +69,7 @@ void print_surface_types(const Segmentation& seg) {
                   s.label, s.radius, s.axis[0], s.axis[1], s.axis[2], s.extent);
     }
   }
-  std::printf("surface types: %d planes, %d cylinders, %d spheres, %d smooth\n", counts[0],
+  std::printf("surface types: planes %d, cylinders %d, spheres %d, smooth %d\n", counts[0],
               counts[1], counts[2], counts[3]);
 }
 
