@@ -868,6 +868,37 @@ TEST(Segmentation, GrowthBandsAreClampedAndIndependentOfThreads) {
   }
 }
 
+/// Growth bands on frames of many shapes (thin, tiny, odd heights, mesh strides 1-3, holes):
+/// never a crash, and the same segmentation with and without threads.
+TEST(Segmentation, GrowthBandsOnAnyFrameShape) {
+  std::mt19937 rng(5);
+  for (const int height : {2, 31, 32, 33, 63, 97, 130}) {
+    for (const int width : {2, 3, 40}) {
+      for (const int stride : {1, 2, 3}) {
+        std::uniform_real_distribution<double> hole(0.0, 1.0);
+        const OrganizedCloud cloud = cast(width, height, [&](double a, double b) {
+          return hole(rng) < 0.05 ? NAN : (b > 0.0 ? 1.0 + 0.3 * a : 1.5);
+        });
+        const Mesh mesh = build_mesh(cloud, {.pixel_stride = stride});
+        const NormalMap normals = compute_normals(cloud, mesh);
+        SegmentationSettings settings = preset("kinect");
+        settings.min_region_size = 4;
+        settings.growth_bands = 64;
+        const Segmentation one = segment(cloud, mesh, normals, settings);
+        expect_consistent(cloud, one, settings);
+        ThreadPool pool(2);
+        Segmenter segmenter;
+        Segmentation two;
+        segmenter.segment(cloud, mesh, normals, settings, two, pool);
+        ASSERT_EQ(two.segments.size(), one.segments.size()) << width << "x" << height;
+        for (int v = 0; v < height; ++v) {
+          for (int u = 0; u < width; ++u) ASSERT_EQ(two.labels(u, v), one.labels(u, v));
+        }
+      }
+    }
+  }
+}
+
 TEST(Segmentation, MeshStrideLabelsOnlyLatticeVertices) {
   // Left half (u < 160) at 1 m, right half at 2 m.
   const OrganizedCloud cloud =
