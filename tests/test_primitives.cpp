@@ -218,14 +218,21 @@ int best_segment(const SceneRun& run, int gt) {
   return best;
 }
 
-/// A floor and back wall with a standing cylinder, a lying (tilted) cylinder and a sphere.
-synth::Scene curved_scene() {
+/// A floor 0.9 m below the camera and a back wall `wall_z` metres away (the room reaches 0.5 m
+/// behind the camera), nothing else.
+synth::Scene floor_and_wall(double wall_z) {
   synth::Scene scene;
   synth::Room room;
-  room.half_extent = {6.0, 2.0, 2.5};
-  room.centre = {0.0, 0.9 - 2.0, 4.5 - 2.5};
+  room.half_extent = {6.0, 2.0, (wall_z + 0.5) / 2};
+  room.centre = {0.0, 0.9 - 2.0, (wall_z - 0.5) / 2};
   room.left_wall = room.right_wall = false;
   scene.room = room;
+  return scene;
+}
+
+/// A floor and back wall with a standing cylinder, a lying (tilted) cylinder and a sphere.
+synth::Scene curved_scene() {
+  synth::Scene scene = floor_and_wall(4.5);
   scene.cylinders.push_back(
       {.base = {-0.6, 0.9, 2.6}, .radius = 0.15, .height = 0.7, .name = "standing"});
   scene.cylinders.push_back({.base = {0.1, 0.78, 2.2},
@@ -291,12 +298,7 @@ TEST(AutoModel, KinectNoiseCurvedSurfaces) {
 /// within the noise, while their union is one sphere within the noise; a pair test limited to
 /// 60 deg between facets never tried it (`rangeseg synth --scene mixed --seed 2`).
 TEST(AutoModel, KinectNoiseFarBallIsOneSphere) {
-  synth::Scene scene;
-  synth::Room room;
-  room.half_extent = {6.0, 2.0, 3.0};
-  room.centre = {0.0, 0.9 - 2.0, 6.0 - 3.0};
-  room.left_wall = room.right_wall = false;
-  scene.room = room;
+  synth::Scene scene = floor_and_wall(6.0);
   scene.spheres.push_back({.centre = {-0.8, 0.9 - 0.24, 4.7}, .radius = 0.24, .name = "ball"});
   for (std::uint64_t seed : {1, 2, 3}) {
     const SceneRun r = run(scene, synth::Noise::kinect, RegionModel::automatic, seed);
