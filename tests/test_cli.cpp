@@ -207,6 +207,15 @@ TEST(Cli, ConfigFileOverridesAndRejectsUnknownKeys) {
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.out.find("min_region_sise"), std::string::npos) << bad.out;
   EXPECT_FALSE(fs::exists(dir / "b" / "labels.png"));
+  // Integer settings take integers only: no silent truncation or wrap-around.
+  for (const char* value : {"2.5", "4294967298", "-3000000000", "\"2\""}) {
+    std::ofstream(dir / "int.json") << R"({"segmentation": {"growth_bands": )" << value << "}}";
+    const CliResult r = run("segment " + (dir / "cloud.pcd").string() + " -o " +
+                            (dir / "i").string() + " --config " + (dir / "int.json").string());
+    EXPECT_EQ(r.code, 2) << value;
+    EXPECT_NE(r.out.find("growth_bands"), std::string::npos) << r.out;
+    EXPECT_FALSE(fs::exists(dir / "i" / "labels.png")) << value;
+  }
 }
 
 TEST(CliBatch, DirectorySkipsACorruptFrameAndCountsIt) {

@@ -1,5 +1,8 @@
+#include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include "names.hpp"
 #include "rangeseg/io/file.hpp"
@@ -12,8 +15,27 @@ using nlohmann::json;
 template <class T>
 void take(const json& obj, const char* key, T& field, const std::string& where) {
   if (!obj.contains(key)) return;
+  const json& value = obj.at(key);
+  // json's own conversion truncates 2.5 to 2 and wraps integers that do not fit.
+  if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
+    const bool fits = value.is_number_unsigned()
+                          ? value.get<std::uint64_t>() <=
+                                static_cast<std::uint64_t>(std::numeric_limits<T>::max())
+                      : value.is_number_integer()
+                          ? value.get<std::int64_t>() >=
+                                    static_cast<std::int64_t>(std::numeric_limits<T>::min()) &&
+                                value.get<std::int64_t>() <=
+                                    static_cast<std::int64_t>(std::numeric_limits<T>::max())
+                          : false;
+    if (!fits) {
+      throw std::runtime_error(where + ": key '" + key + "' must be an integer in [" +
+                               std::to_string(std::numeric_limits<T>::min()) + ", " +
+                               std::to_string(std::numeric_limits<T>::max()) + "], got " +
+                               value.dump());
+    }
+  }
   try {
-    field = obj.at(key).get<T>();
+    field = value.get<T>();
   } catch (const json::exception& e) {
     throw std::runtime_error(where + ": key '" + key + "' has the wrong type: " + e.what());
   }
