@@ -74,15 +74,17 @@ Frame growth_band_frame(const Frame& f, Segmenter::Scratch& s, int band) {
 void join_growth_bands(const Frame& f, Segmenter::Scratch& s) {
   const auto bands = static_cast<int>(s.growth_rows.size()) - 1;
   s.regions.resize(1);
-  s.band_found.resize(static_cast<std::size_t>(bands));  // label offset of each band
   for (int b = 0; b < bands; ++b) {
     const auto& regions = s.growth[b]->regions;
-    s.band_found[b] = s.regions.size() - 1;
     s.regions.insert(s.regions.end(), regions.begin() + 1, regions.end());
   }
   for_each_band(s, bands, 1, [&](int, int b_begin, int b_end) {
     for (int b = std::max(b_begin, 1); b < b_end; ++b) {
-      const auto offset = static_cast<std::int32_t>(s.band_found[b]);
+      // Band b's labels follow the regions of the bands above it.
+      std::int32_t offset = 0;
+      for (int above = 0; above < b; ++above) {
+        offset += static_cast<std::int32_t>(s.growth[above]->regions.size()) - 1;
+      }
       std::int32_t* const labels =
           f.labels + static_cast<std::ptrdiff_t>(s.growth_rows[b]) * f.stride;
       const std::ptrdiff_t n =
