@@ -18,15 +18,15 @@ void take(const json& obj, const char* key, T& field, const std::string& where) 
   const json& value = obj.at(key);
   // json's own conversion truncates 2.5 to 2 and wraps integers that do not fit.
   if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
-    const bool fits = value.is_number_unsigned()
-                          ? value.get<std::uint64_t>() <=
-                                static_cast<std::uint64_t>(std::numeric_limits<T>::max())
-                      : value.is_number_integer()
-                          ? value.get<std::int64_t>() >=
-                                    static_cast<std::int64_t>(std::numeric_limits<T>::min()) &&
-                                value.get<std::int64_t>() <=
-                                    static_cast<std::int64_t>(std::numeric_limits<T>::max())
-                          : false;
+    bool fits = false;  // false for floats, strings, ...
+    if (value.is_number_unsigned()) {
+      fits =
+          value.get<std::uint64_t>() <= static_cast<std::uint64_t>(std::numeric_limits<T>::max());
+    } else if (value.is_number_integer()) {
+      const auto v = value.get<std::int64_t>();
+      fits = v >= static_cast<std::int64_t>(std::numeric_limits<T>::min()) &&
+             v <= static_cast<std::int64_t>(std::numeric_limits<T>::max());
+    }
     if (!fits) {
       throw std::runtime_error(where + ": key '" + key + "' must be an integer in [" +
                                std::to_string(std::numeric_limits<T>::min()) + ", " +
