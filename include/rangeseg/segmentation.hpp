@@ -61,7 +61,9 @@ struct SegmentationSettings {
   /// frame's normal noise at the point's depth, sigma_n(z) = c sigma(z) / z, with c measured per
   /// frame from the normal spread inside the 8x8 cells (median over complete cells). Near the
   /// sensor, or with smoothed normals, this is far tighter than `max_normal_angle` and keeps
-  /// regions from creeping over shallow creases. 0 = off (dimensionless).
+  /// regions from creeping over shallow creases. Far away, where it is wider, an 8x8 cell of
+  /// points still counts as one plane when its normals spread by up to 1.5 sigma_n(z), although
+  /// many of them are over `max_normal_angle` off. 0 = off (dimensionless).
   double normal_noise_sigmas = 3.0;
   /// plane: the noise-derived angle bound is never below this [rad] (5 deg), for noise-free data
   /// and surfaces that are not exactly planar.
