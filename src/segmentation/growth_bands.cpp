@@ -33,8 +33,9 @@ int plan_growth_bands(const Frame& f, int requested, Segmenter::Scratch& s) {
     s.growth_rows[b] = b * cell_rows / bands * kCellSide * step;
   }
   s.growth_rows[bands] = f.height;
+  if (bands == 1) return 1;  // the frame's own scratch
   if (s.growth.size() < static_cast<std::size_t>(bands)) s.growth.resize(bands);
-  for (int b = 0; b < bands && bands > 1; ++b) {
+  for (int b = 0; b < bands; ++b) {
     if (!s.growth[b]) s.growth[b] = std::make_unique<Segmenter::Scratch>();
   }
   return bands;
