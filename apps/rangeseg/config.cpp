@@ -112,14 +112,28 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
   if (j.contains("segmentation")) {
     const json& m = j["segmentation"];
     const std::string where = path + " [segmentation]";
-    reject_unknown(
-        m,
-        {"model", "max_normal_angle", "max_distance_sigmas", "normal_noise_sigmas",
-         "min_normal_angle", "max_smooth_angle", "max_curvature", "max_seed_curvature",
-         "seed_clearance", "growth_bands", "min_region_size", "merge_planes", "merge_angle",
-         "merge_distance_sigmas", "merge_rms_sigmas", "merge_rms_max_angle", "reassign_boundary",
-         "reassign_max_normal_angle", "reassign_across_mesh_cuts"},
-        where);
+    reject_unknown(m,
+                   {"model",
+                    "max_normal_angle",
+                    "max_distance_sigmas",
+                    "normal_noise_sigmas",
+                    "min_normal_angle",
+                    "max_smooth_angle",
+                    "max_curvature",
+                    "max_seed_curvature",
+                    "seed_clearance",
+                    "growth_bands",
+                    "min_region_size",
+                    "merge_planes",
+                    "merge_angle",
+                    "merge_distance_sigmas",
+                    "merge_rms_sigmas",
+                    "merge_rms_max_angle",
+                    "split_residual_factor",
+                    "reassign_boundary",
+                    "reassign_max_normal_angle",
+                    "reassign_across_mesh_cuts"},
+                   where);
     auto& t = s.segmentation;
     if (m.contains("model")) {
       try {
@@ -143,6 +157,7 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
     take(m, "merge_distance_sigmas", t.merge_distance_sigmas, where);
     take(m, "merge_rms_sigmas", t.merge_rms_sigmas, where);
     take(m, "merge_rms_max_angle", t.merge_rms_max_angle, where);
+    take(m, "split_residual_factor", t.split_residual_factor, where);
     take(m, "reassign_boundary", t.reassign_boundary, where);
     take(m, "reassign_max_normal_angle", t.reassign_max_normal_angle, where);
     take(m, "reassign_across_mesh_cuts", t.reassign_across_mesh_cuts, where);

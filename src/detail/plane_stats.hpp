@@ -81,10 +81,8 @@ struct PlaneStats {
     return std::sqrt(std::max(0.0, second * inv + 2.0 * offset * first * inv + offset * offset));
   }
 
-  /// PCA fit: the normal is the eigenvector of the smallest eigenvalue of the covariance.
-  PlaneFit fit() const {
-    PlaneFit f;
-    if (count < 3) return f;
+  /// Covariance of the points about their mean [m^2] (count > 0).
+  Eigen::Matrix3d covariance() const {
     const double inv = 1.0 / static_cast<double>(count);
     const double mx = sx * inv, my = sy * inv, mz = sz * inv;
     Eigen::Matrix3d cov;
@@ -97,7 +95,16 @@ struct PlaneStats {
     cov(1, 0) = cov(0, 1);
     cov(2, 0) = cov(0, 2);
     cov(2, 1) = cov(1, 2);
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(cov);
+    return cov;
+  }
+
+  /// PCA fit: the normal is the eigenvector of the smallest eigenvalue of the covariance.
+  PlaneFit fit() const {
+    PlaneFit f;
+    if (count < 3) return f;
+    const double inv = 1.0 / static_cast<double>(count);
+    const double mx = sx * inv, my = sy * inv, mz = sz * inv;
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance());
     if (solver.info() != Eigen::Success) return f;
     const Eigen::Vector3d& ev = solver.eigenvalues();  // ascending
     // Collinear (or single-point) sets have two vanishing eigenvalues: no unique plane.

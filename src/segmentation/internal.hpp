@@ -96,6 +96,16 @@ inline NeighbourLabels single_neighbour_label(const std::int32_t* labels, std::p
 /// Side of the square cells of the coarse growing level [lattice steps] (8 x 8 vertices).
 inline constexpr int kCellSide = 8;
 
+/// One part of a region being split (split_unexplained_planes): its raw label, its points in
+/// the region's pixel list while splitting, and its plane.
+struct SplitPart {
+  std::int32_t label = 0;
+  std::size_t begin = 0, end = 0;
+  detail::PlaneStats stats;
+  detail::PlaneFit fit;
+  bool splittable = true;
+};
+
 /// Statistics of one kCellSide x kCellSide cell of mesh vertices, for growing whole cells at a
 /// time (cf. CAPE / PEAC). `complete` cells have every vertex valid (point and normal) and every
 /// mesh edge between horizontally and vertically adjacent vertices inside the cell, so the cell
@@ -146,6 +156,19 @@ struct Segmenter::Scratch {
   detail::CacheLineVector<float> cell_area;  ///< twice the mesh area of each cell of one row
   std::vector<std::int32_t> row_pixels;      ///< columns of one row picked by a vector scan
   std::vector<std::int32_t> order;
+  // splitting (split_unexplained_planes)
+  std::vector<double> split_ratios;                  ///< RMS / sigma(z) of the segments, sorted
+  std::vector<std::int32_t> split_slot;              ///< per raw label: candidate index or -1
+  std::vector<std::int32_t> split_candidates;        ///< raw labels of the regions to try
+  std::vector<double> split_reference;               ///< per candidate: the others' median ratio
+  std::vector<std::size_t> split_start, split_fill;  ///< per candidate: its points in split_pixels
+  std::vector<std::int32_t> split_pixels;
+  std::vector<std::int32_t> split_samples;  ///< the subsample of a two-plane fit
+  std::vector<double> split_xyzw;           ///< per sample: x, y, z, 1 / sigma(z)^2
+  std::vector<std::uint8_t> split_side;     ///< per sample: which plane
+  std::vector<std::int32_t> split_pieces;   ///< mesh-connected pieces, flood-filled
+  std::vector<std::size_t> split_piece_start;
+  std::vector<seg::SplitPart> split_parts;
   // threads: the pool of the current call (null: one thread) and per-band buffers of bands 1..
   ThreadPool* pool = nullptr;
   std::vector<detail::CacheLineVector<float>> band_cell_sums;
@@ -306,6 +329,31 @@ void segment_areas(const Frame& frame, Segmenter::Scratch& scratch, std::vector<
 /// of a small real face next to a large plane keep all but the crease for their own seeds.
 void reassign_before_seeds(const Frame& frame, const SegmentationSettings& settings,
                            Segmenter::Scratch& scratch);
+
+/// Root of `a` in the union-find forest `parent` (with path halving).
+inline std::int32_t find_root(std::vector<std::int32_t>& parent, std::int32_t a) {
+  while (parent[a] != a) {
+    parent[a] = parent[parent[a]];
+    a = parent[a];
+  }
+  return a;
+}
+
+/// Whether post-processing merges two adjacent plane segments (statistics and fits of each):
+/// their planes agree, or one plane explains their union within the noise (see
+/// SegmentationSettings::merge_angle .. merge_rms_max_angle). On true, the union's statistics
+/// and fit are stored where given.
+bool planes_merge(const detail::PlaneStats& sa, const detail::PlaneFit& a,
+                  const detail::PlaneStats& sb, const detail::PlaneFit& b,
+                  const SegmentationSettings& settings, detail::PlaneStats* merged = nullptr,
+                  detail::PlaneFit* merged_fit = nullptr);
+
+/// After merging (raw labels, union-find in scratch.parent): plane segments whose RMS residual
+/// exceeds split_residual_factor times the frame's median RMS / sigma(z) are fitted with two
+/// planes; the split stands when each part is a segment of its own size and merging would not
+/// join them again. New parts are appended as raw regions (scratch.regions, fits, parent, remap).
+void split_unexplained_planes(const Frame& frame, const SegmentationSettings& settings,
+                              Segmenter::Scratch& scratch);
 
 /// Refit, merge, small-region removal, boundary re-assignment, compaction and the Segment list
 /// (areas 0: see segment_areas).

@@ -204,14 +204,6 @@ using detail::PlaneStats;
 /// they are dissolved later and re-assigned point by point [pixels] (a 3x3 patch).
 constexpr std::int64_t kMinFitPixels = 9;
 
-std::int32_t find_root(std::vector<std::int32_t>& parent, std::int32_t a) {
-  while (parent[a] != a) {
-    parent[a] = parent[parent[a]];
-    a = parent[a];
-  }
-  return a;
-}
-
 double dot(const std::array<double, 3>& a, const std::array<double, 3>& b) {
   return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
@@ -245,18 +237,7 @@ bool same_plane(const PlaneFit& a, const PlaneFit& b, const SegmentationSettings
 /// of one quantisation terrace has rms 0 and a normal along the view ray), but its points do
 /// not pin the surface's orientation better than the sensor noise across its width allows.
 double floored_normal_stderr(const PlaneStats& stats, const PlaneFit& fit, double sigma) {
-  const double inv = 1.0 / static_cast<double>(stats.count);
-  const auto m = stats.mean();
-  Eigen::Matrix3d cov;
-  cov(0, 0) = stats.sxx * inv - m[0] * m[0];
-  cov(0, 1) = stats.sxy * inv - m[0] * m[1];
-  cov(0, 2) = stats.sxz * inv - m[0] * m[2];
-  cov(1, 1) = stats.syy * inv - m[1] * m[1];
-  cov(1, 2) = stats.syz * inv - m[1] * m[2];
-  cov(2, 2) = stats.szz * inv - m[2] * m[2];
-  cov(1, 0) = cov(0, 1);
-  cov(2, 0) = cov(0, 2);
-  cov(2, 1) = cov(1, 2);
+  const Eigen::Matrix3d cov = stats.covariance();
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
   solver.computeDirect(cov, Eigen::EigenvaluesOnly);
   const double lambda1 = solver.eigenvalues()(1);
@@ -425,14 +406,10 @@ void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
     std::int32_t a = find_root(s.parent, static_cast<std::int32_t>(key >> 32));
     std::int32_t b = find_root(s.parent, static_cast<std::int32_t>(key & 0xFFFFFFFFu));
     if (a == b || !s.fits[a].ok || !s.fits[b].ok) continue;
-    PlaneStats merged = s.regions[a];
-    merged.merge(s.regions[b]);
-    const PlaneFit merged_fit = merged.fit();
-    if (!merged_fit.ok) continue;
-    if (!same_plane(s.fits[a], s.fits[b], settings) &&
-        !fits_as_one(merged_fit, s.regions[a], s.fits[a], s.regions[b], s.fits[b], settings) &&
-        !lies_on_merged_plane(merged_fit, s.regions[a], s.fits[a], s.regions[b], s.fits[b],
-                              settings)) {
+    PlaneStats merged;
+    PlaneFit merged_fit;
+    if (!planes_merge(s.regions[a], s.fits[a], s.regions[b], s.fits[b], settings, &merged,
+                      &merged_fit)) {
       continue;
     }
     if (s.regions[a].count < s.regions[b].count) std::swap(a, b);
@@ -756,6 +733,22 @@ void remap_all_labels(const Frame& f, Segmenter::Scratch& s, const std::int32_t*
 
 }  // namespace
 
+bool planes_merge(const PlaneStats& sa, const PlaneFit& a, const PlaneStats& sb, const PlaneFit& b,
+                  const SegmentationSettings& settings, PlaneStats* merged_out,
+                  PlaneFit* merged_fit_out) {
+  PlaneStats merged = sa;
+  merged.merge(sb);
+  const PlaneFit merged_fit = merged.fit();
+  if (!merged_fit.ok) return false;
+  if (!same_plane(a, b, settings) && !fits_as_one(merged_fit, sa, a, sb, b, settings) &&
+      !lies_on_merged_plane(merged_fit, sa, a, sb, b, settings)) {
+    return false;
+  }
+  if (merged_out != nullptr) *merged_out = merged;
+  if (merged_fit_out != nullptr) *merged_fit_out = merged_fit;
+  return true;
+}
+
 void reassign_before_seeds(const Frame& f, const SegmentationSettings& settings,
                            Segmenter::Scratch& s) {
   const auto region_count = static_cast<std::int32_t>(s.regions.size());  // incl. label 0
@@ -822,8 +815,7 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
       if (!s.fits[r].ok) s.fits[r] = s.regions[r].fit();
     }
   }
-  const std::int32_t* const remap = s.remap.data();
-  remap_all_labels(f, s, remap);
+  remap_all_labels(f, s, s.remap.data());
 
   if (planes && settings.reassign_boundary) {
     if (settings.reassign_across_mesh_cuts) {
@@ -838,19 +830,21 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
       if (s.remap[r] == r) s.fits[r] = s.regions[r].fit();
     }
     merge_adjacent_planes(f, settings, s);
+    split_unexplained_planes(f, settings, s);
   }
+  const auto region_total = static_cast<std::int32_t>(s.regions.size());  // with split parts
   // Surviving regions are the union-find roots among the kept ones; the labels go through the
   // composition root -> compact label in one pass below.
-  for (std::int32_t r = 1; r < region_count; ++r) {
+  for (std::int32_t r = 1; r < region_total; ++r) {
     s.remap[r] = s.remap[r] == r ? find_root(s.parent, r) : 0;
   }
 
   // Compact labels 1..N by size, descending (ties by raw label for determinism).
   s.order.clear();
-  for (std::int32_t r = 1; r < region_count; ++r) {
+  for (std::int32_t r = 1; r < region_total; ++r) {
     if (s.remap[r] == r) s.order.push_back(r);
   }
-  s.compact.assign(region_count, 0);
+  s.compact.assign(region_total, 0);
   std::sort(s.order.begin(), s.order.end(), [&](std::int32_t a, std::int32_t b) {
     const auto ca = s.regions[a].count, cb = s.regions[b].count;
     return ca != cb ? ca > cb : a < b;
@@ -858,8 +852,8 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
   for (std::size_t j = 0; j < s.order.size(); ++j) {
     s.compact[s.order[j]] = static_cast<std::int32_t>(j + 1);
   }
-  for (std::int32_t r = 1; r < region_count; ++r) s.remap[r] = s.compact[s.remap[r]];
-  remap_all_labels(f, s, remap);
+  for (std::int32_t r = 1; r < region_total; ++r) s.remap[r] = s.compact[s.remap[r]];
+  remap_all_labels(f, s, s.remap.data());
 
   const std::size_t n = s.order.size();
   out.segments.resize(n);

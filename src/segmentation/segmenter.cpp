@@ -45,6 +45,8 @@ void validate(const SegmentationSettings& s) {
           s.max_normal_angle, "in (0, pi] rad");
   require(s.max_distance_sigmas > 0 && std::isfinite(s.max_distance_sigmas), "max_distance_sigmas",
           s.max_distance_sigmas, "finite and > 0");
+  require(s.split_residual_factor >= 0 && std::isfinite(s.split_residual_factor),
+          "split_residual_factor", s.split_residual_factor, "finite and >= 0");
   require(s.normal_noise_sigmas >= 0 && std::isfinite(s.normal_noise_sigmas), "normal_noise_sigmas",
           s.normal_noise_sigmas, "finite and >= 0");
   require(s.min_normal_angle >= 0 && s.min_normal_angle <= pi, "min_normal_angle",
