@@ -124,11 +124,11 @@ struct SegmentationSettings {
   double merge_rms_sigmas = 1.0;
   /// ... provided their normals are within this angle [rad] (20 deg).
   double merge_rms_max_angle = 0.349;
-  /// plane, with `merge_planes`: after merging, a segment whose RMS residual about its plane is
-  /// more than this many times the frame's typical one (the median over its segments of RMS /
-  /// sigma(z), each at its centroid) is fitted with two planes, and split in two when each part
-  /// has at least `min_region_size` pixels and merging would not join them again: a region that
-  /// crept over a crease or step during growing (dimensionless; 0 = off).
+  /// plane, with `merge_planes`: after merging, a segment whose RMS residual about its plane, in
+  /// units of sigma(z) at its centroid, is more than this many times what the frame's good
+  /// planes achieve (the lower tercile of the other segments' ratios) is cut into two to four
+  /// planes, each part of at least `min_region_size` pixels, unless merging joins them again: a
+  /// region that crept over a crease or a step while growing (dimensionless; 0 = off).
   double split_residual_factor = 2.5;
   /// plane: unlabelled valid points adjacent (mesh 1-ring) to a plane segment join the closest
   /// adjacent plane if within `max_distance_sigmas` * sigma(z) of it (perpendicular distance).

@@ -160,7 +160,7 @@ struct Segmenter::Scratch {
   std::vector<double> split_ratios;                  ///< RMS / sigma(z) of the segments, sorted
   std::vector<std::int32_t> split_slot;              ///< per raw label: candidate index or -1
   std::vector<std::int32_t> split_candidates;        ///< raw labels of the regions to try
-  std::vector<double> split_reference;               ///< per candidate: the others' median ratio
+  std::vector<double> split_reference;               ///< per candidate: the others' lower tercile
   std::vector<std::size_t> split_start, split_fill;  ///< per candidate: its points in split_pixels
   std::vector<std::int32_t> split_pixels;
   std::vector<std::int32_t> split_samples;  ///< the subsample of a two-plane fit
@@ -348,10 +348,11 @@ bool planes_merge(const detail::PlaneStats& sa, const detail::PlaneFit& a,
                   const SegmentationSettings& settings, detail::PlaneStats* merged = nullptr,
                   detail::PlaneFit* merged_fit = nullptr);
 
-/// After merging (raw labels, union-find in scratch.parent): plane segments whose RMS residual
-/// exceeds split_residual_factor times the frame's median RMS / sigma(z) are fitted with two
-/// planes; the split stands when each part is a segment of its own size and merging would not
-/// join them again. New parts are appended as raw regions (scratch.regions, fits, parent, remap).
+/// After merging (raw labels, union-find in scratch.parent): a plane segment whose RMS residual /
+/// sigma(z) exceeds split_residual_factor times the lower tercile of the other segments' is cut
+/// into up to four planes (two-plane k-means while a part is still that far off), and the parts
+/// that merging would join at the frame's noise level are joined again. New parts are appended
+/// as raw regions (scratch.regions, fits, parent, remap).
 void split_unexplained_planes(const Frame& frame, const SegmentationSettings& settings,
                               Segmenter::Scratch& scratch);
 

@@ -373,8 +373,9 @@ void split_unexplained_planes(const Frame& f, const SegmentationSettings& settin
   const auto ratio_of = [&](std::int32_t r) {
     return s.fits[r].rms / settings.noise.sigma(s.fits[r].centroid[2]);
   };
-  // The frame's typical fit: RMS residual / sigma(z) of its segments, sorted; a segment is
-  // compared with the median of the others.
+  // What the frame's good planes achieve: RMS residual / sigma(z) of its segments, sorted; a
+  // segment is compared with the lower tercile of the others (the median rises with the
+  // facets of curved objects, which a plane does not explain either).
   auto& ratios = s.split_ratios;
   ratios.clear();
   for (std::int32_t r = 1; r < region_count; ++r) {
@@ -382,11 +383,11 @@ void split_unexplained_planes(const Frame& f, const SegmentationSettings& settin
   }
   if (ratios.size() < 2) return;
   std::sort(ratios.begin(), ratios.end());
-  const auto others_median = [&](double ratio) {
+  const auto others_tercile = [&](double ratio) {
     const auto rank = static_cast<std::size_t>(
         std::lower_bound(ratios.begin(), ratios.end(), ratio) - ratios.begin());
-    const std::size_t middle = (ratios.size() - 1) / 2;
-    return middle < rank ? ratios[middle] : ratios[middle + 1];
+    const std::size_t tercile = (ratios.size() - 1) / 3;
+    return tercile < rank ? ratios[tercile] : ratios[tercile + 1];
   };
   Splitter splitter(f, settings, s);
 
@@ -400,7 +401,7 @@ void split_unexplained_planes(const Frame& f, const SegmentationSettings& settin
   reference.clear();
   for (std::int32_t r = 1; r < region_count; ++r) {
     if (!is_segment(r)) continue;
-    const double others = others_median(ratio_of(r));
+    const double others = others_tercile(ratio_of(r));
     if (!splitter.flagged(s.regions[r], s.fits[r], others)) continue;
     slot[r] = static_cast<std::int32_t>(candidates.size());
     candidates.push_back(r);
