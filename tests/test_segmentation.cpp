@@ -469,6 +469,43 @@ TEST(Segmentation, DepthStepIsSeparated) {
   EXPECT_NEAR(p.seg.segments[far_label - 1].offset, 2.0, 1e-4);
 }
 
+/// A wall at 2 m with smoothed-Kinect noise (0.3 sigma(z) along the ray) whose mesh is cut along
+/// the column u = 320, as a terrace crack cuts a surface seen at grazing incidence: growth cannot
+/// cross the cut, so the halves are two regions that touch only across it, and they are one
+/// plane at the noise level the frame's segments show: one segment. Control: the right half
+/// 16 mm further away (2.6 sigma(2 m) of the sensor model, but 9 times the noise the halves
+/// show), also cut: two segments, which merging with the sensor model's sigma(z) would join.
+TEST(Segmentation, CoplanarPiecesAcrossAMeshCutMergeButAStepDoesNot) {
+  const SegmentationSettings kinect = preset("kinect");
+  for (const double step : {0.0, 0.016}) {
+    std::mt19937 rng(13);
+    std::normal_distribution<double> unit(0.0, 1.0);
+    const OrganizedCloud cloud = cast(640, 480, [&](double a, double) {
+      const double t = a < (320 - kCx) / kF ? 2.0 : 2.0 + step;
+      return t + 0.3 * kinect.noise.sigma(t) * unit(rng);
+    });
+    Mesh mesh = build_mesh(cloud);
+    for (int v = 0; v < 480; ++v) {
+      for (int k = 0; k < 8; ++k) {
+        if (kNeighbourDu[k] > 0) mesh.edges(319, v) &= static_cast<std::uint8_t>(~(1u << k));
+        if (kNeighbourDu[k] < 0) mesh.edges(320, v) &= static_cast<std::uint8_t>(~(1u << k));
+      }
+    }
+    const NormalMap normals = compute_normals(cloud, mesh);
+    const Segmentation seg = segment(cloud, mesh, normals, kinect);
+    expect_consistent(cloud, seg, kinect);
+    const int left = seg.labels(100, 240), right = seg.labels(540, 240);
+    ASSERT_NE(left, 0) << step;
+    ASSERT_NE(right, 0) << step;
+    if (step == 0) {
+      EXPECT_EQ(left, right);
+      EXPECT_EQ(seg.segments.size(), 1u);
+    } else {
+      EXPECT_NE(left, right);
+    }
+  }
+}
+
 /// A wall at 1 m seen by a scanner whose calibration bows it: z = 1 + c x^2 with a sagitta of 3 mm
 /// over the +-0.6 m of the view (6 sigma of the 0.5 mm noise, Gaussian along the ray). No plane
 /// fits the whole wall within 3 sigma, so region growing cuts it into pieces, whose own fits are

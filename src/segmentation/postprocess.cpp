@@ -334,9 +334,12 @@ std::int32_t* row_pixels_of(Segmenter::Scratch& s, int band) {
   return band == 0 ? s.row_pixels.data() : s.band_row_pixels[static_cast<std::size_t>(band)].data();
 }
 
-/// The label pairs (smaller << 32 | larger) of mesh edges that start in rows [v_begin, v_end)
-/// and join two regions both large enough to fit, appended to `pairs` (with repeats).
-/// `row_pixels`: one row.
+/// Flag of a label pair whose regions meet only across a cut of the mesh (adjacent_pairs).
+constexpr std::uint64_t kAcrossCut = std::uint64_t{1} << 63;
+
+/// The label pairs (smaller << 32 | larger) of lattice neighbours in rows [v_begin, v_end) whose
+/// regions are both large enough to fit, appended to `pairs` (with repeats); pairs that meet
+/// where the mesh has no edge carry kAcrossCut. `row_pixels`: one row.
 void adjacent_pairs(const Frame& f, const std::vector<PlaneStats>& regions, int v_begin, int v_end,
                     std::int32_t* row_pixels, std::vector<std::uint64_t>& pairs) {
   std::uint64_t last = 0;
@@ -344,15 +347,20 @@ void adjacent_pairs(const Frame& f, const std::vector<PlaneStats>& regions, int 
   const std::ptrdiff_t right = f.neighbour_offset[0], down = f.neighbour_offset[2];
   // Directions 0..3 (right, down-right, down, down-left) visit every undirected edge once.
   const auto visit = [&](std::ptrdiff_t i, std::int32_t a) {
-    unsigned mask = f.edges[i] & 0x0Fu;
-    if (a == 0 || mask == 0 || regions[a].count < kMinFitPixels) return;
+    if (a == 0 || regions[a].count < kMinFitPixels) return;
+    const int u = static_cast<int>(i % f.stride), v = static_cast<int>(i / f.stride);
+    const bool has_right = u + step < f.width, has_left = u >= step, has_down = v + step < f.height;
+    unsigned mask = (has_right ? 1u : 0u) | (has_right && has_down ? 2u : 0u) |
+                    (has_down ? 4u : 0u) | (has_left && has_down ? 8u : 0u);
+    const unsigned edges = f.edges[i];
     while (mask != 0) {
       const int k = std::countr_zero(mask);
       mask &= mask - 1;
       const std::int32_t b = f.labels[i + f.neighbour_offset[k]];
       if (b == 0 || b == a || regions[b].count < kMinFitPixels) continue;
       const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) |
-                                static_cast<std::uint32_t>(std::max(a, b));
+                                static_cast<std::uint32_t>(std::max(a, b)) |
+                                ((edges >> k & 1u) != 0 ? 0 : kAcrossCut);
       if (key != last) pairs.push_back(key);
       last = key;
     }
@@ -385,6 +393,26 @@ void adjacent_pairs(const Frame& f, const std::vector<PlaneStats>& regions, int 
   }
 }
 
+/// `settings` with its noise model scaled to what the frame's good planes show: by the lower
+/// tercile of RMS residual / sigma(z) over the fitted regions of at least min_region_size
+/// pixels, clamped to [0.05, 1] (smoothed data fit far below the sensor's sigma(z)).
+SegmentationSettings measured_noise(const SegmentationSettings& settings, Segmenter::Scratch& s) {
+  auto& ratios = s.split_ratios;
+  ratios.clear();
+  for (std::size_t r = 1; r < s.regions.size(); ++r) {
+    if (!s.fits[r].ok || s.regions[r].count < settings.min_region_size) continue;
+    ratios.push_back(s.fits[r].rms / settings.noise.sigma(s.fits[r].centroid[2]));
+  }
+  SegmentationSettings measured = settings;
+  if (ratios.empty()) return measured;
+  const auto tercile = ratios.begin() + static_cast<std::ptrdiff_t>((ratios.size() - 1) / 3);
+  std::nth_element(ratios.begin(), tercile, ratios.end());
+  const double scale = std::clamp(*tercile, 0.05, 1.0);
+  measured.noise.a *= scale;
+  measured.noise.b *= scale;
+  return measured;
+}
+
 void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
                            Segmenter::Scratch& s) {
   // Row bands collect their pairs concurrently; sorting the union makes the list independent
@@ -402,14 +430,18 @@ void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
   std::sort(s.adjacency.begin(), s.adjacency.end());
   s.adjacency.erase(std::unique(s.adjacency.begin(), s.adjacency.end()), s.adjacency.end());
 
+  // Regions that meet only where the mesh is cut (a depth step, or a terrace crack of a surface
+  // seen at grazing incidence) merge only when their planes agree at the noise level the frame's
+  // good planes show (see measured_noise), not the sensor model's: a cut is evidence of a step.
+  const SegmentationSettings across_cut = measured_noise(settings, s);
   for (const std::uint64_t key : s.adjacency) {
-    std::int32_t a = find_root(s.parent, static_cast<std::int32_t>(key >> 32));
+    std::int32_t a = find_root(s.parent, static_cast<std::int32_t>((key & ~kAcrossCut) >> 32));
     std::int32_t b = find_root(s.parent, static_cast<std::int32_t>(key & 0xFFFFFFFFu));
     if (a == b || !s.fits[a].ok || !s.fits[b].ok) continue;
     PlaneStats merged;
     PlaneFit merged_fit;
-    if (!planes_merge(s.regions[a], s.fits[a], s.regions[b], s.fits[b], settings, &merged,
-                      &merged_fit)) {
+    if (!planes_merge(s.regions[a], s.fits[a], s.regions[b], s.fits[b],
+                      (key & kAcrossCut) != 0 ? across_cut : settings, &merged, &merged_fit)) {
       continue;
     }
     if (s.regions[a].count < s.regions[b].count) std::swap(a, b);
