@@ -99,7 +99,10 @@ struct SegmentationSettings {
 
   // --- post-processing ---
   /// Segments with fewer pixels are removed (their pixels become unlabelled and may then be
-  /// re-assigned to an adjacent plane) [pixels].
+  /// re-assigned to an adjacent plane) [pixels]. Plane models keep a region of at least half as
+  /// many pixels when it is, in 3D, at least sqrt(2 min_region_size) pixel footprints wide in
+  /// its narrower direction (a face seen obliquely covers fewer pixels than its size warrants;
+  /// slivers along creases are narrow): its frontal area is then twice the minimum's.
   int min_region_size = 100;
   /// plane: merge adjacent segments whose least-squares planes agree.
   bool merge_planes = true;

@@ -763,6 +763,41 @@ void remap_all_labels(const Frame& f, Segmenter::Scratch& s, const std::int32_t*
   });
 }
 
+/// The angle one lattice step subtends [rad]: the median over three rows of the distance between
+/// horizontally adjacent valid points divided by their depth (0 without such points), so that
+/// a length at depth z is that many pixel footprints when divided by footprint * z.
+double pixel_footprint(const Frame& f, Segmenter::Scratch& s) {
+  auto& steps = s.split_ratios;
+  steps.clear();
+  const int step = f.pixel_stride;
+  for (int band = 1; band <= 3; ++band) {
+    const int v = (f.height * band / 4) / step * step;
+    for (int u = 0; u + step < f.width; u += step) {
+      const std::ptrdiff_t i = static_cast<std::ptrdiff_t>(v) * f.stride + u, j = i + step;
+      if (!(f.z[i] > 0) || !(f.z[j] > 0)) continue;  // also NaN
+      steps.push_back(std::hypot(f.x[j] - f.x[i], f.y[j] - f.y[i], f.z[j] - f.z[i]) / f.z[i]);
+    }
+  }
+  if (steps.empty()) return 0;
+  const auto middle = steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2);
+  std::nth_element(steps.begin(), middle, steps.end());
+  return *middle;
+}
+
+/// A region of at least half min_region_size pixels that, in 3D, is at least
+/// sqrt(2 min_region_size) pixel footprints wide in its narrower in-plane direction (the
+/// square root of 12 times the middle covariance eigenvalue): a face seen obliquely covers
+/// fewer pixels than a frontal one of its size, and this one has at least twice the frontal area
+/// of the smallest segment; crease slivers and specks are narrow.
+bool wide_enough(const PlaneStats& stats, int min_region_size, double footprint) {
+  if (!(footprint > 0) || 2 * stats.count < min_region_size || stats.count < 3) return false;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+  solver.computeDirect(stats.covariance(), Eigen::EigenvaluesOnly);
+  const double narrow = std::sqrt(12.0 * std::max(0.0, solver.eigenvalues()(1)));
+  const double depth = stats.sz / static_cast<double>(stats.count);
+  return narrow >= std::sqrt(2.0 * min_region_size) * footprint * depth;
+}
+
 }  // namespace
 
 bool planes_merge(const PlaneStats& sa, const PlaneFit& a, const PlaneStats& sb, const PlaneFit& b,
@@ -841,8 +876,10 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
   // a disparity-quantised wall) often form tiny regions of their own, which would keep the
   // pieces from being adjacent. Raw labels map to themselves or to 0.
   s.remap.assign(region_count, 0);
+  const double footprint = planes ? pixel_footprint(f, s) : 0;
   for (std::int32_t r = 1; r < region_count; ++r) {
-    if (s.regions[r].count >= settings.min_region_size) {
+    if (s.regions[r].count >= settings.min_region_size ||
+        wide_enough(s.regions[r], settings.min_region_size, footprint)) {
       s.remap[r] = r;
       if (!s.fits[r].ok) s.fits[r] = s.regions[r].fit();
     }
