@@ -346,12 +346,14 @@ void adjacent_pairs(const Frame& f, const std::vector<PlaneStats>& regions, int 
   const int step = f.pixel_stride;
   const std::ptrdiff_t right = f.neighbour_offset[0], down = f.neighbour_offset[2];
   // Directions 0..3 (right, down-right, down, down-left) visit every undirected edge once.
-  const auto visit = [&](std::ptrdiff_t i, std::int32_t a) {
+  // The forward lattice neighbours inside the image of a pixel in column u of an inner row.
+  const auto inside = [&](int u, bool inner_row) {
+    const bool has_right = u + step < f.width, has_left = u >= step;
+    return (has_right ? 1u : 0u) |
+           (inner_row ? (has_right ? 2u : 0u) | 4u | (has_left ? 8u : 0u) : 0u);
+  };
+  const auto visit = [&](std::ptrdiff_t i, std::int32_t a, unsigned mask) {
     if (a == 0 || regions[a].count < kMinFitPixels) return;
-    const int u = static_cast<int>(i % f.stride), v = static_cast<int>(i / f.stride);
-    const bool has_right = u + step < f.width, has_left = u >= step, has_down = v + step < f.height;
-    unsigned mask = (has_right ? 1u : 0u) | (has_right && has_down ? 2u : 0u) |
-                    (has_down ? 4u : 0u) | (has_left && has_down ? 8u : 0u);
     const unsigned edges = f.edges[i];
     while (mask != 0) {
       const int k = std::countr_zero(mask);
@@ -378,17 +380,20 @@ void adjacent_pairs(const Frame& f, const std::vector<PlaneStats>& regions, int 
     const bool inner_row = v + step < f.height;
     int u = 0;
     if (inner_row && screen) {
-      visit(row, f.labels[row]);
+      visit(row, f.labels[row], inside(0, true));
       int found = 0;
       u = adjacency_pixels(f.labels + row, f.labels + row + f.stride, 1, f.width - 1, row_pixels,
                            found);
-      for (int j = 0; j < found; ++j) visit(row + row_pixels[j], f.labels[row + row_pixels[j]]);
+      for (int j = 0; j < found; ++j) {
+        const int column = row_pixels[j];
+        visit(row + column, f.labels[row + column], 0x0Fu);  // inner columns of an inner row
+      }
     }
     for (; u < f.width; u += step) {
       const std::ptrdiff_t i = row + u;
       const std::int32_t a = f.labels[i];
       if (inner_row && u >= step && u + step < f.width && interior(i, a)) continue;
-      visit(i, a);
+      visit(i, a, inside(u, inner_row));
     }
   }
 }
