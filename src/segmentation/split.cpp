@@ -49,8 +49,9 @@ class Splitter {
   Splitter(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s)
       : f_(f), settings_(settings), s_(s), min_size_(settings.min_region_size) {}
 
-  /// Whether a part's RMS residual is more than split_residual_factor times `reference` (RMS /
-  /// sigma(z) of the frame's other segments), and it is large enough for two segments.
+  /// Whether a part's RMS residual is more than split_residual_factor times `reference` (the
+  /// lower tercile of the frame's other segments' RMS / sigma(z)) times sigma(z) at its
+  /// centroid, and it is large enough for two segments.
   bool flagged(const PlaneStats& stats, const PlaneFit& fit, double reference) const {
     if (!fit.ok || stats.count < 2 * min_size_) return false;
     return fit.rms >
