@@ -156,8 +156,8 @@ struct Segmenter::Scratch {
   detail::CacheLineVector<float> cell_area;  ///< twice the mesh area of each cell of one row
   std::vector<std::int32_t> row_pixels;      ///< columns of one row picked by a vector scan
   std::vector<std::int32_t> order;
+  std::vector<double> quantile_values;  ///< values of a median or tercile (post-processing)
   // splitting (split_unexplained_planes)
-  std::vector<double> split_ratios;                  ///< RMS / sigma(z) of the segments, sorted
   std::vector<std::int32_t> split_slot;              ///< per raw label: candidate index or -1
   std::vector<std::int32_t> split_candidates;        ///< raw labels of the regions to try
   std::vector<double> split_reference;               ///< per candidate: the others' lower tercile
@@ -347,6 +347,11 @@ bool planes_merge(const detail::PlaneStats& sa, const detail::PlaneFit& a,
                   const detail::PlaneStats& sb, const detail::PlaneFit& b,
                   const SegmentationSettings& settings, detail::PlaneStats* merged = nullptr,
                   detail::PlaneFit* merged_fit = nullptr);
+
+/// `settings` with the sensor noise model scaled by `ratio`, a frame's measured RMS residual /
+/// sigma(z) of good planes, clamped to [0.05, 1]: smoothed points fit far below the sensor's
+/// sigma(z), and merge tests at that level tell a step of a few sigma from one plane.
+SegmentationSettings with_measured_noise(const SegmentationSettings& settings, double ratio);
 
 /// After merging (raw labels, union-find in scratch.parent): a plane segment whose RMS residual /
 /// sigma(z) exceeds split_residual_factor times the lower tercile of the other segments' is cut

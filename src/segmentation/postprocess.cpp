@@ -398,24 +398,20 @@ void adjacent_pairs(const Frame& f, const std::vector<PlaneStats>& regions, int 
   }
 }
 
-/// `settings` with its noise model scaled to what the frame's good planes show: by the lower
-/// tercile of RMS residual / sigma(z) over the fitted regions of at least min_region_size
-/// pixels, clamped to [0.05, 1] (smoothed data fit far below the sensor's sigma(z)).
+/// `settings` with its noise model scaled to what the frame's good planes show: the lower
+/// tercile of RMS residual / sigma(z) over the fitted regions of at least min_region_size pixels
+/// (with_measured_noise).
 SegmentationSettings measured_noise(const SegmentationSettings& settings, Segmenter::Scratch& s) {
-  auto& ratios = s.split_ratios;
+  auto& ratios = s.quantile_values;
   ratios.clear();
   for (std::size_t r = 1; r < s.regions.size(); ++r) {
     if (!s.fits[r].ok || s.regions[r].count < settings.min_region_size) continue;
     ratios.push_back(s.fits[r].rms / settings.noise.sigma(s.fits[r].centroid[2]));
   }
-  SegmentationSettings measured = settings;
-  if (ratios.empty()) return measured;
+  if (ratios.empty()) return settings;
   const auto tercile = ratios.begin() + static_cast<std::ptrdiff_t>((ratios.size() - 1) / 3);
   std::nth_element(ratios.begin(), tercile, ratios.end());
-  const double scale = std::clamp(*tercile, 0.05, 1.0);
-  measured.noise.a *= scale;
-  measured.noise.b *= scale;
-  return measured;
+  return with_measured_noise(settings, *tercile);
 }
 
 void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
@@ -772,7 +768,7 @@ void remap_all_labels(const Frame& f, Segmenter::Scratch& s, const std::int32_t*
 /// horizontally adjacent valid points divided by their depth (0 without such points), so that
 /// a length at depth z is that many pixel footprints when divided by footprint * z.
 double pixel_footprint(const Frame& f, Segmenter::Scratch& s) {
-  auto& steps = s.split_ratios;
+  auto& steps = s.quantile_values;
   steps.clear();
   const int step = f.pixel_stride;
   for (int band = 1; band <= 3; ++band) {
@@ -804,6 +800,14 @@ bool wide_enough(const PlaneStats& stats, int min_region_size, double footprint)
 }
 
 }  // namespace
+
+SegmentationSettings with_measured_noise(const SegmentationSettings& settings, double ratio) {
+  SegmentationSettings measured = settings;
+  const double scale = std::clamp(ratio, 0.05, 1.0);
+  measured.noise.a *= scale;
+  measured.noise.b *= scale;
+  return measured;
+}
 
 bool planes_merge(const PlaneStats& sa, const PlaneFit& a, const PlaneStats& sb, const PlaneFit& b,
                   const SegmentationSettings& settings, PlaneStats* merged_out,

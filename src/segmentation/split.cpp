@@ -274,13 +274,11 @@ class Splitter {
     }
   }
 
-  /// Adjacent parts that post-processing's merge tests would join are joined again, the pair
-  /// whose union fits best first; a part that disappears leaves its raw label unused.
+  /// Adjacent parts that post-processing's merge tests would join at the noise level of the
+  /// frame's good planes (`reference`) are joined again, the pair whose union fits best first;
+  /// a part that disappears leaves its raw label unused.
   void merge_parts(const std::int32_t* pixels, std::size_t count, double reference) {
-    SegmentationSettings measured = settings_;
-    const double scale = std::clamp(reference, 0.05, 1.0);
-    measured.noise.a *= scale;
-    measured.noise.b *= scale;
+    const SegmentationSettings measured = with_measured_noise(settings_, reference);
     const std::size_t n = parts_.size();
     const auto index_of = [&](std::int32_t l) {
       for (std::size_t a = 0; a < n; ++a) {
@@ -377,7 +375,7 @@ void split_unexplained_planes(const Frame& f, const SegmentationSettings& settin
   // What the frame's good planes achieve: RMS residual / sigma(z) of its segments, sorted; a
   // segment is compared with the lower tercile of the others (the median rises with the
   // facets of curved objects, which a plane does not explain either).
-  auto& ratios = s.split_ratios;
+  auto& ratios = s.quantile_values;
   ratios.clear();
   for (std::int32_t r = 1; r < region_count; ++r) {
     if (is_segment(r)) ratios.push_back(ratio_of(r));
