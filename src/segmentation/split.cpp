@@ -22,6 +22,10 @@ using detail::PlaneStats;
 /// final assignment visits every point.
 constexpr std::size_t kMaxFitSamples = 512;
 constexpr int kMaxIterations = 12;
+/// Fraction of the mesh edges inside a region that the two planes of a split must leave on one
+/// side (see Splitter::coherent): 0.95-1 where box fronts meet (0.84-0.87 with one smoothing
+/// pass), 0.68 for a far wall's disparity terraces.
+constexpr double kMinCoherence = 0.8;
 /// The iterations stop when at most 1 / kSettled of the samples change planes.
 constexpr std::size_t kSettled = 200;
 
@@ -62,6 +66,7 @@ class Splitter {
   /// kMaxParts planes while a part is flagged, then merges the adjacent parts that merging
   /// would join. Parts after the first get new raw labels.
   void split_region(std::int32_t label, std::int32_t* pixels, std::size_t count, double reference) {
+    measured_ = with_measured_noise(settings_, reference);
     parts_.clear();
     parts_.push_back({.label = label,
                       .begin = 0,
@@ -88,7 +93,7 @@ class Splitter {
       }
     }
     if (parts_.size() == 1) return;
-    merge_parts(pixels, count, reference);
+    merge_parts(pixels, count);
     for (const Part& p : parts_) {
       s_.regions[p.label] = p.stats;
       s_.fits[p.label] = p.fit;
@@ -161,6 +166,7 @@ class Splitter {
       }
     }
     if (!(best_cost < INFINITY)) return false;
+    if (!coherent(best, p.label) || rejoined_on_samples(best, step)) return false;
 
     const auto other = static_cast<std::int32_t>(s_.regions.size());
     for (std::size_t j = 0; j < count; ++j) {
@@ -194,6 +200,52 @@ class Splitter {
     p.stats = stats[0];
     p.fit = fits[0];
     return true;
+  }
+
+  /// Whether the two planes cut the region into spatially coherent parts: of the mesh edges
+  /// from the samples to points of the region, at least kMinCoherence join points closer to the
+  /// same plane. Two faces meet along a border; two planes that take alternate disparity
+  /// terraces of one far wall (which fits them better than one plane) interleave.
+  bool coherent(const std::array<PlaneFit, 2>& fits, std::int32_t label) const {
+    std::size_t same = 0, edges = 0;
+    for (const std::int32_t i : s_.split_samples) {
+      const bool side = closer_to(fits[0], fits[1], f_.x[i], f_.y[i], f_.z[i]);
+      unsigned mask = f_.edges[i];
+      while (mask != 0) {
+        const int k = std::countr_zero(mask);
+        mask &= mask - 1;
+        const auto q = static_cast<std::int32_t>(i + f_.neighbour_offset[k]);
+        if (f_.labels[q] != label) continue;
+        ++edges;
+        same += closer_to(fits[0], fits[1], f_.x[q], f_.y[q], f_.z[q]) == side ? 1 : 0;
+      }
+    }
+    return static_cast<double>(same) >= kMinCoherence * static_cast<double>(edges);
+  }
+
+  /// Whether the two planes' sample parts, their sums scaled to the whole part (every `step`-th
+  /// point was sampled), are planes that merge_parts joins again: then the split is given up
+  /// before every point is assigned and flood-filled (a far wall of 10^5 points whose residual
+  /// is a candidate's but is one plane costs tens of milliseconds otherwise).
+  bool rejoined_on_samples(const std::array<PlaneFit, 2>& fits, std::size_t step) const {
+    const auto& xyzw = s_.split_xyzw;
+    std::array<PlaneStats, 2> stats;
+    for (std::size_t j = 0; 4 * j < xyzw.size(); ++j) {
+      const double x = xyzw[4 * j], y = xyzw[4 * j + 1], z = xyzw[4 * j + 2];
+      stats[closer_to(fits[0], fits[1], x, y, z) ? 1 : 0].add(x, y, z);
+    }
+    std::array<PlaneFit, 2> part_fits;
+    const auto scale = static_cast<double>(step);
+    for (int k = 0; k < 2; ++k) {
+      PlaneStats& s = stats[k];
+      s.count *= static_cast<std::int64_t>(step);
+      for (double* sum : {&s.sx, &s.sy, &s.sz, &s.sxx, &s.sxy, &s.sxz, &s.syy, &s.syz, &s.szz}) {
+        *sum *= scale;
+      }
+      part_fits[k] = s.fit();
+      if (!part_fits[k].ok) return false;
+    }
+    return planes_merge(stats[0], part_fits[0], stats[1], part_fits[1], measured_);
   }
 
   /// k-means with two planes over the samples (split_xyzw) from the partition split_side: the
@@ -275,10 +327,9 @@ class Splitter {
   }
 
   /// Adjacent parts that post-processing's merge tests would join at the noise level of the
-  /// frame's good planes (`reference`) are joined again, the pair whose union fits best first;
+  /// frame's good planes (`measured_`) are joined again, the pair whose union fits best first;
   /// a part that disappears leaves its raw label unused.
-  void merge_parts(const std::int32_t* pixels, std::size_t count, double reference) {
-    const SegmentationSettings measured = with_measured_noise(settings_, reference);
+  void merge_parts(const std::int32_t* pixels, std::size_t count) {
     const std::size_t n = parts_.size();
     const auto index_of = [&](std::int32_t l) {
       for (std::size_t a = 0; a < n; ++a) {
@@ -312,7 +363,7 @@ class Splitter {
           PlaneStats merged;
           PlaneFit merged_fit;
           if (!planes_merge(parts_[a].stats, parts_[a].fit, parts_[b].stats, parts_[b].fit,
-                            measured, &merged, &merged_fit)) {
+                            measured_, &merged, &merged_fit)) {
             continue;
           }
           if (best_a == n || merged_fit.rms < best_fit.rms) {
@@ -355,6 +406,7 @@ class Splitter {
   const SegmentationSettings& settings_;
   Segmenter::Scratch& s_;
   std::int64_t min_size_;
+  SegmentationSettings measured_;  ///< the merge tests' settings at the region's noise level
   std::vector<Part>& parts_ = s_.split_parts;
 };
 
