@@ -133,6 +133,24 @@ struct SegmentationSettings {
   /// planes, each part of at least `min_region_size` pixels, unless merging joins them again: a
   /// region that crept over a crease or a step while growing (dimensionless; 0 = off).
   double split_residual_factor = 2.5;
+  /// plane models: a surface seen within a few degrees of its plane (a table or box top a
+  /// little below the sensor, a wall edge-on) has its rows centimetres apart in depth, as far
+  /// as the depth noise or farther, so its 1-ring normals scatter by tens of degrees and the
+  /// mesh may be cut there: growth leaves it unlabelled or in fragments. After boundary
+  /// re-assignment each set of unlabelled points connected over the lattice (neighbours at most
+  /// footprint z / tan(grazing_min_angle) + sqrt(2) max_distance_sigmas sigma(z) apart in depth)
+  /// is fitted with a plane robustly (four rounds, down to its points within
+  /// max_distance_sigmas sigma(z) sin(angle to the ray) of it, that sine floored at
+  /// sin(grazing_max_angle)); a plane at least this angle [rad]
+  /// (2 deg) and at most `grazing_max_angle` off the viewing ray at its centroid, with an RMS
+  /// residual of at most sigma(z) sin(grazing_max_angle) and `min_region_size` pixels (or half as
+  /// many when wide in 3D, as for any region), becomes a segment, merged with its neighbours as
+  /// any other. The lower bound keeps out the points that a depth step leaves between its two
+  /// sides (a laser scanner's veil), which lie in a plane through the sensor. 0 = off.
+  double grazing_min_angle = 0.0349;
+  /// ... [rad] (25 deg: twice the mesh's default eps_theta, below which the 1-ring normals of
+  /// Kinect data at a few metres are unreliable).
+  double grazing_max_angle = 0.4363;
   /// plane: unlabelled valid points adjacent (mesh 1-ring) to a plane segment join the closest
   /// adjacent plane if within `max_distance_sigmas` * sigma(z) of it (perpendicular distance).
   bool reassign_boundary = true;

@@ -169,6 +169,9 @@ struct Segmenter::Scratch {
   std::vector<std::int32_t> split_pieces;   ///< mesh-connected pieces, flood-filled
   std::vector<std::size_t> split_piece_start;
   std::vector<seg::SplitPart> split_parts;
+  // grazing planes (find_grazing_planes)
+  std::vector<std::int32_t> grazing_pixels;  ///< the unlabelled points visited, by component
+  std::vector<double> grazing_points;        ///< per point of one component (try_plane)
   // threads: the pool of the current call (null: one thread) and per-band buffers of bands 1..
   ThreadPool* pool = nullptr;
   std::vector<detail::CacheLineVector<float>> band_cell_sums;
@@ -360,6 +363,24 @@ SegmentationSettings with_measured_noise(const SegmentationSettings& settings, d
 /// as raw regions (scratch.regions, fits, parent, remap).
 void split_unexplained_planes(const Frame& frame, const SegmentationSettings& settings,
                               Segmenter::Scratch& scratch);
+
+/// After boundary re-assignment (raw labels): plane regions of the unlabelled points of surfaces
+/// seen at grazing incidence (SegmentationSettings::grazing_min_angle), appended as raw regions
+/// (scratch.regions, fits, parent, remap). `footprint`: pixel_footprint of the frame.
+void find_grazing_planes(const Frame& frame, const SegmentationSettings& settings,
+                         Segmenter::Scratch& scratch, double footprint);
+
+/// The angle one lattice step subtends [rad]: the median over three rows of the distance between
+/// horizontally adjacent valid points divided by their depth (0 without such points), so that
+/// a length at depth z is that many pixel footprints when divided by footprint * z.
+double pixel_footprint(const Frame& frame, Segmenter::Scratch& scratch);
+
+/// A region of at least half min_region_size pixels that, in 3D, is at least
+/// sqrt(2 min_region_size) pixel footprints wide in its narrower in-plane direction (the
+/// square root of 12 times the middle covariance eigenvalue): a face seen obliquely covers
+/// fewer pixels than a frontal one of its size, and this one has at least twice the frontal area
+/// of the smallest segment; crease slivers and specks are narrow.
+bool wide_enough(const detail::PlaneStats& stats, int min_region_size, double footprint);
 
 /// Refit, merge, small-region removal, boundary re-assignment, compaction and the Segment list
 /// (areas 0: see segment_areas).

@@ -764,9 +764,16 @@ void remap_all_labels(const Frame& f, Segmenter::Scratch& s, const std::int32_t*
   });
 }
 
-/// The angle one lattice step subtends [rad]: the median over three rows of the distance between
-/// horizontally adjacent valid points divided by their depth (0 without such points), so that
-/// a length at depth z is that many pixel footprints when divided by footprint * z.
+}  // namespace
+
+SegmentationSettings with_measured_noise(const SegmentationSettings& settings, double ratio) {
+  SegmentationSettings measured = settings;
+  const double scale = std::clamp(ratio, 0.05, 1.0);
+  measured.noise.a *= scale;
+  measured.noise.b *= scale;
+  return measured;
+}
+
 double pixel_footprint(const Frame& f, Segmenter::Scratch& s) {
   auto& steps = s.quantile_values;
   steps.clear();
@@ -785,11 +792,6 @@ double pixel_footprint(const Frame& f, Segmenter::Scratch& s) {
   return *middle;
 }
 
-/// A region of at least half min_region_size pixels that, in 3D, is at least
-/// sqrt(2 min_region_size) pixel footprints wide in its narrower in-plane direction (the
-/// square root of 12 times the middle covariance eigenvalue): a face seen obliquely covers
-/// fewer pixels than a frontal one of its size, and this one has at least twice the frontal area
-/// of the smallest segment; crease slivers and specks are narrow.
 bool wide_enough(const PlaneStats& stats, int min_region_size, double footprint) {
   if (!(footprint > 0) || 2 * stats.count < min_region_size || stats.count < 3) return false;
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
@@ -797,16 +799,6 @@ bool wide_enough(const PlaneStats& stats, int min_region_size, double footprint)
   const double narrow = std::sqrt(12.0 * std::max(0.0, solver.eigenvalues()(1)));
   const double depth = stats.sz / static_cast<double>(stats.count);
   return narrow >= std::sqrt(2.0 * min_region_size) * footprint * depth;
-}
-
-}  // namespace
-
-SegmentationSettings with_measured_noise(const SegmentationSettings& settings, double ratio) {
-  SegmentationSettings measured = settings;
-  const double scale = std::clamp(ratio, 0.05, 1.0);
-  measured.noise.a *= scale;
-  measured.noise.b *= scale;
-  return measured;
 }
 
 bool planes_merge(const PlaneStats& sa, const PlaneFit& a, const PlaneStats& sb, const PlaneFit& b,
@@ -902,6 +894,7 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
       reassign_boundary_points<false>(f, settings, s);
     }
   }
+  if (planes) find_grazing_planes(f, settings, s, footprint);
   if (planes && settings.merge_planes) {
     // Re-assignment changed the statistics; without it the fits above are current.
     for (std::int32_t r = 1; r < region_count && settings.reassign_boundary; ++r) {

@@ -47,6 +47,10 @@ void validate(const SegmentationSettings& s) {
           s.max_distance_sigmas, "finite and > 0");
   require(s.split_residual_factor >= 0 && std::isfinite(s.split_residual_factor),
           "split_residual_factor", s.split_residual_factor, "finite and >= 0");
+  require(s.grazing_min_angle >= 0 && s.grazing_min_angle < pi / 2, "grazing_min_angle",
+          s.grazing_min_angle, "in [0, pi / 2) rad");
+  require(s.grazing_max_angle >= s.grazing_min_angle && s.grazing_max_angle < pi / 2,
+          "grazing_max_angle", s.grazing_max_angle, "in [grazing_min_angle, pi / 2) rad");
   require(s.normal_noise_sigmas >= 0 && std::isfinite(s.normal_noise_sigmas), "normal_noise_sigmas",
           s.normal_noise_sigmas, "finite and >= 0");
   require(s.min_normal_angle >= 0 && s.min_normal_angle <= pi, "min_normal_angle",
