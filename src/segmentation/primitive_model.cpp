@@ -154,7 +154,8 @@ class PrimitivePass {
     group_pixels_by_label();
     collect_adjacent_pairs();
     init_groups();
-    merge_pairs();
+    merge_pairs(false);
+    merge_pairs(true);
     classify_groups();
     reassign_to_curved();
     relabel();
@@ -356,12 +357,16 @@ class PrimitivePass {
     return std::acos(std::min(c, 1.0));
   }
 
-  void merge_pairs() {
+  /// Adjacent groups join when a sphere or cylinder explains their union. One pass visits the
+  /// pairs in label order, so a pair tested before either side grew is tested again in a second
+  /// pass (`retest`) when one side has grown since (a cylinder whose middle facet joined one
+  /// neighbour first, then the other).
+  void merge_pairs(bool retest) {
     for (const std::uint64_t key : s_.pairs) {
       const auto la = static_cast<std::int32_t>(key >> 32);
       const auto lb = static_cast<std::int32_t>(key & 0xFFFFFFFFu);
       std::int32_t a = find_root(s_.parent, la), b = find_root(s_.parent, lb);
-      if (a == b) continue;
+      if (a == b || (retest && s_.changed[a] == 0 && s_.changed[b] == 0)) continue;
       if (normal_angle(out_.segments[la - 1], out_.segments[lb - 1]) > kMaxPairAngle) continue;
       detail::PlaneStats merged = stats_of(a);
       merged.merge(stats_of(b));
@@ -373,8 +378,14 @@ class PrimitivePass {
       gather(a, kTestSample);
       const double union_plane = plane_nrms(merged);
       Model model;
-      // A union that is flat within a fraction of the noise is post-processing's business.
-      if (union_plane > kMinCurvatureSigmas) model = fit_curved(kTestIterations);
+      // A union that is flat within a fraction of the noise is post-processing's business,
+      // unless its facets face directions too far apart for merging to join them as one plane
+      // (a small, far cylinder: two facets 30 deg apart sag by less than the noise).
+      if (union_plane > kMinCurvatureSigmas ||
+          normal_angle(out_.segments[la - 1], out_.segments[lb - 1]) >
+              settings_.merge_rms_max_angle) {
+        model = fit_curved(kTestIterations);
+      }
       // The curved model must explain the union clearly better than one plane does.
       bool accept = model.kind != SurfaceKind::plane && model.nrms <= kCurvedGain * union_plane;
       if (accept) {
