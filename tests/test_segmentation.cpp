@@ -913,10 +913,17 @@ TEST(Segmentation, ObliqueSmallFaceIsKeptButAFrontalPatchIsNot) {
 /// a wall at 4 m, Kinect noise along the ray and one smoothing pass, as the pipeline runs. The
 /// top's rows lie 4-7 cm apart in depth against 1-1.5 cm of noise, so its 1-ring normals are off
 /// by tens of degrees and growth leaves it in unlabelled fragments; the grazing-plane search
-/// fits it whole. Returns the share of the top's valid pixels that its best segment holds, and
-/// that segment's normal.
-std::pair<double, std::array<double, 3>> grazing_top_coverage(
-    const SegmentationSettings& settings) {
+/// fits it whole. The top is 1 m wide and 0.6 m deep (0.6 m^2).
+struct GrazingTop {
+  double coverage = 0;             ///< share of the top's valid pixels in its best segment
+  std::array<double, 3> normal{};  ///< that segment's normal
+  double mesh_area = 0;            ///< its area before close_grazing_cells [m^2]
+  double closed_area = 0;          ///< ... and after [m^2]
+  bool grazing = false;
+  double other_areas_change = 0;  ///< summed |area change| of the other segments [m^2]
+};
+
+GrazingTop grazing_top(const SegmentationSettings& settings) {
   constexpr double kTop = 0.2, kFront = 2.4, kBack = 3.0, kHalfWidth = 0.5;
   std::mt19937 rng(29);
   std::normal_distribution<double> unit(0.0, 1.0);
@@ -943,7 +950,7 @@ std::pair<double, std::array<double, 3>> grazing_top_coverage(
   OrganizedCloud points;
   NormalMap normals;
   smooth(raw, mesh, compute_normals(raw, mesh), {.iterations = 1}, points, normals);
-  const Segmentation seg = segment(points, mesh, normals, settings);
+  Segmentation seg = segment(points, mesh, normals, settings);
   expect_consistent(points, seg, settings);
   std::map<int, int> hits;
   int top_pixels = 0;
@@ -959,18 +966,49 @@ std::pair<double, std::array<double, 3>> grazing_top_coverage(
   for (const auto& [label, count] : hits) {
     if (count > best.second) best = {label, count};
   }
-  if (best.first == 0) return {0.0, {0, 0, 0}};
-  return {static_cast<double>(best.second) / top_pixels, seg.segments[best.first - 1].normal};
+  GrazingTop out;
+  if (best.first == 0) return out;
+  const Segment& top = seg.segments[static_cast<std::size_t>(best.first - 1)];
+  out.coverage = static_cast<double>(best.second) / top_pixels;
+  out.normal = top.normal;
+  out.mesh_area = top.area_m2;
+  out.grazing = top.grazing;
+  const std::vector<Segment> before = seg.segments;
+  Mesh closed = mesh;
+  close_grazing_cells(seg, closed);
+  // The closed mesh stays a mesh: every edge is known at both ends.
+  for (int v = 1; v + 1 < 480; ++v) {
+    for (int u = 1; u + 1 < 640; ++u) {
+      for (int k = 0; k < 8; ++k) {
+        const int back =
+            (closed.edges(u + kNeighbourDu[k], v + kNeighbourDv[k]) >> ((k + 4) % 8)) & 1;
+        EXPECT_EQ((closed.edges(u, v) >> k) & 1, back) << u << "," << v << " direction " << k;
+      }
+    }
+  }
+  Segmenter().compute_areas(points, closed, seg);
+  out.closed_area = seg.segments[static_cast<std::size_t>(best.first - 1)].area_m2;
+  for (std::size_t j = 0; j < before.size(); ++j) {
+    if (static_cast<int>(j + 1) != best.first) {
+      out.other_areas_change += std::abs(seg.segments[j].area_m2 - before[j].area_m2);
+    }
+  }
+  return out;
 }
 
 TEST(Segmentation, TableTopSeenAtGrazingIncidenceIsOneSegment) {
   const SegmentationSettings kinect = preset("kinect");
-  const auto [coverage, normal] = grazing_top_coverage(kinect);
-  EXPECT_GT(coverage, 0.9);
-  EXPECT_LT(angle_deg(normal, {0.0, -1.0, 0.0}), 1.0);
+  const GrazingTop top = grazing_top(kinect);
+  EXPECT_GT(top.coverage, 0.9);
+  EXPECT_LT(angle_deg(top.normal, {0.0, -1.0, 0.0}), 1.0);
+  // The mesh has few faces there until its cells are closed; the other segments keep theirs.
+  EXPECT_TRUE(top.grazing);
+  EXPECT_LT(top.mesh_area, 0.2 * 0.6);
+  EXPECT_NEAR(top.closed_area, 0.6, 0.2 * 0.6);  // less a rim of half a pixel: 9 rows deep
+  EXPECT_EQ(top.other_areas_change, 0.0);
   SegmentationSettings off = kinect;
   off.grazing_min_angle = 0;  // without the search, growth leaves the top in fragments
-  EXPECT_LT(grazing_top_coverage(off).first, 0.5);
+  EXPECT_LT(grazing_top(off).coverage, 0.5);
 }
 
 /// Mixed pixels along a depth step (a laser scanner's veil): 10 columns between a plate at 1.5 m

@@ -112,6 +112,7 @@ nlohmann::json segments_json(const Segmentation& seg, const PolygonSet* polygons
                  {"normal", s.normal},
                  {"offset", s.offset},
                  {"rms_residual", s.rms_residual},
+                 {"grazing", s.grazing},
                  {"surface", surface_json(s)}});
   }
   return {{"plane_equation", "normal . x + offset = 0, camera frame, metres"},

@@ -202,12 +202,24 @@ struct Segment {
   std::array<double, 3> axis{};  ///< cylinder: unit axis direction (pointing up, y < 0)
   double radius = 0;             ///< sphere / cylinder radius [m]
   double extent = 0;  ///< cylinder: length of the points along the axis from `centre` [m]
+  /// Holds points of a plane found seen at grazing incidence
+  /// (SegmentationSettings::grazing_min_angle), where the mesh has few faces: `area_m2` counts
+  /// only those until `close_grazing_cells` closes the mesh there (Pipeline does, and then
+  /// recomputes the areas before it traces the polygons).
+  bool grazing = false;
 };
 
 struct Segmentation {
   LabelImage labels;              ///< size of the cloud; 0 = no segment, else 1..N
   std::vector<Segment> segments;  ///< segments[i].label == i + 1, by pixel count descending
 };
+
+/// Adds the faces of every mesh cell whose four corners carry the label of one `grazing`
+/// segment (two triangles on the cell's diagonal, or a quad for MeshType::quad), with their
+/// edges: on a surface seen at grazing incidence the mesh's jump test cut most of them, although
+/// the segment's points lie on one plane. Does nothing when no segment is `grazing`. Throws
+/// std::invalid_argument when the sizes differ or a label names no segment.
+void close_grazing_cells(const Segmentation& segmentation, Mesh& mesh);
 
 /// Owns the scratch buffers of segmentation (seed buckets, processing queue, per-region
 /// statistics, union-find). Reusing one Segmenter and one Segmentation for a stream of frames of

@@ -8,6 +8,8 @@
 #include <cstdint>
 #include <numbers>
 #include <span>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #if defined(__SSE2__)
@@ -194,6 +196,7 @@ class GrazingFinder {
       }
     }
     s_.regions.push_back(kept);
+    s_.grazing_region.push_back(1);
     s_.fits.push_back(kept.fit());
     s_.parent.push_back(label);
     s_.remap.push_back(label);
@@ -215,3 +218,50 @@ void find_grazing_planes(const Frame& f, const SegmentationSettings& settings,
 }
 
 }  // namespace rangeseg::seg
+
+namespace rangeseg {
+
+void close_grazing_cells(const Segmentation& segmentation, Mesh& mesh) {
+  const LabelImage& labels = segmentation.labels;
+  if (labels.width() != mesh.width() || labels.height() != mesh.height()) {
+    throw std::invalid_argument("close_grazing_cells: the label image is " +
+                                std::to_string(labels.width()) + "x" +
+                                std::to_string(labels.height()) + ", the mesh " +
+                                std::to_string(mesh.width()) + "x" + std::to_string(mesh.height()));
+  }
+  if (std::none_of(segmentation.segments.begin(), segmentation.segments.end(),
+                   [](const Segment& s) { return s.grazing; })) {
+    return;
+  }
+  const auto segments = static_cast<std::int32_t>(segmentation.segments.size());
+  const int step = mesh.pixel_stride;
+  const bool quads = mesh.type == MeshType::quad;
+  for (int v = 0; v + step < labels.height(); v += step) {
+    for (int u = 0; u + step < labels.width(); u += step) {
+      const std::int32_t label = labels(u, v);
+      if (label < 0 || label > segments) {
+        throw std::invalid_argument("close_grazing_cells: label " + std::to_string(label) +
+                                    " at (" + std::to_string(u) + ", " + std::to_string(v) +
+                                    ") is not in [0, " + std::to_string(segments) + "]");
+      }
+      if (label == 0 || !segmentation.segments[static_cast<std::size_t>(label - 1)].grazing ||
+          labels(u + step, v) != label || labels(u, v + step) != label ||
+          labels(u + step, v + step) != label) {
+        continue;
+      }
+      std::uint8_t& faces = mesh.faces(u, v);
+      const std::uint8_t all = quads ? face_bits::quad : face_bits::tri0 | face_bits::tri1;
+      if ((faces & all) == all) continue;
+      faces |= all;
+      // Direction bits (kNeighbourDu/Dv) of the cell's edges at its corners a b / c d.
+      const bool diag_bc = !quads && (faces & face_bits::diag_bc) != 0;
+      const bool diag_ad = !quads && !diag_bc;
+      mesh.edges(u, v) |= static_cast<std::uint8_t>(1u | 4u | (diag_ad ? 2u : 0u));
+      mesh.edges(u + step, v) |= static_cast<std::uint8_t>(16u | 4u | (diag_bc ? 8u : 0u));
+      mesh.edges(u, v + step) |= static_cast<std::uint8_t>(64u | 1u | (diag_bc ? 128u : 0u));
+      mesh.edges(u + step, v + step) |= static_cast<std::uint8_t>(64u | 16u | (diag_ad ? 32u : 0u));
+    }
+  }
+}
+
+}  // namespace rangeseg

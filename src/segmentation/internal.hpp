@@ -172,6 +172,7 @@ struct Segmenter::Scratch {
   // grazing planes (find_grazing_planes)
   std::vector<std::int32_t> grazing_pixels;  ///< the unlabelled points visited, by component
   std::vector<double> grazing_points;        ///< per point of one component (try_plane)
+  std::vector<std::uint8_t> grazing_region;  ///< per raw label: holds a grazing plane's points
   // threads: the pool of the current call (null: one thread) and per-band buffers of bands 1..
   ThreadPool* pool = nullptr;
   std::vector<detail::CacheLineVector<float>> band_cell_sums;

@@ -447,6 +447,7 @@ void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
     }
     if (s.regions[a].count < s.regions[b].count) std::swap(a, b);
     s.parent[b] = a;
+    s.grazing_region[a] |= s.grazing_region[b];
     s.regions[a] = merged;
     s.fits[a] = merged_fit;
   }
@@ -873,6 +874,7 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
   s.parent.resize(region_count);
   std::iota(s.parent.begin(), s.parent.end(), 0);
   s.fits.assign(region_count, PlaneFit{});
+  s.grazing_region.assign(region_count, 0);
   // Small-region removal first: the points between two pieces of one surface (e.g. the steps of
   // a disparity-quantised wall) often form tiny regions of their own, which would keep the
   // pieces from being adjacent. Raw labels map to themselves or to 0.
@@ -939,6 +941,7 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
     } else {
       fill_plane_fields(s.regions[s.order[j]], s.regions[s.order[j]].fit(), seg);
     }
+    seg.grazing = s.grazing_region[s.order[j]] != 0;
   }
 }
 

@@ -552,6 +552,7 @@ class PrimitivePass {
         double area = 0;
         for (std::int32_t l = root; l != 0; l = s_.next_member[l]) {
           area += out_.segments[l - 1].area_m2;
+          seg.grazing = seg.grazing || out_.segments[l - 1].grazing;
         }
         set_plane_fields(s_.stats[j + 1], seg);
         seg.area_m2 = area;

@@ -191,6 +191,8 @@ class Splitter {
                        [&](std::int32_t i) { return f_.labels[i] == p.label; }) -
         points);
     s_.regions.push_back(stats[1]);
+    const std::uint8_t grazing = s_.grazing_region[static_cast<std::size_t>(p.label)];
+    s_.grazing_region.push_back(grazing);
     s_.fits.push_back(fits[1]);
     s_.parent.push_back(other);
     s_.remap.push_back(other);
