@@ -824,7 +824,8 @@ TEST(Segmentation, HolesAreNeverLabelledAndAreaIsCorrect) {
 
 /// Segment areas against a slow double sum over the explicit face list (each face split evenly
 /// among its corners' labels), on a scene with a crease, a step, holes and both triangle
-/// diagonals, and identical on every instruction set of the vectorised face areas.
+/// diagonals (and as a quad mesh), and identical on every instruction set of the vectorised face
+/// areas.
 TEST(Segmentation, AreasMatchTheFaceListOnEveryInstructionSet) {
   using rangeseg::detail::simd::Isa;
   OrganizedCloud cloud = cast(203, 151, [](double a, double b) {
@@ -836,45 +837,53 @@ TEST(Segmentation, AreasMatchTheFaceListOnEveryInstructionSet) {
       if ((u * 7 + v * 3) % 61 == 0) cloud.x(u, v) = cloud.y(u, v) = cloud.z(u, v) = NAN;
     }
   }
-  const Mesh mesh = build_mesh(cloud);
-  const NormalMap normals = compute_normals(cloud, mesh);
-  rangeseg::TriangleList faces;
-  rangeseg::extract_faces(mesh, false, faces);
-  ASSERT_EQ(faces.vertices_per_face, 3);
+  for (const MeshType type : {MeshType::adaptive, MeshType::quad}) {
+    SCOPED_TRACE(type == MeshType::quad ? "quad mesh" : "adaptive mesh");
+    const Mesh mesh = build_mesh(cloud, {.type = type});
+    const NormalMap normals = compute_normals(cloud, mesh);
+    rangeseg::TriangleList faces;
+    rangeseg::extract_faces(mesh, false, faces);
+    const auto corners = static_cast<std::size_t>(faces.vertices_per_face);
+    ASSERT_EQ(corners, type == MeshType::quad ? 4u : 3u);
 
-  rangeseg::detail::simd::isa_limit = Isa::baseline;
-  Segmentation baseline;
-  segment(cloud, mesh, normals, preset("kinect"), baseline);
-  ASSERT_GE(baseline.segments.size(), 2u);
-  std::vector<double> reference(baseline.segments.size() + 1, 0.0);
-  const int w = cloud.width();
-  for (std::size_t f = 0; f < faces.indices.size(); f += 3) {
-    std::array<double, 3> p[3];
-    int label[3];
-    for (int k = 0; k < 3; ++k) {
-      const int i = faces.indices[f + static_cast<std::size_t>(k)], u = i % w, v = i / w;
-      p[k] = {cloud.x(u, v), cloud.y(u, v), cloud.z(u, v)};
-      label[k] = baseline.labels(u, v);
+    rangeseg::detail::simd::isa_limit = Isa::baseline;
+    Segmentation baseline;
+    segment(cloud, mesh, normals, preset("kinect"), baseline);
+    ASSERT_GE(baseline.segments.size(), 2u);
+    std::vector<double> reference(baseline.segments.size() + 1, 0.0);
+    const int w = cloud.width();
+    for (std::size_t f = 0; f < faces.indices.size(); f += corners) {
+      std::array<std::array<double, 3>, 4> p{};
+      std::array<int, 4> label{};
+      for (std::size_t k = 0; k < corners; ++k) {
+        const int i = faces.indices[f + k], u = i % w, v = i / w;
+        p[k] = {cloud.x(u, v), cloud.y(u, v), cloud.z(u, v)};
+        label[k] = baseline.labels(u, v);
+      }
+      // Half the cross product of the diagonals (a triangle's: of two edges from one corner).
+      const auto& q = corners == 4 ? p[3] : p[0];
+      const std::array<double, 3> e{p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
+      const std::array<double, 3> g{p[1][0] - q[0], p[1][1] - q[1], p[1][2] - q[2]};
+      const double cx = e[1] * g[2] - e[2] * g[1], cy = e[2] * g[0] - e[0] * g[2],
+                   cz = e[0] * g[1] - e[1] * g[0];
+      const double area = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+      for (std::size_t k = 0; k < corners; ++k) {
+        reference[static_cast<std::size_t>(label[k])] += area / static_cast<double>(corners);
+      }
     }
-    const std::array<double, 3> e{p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
-    const std::array<double, 3> g{p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
-    const double cx = e[1] * g[2] - e[2] * g[1], cy = e[2] * g[0] - e[0] * g[2],
-                 cz = e[0] * g[1] - e[1] * g[0];
-    const double area = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
-    for (int k = 0; k < 3; ++k) reference[static_cast<std::size_t>(label[k])] += area / 3;
-  }
-  for (const rangeseg::Segment& seg : baseline.segments) {
-    EXPECT_NEAR(seg.area_m2, reference[static_cast<std::size_t>(seg.label)],
-                1e-5 * reference[static_cast<std::size_t>(seg.label)])
-        << "segment " << seg.label;
-  }
-  for (Isa isa : {Isa::avx2, Isa::avx512}) {
-    rangeseg::detail::simd::isa_limit = isa;
-    Segmentation wide;
-    segment(cloud, mesh, normals, preset("kinect"), wide);
-    ASSERT_EQ(wide.segments.size(), baseline.segments.size());
-    for (std::size_t j = 0; j < wide.segments.size(); ++j) {
-      EXPECT_EQ(wide.segments[j].area_m2, baseline.segments[j].area_m2) << "isa " << int(isa);
+    for (const rangeseg::Segment& seg : baseline.segments) {
+      EXPECT_NEAR(seg.area_m2, reference[static_cast<std::size_t>(seg.label)],
+                  1e-5 * reference[static_cast<std::size_t>(seg.label)])
+          << "segment " << seg.label;
+    }
+    for (Isa isa : {Isa::avx2, Isa::avx512}) {
+      rangeseg::detail::simd::isa_limit = isa;
+      Segmentation wide;
+      segment(cloud, mesh, normals, preset("kinect"), wide);
+      ASSERT_EQ(wide.segments.size(), baseline.segments.size());
+      for (std::size_t j = 0; j < wide.segments.size(); ++j) {
+        EXPECT_EQ(wide.segments[j].area_m2, baseline.segments[j].area_m2) << "isa " << int(isa);
+      }
     }
   }
   rangeseg::detail::simd::isa_limit = Isa::avx512;

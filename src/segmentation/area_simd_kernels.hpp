@@ -31,6 +31,7 @@ RANGESEG_KERNEL RANGESEG_SIMD_INLINE F cell_twice_area(const Corner& a, const Co
   const Corner e{V::pick(is_bc, c.x, d.x), V::pick(is_bc, c.y, d.y), V::pick(is_bc, c.z, d.z)};
   const Corner g{V::pick(is_bc, b.x, a.x), V::pick(is_bc, b.y, a.y), V::pick(is_bc, b.z, a.z)};
   const F triangles = V::keep(cross_norm(a, e, a, b), has0) + V::keep(cross_norm(g, c, g, d), has1);
+  if (lane_bits(is_quad) == 0) return triangles;  // triangle meshes: no quad to measure
   return V::pick(is_quad, cross_norm(a, d, b, c), triangles);
 }
 
