@@ -1289,7 +1289,23 @@ TEST(Segmentation, PresetsAndValidation) {
                std::invalid_argument);
   EXPECT_THROW(segment(cloud, mesh, normals, {.split_residual_factor = NAN}, out),
                std::invalid_argument);
+  EXPECT_THROW(segment(cloud, mesh, normals, {.grazing_min_angle = -0.1}, out),
+               std::invalid_argument);
+  EXPECT_THROW(
+      segment(cloud, mesh, normals, {.grazing_min_angle = 0.3, .grazing_max_angle = 0.2}, out),
+      std::invalid_argument);
+  EXPECT_THROW(segment(cloud, mesh, normals, {.grazing_max_angle = NAN}, out),
+               std::invalid_argument);
   EXPECT_THROW(segment(OrganizedCloud(64, 1), mesh, normals, {}, out), std::invalid_argument);
+  // close_grazing_cells: sizes must match and labels must name segments.
+  segment(cloud, mesh, normals, {}, out);
+  ASSERT_EQ(out.segments.size(), 1u);
+  out.segments[0].grazing = true;
+  Mesh small = build_mesh(other);
+  EXPECT_THROW(close_grazing_cells(out, small), std::invalid_argument);
+  Mesh closed = mesh;
+  out.labels(5, 5) = 7;
+  EXPECT_THROW(close_grazing_cells(out, closed), std::invalid_argument);
 }
 
 // --- synthetic Kinect scenes with ground truth ---
