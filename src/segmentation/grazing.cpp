@@ -180,8 +180,9 @@ class GrazingFinder {
     if (!fit.ok) return;
     const auto& c = fit.centroid;
     const double sine = ray_sine(fit, c[0], c[1], c[2]);
-    if (sine < sin_min_ || sine > sin_max_) return;
-    if (fit.rms > settings_.noise.sigma(c[2]) * sin_max_) return;
+    // Written to reject NaN too (a point at infinite depth).
+    if (!(sine >= sin_min_ && sine <= sin_max_)) return;
+    if (!(fit.rms <= settings_.noise.sigma(c[2]) * sin_max_)) return;
     if (stats.count < settings_.min_region_size &&
         !wide_enough(stats, settings_.min_region_size, footprint_)) {
       return;
@@ -194,6 +195,12 @@ class GrazingFinder {
         f_.labels[pixels[k]] = label;
         kept.add(p[0], p[1], p[2]);
       }
+    }
+    if (2 * kept.count < settings_.min_region_size) {  // the last refit moved the plane
+      for (const std::int32_t i : pixels) {
+        if (f_.labels[i] == label) f_.labels[i] = kVisited;
+      }
+      return;
     }
     s_.regions.push_back(kept);
     s_.grazing_region.push_back(1);
