@@ -126,12 +126,8 @@ void Pipeline::process(const OrganizedCloud& cloud) {
       segmenter_.segment(this->cloud(), mesh_, normals(), segmentation, segmentation_);
     }
     // The mesh has few faces on surfaces seen at grazing incidence; where a segment holds such
-    // a plane, its cells are closed, and its area summed again, before the polygons trace it.
-    if (std::any_of(segmentation_.segments.begin(), segmentation_.segments.end(),
-                    [](const Segment& s) { return s.grazing; })) {
-      close_grazing_cells(segmentation_, mesh_);
-      if (segmentation.compute_area) segmenter_.compute_areas(this->cloud(), mesh_, segmentation_);
-    }
+    // a plane, its cells are closed before the polygons trace it (its area counts them so).
+    close_grazing_cells(segmentation_, mesh_);
     times_.segmentation = ms_since(t);
     if (areas_alongside) {
       pool->for_each_band(2, 1, [&](int, int task_begin, int task_end) {

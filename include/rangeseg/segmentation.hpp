@@ -182,8 +182,8 @@ SegmentationSettings preset(std::string_view name);
 struct Segment {
   int label = 0;  ///< value in Segmentation::labels, 1..N
   SegmentModel model = SegmentModel::plane;
-  int pixel_count = 0;               ///< [pixels]
-  double area_m2 = 0;                ///< sum of the mesh face areas split among vertices [m^2]
+  int pixel_count = 0;  ///< [pixels]
+  double area_m2 = 0;   ///< sum of the mesh face areas split among vertices (see grazing) [m^2]
   std::array<double, 3> centroid{};  ///< [m], camera frame
   std::array<double, 3> normal{};    ///< unit, facing the camera (normal . centroid <= 0)
   double offset = 0;                 ///< normal . x + offset = 0 [m], offset >= 0
@@ -204,8 +204,8 @@ struct Segment {
   double extent = 0;  ///< cylinder: length of the points along the axis from `centre` [m]
   /// Holds points of a plane found seen at grazing incidence
   /// (SegmentationSettings::grazing_min_angle), where the mesh has few faces: `area_m2` counts
-  /// only those until `close_grazing_cells` closes the mesh there (Pipeline does, and then
-  /// recomputes the areas before it traces the polygons).
+  /// the segment's cells as `close_grazing_cells` closes them, and Pipeline closes them in its
+  /// mesh before it traces the polygons.
   bool grazing = false;
 };
 

@@ -226,6 +226,37 @@ void find_grazing_planes(const Frame& f, const SegmentationSettings& settings,
 
 }  // namespace rangeseg::seg
 
+namespace rangeseg::seg {
+
+void close_grazing_faces(const std::int32_t* labels, std::ptrdiff_t stride, int width, int height,
+                         int step, bool quads, const std::vector<Segment>& segments,
+                         std::uint8_t* faces, std::uint8_t* edges) {
+  const std::uint8_t all = quads ? face_bits::quad : face_bits::tri0 | face_bits::tri1;
+  const std::ptrdiff_t down = step * stride;
+  for (int v = 0; v + step < height; v += step) {
+    for (int u = 0; u + step < width; u += step) {
+      const std::ptrdiff_t i = v * stride + u;
+      const std::int32_t label = labels[i];
+      if (label == 0 || !segments[static_cast<std::size_t>(label - 1)].grazing ||
+          labels[i + step] != label || labels[i + down] != label ||
+          labels[i + down + step] != label || (faces[i] & all) == all) {
+        continue;
+      }
+      faces[i] |= all;
+      if (edges == nullptr) continue;
+      // Direction bits (kNeighbourDu/Dv) of the cell's edges at its corners a b / c d.
+      const bool diag_bc = !quads && (faces[i] & face_bits::diag_bc) != 0;
+      const bool diag_ad = !quads && !diag_bc;
+      edges[i] |= static_cast<std::uint8_t>(1u | 4u | (diag_ad ? 2u : 0u));
+      edges[i + step] |= static_cast<std::uint8_t>(16u | 4u | (diag_bc ? 8u : 0u));
+      edges[i + down] |= static_cast<std::uint8_t>(64u | 1u | (diag_bc ? 128u : 0u));
+      edges[i + down + step] |= static_cast<std::uint8_t>(64u | 16u | (diag_ad ? 32u : 0u));
+    }
+  }
+}
+
+}  // namespace rangeseg::seg
+
 namespace rangeseg {
 
 void close_grazing_cells(const Segmentation& segmentation, Mesh& mesh) {
@@ -241,34 +272,24 @@ void close_grazing_cells(const Segmentation& segmentation, Mesh& mesh) {
     return;
   }
   const auto segments = static_cast<std::int32_t>(segmentation.segments.size());
-  const int step = mesh.pixel_stride;
-  const bool quads = mesh.type == MeshType::quad;
-  for (int v = 0; v + step < labels.height(); v += step) {
-    for (int u = 0; u + step < labels.width(); u += step) {
+  for (int v = 0; v < labels.height(); ++v) {
+    for (int u = 0; u < labels.width(); ++u) {
       const std::int32_t label = labels(u, v);
       if (label < 0 || label > segments) {
         throw std::invalid_argument("close_grazing_cells: label " + std::to_string(label) +
                                     " at (" + std::to_string(u) + ", " + std::to_string(v) +
                                     ") is not in [0, " + std::to_string(segments) + "]");
       }
-      if (label == 0 || !segmentation.segments[static_cast<std::size_t>(label - 1)].grazing ||
-          labels(u + step, v) != label || labels(u, v + step) != label ||
-          labels(u + step, v + step) != label) {
-        continue;
-      }
-      std::uint8_t& faces = mesh.faces(u, v);
-      const std::uint8_t all = quads ? face_bits::quad : face_bits::tri0 | face_bits::tri1;
-      if ((faces & all) == all) continue;
-      faces |= all;
-      // Direction bits (kNeighbourDu/Dv) of the cell's edges at its corners a b / c d.
-      const bool diag_bc = !quads && (faces & face_bits::diag_bc) != 0;
-      const bool diag_ad = !quads && !diag_bc;
-      mesh.edges(u, v) |= static_cast<std::uint8_t>(1u | 4u | (diag_ad ? 2u : 0u));
-      mesh.edges(u + step, v) |= static_cast<std::uint8_t>(16u | 4u | (diag_bc ? 8u : 0u));
-      mesh.edges(u, v + step) |= static_cast<std::uint8_t>(64u | 1u | (diag_bc ? 128u : 0u));
-      mesh.edges(u + step, v + step) |= static_cast<std::uint8_t>(64u | 16u | (diag_ad ? 32u : 0u));
     }
   }
+  if (labels.stride() != mesh.faces.stride() || labels.stride() != mesh.edges.stride()) {
+    throw std::invalid_argument(
+        "close_grazing_cells: the label image and the mesh planes have "
+        "different row strides");
+  }
+  seg::close_grazing_faces(labels.row(0), labels.stride(), labels.width(), labels.height(),
+                           mesh.pixel_stride, mesh.type == MeshType::quad, segmentation.segments,
+                           mesh.faces.row(0), mesh.edges.row(0));
 }
 
 }  // namespace rangeseg

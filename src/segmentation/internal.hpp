@@ -173,6 +173,7 @@ struct Segmenter::Scratch {
   std::vector<std::int32_t> grazing_pixels;  ///< the unlabelled points visited, by component
   std::vector<double> grazing_points;        ///< per point of one component (try_plane)
   std::vector<std::uint8_t> grazing_region;  ///< per raw label: holds a grazing plane's points
+  std::vector<std::uint8_t> closed_faces;    ///< the mesh faces with grazing cells closed
   // threads: the pool of the current call (null: one thread) and per-band buffers of bands 1..
   ThreadPool* pool = nullptr;
   std::vector<detail::CacheLineVector<float>> band_cell_sums;
@@ -370,6 +371,13 @@ void split_unexplained_planes(const Frame& frame, const SegmentationSettings& se
 /// (scratch.regions, fits, parent, remap). `footprint`: pixel_footprint of the frame.
 void find_grazing_planes(const Frame& frame, const SegmentationSettings& settings,
                          Segmenter::Scratch& scratch, double footprint);
+
+/// close_grazing_cells on flat planes of one row stride: the faces (and, unless `edges` is null,
+/// the edges) of every lattice cell whose four corners carry the label of one `grazing` segment
+/// (labels 1..segments.size() or 0). `quads`: MeshType::quad.
+void close_grazing_faces(const std::int32_t* labels, std::ptrdiff_t stride, int width, int height,
+                         int step, bool quads, const std::vector<Segment>& segments,
+                         std::uint8_t* faces, std::uint8_t* edges);
 
 /// The angle one lattice step subtends [rad]: the median over three rows of the distance between
 /// horizontally adjacent valid points divided by their depth (0 without such points), so that

@@ -348,7 +348,22 @@ void Segmenter::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalM
     }
   }
   if (settings.model == RegionModel::automatic) seg::grow_smooth_leftovers(f, settings, s, out);
-  if (settings.compute_area) seg::segment_areas(f, s, out.segments);
+  if (settings.compute_area) {
+    // Areas count the cells of grazing segments closed, as close_grazing_cells closes them.
+    if (std::any_of(out.segments.begin(), out.segments.end(),
+                    [](const Segment& g) { return g.grazing; })) {
+      const std::size_t size = static_cast<std::size_t>(f.stride) * f.height;
+      s.closed_faces.assign(f.faces, f.faces + size);
+      seg::close_grazing_faces(f.labels, f.stride, f.width, f.height, f.pixel_stride,
+                               mesh.type == MeshType::quad, out.segments, s.closed_faces.data(),
+                               nullptr);
+      seg::Frame closed = f;
+      closed.faces = s.closed_faces.data();
+      seg::segment_areas(closed, s, out.segments);
+    } else {
+      seg::segment_areas(f, s, out.segments);
+    }
+  }
   if (settings.model == RegionModel::automatic) {
     seg::fit_primitives(f, settings, out);
   } else {
