@@ -6,6 +6,7 @@
 #include <string>
 
 #include "detail/row_bands.hpp"
+#include "segmentation/internal.hpp"
 
 namespace rangeseg {
 namespace {
@@ -127,7 +128,14 @@ void Pipeline::process(const OrganizedCloud& cloud) {
     }
     // The mesh has few faces on surfaces seen at grazing incidence; where a segment holds such
     // a plane, its cells are closed before the polygons trace it (its area counts them so).
-    close_grazing_cells(segmentation_, mesh_);
+    // The segmenter's labels need not be checked as close_grazing_cells checks a caller's.
+    if (std::any_of(segmentation_.segments.begin(), segmentation_.segments.end(),
+                    [](const Segment& s) { return s.grazing; })) {
+      seg::close_grazing_faces(segmentation_.labels.row(0), segmentation_.labels.stride(),
+                               mesh_.width(), mesh_.height(), mesh_.pixel_stride,
+                               mesh_.type == MeshType::quad, segmentation_.segments,
+                               mesh_.faces.row(0), mesh_.edges.row(0));
+    }
     times_.segmentation = ms_since(t);
     if (areas_alongside) {
       pool->for_each_band(2, 1, [&](int, int task_begin, int task_end) {

@@ -271,17 +271,7 @@ void close_grazing_cells(const Segmentation& segmentation, Mesh& mesh) {
                    [](const Segment& s) { return s.grazing; })) {
     return;
   }
-  const auto segments = static_cast<std::int32_t>(segmentation.segments.size());
-  for (int v = 0; v < labels.height(); ++v) {
-    for (int u = 0; u < labels.width(); ++u) {
-      const std::int32_t label = labels(u, v);
-      if (label < 0 || label > segments) {
-        throw std::invalid_argument("close_grazing_cells: label " + std::to_string(label) +
-                                    " at (" + std::to_string(u) + ", " + std::to_string(v) +
-                                    ") is not in [0, " + std::to_string(segments) + "]");
-      }
-    }
-  }
+  seg::require_labels_name_segments(segmentation, "close_grazing_cells");
   if (labels.stride() != mesh.faces.stride() || labels.stride() != mesh.edges.stride()) {
     throw std::invalid_argument(
         "close_grazing_cells: the label image and the mesh planes have "

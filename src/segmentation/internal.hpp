@@ -372,6 +372,10 @@ void split_unexplained_planes(const Frame& frame, const SegmentationSettings& se
 void find_grazing_planes(const Frame& frame, const SegmentationSettings& settings,
                          Segmenter::Scratch& scratch, double footprint);
 
+/// Throws std::invalid_argument, naming `caller`, the label and its row, unless every label of
+/// `segmentation.labels` is 0 or names one of its segments (1..segments.size()).
+void require_labels_name_segments(const Segmentation& segmentation, const char* caller);
+
 /// close_grazing_cells on flat planes of one row stride: the faces (and, unless `edges` is null,
 /// the edges) of every lattice cell whose four corners carry the label of one `grazing` segment
 /// (labels 1..segments.size() or 0). `quads`: MeshType::quad.
