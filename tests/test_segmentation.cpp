@@ -144,12 +144,28 @@ TEST(PlaneStats, FitsExactPlaneAndMergeEqualsAddingAll) {
 // --- coarse level (cells) ---
 
 TEST(Segmentation, CellStatisticsEqualDirectSums) {
-  // A tilted plane at 2-3 m with a hole: cells touching the hole are incomplete.
+  // A tilted plane at 2-3 m with dropped points: a cell missing 1 or 4 of its 64 vertices is
+  // still complete (its sums over the valid ones), one missing 5 is not, nor is one with a
+  // missing vertex and a depth step (mesh cut) between valid vertices.
   OrganizedCloud cloud =
       cast(64, 48, [](double a, double b) { return 2.5 / (1.0 + 0.3 * a - 0.2 * b); });
-  cloud.z(20, 10) = NAN;
-  cloud.x(20, 10) = NAN;
-  cloud.y(20, 10) = NAN;
+  const auto drop = [&](int u, int v) {
+    cloud.x(u, v) = NAN;
+    cloud.y(u, v) = NAN;
+    cloud.z(u, v) = NAN;
+  };
+  drop(20, 10);                                                     // cell (2, 1): 1 missing
+  for (const int u : {33, 35, 37, 39}) drop(u, 18);                 // cell (4, 2): 4 missing
+  for (const int u : {49, 51, 53, 55, 50}) drop(u, 2 + u % 2 * 3);  // cell (6, 0): 5 missing
+  drop(41, 34);                                                     // cell (5, 4): 1 missing, and
+  for (int v = 32; v < 40; ++v) {                                   // a 30 cm step at u = 44
+    for (int u = 44; u < 48; ++u) {
+      const float scale = 1.0f + 0.3f / cloud.z(u, v);
+      cloud.x(u, v) *= scale;
+      cloud.y(u, v) *= scale;
+      cloud.z(u, v) *= scale;
+    }
+  }
   const Mesh mesh = build_mesh(cloud);
   const NormalMap normals = compute_normals(cloud, mesh);
   Segmentation out;
@@ -159,23 +175,27 @@ TEST(Segmentation, CellStatisticsEqualDirectSums) {
   seg::compute_cells(f, scratch);
   ASSERT_EQ(scratch.cell_cols, 8);
   ASSERT_EQ(scratch.cell_rows, 6);
+  const auto cell_at = [&](int cu, int cv) { return scratch.cells[cv * 8 + cu]; };
+  EXPECT_EQ(cell_at(2, 1).stats.count, 63);
+  EXPECT_EQ(cell_at(4, 2).stats.count, 60);
+  EXPECT_FALSE(cell_at(6, 0).complete);
+  EXPECT_FALSE(cell_at(5, 4).complete);
+  int complete = 0;
   for (int cv = 0; cv < 6; ++cv) {
     for (int cu = 0; cu < 8; ++cu) {
-      const seg::Cell& cell = scratch.cells[cv * 8 + cu];
-      bool has_hole = false;
+      const seg::Cell& cell = cell_at(cu, cv);
       detail::PlaneStats direct;
       double snz = 0;
       for (int v = cv * 8; v < cv * 8 + 8; ++v) {
         for (int u = cu * 8; u < cu * 8 + 8; ++u) {
-          // The hole's neighbours lose their mesh edges (and normals) too.
-          if (std::abs(u - 20) <= 1 && std::abs(v - 10) <= 1) has_hole = true;
+          if (std::isnan(cloud.z(u, v))) continue;
           direct.add(cloud.x(u, v), cloud.y(u, v), cloud.z(u, v));
           snz += normals.nz(u, v);
         }
       }
-      EXPECT_EQ(cell.complete, !has_hole) << cu << "," << cv;
       if (!cell.complete) continue;
-      EXPECT_EQ(cell.stats.count, 64);
+      ++complete;
+      EXPECT_EQ(cell.stats.count, direct.count) << cu << "," << cv;
       EXPECT_NEAR(cell.stats.sz, direct.sz, 1e-4);
       EXPECT_NEAR(cell.stats.szz, direct.szz, 1e-3);
       EXPECT_NEAR(cell.stats.sxz, direct.sxz, 1e-3);
@@ -189,6 +209,49 @@ TEST(Segmentation, CellStatisticsEqualDirectSums) {
       EXPECT_NEAR(a.offset, b.offset, 1e-5);
     }
   }
+  EXPECT_EQ(complete, 48 - 2);
+}
+
+/// A sensor's scattered dropouts (here 1 pixel in 150) leave cells that miss a vertex or two;
+/// they are grown as units, and the missing vertices stay unlabelled.
+TEST(Segmentation, ScatteredDropoutsInsideCellsStayUnlabelled) {
+  OrganizedCloud cloud =
+      cast(160, 120, [](double a, double b) { return 2.5 / (1.0 + 0.3 * a - 0.2 * b); });
+  int dropped = 0;
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      if ((u * 7919 + v * 104729) % 150 != 0) continue;
+      cloud.x(u, v) = NAN;
+      cloud.y(u, v) = NAN;
+      cloud.z(u, v) = NAN;
+      ++dropped;
+    }
+  }
+  ASSERT_GT(dropped, 100);
+  const Mesh mesh = build_mesh(cloud);
+  const NormalMap normals = compute_normals(cloud, mesh);
+  Segmentation out;
+  out.labels.resize(cloud.width(), cloud.height(), 0);
+  const seg::Frame f = seg::make_frame(cloud, mesh, normals, out.labels);
+  Segmenter::Scratch scratch;
+  seg::compute_cells(f, scratch);
+  int gapped = 0;
+  for (const seg::Cell& cell : scratch.cells) gapped += cell.complete && cell.stats.count < 64;
+  EXPECT_GT(gapped, 50);  // of 300 cells
+  const Segmentation seg = segment(cloud, mesh, normals, preset("kinect"));
+  ASSERT_EQ(seg.segments.size(), 1u);
+  int labelled = 0, with_edges = 0;
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      if (std::isnan(cloud.z(u, v))) {
+        EXPECT_EQ(seg.labels(u, v), 0) << u << "," << v;
+        continue;
+      }
+      with_edges += mesh.edges(u, v) != 0;
+      labelled += seg.labels(u, v) == 1;
+    }
+  }
+  EXPECT_EQ(labelled, with_edges);
 }
 
 /// A cloud with its mesh, normals, an empty label image and the segmentation's flat view of them.

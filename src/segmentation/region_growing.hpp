@@ -65,11 +65,22 @@ inline bool cell_free(const Frame& f, std::ptrdiff_t origin) {
   return any == 0;
 }
 
-inline void label_cell(const Frame& f, std::ptrdiff_t origin, std::int32_t label) {
+/// Labels the vertices of a complete cell; those of a cell with missing vertices only where
+/// there is a normal.
+inline void label_cell(const Frame& f, std::ptrdiff_t origin, std::int32_t label,
+                       const Cell& cell) {
   const int s = f.pixel_stride;
+  const bool whole = cell.stats.count == kCellVertices;
   for (int j = 0; j < kCellSide; ++j) {
-    std::int32_t* row = f.labels + origin + static_cast<std::ptrdiff_t>(j) * s * f.stride;
-    for (std::ptrdiff_t i = 0; i < kCellSide; ++i) row[i * s] = label;
+    const std::ptrdiff_t row = origin + static_cast<std::ptrdiff_t>(j) * s * f.stride;
+    if (whole) {
+      for (std::ptrdiff_t i = 0; i < kCellSide; ++i) f.labels[row + i * s] = label;
+    } else {
+      for (std::ptrdiff_t i = 0; i < kCellSide; ++i) {
+        const std::ptrdiff_t p = row + i * s;
+        f.labels[p] = f.nz[p] == f.nz[p] ? label : 0;
+      }
+    }
   }
 }
 
@@ -238,8 +249,12 @@ void grow_cells(const Frame& f, Model& model, Segmenter::Scratch& s, std::int32_
   // Ascending curvature, ties in index order (a stable sort of the cells in index order).
   s.cell_order.clear();
   s.cell_keys.clear();
+  // Cells with missing vertices join regions but seed none: where a sensor drops pixels, the
+  // surface is often one it measures poorly (dark, shiny, or small and curved, like a mug's
+  // handle), and a region seeded there that stays small would keep the pixel seeds out.
   for (std::int32_t c = 0; c < cols * rows; ++c) {
-    if (cells[c].complete && model.cell_seed_ok(cells[c])) {
+    if (cells[c].complete && cells[c].stats.count == kCellVertices &&
+        model.cell_seed_ok(cells[c])) {
       s.cell_order.push_back(c);
       s.cell_keys.push_back(detail::float_order_key(cells[c].curvature));
     }
@@ -260,7 +275,7 @@ void grow_cells(const Frame& f, Model& model, Segmenter::Scratch& s, std::int32_
     }
     ++label;
     cell_label[seed] = label;
-    label_cell(f, cell_origin(f, su, sv), label);
+    label_cell(f, cell_origin(f, su, sv), label, cells[seed]);
     model.init_cell(cells[seed]);
     std::int32_t head = 0, tail = 0;
     cell_queue[tail++] = seed;
@@ -280,7 +295,7 @@ void grow_cells(const Frame& f, Model& model, Segmenter::Scratch& s, std::int32_
           continue;
         }
         cell_label[n] = label;
-        label_cell(f, n_origin, label);
+        label_cell(f, n_origin, label, cells[n]);
         model.add_cell(cells[n]);
         cell_queue[tail++] = n;
       }
