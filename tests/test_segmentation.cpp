@@ -143,6 +143,22 @@ TEST(PlaneStats, FitsExactPlaneAndMergeEqualsAddingAll) {
 
 // --- coarse level (cells) ---
 
+/// A cloud with its mesh, normals, an empty label image and the segmentation's flat view of them.
+struct FrameOf {
+  explicit FrameOf(OrganizedCloud c)
+      : cloud(std::move(c)), mesh(build_mesh(cloud)), normals(compute_normals(cloud, mesh)) {
+    out.labels.resize(cloud.width(), cloud.height(), 0);
+    f = seg::make_frame(cloud, mesh, normals, out.labels);
+  }
+  std::int32_t at(int u, int v) const { return static_cast<std::int32_t>(v * f.stride + u); }
+
+  OrganizedCloud cloud;
+  Mesh mesh;
+  NormalMap normals;
+  Segmentation out;
+  seg::Frame f;
+};
+
 TEST(Segmentation, CellStatisticsEqualDirectSums) {
   // A tilted plane at 2-3 m with dropped points: a cell missing 1 or 4 of its 64 vertices is
   // still complete (its sums over the valid ones), one missing 5 is not, nor is one with a
@@ -166,13 +182,9 @@ TEST(Segmentation, CellStatisticsEqualDirectSums) {
       cloud.z(u, v) *= scale;
     }
   }
-  const Mesh mesh = build_mesh(cloud);
-  const NormalMap normals = compute_normals(cloud, mesh);
-  Segmentation out;
-  out.labels.resize(cloud.width(), cloud.height(), 0);
-  const seg::Frame f = seg::make_frame(cloud, mesh, normals, out.labels);
+  const FrameOf t(std::move(cloud));
   Segmenter::Scratch scratch;
-  seg::compute_cells(f, scratch);
+  seg::compute_cells(t.f, scratch);
   ASSERT_EQ(scratch.cell_cols, 8);
   ASSERT_EQ(scratch.cell_rows, 6);
   const auto cell_at = [&](int cu, int cv) { return scratch.cells[cv * 8 + cu]; };
@@ -188,9 +200,9 @@ TEST(Segmentation, CellStatisticsEqualDirectSums) {
       double snz = 0;
       for (int v = cv * 8; v < cv * 8 + 8; ++v) {
         for (int u = cu * 8; u < cu * 8 + 8; ++u) {
-          if (std::isnan(cloud.z(u, v))) continue;
-          direct.add(cloud.x(u, v), cloud.y(u, v), cloud.z(u, v));
-          snz += normals.nz(u, v);
+          if (std::isnan(t.cloud.z(u, v))) continue;
+          direct.add(t.cloud.x(u, v), t.cloud.y(u, v), t.cloud.z(u, v));
+          snz += t.normals.nz(u, v);
         }
       }
       if (!cell.complete) continue;
@@ -228,47 +240,27 @@ TEST(Segmentation, ScatteredDropoutsInsideCellsStayUnlabelled) {
     }
   }
   ASSERT_GT(dropped, 100);
-  const Mesh mesh = build_mesh(cloud);
-  const NormalMap normals = compute_normals(cloud, mesh);
-  Segmentation out;
-  out.labels.resize(cloud.width(), cloud.height(), 0);
-  const seg::Frame f = seg::make_frame(cloud, mesh, normals, out.labels);
+  const FrameOf t(std::move(cloud));
   Segmenter::Scratch scratch;
-  seg::compute_cells(f, scratch);
+  seg::compute_cells(t.f, scratch);
   int gapped = 0;
   for (const seg::Cell& cell : scratch.cells) gapped += cell.complete && cell.stats.count < 64;
   EXPECT_GT(gapped, 50);  // of 300 cells
-  const Segmentation seg = segment(cloud, mesh, normals, preset("kinect"));
+  const Segmentation seg = segment(t.cloud, t.mesh, t.normals, preset("kinect"));
   ASSERT_EQ(seg.segments.size(), 1u);
   int labelled = 0, with_edges = 0;
-  for (int v = 0; v < cloud.height(); ++v) {
-    for (int u = 0; u < cloud.width(); ++u) {
-      if (std::isnan(cloud.z(u, v))) {
+  for (int v = 0; v < t.cloud.height(); ++v) {
+    for (int u = 0; u < t.cloud.width(); ++u) {
+      if (std::isnan(t.cloud.z(u, v))) {
         EXPECT_EQ(seg.labels(u, v), 0) << u << "," << v;
         continue;
       }
-      with_edges += mesh.edges(u, v) != 0;
+      with_edges += t.mesh.edges(u, v) != 0;
       labelled += seg.labels(u, v) == 1;
     }
   }
   EXPECT_EQ(labelled, with_edges);
 }
-
-/// A cloud with its mesh, normals, an empty label image and the segmentation's flat view of them.
-struct FrameOf {
-  explicit FrameOf(OrganizedCloud c)
-      : cloud(std::move(c)), mesh(build_mesh(cloud)), normals(compute_normals(cloud, mesh)) {
-    out.labels.resize(cloud.width(), cloud.height(), 0);
-    f = seg::make_frame(cloud, mesh, normals, out.labels);
-  }
-  std::int32_t at(int u, int v) const { return static_cast<std::int32_t>(v * f.stride + u); }
-
-  OrganizedCloud cloud;
-  Mesh mesh;
-  NormalMap normals;
-  Segmentation out;
-  seg::Frame f;
-};
 
 /// A seed needs a mesh 1-ring of unlabelled pixels whose normals agree with its own: a pixel
 /// next to a region is one that region rejected, and seeds there start slivers along region
