@@ -120,10 +120,10 @@ void finish_cell(const float* sums, std::ptrdiff_t plane, float x0, float y0, fl
   cell.complete = true;
 }
 
-/// A cell that misses at most kCellMaxMissing vertices (no point, normal or curvature), whose
-/// valid vertices have every right and down mesh edge to a valid vertex inside it: its sums in
-/// double, relative to its first valid point, over the valid vertices. Called only for cells
-/// that are not complete, so it leaves `cell` incomplete unless some vertex is missing.
+/// A cell that misses at most kCellMaxMissing vertices (no normal or curvature), whose valid
+/// vertices have every right and down mesh edge to a valid vertex inside it: its sums over the
+/// valid vertices, added in double like a region's. Called only for cells that are not
+/// complete, so it leaves `cell` incomplete unless some vertex is missing.
 void finish_gapped_cell(const Frame& f, std::ptrdiff_t origin, std::ptrdiff_t step,
                         std::ptrdiff_t down, Cell& cell) {
   constexpr int last = kCellSide - 1;
@@ -132,7 +132,6 @@ void finish_gapped_cell(const Frame& f, std::ptrdiff_t origin, std::ptrdiff_t st
     return f.nz[p] == f.nz[p] && f.curvature[p] <= 3e38f;
   };
   int missing = 0;
-  std::ptrdiff_t first = -1;
   for (int j = 0; j < kCellSide; ++j) {
     for (int i = 0; i < kCellSide; ++i) {
       const std::ptrdiff_t p = origin + j * down + i * step;
@@ -140,39 +139,24 @@ void finish_gapped_cell(const Frame& f, std::ptrdiff_t origin, std::ptrdiff_t st
         if (++missing > kCellMaxMissing) return;
         continue;
       }
-      if (first < 0) first = p;
       const bool right = i < last && valid(p + step), below = j < last && valid(p + down);
       const unsigned need = (right ? right_bit : 0u) | (below ? down_bit : 0u);
       if ((f.edges[p] & need) != need) return;
     }
   }
   if (missing == 0) return;
-  const double x0 = f.x[first], y0 = f.y[first], z0 = f.z[first];
-  detail::PlaneStats relative;
   double snx = 0, sny = 0, snz = 0, curvature = 0;
   for (int j = 0; j < kCellSide; ++j) {
     for (int i = 0; i < kCellSide; ++i) {
       const std::ptrdiff_t p = origin + j * down + i * step;
       if (!valid(p)) continue;
-      relative.add(f.x[p] - x0, f.y[p] - y0, f.z[p] - z0);
+      cell.stats.add(f.x[p], f.y[p], f.z[p]);
       snx += f.nx[p];
       sny += f.ny[p];
       snz += f.nz[p];
       curvature += f.curvature[p];
     }
   }
-  const auto n = static_cast<double>(relative.count);
-  detail::PlaneStats& st = cell.stats;
-  st.count = relative.count;
-  st.sx = relative.sx + n * x0;
-  st.sy = relative.sy + n * y0;
-  st.sz = relative.sz + n * z0;
-  st.sxx = relative.sxx + 2 * x0 * relative.sx + n * x0 * x0;
-  st.syy = relative.syy + 2 * y0 * relative.sy + n * y0 * y0;
-  st.szz = relative.szz + 2 * z0 * relative.sz + n * z0 * z0;
-  st.sxy = relative.sxy + x0 * relative.sy + y0 * relative.sx + n * x0 * y0;
-  st.sxz = relative.sxz + x0 * relative.sz + z0 * relative.sx + n * x0 * z0;
-  st.syz = relative.syz + y0 * relative.sz + z0 * relative.sy + n * y0 * z0;
   cell.snx = snx;
   cell.sny = sny;
   cell.snz = snz;
