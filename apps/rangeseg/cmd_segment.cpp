@@ -65,7 +65,10 @@ void add_segment(CLI::App& app) {
                   "inside the frame (mesh, normals, smoothing)")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
-  cmd->add_option("--model", o->model, "Region model: plane, smooth, incremental_plane or auto (per segment: plane, cylinder, sphere or smooth surface)")->capture_default_str();
+  cmd->add_option("--model", o->model,
+                  "Region model: plane, smooth, incremental_plane or auto (per segment: plane, "
+                  "cylinder, sphere or smooth surface)")
+      ->capture_default_str();
   cmd->add_option("--preset", o->preset, "Sensor preset: kinect, abw or laser")
       ->capture_default_str();
   cmd->add_option("--config", o->config, "JSON file with settings overriding the preset");
