@@ -9,6 +9,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace rangeseg {
 namespace {
@@ -77,6 +78,50 @@ double levenberg_marquardt(Params& params, int max_iterations, Evaluate&& evalua
     if (!improved) break;
   }
   return cost;
+}
+
+/// 10 times the robust standard deviation (1.4826 times the median absolute value) of the
+/// residuals of the least-squares fit: the bound beyond which a point is dropped from the refits.
+template <class Residual>
+double outlier_bound(Eigen::Index n, Residual&& residual) {
+  std::vector<double> abs_r(static_cast<std::size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i) abs_r[static_cast<std::size_t>(i)] = std::fabs(residual(i));
+  const auto middle = abs_r.begin() + n / 2;
+  std::nth_element(abs_r.begin(), middle, abs_r.end());
+  return 10.0 * 1.4826 * *middle;
+}
+
+/// PrimitiveFitSettings::outlier_refits: the fit is redone (`refit()`, on the points `active`
+/// then points to) on the points within outlier_bound of it, with that bound fixed (a fit pulled
+/// by outliers leaves some of them inside at first; a surface's own systematic deviations, such
+/// as a smoothed cylinder's flattened silhouettes, stay in, where a re-estimated bound would peel
+/// them off round by round), until they no longer change. `active` ends at `all` again. Returns
+/// whether the fit was redone.
+template <class Residual, class Refit>
+bool refit_inliers(int max_refits, const Eigen::Matrix3Xd& all, Eigen::Matrix3Xd& inliers,
+                   const Eigen::Matrix3Xd*& active, Residual&& residual, Refit&& refit) {
+  if (max_refits <= 0) return false;
+  const Eigen::Index n = all.cols();
+  const double bound = outlier_bound(n, residual);
+  std::vector<char> keep(static_cast<std::size_t>(n), 1), kept = keep;
+  for (int round = 0; round < max_refits; ++round) {
+    Eigen::Index count = 0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      keep[static_cast<std::size_t>(i)] = std::fabs(residual(i)) <= bound;
+      count += keep[static_cast<std::size_t>(i)];
+    }
+    if (keep == kept || count == 0) break;
+    inliers.resize(3, count);
+    for (Eigen::Index i = 0, k = 0; i < n; ++i) {
+      if (keep[static_cast<std::size_t>(i)] != 0) inliers.col(k++) = all.col(i);
+    }
+    active = &inliers;
+    const bool ok = refit();
+    active = &all;
+    if (!ok) break;
+    kept = keep;
+  }
+  return kept != std::vector<char>(static_cast<std::size_t>(n), 1);
 }
 
 struct SphereParams {
@@ -148,14 +193,20 @@ SphereFit fit_sphere(std::span<const Point3> points, std::span<const Point3> nor
   for (Eigen::Index i = 0; i < n; ++i) sum += (x.col(i) - params.centre).norm();
   params.radius = sum / static_cast<double>(n);
 
+  Eigen::Matrix3Xd inliers;
+  const Eigen::Matrix3Xd* active = &x;  // the points the fit runs over
+  const auto residual = [&](const SphereParams& p, Eigen::Index i) {
+    return (x.col(i) - p.centre).norm() - p.radius;
+  };
   const auto evaluate = [&](const SphereParams& p, Eigen::Matrix4d* jtj, Eigen::Vector4d* jtr) {
     double cost = 0;
     if (jtj) {
       jtj->setZero();
       jtr->setZero();
     }
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const Vector3d w = x.col(i) - p.centre;
+    const Eigen::Matrix3Xd& pts = *active;
+    for (Eigen::Index i = 0; i < pts.cols(); ++i) {
+      const Vector3d w = pts.col(i) - p.centre;
       const double dist = w.norm();
       const double r = dist - p.radius;
       cost += r * r;
@@ -171,7 +222,21 @@ SphereFit fit_sphere(std::span<const Point3> points, std::span<const Point3> nor
   const auto update = [](const SphereParams& p, const Eigen::Vector4d& d) {
     return SphereParams{p.centre + d.head<3>(), p.radius + d(3)};
   };
-  const double cost = levenberg_marquardt<4>(params, settings.max_iterations, evaluate, update);
+  double cost = levenberg_marquardt<4>(params, settings.max_iterations, evaluate, update);
+  if (std::isfinite(cost) &&
+      refit_inliers(
+          settings.outlier_refits, x, inliers, active,
+          [&](Eigen::Index i) { return residual(params, i); },
+          [&] {
+            SphereParams refit = params;
+            const double c =
+                levenberg_marquardt<4>(refit, settings.max_iterations, evaluate, update);
+            if (!std::isfinite(c) || !finite(refit.centre) || !(refit.radius > 0)) return false;
+            params = refit;
+            return true;
+          })) {
+    cost = evaluate(params, nullptr, nullptr);  // the RMS over all points
+  }
   if (!std::isfinite(cost) || !finite(params.centre) || !(params.radius > 0)) return fit;
   fit.centre = arr(params.centre + origin);
   fit.radius = params.radius;
@@ -197,6 +262,12 @@ CylinderFit fit_cylinder(std::span<const Point3> points, std::span<const Point3>
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> normal_solver(normal_scatter);
   const Vector3d& ev = normal_solver.eigenvalues();
 
+  Eigen::Matrix3Xd inliers;
+  const Eigen::Matrix3Xd* active = &x;  // the points the fit runs over
+  const auto residual = [&](const CylinderParams& p, Eigen::Index i) {
+    const Vector3d w = x.col(i) - p.point;
+    return (w - w.dot(p.axis) * p.axis).norm() - p.radius;
+  };
   const auto evaluate = [&](const CylinderParams& p, Eigen::Matrix<double, 5, 5>* jtj,
                             Eigen::Matrix<double, 5, 1>* jtr) {
     Vector3d e1, e2;
@@ -206,8 +277,9 @@ CylinderFit fit_cylinder(std::span<const Point3> points, std::span<const Point3>
       jtj->setZero();
       jtr->setZero();
     }
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const Vector3d w = x.col(i) - p.point;
+    const Eigen::Matrix3Xd& pts = *active;
+    for (Eigen::Index i = 0; i < pts.cols(); ++i) {
+      const Vector3d w = pts.col(i) - p.point;
       const double along = w.dot(p.axis);
       const Vector3d q = w - along * p.axis;
       const double rho = q.norm();
@@ -270,6 +342,20 @@ CylinderFit fit_cylinder(std::span<const Point3> points, std::span<const Point3>
     }
   }
   if (!std::isfinite(best_cost)) return fit;
+  const bool refitted = refit_inliers(
+      settings.outlier_refits, x, inliers, active,
+      [&](Eigen::Index i) { return residual(best, i); },
+      [&] {
+        CylinderParams refit = best;
+        const double c = levenberg_marquardt<5>(refit, settings.max_iterations, evaluate, update);
+        if (!std::isfinite(c) || !finite(refit.axis) || !finite(refit.point) ||
+            !(refit.radius > 0)) {
+          return false;
+        }
+        best = refit;
+        return true;
+      });
+  if (refitted) best_cost = evaluate(best, nullptr, nullptr);  // the RMS over all points
   // Sign convention: the axis points up in the camera frame (y down), ties towards +x / +z.
   Vector3d axis = best.axis;
   if (axis(1) > 0 || (axis(1) == 0 && (axis(0) < 0 || (axis(0) == 0 && axis(2) < 0)))) {

@@ -139,9 +139,11 @@ struct SegmentationSettings {
   /// mesh may be cut there: growth leaves it unlabelled or in fragments. After boundary
   /// re-assignment each set of unlabelled points connected over the lattice (neighbours at most
   /// footprint z / tan(grazing_min_angle) + sqrt(2) max_distance_sigmas sigma(z) apart in depth)
-  /// is fitted with a plane robustly (four rounds, down to its points within
-  /// max_distance_sigmas sigma(z) sin(angle to the ray) of it, that sine floored at
-  /// sin(grazing_max_angle)); a plane at least this angle [rad]
+  /// is fitted with a plane robustly (from the grazing plane with most support among its
+  /// least-squares plane and planes through sampled point triples, then four rounds, down to its
+  /// points within max_distance_sigmas sigma(z) sin(angle to the ray) of it, that sine floored at
+  /// sin(grazing_max_angle); when a plane is taken, the rest of the set is searched again, so a
+  /// box's top and side that meet there both count); a plane at least this angle [rad]
   /// (2 deg) and at most `grazing_max_angle` off the viewing ray at its centroid, with an RMS
   /// residual of at most sigma(z) sin(grazing_max_angle) and `min_region_size` pixels (or half as
   /// many when wide in 3D, as for any region), becomes a segment, merged with its neighbours as

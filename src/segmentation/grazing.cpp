@@ -28,9 +28,19 @@ using detail::PlaneStats;
 constexpr std::int32_t kVisited = -1;
 
 /// The inlier bound of the robust fit shrinks over these rounds, in units of max_distance_sigmas
-/// times the point's noise perpendicular to the plane (see try_plane): the first plane is fitted
-/// to the whole component, which may include the rims of the surfaces around it.
+/// times the point's noise perpendicular to the plane (see try_plane): the first plane may be
+/// the least-squares plane of the whole component, which may include the rims of the surfaces
+/// around it.
 constexpr std::array<double, 4> kRounds{4.0, 2.0, 1.0, 1.0};
+
+/// The first plane is chosen among the least-squares plane of the whole component and planes
+/// through this many sampled triples of its points, half of them within kSampleReach places of
+/// each other in the breadth-first order of the component (close on the lattice), half anywhere.
+constexpr int kSamples = 24;
+constexpr std::size_t kSampleReach = 48;
+/// ... scored by the points within the first round's bound among at most this many of the
+/// component's points, evenly spaced in its order.
+constexpr std::size_t kScoredPoints = 128;
 
 /// |n . p| / |p|: the sine of the angle between the viewing ray through p and the plane.
 double ray_sine(const PlaneFit& fit, double x, double y, double z) {
@@ -57,12 +67,7 @@ class GrazingFinder {
     for (int v = 0; v < f_.height; v += step) {
       for (int u = next_candidate(v, 0, f_.width, step); u < f_.width;
            u = next_candidate(v, u + step, f_.width, step)) {
-        const std::ptrdiff_t i = v * f_.stride + u;
-        const std::size_t begin = pixels.size();
-        collect_component(i);
-        if (2 * static_cast<std::int64_t>(pixels.size() - begin) >= settings_.min_region_size) {
-          try_plane(begin);
-        }
+        search_from(v * f_.stride + u);
       }
     }
     // Visited points that joined no plane are unlabelled again.
@@ -73,6 +78,29 @@ class GrazingFinder {
 
  private:
   bool candidate(std::ptrdiff_t i) const { return f_.labels[i] == 0 && f_.z[i] > 0; }
+
+  /// The component of `start` and, each time a plane is taken from one, the components of the
+  /// rest of its points: a component may hold two grazing surfaces (a box's top and its side).
+  void search_from(std::ptrdiff_t start) {
+    auto& pixels = s_.grazing_pixels;
+    auto& starts = s_.grazing_starts;
+    starts.assign(1, static_cast<std::int32_t>(start));
+    while (!starts.empty()) {
+      const std::int32_t i = starts.back();
+      starts.pop_back();
+      if (!candidate(i)) continue;
+      const std::size_t begin = pixels.size();
+      collect_component(i);
+      const auto size = static_cast<std::int64_t>(pixels.size() - begin);
+      if (2 * size < settings_.min_region_size || !try_plane(begin)) continue;
+      const std::size_t end = pixels.size();
+      for (std::size_t k = begin; k < end; ++k) {
+        if (f_.labels[pixels[k]] != kVisited) continue;
+        f_.labels[pixels[k]] = 0;
+        starts.push_back(pixels[k]);
+      }
+    }
+  }
 
   /// The first column of [u, end), in steps of `step` from u, of an unlabelled valid point of
   /// row v (end if none).
@@ -135,11 +163,11 @@ class GrazingFinder {
   }
 
   /// Fits a plane to the component grazing_pixels[begin, end) robustly; a grazing plane that
-  /// explains enough of it becomes a new region. The noise of a point perpendicular to a
-  /// grazing plane is sigma(z) along the ray times the sine of the ray's angle to the plane,
-  /// floored at that of grazing_max_angle (a sensor also places a depth at a neighbouring pixel,
-  /// which moves it across the plane).
-  void try_plane(std::size_t begin) {
+  /// explains enough of it becomes a new region (returns whether one did). The noise of a point
+  /// perpendicular to a grazing plane is sigma(z) along the ray times the sine of the ray's angle
+  /// to the plane, floored at that of grazing_max_angle (a sensor also places a depth at a
+  /// neighbouring pixel, which moves it across the plane).
+  bool try_plane(std::size_t begin) {
     const std::span<const std::int32_t> pixels(s_.grazing_pixels.data() + begin,
                                                s_.grazing_pixels.size() - begin);
     // Per point: x, y, z, sigma(z), 1 / |p|, contiguous for the rounds.
@@ -162,30 +190,30 @@ class GrazingFinder {
       const double sine = std::max(std::abs(d) * p[4], sin_max_);
       return std::abs(d + fit.offset) <= sigmas * p[3] * sine;
     };
-    PlaneFit fit = stats.fit();
+    PlaneFit fit = first_plane(stats, pixels.size(), within);
     for (const double round : kRounds) {
       const double sigmas = round * settings_.max_distance_sigmas;
-      if (!fit.ok) return;
+      if (!fit.ok) return false;
       PlaneStats inliers;
       for (std::size_t k = 0; k < pixels.size(); ++k) {
         const double* const p = points.data() + 5 * k;
         if (within(fit, p, sigmas)) inliers.add(p[0], p[1], p[2]);
       }
-      if (2 * inliers.count < settings_.min_region_size) return;
+      if (2 * inliers.count < settings_.min_region_size) return false;
       const bool same = inliers.count == stats.count && round == kRounds.back();
       stats = inliers;
       fit = stats.fit();
       if (same) break;
     }
-    if (!fit.ok) return;
+    if (!fit.ok) return false;
     const auto& c = fit.centroid;
     const double sine = ray_sine(fit, c[0], c[1], c[2]);
     // Written to reject NaN too (a point at infinite depth).
-    if (!(sine >= sin_min_ && sine <= sin_max_)) return;
-    if (!(fit.rms <= settings_.noise.sigma(c[2]) * sin_max_)) return;
+    if (!(sine >= sin_min_ && sine <= sin_max_)) return false;
+    if (!(fit.rms <= settings_.noise.sigma(c[2]) * sin_max_)) return false;
     if (stats.count < settings_.min_region_size &&
         !wide_enough(stats, settings_.min_region_size, footprint_)) {
-      return;
+      return false;
     }
     const auto label = static_cast<std::int32_t>(s_.regions.size());
     PlaneStats kept;
@@ -200,13 +228,63 @@ class GrazingFinder {
       for (const std::int32_t i : pixels) {
         if (f_.labels[i] == label) f_.labels[i] = kVisited;
       }
-      return;
+      return false;
     }
     s_.regions.push_back(kept);
     s_.grazing_region.push_back(1);
     s_.fits.push_back(kept.fit());
     s_.parent.push_back(label);
     s_.remap.push_back(label);
+    return true;
+  }
+
+  /// The first plane of the robust fit (see kSamples): of the candidates whose angle to the ray
+  /// at their reference point is in [grazing_min_angle, grazing_max_angle], the one with the most
+  /// scored points within the first round's bound. A component that mixes a grazing surface with
+  /// the rims or strips of others (whose least-squares plane is neither) starts from the
+  /// grazing surface; one without any grazing candidate gets a plane that is not ok.
+  template <class Within>
+  PlaneFit first_plane(const PlaneStats& all, std::size_t n, const Within& within) const {
+    const std::span<const double> points(s_.grazing_points);
+    const std::size_t step = std::max<std::size_t>(1, n / kScoredPoints);
+    const double sigmas = kRounds[0] * settings_.max_distance_sigmas;
+    PlaneFit best;
+    std::size_t best_count = 0;
+    const auto consider = [&](const PlaneFit& fit, const double* ref) {
+      const double sine = ray_sine(fit, ref[0], ref[1], ref[2]);
+      if (!(sine >= sin_min_ && sine <= sin_max_)) return;
+      std::size_t count = 0;
+      for (std::size_t k = 0; k < n; k += step) count += within(fit, &points[5 * k], sigmas);
+      if (count > best_count) best = fit, best_count = count;
+    };
+    const PlaneFit least_squares = all.fit();
+    if (least_squares.ok) consider(least_squares, least_squares.centroid.data());
+    // A fixed xorshift sequence per component: the result depends only on the input.
+    std::uint32_t state = 0x9e3779b9u ^ static_cast<std::uint32_t>(n);
+    const auto next = [&](std::size_t below) {
+      state ^= state << 13, state ^= state >> 17, state ^= state << 5;
+      return static_cast<std::size_t>(state % below);
+    };
+    for (int t = 0; t < kSamples && n >= 3; ++t) {
+      const std::size_t reach = t % 2 == 0 ? std::min(n - 1, kSampleReach) : n - 1;
+      const std::size_t i0 = next(n - reach), i1 = i0 + 1 + next(reach), i2 = i0 + 1 + next(reach);
+      if (i1 == i2) continue;
+      const double* a = &points[5 * i0];
+      const double* b = &points[5 * i1];
+      const double* c = &points[5 * i2];
+      const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+      const double v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+      PlaneFit fit;
+      fit.normal = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                    u[0] * v[1] - u[1] * v[0]};
+      const double length = std::hypot(fit.normal[0], fit.normal[1], fit.normal[2]);
+      if (!(length > 0)) continue;
+      for (double& e : fit.normal) e /= length;
+      fit.offset = -(fit.normal[0] * a[0] + fit.normal[1] * a[1] + fit.normal[2] * a[2]);
+      fit.ok = true;
+      consider(fit, a);
+    }
+    return best;
   }
 
   const Frame& f_;

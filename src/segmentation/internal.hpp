@@ -179,6 +179,7 @@ struct Segmenter::Scratch {
   std::vector<seg::SplitPart> split_parts;
   // grazing planes (find_grazing_planes)
   std::vector<std::int32_t> grazing_pixels;  ///< the unlabelled points visited, by component
+  std::vector<std::int32_t> grazing_starts;  ///< points to collect components from (search_from)
   std::vector<double> grazing_points;        ///< per point of one component (try_plane)
   std::vector<std::uint8_t> grazing_region;  ///< per raw label: holds a grazing plane's points
   std::vector<std::uint8_t> closed_faces;    ///< the mesh faces with grazing cells closed

@@ -336,7 +336,8 @@ class PrimitivePass {
   /// The better of sphere and cylinder on the gathered sample (the sphere, with one parameter
   /// fewer, unless the cylinder is clearly better).
   Model fit_curved(int iterations) const {
-    const PrimitiveFitSettings fs{.max_iterations = iterations};
+    // Plain least squares for the many candidate tests; the reported fit drops outliers.
+    const PrimitiveFitSettings fs{.max_iterations = iterations, .outlier_refits = 0};
     Model sphere, cylinder;
     sphere.kind = SurfaceKind::sphere;
     sphere.sphere = fit_sphere(s_.points, s_.normals, fs);
