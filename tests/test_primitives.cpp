@@ -167,10 +167,10 @@ TEST(FitPrimitives, AFewPointsOfAnotherSurfaceDoNotMoveTheFit) {
   std::vector<Point3> points, normals;
   const Point3 base{0.2, 0.5, 2.8}, axis{0.0, -1.0, 0.0};
   sample_cylinder(base, axis, 0.12, 0.6, 150 * kDeg, 40, points, normals);
-  const std::size_t n = points.size();
-  // The lid at the top (y = 0.5 - 0.6): points 1-5 cm inside the rim, facing up.
-  for (std::size_t k = 0; k < n / 50; ++k) {
-    const double phi = -0.6 + 1.2 * static_cast<double>(k) / static_cast<double>(n / 50);
+  const std::size_t lid = points.size() / 50;
+  // The lid at the top (y = 0.5 - 0.6): points 2-5 cm inside the rim, facing up.
+  for (std::size_t k = 0; k < lid; ++k) {
+    const double phi = -0.6 + 1.2 * static_cast<double>(k) / static_cast<double>(lid);
     const double rho = 0.12 - 0.02 - 0.03 * static_cast<double>(k % 4) / 3.0;
     points.push_back({base[0] + rho * std::sin(phi), -0.1, base[2] - rho * std::cos(phi)});
     normals.push_back({0.0, -1.0, 0.0});
@@ -190,10 +190,10 @@ TEST(FitPrimitives, AFewPointsOfAnotherSurfaceDoNotMoveTheFit) {
   normals.clear();
   const Point3 centre{0.3, -0.2, 2.5};
   sample_sphere(centre, 0.15, 40, points, normals);
-  const std::size_t m = points.size();
+  const std::size_t floor = points.size() / 50;
   // The floor under the ball (y = centre + 0.16), seen from above its lowest point.
-  for (std::size_t k = 0; k < m / 50; ++k) {
-    const double x = -0.05 + 0.1 * static_cast<double>(k) / static_cast<double>(m / 50);
+  for (std::size_t k = 0; k < floor; ++k) {
+    const double x = -0.05 + 0.1 * static_cast<double>(k) / static_cast<double>(floor);
     points.push_back({centre[0] + x, centre[1] + 0.16, centre[2] - 0.05 - 0.02 * (k % 3)});
     normals.push_back({0.0, -1.0, 0.0});
   }
