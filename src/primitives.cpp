@@ -104,6 +104,7 @@ bool refit_inliers(int max_refits, const Eigen::Matrix3Xd& all, Eigen::Matrix3Xd
   const Eigen::Index n = all.cols();
   const double bound = outlier_bound(n, residual);
   std::vector<char> keep(static_cast<std::size_t>(n), 1), kept = keep;
+  bool refitted = false;
   for (int round = 0; round < max_refits; ++round) {
     Eigen::Index count = 0;
     for (Eigen::Index i = 0; i < n; ++i) {
@@ -120,8 +121,9 @@ bool refit_inliers(int max_refits, const Eigen::Matrix3Xd& all, Eigen::Matrix3Xd
     active = &all;
     if (!ok) break;
     kept = keep;
+    refitted = true;
   }
-  return kept != std::vector<char>(static_cast<std::size_t>(n), 1);
+  return refitted;
 }
 
 struct SphereParams {

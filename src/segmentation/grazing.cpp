@@ -265,10 +265,15 @@ class GrazingFinder {
       state ^= state << 13, state ^= state >> 17, state ^= state << 5;
       return static_cast<std::size_t>(state % below);
     };
+    const std::size_t reach = std::min(n - 1, kSampleReach);
     for (int t = 0; t < kSamples && n >= 3; ++t) {
-      const std::size_t reach = t % 2 == 0 ? std::min(n - 1, kSampleReach) : n - 1;
-      const std::size_t i0 = next(n - reach), i1 = i0 + 1 + next(reach), i2 = i0 + 1 + next(reach);
-      if (i1 == i2) continue;
+      std::size_t i0 = 0, i1 = 0, i2 = 0;
+      if (t % 2 == 0) {  // close together
+        i0 = next(n - reach), i1 = i0 + 1 + next(reach), i2 = i0 + 1 + next(reach);
+      } else {  // anywhere
+        i0 = next(n), i1 = next(n), i2 = next(n);
+      }
+      if (i0 == i1 || i0 == i2 || i1 == i2) continue;
       const double* a = &points[5 * i0];
       const double* b = &points[5 * i1];
       const double* c = &points[5 * i2];
