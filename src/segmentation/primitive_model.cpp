@@ -118,13 +118,14 @@ struct Model {
 struct Scratch {
   std::vector<std::int32_t> start;   ///< per label: first entry in `pixels`; size labels + 2
   std::vector<std::int32_t> pixels;  ///< lattice pixel indices grouped by label
-  std::vector<std::uint64_t> pairs;
+  std::vector<std::uint64_t> pairs, curved_pairs;
   std::vector<std::int32_t> parent, next_member, last_member, group_pixels;
   std::vector<detail::PlaneStats> stats;
   std::vector<Model> models;
   std::vector<Point3> points, normals;
   std::vector<std::int32_t> queue, remap, order, row_pixels;
   std::vector<std::uint8_t> queued, changed, final_changed;
+  std::vector<std::int32_t> grown;  ///< per group: the last merge pass in which it grew, or -1
   std::vector<Segment> segments;
 };
 
@@ -154,10 +155,13 @@ class PrimitivePass {
     group_pixels_by_label();
     collect_adjacent_pairs();
     init_groups();
-    merge_pairs(false);
-    merge_pairs(true);
+    // Each pass after the first retests only the pairs with a side grown since its last test;
+    // a pass without a join ends it (every join removes a group, so this terminates).
+    for (int pass = 0; merge_pairs(pass) > 0; ++pass) {
+    }
     classify_groups();
     reassign_to_curved();
+    join_curved_pairs();
     relabel();
   }
 
@@ -257,6 +261,7 @@ class PrimitivePass {
     s_.group_pixels.assign(size, 0);
     s_.stats.assign(size, detail::PlaneStats{});
     s_.changed.assign(size, 0);
+    s_.grown.assign(size, -1);
     s_.models.assign(size, Model{});
     for (std::int32_t l = 1; l <= n_; ++l) s_.group_pixels[l] = end(l) - begin(l);
   }
@@ -358,24 +363,24 @@ class PrimitivePass {
     return std::acos(std::min(c, 1.0));
   }
 
-  /// Adjacent groups join when a sphere or cylinder explains their union. One pass visits the
-  /// pairs in label order, so a pair tested before either side grew is tested again in a second
-  /// pass (`retest`) when one side has grown since (a cylinder whose middle facet joined one
-  /// neighbour first, then the other).
-  void merge_pairs(bool retest) {
+  /// Adjacent groups join when a sphere or cylinder explains their union; returns how many
+  /// joined. One pass visits the pairs in label order, so a pair tested before either side grew
+  /// is tested again in the next pass (a cylinder whose middle facet joined one neighbour first,
+  /// then the other). Two narrow facets of a low-noise cylinder cover too short an arc to tell
+  /// a cylinder from a plane (kMinSpread), so such a surface is put together from its wider
+  /// parts outwards, over as many passes as that takes. Pass 0 tests every pair, pass p > 0
+  /// those with a side grown in pass p - 1 or p.
+  int merge_pairs(int pass) {
+    int joined = 0;
     for (const std::uint64_t key : s_.pairs) {
       const auto la = static_cast<std::int32_t>(key >> 32);
       const auto lb = static_cast<std::int32_t>(key & 0xFFFFFFFFu);
       std::int32_t a = find_root(s_.parent, la), b = find_root(s_.parent, lb);
-      if (a == b || (retest && s_.changed[a] == 0 && s_.changed[b] == 0)) continue;
+      if (a == b || (pass > 0 && s_.grown[a] < pass - 1 && s_.grown[b] < pass - 1)) continue;
       if (normal_angle(out_.segments[la - 1], out_.segments[lb - 1]) > kMaxPairAngle) continue;
       detail::PlaneStats merged = stats_of(a);
       merged.merge(stats_of(b));
-      // Link b's members after a's temporarily to sample the union.
-      const std::int32_t a_last = s_.last_member[a];
-      s_.next_member[a_last] = b;
-      const std::int32_t saved_pixels = s_.group_pixels[a];
-      s_.group_pixels[a] += s_.group_pixels[b];
+      const Link link = link_union(a, b);
       gather(a, kTestSample);
       const double union_plane = plane_nrms(merged);
       Model model;
@@ -389,24 +394,65 @@ class PrimitivePass {
       }
       // The curved model must explain the union clearly better than one plane does.
       bool accept = model.kind != SurfaceKind::plane && model.nrms <= kCurvedGain * union_plane;
-      if (accept) {
-        // A part's plane residual is its noise plus its curvature, so a model of the true
-        // surface fits the union about as well as the flatter part's plane: a cylinder bent
-        // over a crease between two planes (each fitting its plane at the noise level) does not.
-        const double pa = part_residual(a), pb = part_residual(b);
-        accept = model.nrms <= 1.5 * std::min(pa, pb) + 0.15;
-      }
-      if (!accept) {
-        s_.next_member[a_last] = 0;
-        s_.group_pixels[a] = saved_pixels;
+      if (!accept || !fits_like_parts(model, part_residual(a), part_residual(b))) {
+        unlink_union(a, link);
         continue;
       }
-      s_.last_member[a] = s_.last_member[b];
-      s_.parent[b] = a;
+      join(a, b, model);
       s_.stats[a] = merged;
-      s_.models[a] = model;
-      s_.changed[a] = 1;
+      s_.grown[a] = pass;
+      ++joined;
     }
+    return joined;
+  }
+
+  /// A part's plane residual is its noise plus its curvature, so a model of the true surface
+  /// fits the union about as well as the flatter part's plane (or curved model; residuals `pa`,
+  /// `pb` in units of sigma): a cylinder bent over a crease between two planes (each fitting
+  /// its plane at the noise level) does not.
+  static bool fits_like_parts(const Model& model, double pa, double pb) {
+    return model.nrms <= 1.5 * std::min(pa, pb) + 0.15;
+  }
+
+  /// Where group a's member list ended and its pixel count, before link_union.
+  struct Link {
+    std::int32_t a_last, a_pixels;
+  };
+  /// Links b's members after a's (temporarily, to sample the union with `gather`).
+  Link link_union(std::int32_t a, std::int32_t b) {
+    const Link link{s_.last_member[a], s_.group_pixels[a]};
+    s_.next_member[link.a_last] = b;
+    s_.group_pixels[a] += s_.group_pixels[b];
+    return link;
+  }
+  void unlink_union(std::int32_t a, const Link& link) {
+    s_.next_member[link.a_last] = 0;
+    s_.group_pixels[a] = link.a_pixels;
+  }
+  /// Makes the union linked by link_union group a, explained by `model`.
+  void join(std::int32_t a, std::int32_t b, const Model& model) {
+    s_.last_member[a] = s_.last_member[b];
+    s_.parent[b] = a;
+    s_.models[a] = model;
+    s_.changed[a] = 1;
+  }
+
+  /// The reported parameters of a curved group: its model's kind fitted again to a larger
+  /// sample. False (and `m` unchanged) when that fit fails.
+  bool fit_final(std::int32_t root, Model& m) {
+    gather(root, kFinalSample);
+    Model final_model;
+    final_model.kind = m.kind;
+    if (m.kind == SurfaceKind::sphere) {
+      final_model.sphere = fit_sphere(s_.points, s_.normals);
+      if (!final_model.sphere.ok) return false;
+    } else {
+      final_model.cylinder = fit_cylinder(s_.points, s_.normals);
+      if (!final_model.cylinder.ok) return false;
+    }
+    score(final_model);
+    m = final_model;
+    return true;
   }
 
   /// The residual of a group in units of sigma: its curved model's, else its plane's.
@@ -433,19 +479,7 @@ class PrimitivePass {
         if (curved.kind == SurfaceKind::plane || curved.nrms > kCurvedGain * plane) continue;
         m = curved;
       }
-      // The reported parameters: a larger sample, the same kind.
-      gather(l, kFinalSample);
-      Model final_model;
-      final_model.kind = m.kind;
-      if (m.kind == SurfaceKind::sphere) {
-        final_model.sphere = fit_sphere(s_.points, s_.normals);
-        if (!final_model.sphere.ok) continue;
-      } else {
-        final_model.cylinder = fit_cylinder(s_.points, s_.normals);
-        if (!final_model.cylinder.ok) continue;
-      }
-      score(final_model);
-      m = final_model;
+      fit_final(l, m);
     }
   }
 
@@ -455,6 +489,7 @@ class PrimitivePass {
     const std::size_t pixels = static_cast<std::size_t>(f_.stride) * f_.height;
     s_.queued.assign(pixels, 0);
     s_.queue.clear();
+    s_.curved_pairs.clear();
     const auto curved_root = [&](std::int32_t label) {
       if (label == 0) return 0;
       const std::int32_t r = find_root(s_.parent, label);
@@ -506,9 +541,50 @@ class PrimitivePass {
       f_.labels[q] = best;
       ++reassigned_;
       const std::int32_t root = find_root(s_.parent, best);
+      note_curved_neighbours(q, root, curved_root);
       s_.group_pixels[root] += 1;
       s_.changed[root] = 1;
       push_unlabelled_neighbours(q);
+    }
+  }
+
+  /// Records the pairs of `root` (the curved group that point q just joined) and the other
+  /// curved groups among q's mesh neighbours.
+  template <class CurvedRoot>
+  void note_curved_neighbours(std::int32_t q, std::int32_t root, const CurvedRoot& curved_root) {
+    unsigned mask = f_.edges[q];
+    while (mask != 0) {
+      const int n = std::countr_zero(mask);
+      mask &= mask - 1;
+      const std::int32_t other = curved_root(f_.labels[q + f_.neighbour_offset[n]]);
+      if (other == 0 || other == root) continue;
+      s_.curved_pairs.push_back((static_cast<std::uint64_t>(std::min(root, other)) << 32) |
+                                static_cast<std::uint32_t>(std::max(root, other)));
+    }
+  }
+
+  /// Curved groups that the re-assigned points have made adjacent join when one curved model
+  /// explains their union (the test of merge_pairs). The facets of a cylinder seen with little
+  /// noise can be separated by a column of points that no facet's plane took; the parts on
+  /// either side are each a cylinder, and only become neighbours here.
+  void join_curved_pairs() {
+    auto& pairs = s_.curved_pairs;
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    for (const std::uint64_t key : pairs) {
+      std::int32_t a = find_root(s_.parent, static_cast<std::int32_t>(key >> 32));
+      std::int32_t b = find_root(s_.parent, static_cast<std::int32_t>(key & 0xFFFFFFFFu));
+      if (a == b) continue;
+      const Link link = link_union(a, b);
+      gather(a, kTestSample);
+      Model model = fit_curved(kTestIterations);
+      if (model.kind == SurfaceKind::plane ||
+          !fits_like_parts(model, s_.models[a].nrms, s_.models[b].nrms)) {
+        unlink_union(a, link);
+        continue;
+      }
+      fit_final(a, model);
+      join(a, b, model);
     }
   }
 
