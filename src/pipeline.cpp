@@ -54,6 +54,7 @@ PipelineSettings pipeline_preset(std::string_view sensor) {
     s.smooth = false;
   }
   if (sensor == "laser") s.smoothing.pixel_angle = 0.0087f;  // 0.5 degree scan resolution
+  if (sensor == "ideal") s.smooth = false;                   // exact points: see preset("ideal")
   return s;
 }
 

@@ -1384,6 +1384,9 @@ TEST(Segmentation, PresetsAndValidation) {
   EXPECT_TRUE(preset("abw").reassign_across_mesh_cuts);
   EXPECT_FALSE(preset("kinect").reassign_across_mesh_cuts);
   EXPECT_GE(preset("laser").noise.sigma(10.0), 0.01);
+  EXPECT_NEAR(preset("ideal").noise.sigma(5.0), 0.0005, 1e-12);
+  EXPECT_FALSE(pipeline_preset("ideal").smooth);
+  EXPECT_TRUE(pipeline_preset("kinect").smooth);
   try {
     preset("lidar");
     FAIL() << "no exception";
@@ -1393,6 +1396,7 @@ TEST(Segmentation, PresetsAndValidation) {
     EXPECT_NE(what.find("kinect"), std::string::npos);
     EXPECT_NE(what.find("abw"), std::string::npos);
     EXPECT_NE(what.find("laser"), std::string::npos);
+    EXPECT_NE(what.find("ideal"), std::string::npos);
   }
   const OrganizedCloud cloud = cast(64, 48, [](double, double) { return 1.0; });
   const Mesh mesh = build_mesh(cloud);

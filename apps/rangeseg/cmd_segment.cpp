@@ -69,7 +69,8 @@ void add_segment(CLI::App& app) {
                   "Region model: plane, smooth, incremental_plane or auto (per segment: plane, "
                   "cylinder, sphere or smooth surface)")
       ->capture_default_str();
-  cmd->add_option("--preset", o->preset, "Sensor preset: kinect, abw or laser")
+  cmd->add_option("--preset", o->preset,
+                  "Sensor preset: kinect, abw, laser or ideal (noise-free or simulated depth)")
       ->capture_default_str();
   cmd->add_option("--config", o->config, "JSON file with settings overriding the preset");
   cmd->add_flag("--no-smooth", o->no_smooth, "Skip the bilateral filter");

@@ -43,8 +43,21 @@ SegmentationSettings preset(std::string_view name) {
     s.min_region_size = 50;  // scans are sparse (e.g. 361 columns)
     return s;
   }
+  if (name == "ideal") {
+    // Noise-free or simulated depth (a ray-cast renderer, a simulator without a noise model,
+    // `rangeseg synth --noise none`): sigma 0.5 mm at any depth, which covers millimetre depth
+    // quantisation (0.29 mm) and float rounding. The pipeline preset also turns smoothing off:
+    // there is no noise to remove, and the filter's projection onto the viewing ray moves exact
+    // points wherever a point's ring is one-sided (image borders, depth steps). Angles and region
+    // size as for the Kinect, whose resolution such data usually imitates.
+    s.noise = {.a = 0.0005, .b = 0.0, .z0 = 0.0};
+    s.max_normal_angle = 25 * deg;
+    s.max_distance_sigmas = 3.0;
+    s.min_region_size = 200;
+    return s;
+  }
   throw std::invalid_argument("segmentation preset \"" + std::string(name) +
-                              "\" is unknown; valid presets: kinect, abw, laser");
+                              "\" is unknown; valid presets: kinect, abw, laser, ideal");
 }
 
 }  // namespace rangeseg
