@@ -118,7 +118,7 @@ struct Model {
 struct Scratch {
   std::vector<std::int32_t> start;   ///< per label: first entry in `pixels`; size labels + 2
   std::vector<std::int32_t> pixels;  ///< lattice pixel indices grouped by label
-  std::vector<std::uint64_t> pairs, new_pairs;
+  std::vector<std::uint64_t> pairs, new_pairs, narrow_pairs, tested_pairs;
   std::vector<std::int32_t> parent, next_member, last_member, group_pixels;
   std::vector<detail::PlaneStats> stats;
   std::vector<Model> models;
@@ -158,7 +158,12 @@ class PrimitivePass {
     init_groups();
     // Each pass after the first retests only the pairs with a side grown since its last test;
     // a pass without a join ends it (every join removes a group, so this terminates).
-    for (int pass = 0; merge_pairs(pass) > 0; ++pass) {
+    int pass = 0;
+    while (merge_pairs(pass) > 0) ++pass;
+    // Facets too narrow to be told from a plane in pairs, then in threes, until nothing joins.
+    while (join_narrow_triples(pass + 1) > 0) {
+      pass += 1;
+      while (merge_pairs(pass) > 0) ++pass;
     }
     classify_groups();
     // Re-assigned points can make a curved group the neighbour of a facet or group it was not
@@ -266,6 +271,7 @@ class PrimitivePass {
     s_.stats.assign(size, detail::PlaneStats{});
     s_.changed.assign(size, 0);
     s_.grown.assign(size, -1);
+    s_.narrow_pairs.clear();
     s_.models.assign(size, Model{});
     for (std::int32_t l = 1; l <= n_; ++l) s_.group_pixels[l] = end(l) - begin(l);
   }
@@ -337,14 +343,15 @@ class PrimitivePass {
     return std::sqrt(sum / static_cast<double>(std::max<std::size_t>(1, s_.points.size())));
   }
 
-  static bool plausible(const Model& m) {
+  static bool plausible(const Model& m, bool need_spread = true) {
     return m.nrms <= kMaxSurfaceSigmas && m.normal_angle <= kMaxMeanNormalAngle &&
-           m.radius() >= kMinRadius && m.radius() <= kMaxRadius && m.spread >= kMinSpread;
+           m.radius() >= kMinRadius && m.radius() <= kMaxRadius &&
+           (!need_spread || m.spread >= kMinSpread);
   }
 
   /// The better of sphere and cylinder on the gathered sample (the sphere, with one parameter
   /// fewer, unless the cylinder is clearly better).
-  Model fit_curved(int iterations) const {
+  Model fit_curved(int iterations, bool* narrow = nullptr) const {
     // Plain least squares for the many candidate tests; the reported fit drops outliers.
     const PrimitiveFitSettings fs{.max_iterations = iterations, .outlier_refits = 0};
     Model sphere, cylinder;
@@ -358,6 +365,11 @@ class PrimitivePass {
     const bool cylinder_ok = cylinder.cylinder.ok && plausible(cylinder);
     if (sphere_ok && (!cylinder_ok || sphere.nrms <= 1.1 * cylinder.nrms)) return sphere;
     if (cylinder_ok) return cylinder;
+    if (narrow != nullptr) {
+      // Nothing curved fits, or a model fits but covers too short an arc to tell.
+      *narrow = (sphere.sphere.ok && plausible(sphere, false)) ||
+                (cylinder.cylinder.ok && plausible(cylinder, false));
+    }
     return Model{};  // kind plane: nothing curved fits
   }
 
@@ -409,7 +421,12 @@ class PrimitivePass {
     if (union_plane > kMinCurvatureSigmas ||
         normal_angle(out_.segments[la - 1], out_.segments[lb - 1]) >
             settings_.merge_rms_max_angle) {
-      model = fit_curved(kTestIterations);
+      bool narrow = false;
+      model = fit_curved(kTestIterations, &narrow);
+      if (narrow && facet_angle) {
+        s_.narrow_pairs.push_back((static_cast<std::uint64_t>(la) << 32) |
+                                  static_cast<std::uint32_t>(lb));
+      }
     }
     // The curved model must explain the union clearly better than one plane does.
     const bool accept = model.kind != SurfaceKind::plane && model.nrms <= kCurvedGain * union_plane;
@@ -419,6 +436,75 @@ class PrimitivePass {
     }
     s_.last_member[a] = s_.last_member[b];
     s_.parent[b] = a;
+    s_.models[a] = model;
+    s_.changed[a] = 1;
+    s_.stats[a] = merged;
+    return true;
+  }
+
+  /// Pairs of plane facets that one curved model explains, but over too short an arc to tell
+  /// it from a plane (kMinSpread; the facets of a cylinder seen with little noise, ~10 deg
+  /// each), are tested again with a third facet next to either: three facets cover the arc.
+  /// The union must pass the pair test's residual tests. Joined groups are marked grown in
+  /// `pass`; returns how many triples joined.
+  int join_narrow_triples(int pass) {
+    auto& pairs = s_.narrow_pairs;
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    s_.tested_pairs.swap(pairs);
+    pairs.clear();
+    int joined = 0;
+    for (const std::uint64_t key : s_.tested_pairs) {
+      const auto la = static_cast<std::int32_t>(key >> 32);
+      const auto lb = static_cast<std::int32_t>(key & 0xFFFFFFFFu);
+      for (const std::uint64_t other : s_.pairs) {
+        const auto l0 = static_cast<std::int32_t>(other >> 32);
+        const auto l1 = static_cast<std::int32_t>(other & 0xFFFFFFFFu);
+        if (l0 != la && l0 != lb && l1 != la && l1 != lb) continue;
+        const std::int32_t lc = l0 == la || l0 == lb ? l1 : l0;
+        if (try_join_three(la, lb, lc)) {
+          s_.grown[find_root(s_.parent, la)] = pass;
+          ++joined;
+          break;
+        }
+      }
+    }
+    return joined;
+  }
+
+  bool try_join_three(std::int32_t la, std::int32_t lb, std::int32_t lc) {
+    const std::int32_t a = find_root(s_.parent, la), b = find_root(s_.parent, lb),
+                       c = find_root(s_.parent, lc);
+    if (a == b || a == c || b == c) return false;
+    for (const std::int32_t g : {a, b, c}) {
+      if (s_.models[g].kind != SurfaceKind::plane) return false;
+    }
+    if (normal_angle(out_.segments[la - 1], out_.segments[lc - 1]) > kMaxPairAngle ||
+        normal_angle(out_.segments[lb - 1], out_.segments[lc - 1]) > kMaxPairAngle) {
+      return false;
+    }
+    detail::PlaneStats merged = stats_of(a);
+    merged.merge(stats_of(b));
+    merged.merge(stats_of(c));
+    const std::int32_t a_last = s_.last_member[a], b_last = s_.last_member[b];
+    const std::int32_t a_pixels = s_.group_pixels[a];
+    s_.next_member[a_last] = b;
+    s_.next_member[b_last] = c;
+    s_.group_pixels[a] += s_.group_pixels[b] + s_.group_pixels[c];
+    gather(a, kTestSample);
+    const double union_plane = plane_nrms(merged);
+    const Model model = fit_curved(kTestIterations);
+    const double parts = std::min({part_residual(a), part_residual(b), part_residual(c)});
+    if (model.kind == SurfaceKind::plane || !(model.nrms <= kCurvedGain * union_plane) ||
+        !fits_like_parts(model, parts, parts)) {
+      s_.next_member[a_last] = 0;
+      s_.next_member[b_last] = 0;
+      s_.group_pixels[a] = a_pixels;
+      return false;
+    }
+    s_.last_member[a] = s_.last_member[c];
+    s_.parent[b] = a;
+    s_.parent[c] = a;
     s_.models[a] = model;
     s_.changed[a] = 1;
     s_.stats[a] = merged;
