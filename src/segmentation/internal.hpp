@@ -150,7 +150,9 @@ struct Segmenter::Scratch {
   std::vector<std::int32_t> sort_items;  ///< radix sort scratch
   std::vector<std::uint32_t> sort_keys;  ///< radix sort scratch
   std::vector<std::int32_t> cell_queue;
-  std::vector<double> cell_normal_noise;     ///< per complete cell (normal_noise_constant)
+  std::vector<double> cell_normal_noise;  ///< per complete cell (normal_noise_constant)
+  /// The frame's normal noise constant c (sigma_n(z) = c sigma(z) / z), 0 when not measured.
+  double normal_noise_c = 0;
   detail::CacheLineVector<float> cell_sums;  ///< per-column sums of one cell row (cells.cpp)
   std::vector<std::uint8_t> cell_complete;   ///< per cell of one cell row (cells.cpp)
   // post-processing
@@ -316,8 +318,10 @@ void grow_smooth(const Frame& frame, const SegmentationSettings& settings,
 /// After plane post-processing (labels 1..N = out.segments): regions of surface continuity
 /// over the unlabelled pixels; those of at least min_region_size pixels are appended to `out`
 /// as segments N+1.. (plane fields from their points), the rest stay unlabelled.
-void grow_smooth_leftovers(const Frame& frame, const SegmentationSettings& settings,
-                           Segmenter::Scratch& scratch, Segmentation& out);
+/// Then the remaining mesh-connected patches of unlabelled points of at least min_region_size
+/// pixels are appended as tentative segments; returns the number of segments before them.
+std::int32_t grow_smooth_leftovers(const Frame& frame, const SegmentationSettings& settings,
+                                   Segmenter::Scratch& scratch, Segmentation& out);
 
 /// Columns u in [begin, end) of a label row (stride 1; `row` and `below` readable from begin - 1
 /// to end) whose label is not 0 and differs from a forward neighbour's (right, down-left, down,

@@ -308,8 +308,10 @@ void grow_planes(const Frame& frame, const SegmentationSettings& settings,
       }
     });
   }
+  scratch.normal_noise_c = 0;
   if (settings.normal_noise_sigmas > 0) {
     const double c = normal_noise_constant(scratch, bands, settings.noise);
+    scratch.normal_noise_c = c;
     model.set_normal_noise(settings.normal_noise_sigmas, c);
   }
   if (bands == 1) {

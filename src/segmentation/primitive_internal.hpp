@@ -14,6 +14,15 @@ void grow_incremental_planes(const Frame& frame, const SegmentationSettings& set
 /// compact labels in frame.labels): merges adjacent segments whose union a cylinder or sphere
 /// explains within the noise, re-assigns unlabelled boundary points to curved segments, labels
 /// every segment with its surface kind and parameters, and recompacts the labels (by size).
-void fit_primitives(const Frame& frame, const SegmentationSettings& settings, Segmentation& out);
+/// What fit_primitives needs from the earlier steps.
+struct PrimitiveContext {
+  /// Segments after the first `tentative_from` are tentative (grow_smooth_leftovers): dropped
+  /// (unlabelled) unless they end in a curved group.
+  std::int32_t tentative_from = 0;
+  /// The frame's normal noise constant c, sigma_n(z) = c sigma(z) / z (0: not measured).
+  double normal_noise_c = 0;
+};
+void fit_primitives(const Frame& frame, const SegmentationSettings& settings, Segmentation& out,
+                    const PrimitiveContext& context);
 
 }  // namespace rangeseg::seg

@@ -8,6 +8,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <numbers>
 #include <numeric>
 #include <vector>
 
@@ -93,6 +94,9 @@ struct Model {
   /// 1 - |mean of the model's unit normals at the points|: 0 for a flat patch, 0.011 for a
   /// 30 degree arc of a cylinder, 0.36 for a half cylinder.
   double spread = 0;
+  /// Mean angle that the sensor's normal noise alone puts between measured and true normals at
+  /// the sample's depths [rad] (0 when the frame's noise was not measured).
+  double noise_angle = 0;
 
   /// Signed distance to the surface and the surface's unit normal direction at p.
   double distance(const Point3& p, Point3* normal) const {
@@ -144,12 +148,15 @@ std::int32_t find_root(std::vector<std::int32_t>& parent, std::int32_t a) {
 
 class PrimitivePass {
  public:
-  PrimitivePass(const Frame& f, const SegmentationSettings& settings, Segmentation& out, Scratch& s)
+  PrimitivePass(const Frame& f, const SegmentationSettings& settings, Segmentation& out, Scratch& s,
+                const PrimitiveContext& context)
       : f_(f),
         settings_(settings),
         out_(out),
         s_(s),
-        n_(static_cast<std::int32_t>(out.segments.size())) {}
+        n_(static_cast<std::int32_t>(out.segments.size())),
+        tentative_from_(context.tentative_from),
+        normal_noise_c_(context.normal_noise_c) {}
 
   void run() {
     if (n_ == 0) return;
@@ -166,6 +173,7 @@ class PrimitivePass {
       while (merge_pairs(pass) > 0) ++pass;
     }
     classify_groups();
+    release_dropped();
     // Re-assigned points can make a curved group the neighbour of a facet or group it was not
     // adjacent to; each round that joins one re-assigns again around the joined group.
     do {
@@ -330,6 +338,10 @@ class PrimitivePass {
     m.normal_angle = angles > 0 ? angle / angles : INFINITY;
     const double count = static_cast<double>(std::max<std::size_t>(1, s_.points.size()));
     m.spread = 1.0 - std::sqrt(mx * mx + my * my + mz * mz) / count;
+    // Per-axis spread s = sigma_n(z) makes the angle Rayleigh distributed, mean s sqrt(pi / 2).
+    double noise = 0;
+    for (const Point3& p : s_.points) noise += sigma(p[2]) / p[2];
+    m.noise_angle = std::sqrt(std::numbers::pi / 2) * normal_noise_c_ * noise / count;
   }
 
   double plane_nrms(const detail::PlaneStats& stats) const {
@@ -343,15 +355,18 @@ class PrimitivePass {
     return std::sqrt(sum / static_cast<double>(std::max<std::size_t>(1, s_.points.size())));
   }
 
-  static bool plausible(const Model& m, bool need_spread = true) {
-    return m.nrms <= kMaxSurfaceSigmas && m.normal_angle <= kMaxMeanNormalAngle &&
-           m.radius() >= kMinRadius && m.radius() <= kMaxRadius &&
-           (!need_spread || m.spread >= kMinSpread);
+  /// `noise_aware`: the mean normal angle may exceed kMaxMeanNormalAngle by what the normal
+  /// noise adds (in quadrature), for patches the plane model left (see classify_groups).
+  static bool plausible(const Model& m, bool need_spread = true, bool noise_aware = false) {
+    const double max_angle =
+        noise_aware ? std::hypot(kMaxMeanNormalAngle, m.noise_angle) : kMaxMeanNormalAngle;
+    return m.nrms <= kMaxSurfaceSigmas && m.normal_angle <= max_angle && m.radius() >= kMinRadius &&
+           m.radius() <= kMaxRadius && (!need_spread || m.spread >= kMinSpread);
   }
 
   /// The better of sphere and cylinder on the gathered sample (the sphere, with one parameter
   /// fewer, unless the cylinder is clearly better).
-  Model fit_curved(int iterations, bool* narrow = nullptr) const {
+  Model fit_curved(int iterations, bool* narrow = nullptr, bool noise_aware = false) const {
     // Plain least squares for the many candidate tests; the reported fit drops outliers.
     const PrimitiveFitSettings fs{.max_iterations = iterations, .outlier_refits = 0};
     Model sphere, cylinder;
@@ -361,8 +376,8 @@ class PrimitivePass {
     cylinder.kind = SurfaceKind::cylinder;
     cylinder.cylinder = fit_cylinder(s_.points, s_.normals, fs);
     if (cylinder.cylinder.ok) score(cylinder);
-    const bool sphere_ok = sphere.sphere.ok && plausible(sphere);
-    const bool cylinder_ok = cylinder.cylinder.ok && plausible(cylinder);
+    const bool sphere_ok = sphere.sphere.ok && plausible(sphere, true, noise_aware);
+    const bool cylinder_ok = cylinder.cylinder.ok && plausible(cylinder, true, noise_aware);
     if (sphere_ok && (!cylinder_ok || sphere.nrms <= 1.1 * cylinder.nrms)) return sphere;
     if (cylinder_ok) return cylinder;
     if (narrow != nullptr) {
@@ -569,11 +584,14 @@ class PrimitivePass {
         // A single facet: curved only if a plane does not explain it and a curved model does,
         // much better.
         const Segment& seg = out_.segments[static_cast<std::size_t>(l - 1)];
-        if (seg.rms_residual <= kPlaneSigmas * sigma(seg.centroid[2])) continue;
+        // A tentative patch is one the plane model did not grow: tested as curved even where a
+        // plane explains it within the noise.
+        const bool tentative = l > tentative_from_;
+        if (!tentative && seg.rms_residual <= kPlaneSigmas * sigma(seg.centroid[2])) continue;
         gather(l, kTestSample);
         const double plane = plane_nrms(stats_of(l));
-        if (plane <= kPlaneSigmas) continue;
-        Model curved = fit_curved(kTestIterations);
+        if (!tentative && plane <= kPlaneSigmas) continue;
+        Model curved = fit_curved(kTestIterations, nullptr, tentative);
         if (curved.kind == SurfaceKind::plane || curved.nrms > kCurvedGain * plane) continue;
         m = curved;
       }
@@ -704,11 +722,32 @@ class PrimitivePass {
     return model.nrms <= 2.0 * settings_.max_distance_sigmas;
   }
 
+  /// A group of tentative segments only, that no curved surface explains.
+  bool dropped(std::int32_t root) const {
+    if (s_.models[root].kind != SurfaceKind::plane) return false;
+    for (std::int32_t l = root; l != 0; l = s_.next_member[l]) {
+      if (l <= tentative_from_) return false;
+    }
+    return true;
+  }
+
+  /// Unlabels the points of dropped groups, so that re-assignment can give them to a curved
+  /// neighbour.
+  void release_dropped() {
+    for (std::int32_t l = tentative_from_ + 1; l <= n_; ++l) {
+      if (s_.parent[l] != l || !dropped(l)) continue;
+      for (std::int32_t m = l; m != 0; m = s_.next_member[m]) {
+        for (std::int32_t j = begin(m); j < end(m); ++j) f_.labels[s_.pixels[j]] = 0;
+      }
+      s_.group_pixels[l] = 0;
+    }
+  }
+
   void relabel() {
     // Groups by size, descending (ties by old label), as post-processing orders segments.
     s_.order.clear();
     for (std::int32_t l = 1; l <= n_; ++l) {
-      if (s_.parent[l] == l) s_.order.push_back(l);
+      if (s_.parent[l] == l && !dropped(l)) s_.order.push_back(l);
     }
     std::sort(s_.order.begin(), s_.order.end(), [&](std::int32_t a, std::int32_t b) {
       const auto ca = s_.group_pixels[a], cb = s_.group_pixels[b];
@@ -776,13 +815,16 @@ class PrimitivePass {
   Segmentation& out_;
   Scratch& s_;
   std::int32_t n_;
+  std::int32_t tentative_from_;  ///< labels above it are tentative
+  double normal_noise_c_;
   std::int64_t reassigned_ = 0;
 };
 
 }  // namespace
 
-void fit_primitives(const Frame& frame, const SegmentationSettings& settings, Segmentation& out) {
-  PrimitivePass(frame, settings, out, tls_scratch).run();
+void fit_primitives(const Frame& frame, const SegmentationSettings& settings, Segmentation& out,
+                    const PrimitiveContext& context) {
+  PrimitivePass(frame, settings, out, tls_scratch, context).run();
 }
 
 }  // namespace rangeseg::seg

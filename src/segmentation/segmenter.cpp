@@ -364,7 +364,10 @@ void Segmenter::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalM
       for (Segment& segment : out.segments) segment.model = settings.model;
     }
   }
-  if (settings.model == RegionModel::automatic) seg::grow_smooth_leftovers(f, settings, s, out);
+  std::int32_t tentative_from = 0;
+  if (settings.model == RegionModel::automatic) {
+    tentative_from = seg::grow_smooth_leftovers(f, settings, s, out);
+  }
   if (settings.compute_area) {
     // Areas count the cells of grazing segments closed, as close_grazing_cells closes them.
     if (std::any_of(out.segments.begin(), out.segments.end(),
@@ -382,7 +385,8 @@ void Segmenter::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalM
     }
   }
   if (settings.model == RegionModel::automatic) {
-    seg::fit_primitives(f, settings, out);
+    seg::fit_primitives(f, settings, out,
+                        {.tentative_from = tentative_from, .normal_noise_c = s.normal_noise_c});
   } else {
     const SurfaceKind kind =
         settings.model == RegionModel::smooth ? SurfaceKind::smooth : SurfaceKind::plane;

@@ -38,6 +38,25 @@ class SmoothModel {
 
 static_assert(RegionGrowingModel<SmoothModel>);
 
+/// Mesh connectivity alone: every neighbour with a normal joins.
+class ConnectedModel {
+ public:
+  void init(const Frame& f, std::int32_t seed) {
+    stats_.clear();
+    add(f, seed);
+  }
+  bool accepts(const Frame& f, std::int32_t /*from*/, std::int32_t q) const {
+    return f.nz[q] == f.nz[q];
+  }
+  void add(const Frame& f, std::int32_t q) { stats_.add(f.x[q], f.y[q], f.z[q]); }
+  const detail::PlaneStats& stats() const { return stats_; }
+
+ private:
+  detail::PlaneStats stats_;
+};
+
+static_assert(RegionGrowingModel<ConnectedModel>);
+
 }  // namespace
 
 void grow_smooth(const Frame& frame, const SegmentationSettings& settings,
@@ -46,30 +65,26 @@ void grow_smooth(const Frame& frame, const SegmentationSettings& settings,
   grow_regions(frame, model, scratch);
 }
 
-// The plane model leaves a curved surface unlabelled where its facets stay below
-// min_region_size (a sphere or a thin cylinder far away, or one without noise, where the normal
-// test allows only a few degrees of bend per facet). Such leftovers are grown again by surface
-// continuity; regions large enough become segments, for the primitive pass to classify.
-void grow_smooth_leftovers(const Frame& f, const SegmentationSettings& settings,
-                           Segmenter::Scratch& s, Segmentation& out) {
-  SegmentationSettings smooth = settings;
-  smooth.model = RegionModel::smooth;
-  collect_seeds(f, smooth, s);
-  SmoothModel model(smooth);
+namespace {
+
+/// Grows a region of `model` from every free pixel `seed_ok` accepts, in `seeds` order; regions
+/// whose statistics `keep` accepts are appended to `out` as segments, the others are marked with
+/// -1 (which blocks growth like a label) and listed in s.marked, until clear_marks.
+template <class Model, class Seeds, class SeedOk, class Keep>
+void grow_leftover_regions(const Frame& f, Model& model, const Seeds& seeds, SeedOk&& seed_ok,
+                           Keep&& keep, Segmenter::Scratch& s, Segmentation& out) {
   std::int32_t* const queue = s.queue.data();
   auto label = static_cast<std::int32_t>(out.segments.size());
-  constexpr std::int32_t kTooSmall = -1;  // blocks growth like a label; cleared below
-  std::size_t rejected = 0;
-  for (const std::int32_t seed : s.seeds) {
-    if (f.labels[seed] != 0) continue;
+  seeds([&](std::int32_t seed) {
+    if (f.labels[seed] != 0 || !seed_ok(seed)) return;
     f.labels[seed] = label + 1;
     model.init(f, seed);
     queue[0] = seed;
     const std::int32_t tail = grow_pixels(f, model, label + 1, queue, 0, 1, s.queue.size());
-    if (model.stats().count < settings.min_region_size) {
-      for (std::int32_t j = 0; j < tail; ++j) f.labels[queue[j]] = kTooSmall;
-      rejected += static_cast<std::size_t>(tail);
-      continue;
+    if (!keep(model.stats())) {
+      for (std::int32_t j = 0; j < tail; ++j) f.labels[queue[j]] = -1;
+      s.marked.insert(s.marked.end(), queue, queue + tail);
+      return;
     }
     ++label;
     Segment segment;
@@ -77,12 +92,56 @@ void grow_smooth_leftovers(const Frame& f, const SegmentationSettings& settings,
     segment.model = RegionModel::automatic;
     set_plane_fields(model.stats(), segment);
     out.segments.push_back(segment);
-  }
-  if (rejected == 0) return;
-  for (int v = 0; v < f.height; v += f.pixel_stride) {
-    std::int32_t* const row = f.labels + static_cast<std::ptrdiff_t>(v) * f.stride;
-    for (int u = 0; u < f.width; u += f.pixel_stride) row[u] = std::max(row[u], 0);
-  }
+  });
+}
+
+void clear_marks(const Frame& f, Segmenter::Scratch& s) {
+  for (const std::int32_t q : s.marked) f.labels[q] = 0;
+  s.marked.clear();
+}
+
+}  // namespace
+
+// The plane model leaves a curved surface unlabelled where its facets stay below
+// min_region_size (a sphere or a thin cylinder far away, or one without noise, where the normal
+// test allows only a few degrees of bend per facet). Such leftovers are grown again by surface
+// continuity; regions large enough become segments, for the primitive pass to classify.
+// Far from a noisy sensor even that fails: the 1-ring normals of a small curved object scatter
+// more than max_smooth_angle. What is left of it is a mesh-connected patch of unlabelled points;
+// such patches become tentative segments, which the primitive pass keeps only if a curved surface
+// explains them.
+std::int32_t grow_smooth_leftovers(const Frame& f, const SegmentationSettings& settings,
+                                   Segmenter::Scratch& s, Segmentation& out) {
+  SegmentationSettings smooth = settings;
+  smooth.model = RegionModel::smooth;
+  collect_seeds(f, smooth, s);
+  SmoothModel model(smooth);
+  s.marked.clear();
+  const auto seed_list = [&](auto&& visit) {
+    for (const std::int32_t seed : s.seeds) visit(seed);
+  };
+  const auto large = [&](const detail::PlaneStats& st) {
+    return st.count >= settings.min_region_size;
+  };
+  grow_leftover_regions(
+      f, model, seed_list, [](std::int32_t) { return true; }, large, s, out);
+  clear_marks(f, s);
+
+  const auto tentative_from = static_cast<std::int32_t>(out.segments.size());
+  ConnectedModel connected;
+  const auto every_free_pixel = [&](auto&& visit) {
+    for (int v = 0; v < f.height; v += f.pixel_stride) {
+      const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(v) * f.stride;
+      for (int u = 0; u < f.width; u += f.pixel_stride) {
+        if (f.labels[row + u] == 0) visit(static_cast<std::int32_t>(row + u));
+      }
+    }
+  };
+  grow_leftover_regions(
+      f, connected, every_free_pixel, [&](std::int32_t q) { return f.nz[q] == f.nz[q]; }, large, s,
+      out);
+  clear_marks(f, s);
+  return tentative_from;
 }
 
 }  // namespace rangeseg::seg
