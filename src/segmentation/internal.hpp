@@ -141,6 +141,7 @@ struct Segmenter::Scratch {
   std::vector<std::int32_t> rejected;  ///< `marked` of all regions of the cell level
   std::vector<std::pair<std::int32_t, std::int32_t>> joins;  ///< (pixel, label) re-assignments
   std::vector<detail::PlaneStats> regions;                   ///< per raw region label; [0] unused
+  std::vector<detail::PlaneStats> segment_stats;  ///< per segment after post-processing (auto)
   // coarse level (models with a cell interface)
   std::vector<seg::Cell> cells;  ///< row-major, cell_cols x cell_rows
   int cell_cols = 0, cell_rows = 0;

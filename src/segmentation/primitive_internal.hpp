@@ -1,6 +1,8 @@
 // Internal: the region models of issue 6 (incremental planes, automatic primitive labelling).
 #pragma once
 
+#include <span>
+
 #include "segmentation/internal.hpp"
 
 namespace rangeseg::seg {
@@ -21,6 +23,9 @@ struct PrimitiveContext {
   std::int32_t tentative_from = 0;
   /// The frame's normal noise constant c, sigma_n(z) = c sigma(z) / z (0: not measured).
   double normal_noise_c = 0;
+  /// Point statistics of segments 1, 2, ... as post-processing left them (may cover only the
+  /// first segments); the others are summed from their pixels when needed.
+  std::span<const detail::PlaneStats> segment_stats;
 };
 void fit_primitives(const Frame& frame, const SegmentationSettings& settings, Segmentation& out,
                     const PrimitiveContext& context);

@@ -156,7 +156,8 @@ class PrimitivePass {
         s_(s),
         n_(static_cast<std::int32_t>(out.segments.size())),
         tentative_from_(context.tentative_from),
-        normal_noise_c_(context.normal_noise_c) {}
+        normal_noise_c_(context.normal_noise_c),
+        segment_stats_(context.segment_stats) {}
 
   void run() {
     if (n_ == 0) return;
@@ -287,6 +288,9 @@ class PrimitivePass {
   /// Plane statistics of a segment that is still its own group, computed when first needed.
   const detail::PlaneStats& stats_of(std::int32_t root) {
     detail::PlaneStats& st = s_.stats[root];
+    if (st.count == 0 && static_cast<std::size_t>(root) <= segment_stats_.size()) {
+      st = segment_stats_[static_cast<std::size_t>(root) - 1];
+    }
     if (st.count == 0) {
       for (std::int32_t j = begin(root); j < end(root); ++j) {
         const std::int32_t i = s_.pixels[static_cast<std::size_t>(j)];
@@ -438,7 +442,8 @@ class PrimitivePass {
             settings_.merge_rms_max_angle) {
       bool narrow = false;
       model = fit_curved(kTestIterations, &narrow);
-      if (narrow && facet_angle) {
+      // Tentative patches are no plane facets: triples are for facets too narrow to tell.
+      if (narrow && facet_angle && std::max(la, lb) <= tentative_from_) {
         s_.narrow_pairs.push_back((static_cast<std::uint64_t>(la) << 32) |
                                   static_cast<std::uint32_t>(lb));
       }
@@ -477,6 +482,7 @@ class PrimitivePass {
         const auto l1 = static_cast<std::int32_t>(other & 0xFFFFFFFFu);
         if (l0 != la && l0 != lb && l1 != la && l1 != lb) continue;
         const std::int32_t lc = l0 == la || l0 == lb ? l1 : l0;
+        if (lc > tentative_from_) continue;
         if (try_join_three(la, lb, lc)) {
           s_.grown[find_root(s_.parent, la)] = pass;
           ++joined;
@@ -817,6 +823,7 @@ class PrimitivePass {
   std::int32_t n_;
   std::int32_t tentative_from_;  ///< labels above it are tentative
   double normal_noise_c_;
+  std::span<const detail::PlaneStats> segment_stats_;
   std::int64_t reassigned_ = 0;
 };
 

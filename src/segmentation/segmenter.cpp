@@ -366,6 +366,9 @@ void Segmenter::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalM
   }
   std::int32_t tentative_from = 0;
   if (settings.model == RegionModel::automatic) {
+    // The plane segments' point statistics, for the primitive pass (in label order).
+    s.segment_stats.clear();
+    for (const std::int32_t r : s.order) s.segment_stats.push_back(s.regions[r]);
     tentative_from = seg::grow_smooth_leftovers(f, settings, s, out);
   }
   if (settings.compute_area) {
@@ -386,7 +389,9 @@ void Segmenter::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalM
   }
   if (settings.model == RegionModel::automatic) {
     seg::fit_primitives(f, settings, out,
-                        {.tentative_from = tentative_from, .normal_noise_c = s.normal_noise_c});
+                        {.tentative_from = tentative_from,
+                         .normal_noise_c = s.normal_noise_c,
+                         .segment_stats = s.segment_stats});
   } else {
     const SurfaceKind kind =
         settings.model == RegionModel::smooth ? SurfaceKind::smooth : SurfaceKind::plane;
