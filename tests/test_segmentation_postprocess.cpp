@@ -39,7 +39,7 @@ struct Input {
 };
 
 /// A rendered random scene with Kinect noise, meshed and smoothed as in the pipeline (with the
-/// 3 deg occlusion test of the synthetic segmentation tests, see test_segmentation.cpp).
+/// 3 deg occlusion test of the synthetic segmentation tests, see test_segmentation_data.cpp).
 Input synthetic_input(std::uint64_t seed, bool curved, int pixel_stride,
                       const CameraIntrinsics& camera = {.width = 640, .height = 480}) {
   const OrganizedCloud raw =

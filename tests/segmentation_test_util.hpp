@@ -1,0 +1,98 @@
+// Helpers of the segmentation tests: ray-cast analytic scenes, the stages up to segmentation,
+// and the invariants every segmentation must satisfy.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <functional>
+#include <vector>
+
+#include "rangeseg/mesh.hpp"
+#include "rangeseg/normals.hpp"
+#include "rangeseg/segmentation.hpp"
+
+namespace rangeseg::test {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180.0;
+constexpr double kF = 525.0, kCx = 319.5, kCy = 239.5;
+
+/// Ray-casts a depth function: `depth(a, b)` gives the depth t of the point t (a, b, 1) seen
+/// through the pixel with ray slopes a = (u - cx) / f, b = (v - cy) / f (NaN = no point).
+inline OrganizedCloud cast(int width, int height,
+                           const std::function<double(double, double)>& depth) {
+  OrganizedCloud cloud(width, height);
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      const double a = (u - kCx) / kF, b = (v - kCy) / kF;
+      const double t = depth(a, b);
+      if (!std::isfinite(t)) continue;
+      cloud.x(u, v) = static_cast<float>(a * t);
+      cloud.y(u, v) = static_cast<float>(b * t);
+      cloud.z(u, v) = static_cast<float>(t);
+    }
+  }
+  return cloud;
+}
+
+/// What the stages up to segmentation produce (`run`).
+struct Stages {
+  Mesh mesh;
+  NormalMap normals;
+  Segmentation seg;
+};
+
+inline Stages run(const OrganizedCloud& cloud, const SegmentationSettings& settings) {
+  Stages p;
+  p.mesh = build_mesh(cloud);
+  p.normals = compute_normals(cloud, p.mesh);
+  segment(cloud, p.mesh, p.normals, settings, p.seg);
+  return p;
+}
+
+inline double angle_deg(const std::array<double, 3>& a, const std::array<double, 3>& b) {
+  const double d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  return std::acos(std::clamp(d, -1.0, 1.0)) / kDeg;
+}
+
+/// Invariants every segmentation must satisfy.
+inline void expect_consistent(const OrganizedCloud& cloud, const Segmentation& seg,
+                              const SegmentationSettings& settings) {
+  ASSERT_EQ(seg.labels.width(), cloud.width());
+  ASSERT_EQ(seg.labels.height(), cloud.height());
+  std::vector<int> counts(seg.segments.size() + 1, 0);
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      const int l = seg.labels(u, v);
+      ASSERT_GE(l, 0);
+      ASSERT_LE(l, static_cast<int>(seg.segments.size()))
+          << "label not compact at " << u << "," << v;
+      if (l != 0) {
+        ASSERT_TRUE(cloud.valid(u, v)) << "invalid pixel labelled at " << u << "," << v;
+      }
+      ++counts[l];
+    }
+  }
+  for (std::size_t i = 0; i < seg.segments.size(); ++i) {
+    const Segment& s = seg.segments[i];
+    EXPECT_EQ(s.label, static_cast<int>(i + 1));
+    EXPECT_EQ(s.pixel_count, counts[i + 1]) << "segment " << s.label;
+    EXPECT_GE(2 * s.pixel_count, settings.min_region_size);  // below it only when wide (3D)
+    if (i > 0) {
+      EXPECT_LE(s.pixel_count, seg.segments[i - 1].pixel_count);
+    }
+    const double norm = std::hypot(s.normal[0], s.normal[1], s.normal[2]);
+    EXPECT_NEAR(norm, 1.0, 1e-9);
+    EXPECT_GE(s.offset, 0.0);
+    const double nc =
+        s.normal[0] * s.centroid[0] + s.normal[1] * s.centroid[1] + s.normal[2] * s.centroid[2];
+    EXPECT_NEAR(nc + s.offset, 0.0, 1e-9);  // the plane passes through the centroid
+    EXPECT_GT(s.area_m2, 0.0);
+    EXPECT_GE(s.rms_residual, 0.0);
+  }
+}
+
+}  // namespace rangeseg::test
