@@ -125,6 +125,12 @@ struct Cell {
   bool complete = false;
 };
 
+/// Buffers of the primitive pass of RegionModel::automatic (primitive_model.cpp).
+struct PrimitiveScratch;
+struct PrimitiveScratchDeleter {
+  void operator()(PrimitiveScratch* p) const;
+};
+
 }  // namespace rangeseg::seg
 
 namespace rangeseg {
@@ -142,6 +148,8 @@ struct Segmenter::Scratch {
   std::vector<std::pair<std::int32_t, std::int32_t>> joins;  ///< (pixel, label) re-assignments
   std::vector<detail::PlaneStats> regions;                   ///< per raw region label; [0] unused
   std::vector<detail::PlaneStats> segment_stats;  ///< per segment after post-processing (auto)
+  /// The primitive pass's buffers (auto model), made on its first frame.
+  std::unique_ptr<seg::PrimitiveScratch, seg::PrimitiveScratchDeleter> primitive;
   // coarse level (models with a cell interface)
   std::vector<seg::Cell> cells;  ///< row-major, cell_cols x cell_rows
   int cell_cols = 0, cell_rows = 0;
@@ -331,6 +339,21 @@ std::int32_t grow_smooth_leftovers(const Frame& frame, const SegmentationSetting
 int adjacency_pixels(const std::int32_t* row, const std::int32_t* below, int begin, int end,
                      std::int32_t* out, int& found);
 
+/// Columns u in [begin, end) of a label row (stride 1; `above`, `row` and `below` readable from
+/// begin - 1 to end) that are unlabelled with a labelled pixel among their 8 neighbours, into
+/// `out` in ascending order (`found` of them); returns the column up to which the row was
+/// scanned (the caller does the rest). Vectorised for the CPU.
+int unlabelled_border_pixels(const std::int32_t* above, const std::int32_t* row,
+                             const std::int32_t* below, int begin, int end, std::int32_t* out,
+                             int& found);
+
+/// Per-band buffers of the row scans: band 0 uses scratch.row_pixels, band b > 0
+/// band_row_pixels[b], each one row long; band_found holds two numbers per band.
+void ensure_band_buffers(Segmenter::Scratch& scratch, int width);
+
+/// The one-row buffer of band `band` (see ensure_band_buffers).
+std::int32_t* row_pixels_of(Segmenter::Scratch& scratch, int band);
+
 /// Segment::area_m2 of every segment (label j + 1 for segments[j]; every label of the frame at
 /// most segments.size()): a third of each triangle's area and a quarter of each quad's per
 /// labelled corner.
@@ -348,6 +371,14 @@ void segment_areas(const Frame& frame, Segmenter::Scratch& scratch, std::vector<
 /// of a small real face next to a large plane keep all but the crease for their own seeds.
 void reassign_before_seeds(const Frame& frame, const SegmentationSettings& settings,
                            Segmenter::Scratch& scratch);
+
+/// After small regions are dissolved: unlabelled valid points next to a plane segment join the
+/// adjacent plane they are closest to, within max_distance_sigmas sigma(z) (and, over mesh edges,
+/// with the normal within reassign_max_normal_angle), and points that join make their
+/// neighbours candidates in turn; over mesh edges, or all lattice neighbours when
+/// reassign_across_mesh_cuts. Needs scratch.fits of the kept regions.
+void reassign_boundary(const Frame& frame, const SegmentationSettings& settings,
+                       Segmenter::Scratch& scratch);
 
 /// Root of `a` in the union-find forest `parent` (with path halving).
 inline std::int32_t find_root(std::vector<std::int32_t>& parent, std::int32_t a) {

@@ -28,6 +28,6 @@ struct PrimitiveContext {
   std::span<const detail::PlaneStats> segment_stats;
 };
 void fit_primitives(const Frame& frame, const SegmentationSettings& settings, Segmentation& out,
-                    const PrimitiveContext& context);
+                    Segmenter::Scratch& scratch, const PrimitiveContext& context);
 
 }  // namespace rangeseg::seg

@@ -119,7 +119,10 @@ struct Model {
   double radius() const { return kind == SurfaceKind::sphere ? sphere.radius : cylinder.radius; }
 };
 
-struct Scratch {
+}  // namespace
+
+/// The primitive pass's buffers, kept in Segmenter::Scratch::primitive across frames.
+struct PrimitiveScratch {
   std::vector<std::int32_t> start;   ///< per label: first entry in `pixels`; size labels + 2
   std::vector<std::int32_t> pixels;  ///< lattice pixel indices grouped by label
   std::vector<std::uint64_t> pairs, new_pairs, narrow_pairs, tested_pairs;
@@ -135,17 +138,11 @@ struct Scratch {
   std::vector<Segment> segments;
 };
 
-/// Reused across frames by each thread (Segmenter is not thread-safe, so one thread per
-/// Segmenter; a member of Segmenter::Scratch would be the cleaner home).
-thread_local Scratch tls_scratch;
+void PrimitiveScratchDeleter::operator()(PrimitiveScratch* p) const { delete p; }
 
-std::int32_t find_root(std::vector<std::int32_t>& parent, std::int32_t a) {
-  while (parent[a] != a) {
-    parent[a] = parent[parent[a]];
-    a = parent[a];
-  }
-  return a;
-}
+namespace {
+
+using Scratch = PrimitiveScratch;
 
 class PrimitivePass {
  public:
@@ -862,8 +859,9 @@ class PrimitivePass {
 }  // namespace
 
 void fit_primitives(const Frame& frame, const SegmentationSettings& settings, Segmentation& out,
-                    const PrimitiveContext& context) {
-  PrimitivePass(frame, settings, out, tls_scratch, context).run();
+                    Segmenter::Scratch& scratch, const PrimitiveContext& context) {
+  if (!scratch.primitive) scratch.primitive.reset(new PrimitiveScratch);
+  PrimitivePass(frame, settings, out, *scratch.primitive, context).run();
 }
 
 }  // namespace rangeseg::seg

@@ -388,7 +388,7 @@ void Segmenter::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalM
     }
   }
   if (settings.model == RegionModel::automatic) {
-    seg::fit_primitives(f, settings, out,
+    seg::fit_primitives(f, settings, out, s,
                         {.tentative_from = tentative_from,
                          .normal_noise_c = s.normal_noise_c,
                          .segment_stats = s.segment_stats});
