@@ -95,4 +95,22 @@ inline void expect_consistent(const OrganizedCloud& cloud, const Segmentation& s
   }
 }
 
+/// For a 640x480 frame of two faces meeting at a crease along the middle column (u = 319.5),
+/// the left one's segment at (100, 240) and the right one's at (540, 240): the number of
+/// pixels more than `margin` columns from the crease that carry the other side's segment.
+inline int labelled_across_crease(const Segmentation& seg, double margin) {
+  const int left = seg.labels(100, 240), right = seg.labels(540, 240);
+  EXPECT_NE(left, 0);
+  EXPECT_NE(right, 0);
+  EXPECT_NE(left, right);
+  int across = 0;
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      if (u < 319.5 - margin) across += seg.labels(u, v) == right;
+      if (u > 319.5 + margin) across += seg.labels(u, v) == left;
+    }
+  }
+  return across;
+}
+
 }  // namespace rangeseg::test

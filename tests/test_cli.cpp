@@ -196,7 +196,8 @@ TEST(Cli, ConfigFileOverridesAndRejectsUnknownKeys) {
   const fs::path dir = rangeseg::test::scratch_dir("cli_config");
   ASSERT_EQ(run("synth -o " + dir.string() + " --noise none --scene boxes --seed 2").code, 0);
   std::ofstream(dir / "good.json") << R"({"noise": {"a": 0.002}, "mesh": {"jump_sigmas": 4},
-      "smoothing": {"iterations": 1}, "segmentation": {"min_region_size": 50, "merge_rms_sigmas": 1.5}})";
+      "smoothing": {"iterations": 1}, "segmentation": {"min_region_size": 50, "merge_rms_sigmas": 1.5,
+      "boundary_refine_sigmas": 2}})";
   std::ofstream(dir / "bad.json") << R"({"segmentation": {"min_region_sise": 50}})";
   const CliResult good =
       run("segment " + (dir / "cloud.pcd").string() + " -o " + (dir / "g").string() +
@@ -207,6 +208,13 @@ TEST(Cli, ConfigFileOverridesAndRejectsUnknownKeys) {
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.out.find("min_region_sise"), std::string::npos) << bad.out;
   EXPECT_FALSE(fs::exists(dir / "b" / "labels.png"));
+  std::ofstream(dir / "negative.json") << R"({"segmentation": {"boundary_refine_sigmas": -1}})";
+  const CliResult negative =
+      run("segment " + (dir / "cloud.pcd").string() + " -o " + (dir / "n").string() + " --config " +
+          (dir / "negative.json").string());
+  EXPECT_EQ(negative.code, 2);
+  EXPECT_NE(negative.out.find("boundary_refine_sigmas"), std::string::npos) << negative.out;
+  EXPECT_FALSE(fs::exists(dir / "n" / "labels.png"));
   // Integer settings take integers only: no silent truncation or wrap-around.
   for (const char* value : {"2.5", "4294967298", "-3000000000", "\"2\""}) {
     std::ofstream(dir / "int.json") << R"({"segmentation": {"growth_bands": )" << value << "}}";

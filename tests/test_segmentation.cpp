@@ -34,6 +34,7 @@ using test::kCy;
 using test::kDeg;
 using test::kF;
 using test::kPi;
+using test::labelled_across_crease;
 using test::run;
 using test::Stages;
 
@@ -211,22 +212,11 @@ TEST(Segmentation, MeasuredNormalNoiseKeepsRegionsOffShallowCreases) {
   OrganizedCloud points;
   NormalMap normals;
   smooth(cloud, mesh, raw, {}, points, normals);
-  // Pixels of each segment on the wrong side of the crease (u = cx), 3 columns off it.
+  // Pixels of each segment on the wrong side of the crease, 3 columns off it.
   const auto crossing = [&](const SegmentationSettings& settings) {
     const Segmentation seg = segment(points, mesh, normals, settings);
     expect_consistent(points, seg, settings);
-    const int left = seg.labels(100, 240), right = seg.labels(540, 240);
-    EXPECT_NE(left, 0);
-    EXPECT_NE(right, 0);
-    EXPECT_NE(left, right);
-    int wrong = 0;
-    for (int v = 0; v < 480; ++v) {
-      for (int u = 0; u < 640; ++u) {
-        if (u < 317) wrong += seg.labels(u, v) == right;
-        if (u > 322) wrong += seg.labels(u, v) == left;
-      }
-    }
-    return wrong;
+    return labelled_across_crease(seg, 2.5);
   };
   SegmentationSettings fixed = kinect;
   fixed.normal_noise_sigmas = 0;  // the 25 deg test alone
@@ -273,6 +263,41 @@ TEST(Segmentation, CompactPlanesAFewDegreesApartStayApart) {
     EXPECT_NE(left, 0) << degrees;
     EXPECT_NE(right, 0) << degrees;
     EXPECT_NE(left, right) << degrees;
+  }
+}
+
+/// Two planes meeting at a 6 deg crease along the image's middle column, 1 m away, with the
+/// SegComp ABW scanner's noise (0.5 mm) and its preset (normal test 60 deg): the points within
+/// ~7 pixels of the crease lie within the growth test's bound (3 sigma) of both planes, so
+/// region growing gives them to whichever region reaches them first. Border refinement moves a
+/// point to the plane it lies closer to by more than sigma: beyond 6 pixels (planes 1.2 mm, 2.4
+/// sigma apart) fewer than half the points on the wrong side stay there (3 sigma of
+/// separation is where the growth bound ends, so noise keeps some); closer to the crease the
+/// noise hides which plane a point is on.
+TEST(Segmentation, CreaseBorderFollowsTheSurfacesNotTheGrowthOrder) {
+  SegmentationSettings settings = preset("abw");
+  settings.noise = {.a = 0.0005, .b = 0.0, .z0 = 0.0};
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.0005);
+  const double slope = std::tan(6 * kDeg);
+  const OrganizedCloud cloud = cast(640, 480, [&](double a, double) {
+    return (a <= 0 ? 1.0 : 1.0 / (1.0 - slope * a)) + noise(rng);
+  });
+  for (const int bands : {1, 2}) {
+    settings.growth_bands = bands;
+    settings.boundary_refine_sigmas = 0;
+    const Stages off = run(cloud, settings);
+    settings.boundary_refine_sigmas = 1;
+    const Stages on = run(cloud, settings);
+    expect_consistent(cloud, on.seg, settings);
+    ASSERT_EQ(off.seg.segments.size(), 2u);
+    ASSERT_EQ(on.seg.segments.size(), 2u);
+    const int before = labelled_across_crease(off.seg, 6.5);
+    const int after = labelled_across_crease(on.seg, 6.5);
+    std::printf("%d band(s): %d points on the wrong side of the crease, %d refined\n", bands,
+                before, after);
+    EXPECT_GT(before, 200) << bands << " band(s)";
+    EXPECT_LT(after, before / 2) << bands << " band(s)";
   }
 }
 
@@ -695,6 +720,10 @@ TEST(Segmentation, PresetsAndValidation) {
   EXPECT_THROW(segment(cloud, mesh, normals, {.split_residual_factor = -1}, out),
                std::invalid_argument);
   EXPECT_THROW(segment(cloud, mesh, normals, {.split_residual_factor = NAN}, out),
+               std::invalid_argument);
+  EXPECT_THROW(segment(cloud, mesh, normals, {.boundary_refine_sigmas = -1}, out),
+               std::invalid_argument);
+  EXPECT_THROW(segment(cloud, mesh, normals, {.boundary_refine_sigmas = INFINITY}, out),
                std::invalid_argument);
   EXPECT_THROW(segment(cloud, mesh, normals, {.grazing_min_angle = -0.1}, out),
                std::invalid_argument);

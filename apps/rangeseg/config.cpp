@@ -130,6 +130,7 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
                     "merge_rms_sigmas",
                     "merge_rms_max_angle",
                     "split_residual_factor",
+                    "boundary_refine_sigmas",
                     "grazing_min_angle",
                     "grazing_max_angle",
                     "reassign_boundary",
@@ -160,6 +161,7 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
     take(m, "merge_rms_sigmas", t.merge_rms_sigmas, where);
     take(m, "merge_rms_max_angle", t.merge_rms_max_angle, where);
     take(m, "split_residual_factor", t.split_residual_factor, where);
+    take(m, "boundary_refine_sigmas", t.boundary_refine_sigmas, where);
     take(m, "grazing_min_angle", t.grazing_min_angle, where);
     take(m, "grazing_max_angle", t.grazing_max_angle, where);
     take(m, "reassign_boundary", t.reassign_boundary, where);

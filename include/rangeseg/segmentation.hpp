@@ -93,8 +93,10 @@ struct SegmentationSettings {
   /// (32 lattice rows) tall, so small frames use fewer. 1 = the whole frame at once, in one
   /// seed order (dimensionless, 1..64). With 2 bands and 2 threads plane segmentation of a
   /// 640x480 Kinect frame takes ~55 % of the time, but a region seeded in one band no longer
-  /// claims pixels of the other before that band's own seeds do, so faces near creases can
-  /// come out differently (SegComp ABW: 86.5 % of the regions correct instead of 88.0 %).
+  /// claims pixels of the other before that band's own seeds do, so borders at creases follow
+  /// the seams unless `boundary_refine_sigmas` moves them (SegComp ABW: 88.0 % of the regions
+  /// correct with 1, 2 or 4 bands; without the refinement 86.5 % with 2 or 4), and a small face
+  /// that a seam cuts into two pieces below `min_region_size` is lost.
   int growth_bands = 1;
 
   // --- post-processing ---
@@ -133,6 +135,16 @@ struct SegmentationSettings {
   /// planes, each part of at least `min_region_size` pixels, unless merging joins them again: a
   /// region that crept over a crease or a step while growing (dimensionless; 0 = off).
   double split_residual_factor = 2.5;
+  /// plane and incremental_plane, with `merge_planes`: after merging and splitting, a point on
+  /// the border of two plane segments (joined by a mesh edge) moves to the other one when it
+  /// lies closer to that plane by more than this many sigma(z), and within
+  /// `max_distance_sigmas` sigma(z) of it; the planes are refitted and the neighbours of the
+  /// points that moved tested in turn (up to 8 rounds). Near a crease the points lie within the
+  /// growth test's distance bound of both planes, so region growing gives them to whichever
+  /// region reaches them first: the border follows the seed order (and, with `growth_bands`,
+  /// the band seams) instead of the surfaces. Not for `automatic`, whose plane facets may be
+  /// pieces of one curved surface (dimensionless; 0 = off).
+  double boundary_refine_sigmas = 1.0;
   /// plane models: a surface seen within a few degrees of its plane (a table or box top a
   /// little below the sensor, a wall edge-on) has its rows centimetres apart in depth, as far
   /// as the depth noise or farther, so its 1-ring normals scatter by tens of degrees and the

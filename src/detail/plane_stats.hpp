@@ -63,6 +63,19 @@ struct PlaneStats {
     syz += o.syz;
     szz += o.szz;
   }
+  /// Takes back an earlier add of the same point.
+  void remove(double x, double y, double z) {
+    --count;
+    sx -= x;
+    sy -= y;
+    sz -= z;
+    sxx -= x * x;
+    sxy -= x * y;
+    sxz -= x * z;
+    syy -= y * y;
+    syz -= y * z;
+    szz -= z * z;
+  }
   void clear() { *this = PlaneStats{}; }
 
   std::array<double, 3> mean() const {

@@ -125,6 +125,14 @@ struct Cell {
   bool complete = false;
 };
 
+/// A border point of a plane segment that lies closer to an adjacent segment's plane
+/// (refine_plane_boundaries).
+struct BoundaryMove {
+  std::int32_t pixel = 0;
+  std::int32_t target = 0;  ///< root label of the segment it moves to
+  double distance = 0;      ///< to the target's plane [m]
+};
+
 /// Buffers of the primitive pass of RegionModel::automatic (primitive_model.cpp).
 struct PrimitiveScratch;
 struct PrimitiveScratchDeleter {
@@ -146,7 +154,12 @@ struct Segmenter::Scratch {
   std::vector<std::int32_t> marked;    ///< pixels rejected by a region (grow_pixels)
   std::vector<std::int32_t> rejected;  ///< `marked` of all regions of the cell level
   std::vector<std::pair<std::int32_t, std::int32_t>> joins;  ///< (pixel, label) re-assignments
-  std::vector<detail::PlaneStats> regions;                   ///< per raw region label; [0] unused
+  /// refine_plane_boundaries: per raw label its segment's root (0 = none), moves of a round
+  std::vector<std::int32_t> root_of;
+  std::vector<seg::BoundaryMove> boundary_moves;
+  std::vector<std::uint8_t> refit;
+  std::vector<std::int32_t> moved;
+  std::vector<detail::PlaneStats> regions;        ///< per raw region label; [0] unused
   std::vector<detail::PlaneStats> segment_stats;  ///< per segment after post-processing (auto)
   /// The primitive pass's buffers (auto model), made on its first frame.
   std::unique_ptr<seg::PrimitiveScratch, seg::PrimitiveScratchDeleter> primitive;
@@ -200,6 +213,10 @@ struct Segmenter::Scratch {
   std::vector<std::vector<std::uint8_t>> band_cell_complete;
   std::vector<std::vector<std::int32_t>> band_row_pixels;
   std::vector<std::vector<std::uint64_t>> band_adjacency;
+  /// Per band: the pixels that start a pair of plane regions joined by a mesh edge, as merging
+  /// found them (adjacent_pairs), and how many regions there were then.
+  std::vector<std::vector<std::int32_t>> band_border;
+  std::size_t border_regions = 0;
   std::vector<std::int32_t> band_seed_counts;               ///< kSeedBuckets per band
   std::vector<std::vector<std::uint64_t>> band_label_bits;  ///< seed scan's label masks per band
   std::vector<std::size_t> band_found;                      ///< items each band found
@@ -379,6 +396,14 @@ void reassign_before_seeds(const Frame& frame, const SegmentationSettings& setti
 /// reassign_across_mesh_cuts. Needs scratch.fits of the kept regions.
 void reassign_boundary(const Frame& frame, const SegmentationSettings& settings,
                        Segmenter::Scratch& scratch);
+
+/// After merging and splitting: points on the border of two plane segments (a mesh edge between
+/// them) move to the other segment when closer to its plane by more than
+/// boundary_refine_sigmas sigma(z) (see SegmentationSettings); up to 8 rounds, the moved segments'
+/// statistics updated and their planes refitted. Needs the union-find parents, fits and kept
+/// regions (remap) of post-processing.
+void refine_plane_boundaries(const Frame& frame, const SegmentationSettings& settings,
+                             Segmenter::Scratch& scratch);
 
 /// Root of `a` in the union-find forest `parent` (with path halving).
 inline std::int32_t find_root(std::vector<std::int32_t>& parent, std::int32_t a) {

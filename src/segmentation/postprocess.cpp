@@ -323,9 +323,11 @@ constexpr std::uint64_t kAcrossCut = std::uint64_t{1} << 63;
 
 /// The label pairs (smaller << 32 | larger) of lattice neighbours in rows [v_begin, v_end) whose
 /// regions are both large enough to fit, appended to `pairs` (with repeats); pairs that meet
-/// where the mesh has no edge carry kAcrossCut. `row_pixels`: one row.
+/// where the mesh has no edge carry kAcrossCut. The pixels that start a pair over a mesh edge
+/// go to `border` (for refine_plane_boundaries). `row_pixels`: one row.
 void adjacent_pairs(const Frame& f, const std::vector<PlaneStats>& regions, int v_begin, int v_end,
-                    std::int32_t* row_pixels, std::vector<std::uint64_t>& pairs) {
+                    std::int32_t* row_pixels, std::vector<std::uint64_t>& pairs,
+                    std::vector<std::int32_t>& border) {
   std::uint64_t last = 0;
   const int step = f.pixel_stride;
   const std::ptrdiff_t right = f.neighbour_offset[0], down = f.neighbour_offset[2];
@@ -339,17 +341,21 @@ void adjacent_pairs(const Frame& f, const std::vector<PlaneStats>& regions, int 
   const auto visit = [&](std::ptrdiff_t i, std::int32_t a, unsigned mask) {
     if (a == 0 || regions[a].count < kMinFitPixels) return;
     const unsigned edges = f.edges[i];
+    bool on_border = false;
     while (mask != 0) {
       const int k = std::countr_zero(mask);
       mask &= mask - 1;
       const std::int32_t b = f.labels[i + f.neighbour_offset[k]];
       if (b == 0 || b == a || regions[b].count < kMinFitPixels) continue;
+      const bool edge = (edges >> k & 1u) != 0;
+      on_border = on_border || edge;
       const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) |
                                 static_cast<std::uint32_t>(std::max(a, b)) |
-                                ((edges >> k & 1u) != 0 ? 0 : kAcrossCut);
+                                (edge ? 0 : kAcrossCut);
       if (key != last) pairs.push_back(key);
       last = key;
     }
+    if (on_border) border.push_back(static_cast<std::int32_t>(i));
   };
   // Inside a segment (nearly every pixel) all forward neighbours share the label.
   const auto interior = [&](std::ptrdiff_t i, std::int32_t a) {
@@ -405,9 +411,12 @@ void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
   ensure_band_buffers(s, f.width);
   for_each_band(s, f.height, f.pixel_stride, [&](int band, int v_begin, int v_end) {
     auto& pairs = band == 0 ? s.adjacency : s.band_adjacency[static_cast<std::size_t>(band)];
+    auto& border = s.band_border[static_cast<std::size_t>(band)];
     pairs.clear();
-    adjacent_pairs(f, s.regions, v_begin, v_end, row_pixels_of(s, band), pairs);
+    border.clear();
+    adjacent_pairs(f, s.regions, v_begin, v_end, row_pixels_of(s, band), pairs, border);
   });
+  s.border_regions = s.regions.size();
   for (int band = 1; band < band_count(s); ++band) {
     const auto& pairs = s.band_adjacency[static_cast<std::size_t>(band)];
     s.adjacency.insert(s.adjacency.end(), pairs.begin(), pairs.end());
@@ -616,6 +625,7 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
     }
     merge_adjacent_planes(f, settings, s);
     split_unexplained_planes(f, settings, s);
+    if (settings.boundary_refine_sigmas > 0) refine_plane_boundaries(f, settings, s);
   }
   const auto region_total = static_cast<std::int32_t>(s.regions.size());  // with split parts
   // Surviving regions are the union-find roots among the kept ones; the labels go through the
@@ -681,6 +691,7 @@ void ensure_band_buffers(Segmenter::Scratch& s, int width) {
   s.row_pixels.resize(static_cast<std::size_t>(width));
   if (s.band_row_pixels.size() < bands) s.band_row_pixels.resize(bands);
   if (s.band_adjacency.size() < bands) s.band_adjacency.resize(bands);
+  if (s.band_border.size() < bands) s.band_border.resize(bands);
   for (std::size_t b = 1; b < bands; ++b) {
     s.band_row_pixels[b].resize(static_cast<std::size_t>(width));
   }

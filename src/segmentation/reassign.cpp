@@ -1,5 +1,6 @@
 // Re-assignment of unlabelled points to adjacent planes: between the coarse level and the pixel
-// seeds (reassign_before_seeds) and after small regions are dissolved (reassign_boundary).
+// seeds (reassign_before_seeds) and after small regions are dissolved (reassign_boundary); and
+// the refinement of the borders between plane segments (refine_plane_boundaries).
 // Contraction into fused multiply-adds is off, as in postprocess.cpp, so the distance tests
 // round the same way whatever the build flags.
 #if defined(__clang__)
@@ -9,6 +10,7 @@
 #endif
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -238,6 +240,135 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
   reassign_queued<kAcrossCuts>(f, settings, s, size);
 }
 
+/// Rounds of refine_plane_boundaries: the planes are refitted after each, and a later round
+/// tests only the points next to those that moved, so a border that growth put several points
+/// off a shallow crease moves back a point per round.
+constexpr int kBorderRounds = 8;
+
+/// Direction index k (kNeighbourDu / kNeighbourDv) of the lattice step (du, dv).
+int direction(int du, int dv) {
+  for (int k = 0; k < 8; ++k) {
+    if (kNeighbourDu[k] == du && kNeighbourDv[k] == dv) return k;
+  }
+  return -1;
+}
+
+/// Records the move of point `x` (segment root `from`) to segment root `to` if it lies closer
+/// to `to`'s plane by more than the margin and within the growth test's bound of it.
+void consider_move(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s,
+                   std::int32_t x, std::int32_t from, std::int32_t to) {
+  const detail::PlaneFit& a = s.fits[from];
+  const detail::PlaneFit& b = s.fits[to];
+  if (!a.ok || !b.ok || s.grazing_region[from] != 0 || s.grazing_region[to] != 0) return;
+  const double px = f.x[x], py = f.y[x], pz = f.z[x];
+  const double sigma = settings.noise.sigma(pz);
+  const double da = std::fabs(a.distance(px, py, pz)), db = std::fabs(b.distance(px, py, pz));
+  if (da - db > settings.boundary_refine_sigmas * sigma &&
+      db <= settings.max_distance_sigmas * sigma) {
+    s.boundary_moves.push_back({.pixel = x, .target = to, .distance = db});
+  }
+}
+
+/// The moves of the first round: both points of every pair of lattice neighbours joined by a
+/// mesh edge whose segments differ (from the borders merging found, unless a split changed
+/// them).
+void collect_border_moves(const Frame& f, const SegmentationSettings& settings,
+                          Segmenter::Scratch& s) {
+  s.boundary_moves.clear();
+  const int step = f.pixel_stride;
+  // Each lattice neighbour pair once: p and its right, down-left, down and down-right neighbours.
+  const std::array<int, 4> forward{direction(1, 0), direction(-1, 1), direction(0, 1),
+                                   direction(1, 1)};
+  const auto pair_at = [&](std::ptrdiff_t p) {
+    const std::int32_t lp = f.labels[p];
+    const std::int32_t a = lp > 0 ? s.root_of[lp] : 0;
+    if (a == 0) return;
+    const unsigned edges = f.edges[p];
+    for (const int k : forward) {
+      if ((edges >> k & 1u) == 0) continue;
+      const auto q = static_cast<std::int32_t>(p + f.neighbour_offset[k]);
+      const std::int32_t lq = f.labels[q];
+      const std::int32_t b = lq > 0 ? s.root_of[lq] : 0;
+      if (b == 0 || b == a) continue;
+      consider_move(f, settings, s, static_cast<std::int32_t>(p), a, b);
+      consider_move(f, settings, s, q, b, a);
+    }
+  };
+  if (s.border_regions == s.regions.size()) {
+    // Merging found the borders, and merging keeps the raw labels; a split (which adds
+    // regions) relabels pixels, and the frame is scanned again.
+    for (int band = 0; band < band_count(s); ++band) {
+      for (const std::int32_t p : s.band_border[static_cast<std::size_t>(band)]) pair_at(p);
+    }
+    return;
+  }
+  const bool vector_scan = step == 1 && f.width > 2;
+  for (int v = 0; v + step < f.height; v += step) {
+    const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(v) * f.stride;
+    int u = 0;
+    if (vector_scan) {
+      // Only a labelled pixel whose label differs from a forward neighbour's starts a pair.
+      pair_at(row);
+      int found = 0;
+      u = adjacency_pixels(f.labels + row, f.labels + row + f.stride, 1, f.width - 1,
+                           s.row_pixels.data(), found);
+      for (int j = 0; j < found; ++j) pair_at(row + s.row_pixels[j]);
+    }
+    for (; u < f.width; u += step) pair_at(row + u);
+  }
+}
+
+/// The moves of a later round: only the points that moved in the last one and their mesh
+/// neighbours have a new neighbouring segment.
+void collect_moves_around(const Frame& f, const SegmentationSettings& settings,
+                          Segmenter::Scratch& s) {
+  s.boundary_moves.clear();
+  for (const std::int32_t m : s.moved) {
+    const std::int32_t a = s.root_of[f.labels[m]];
+    unsigned edges = f.edges[m];
+    while (edges != 0) {
+      const int k = std::countr_zero(edges);
+      edges &= edges - 1;
+      const auto q = static_cast<std::int32_t>(m + f.neighbour_offset[k]);
+      const std::int32_t lq = f.labels[q];
+      const std::int32_t b = lq > 0 ? s.root_of[lq] : 0;
+      if (b == 0 || b == a) continue;
+      consider_move(f, settings, s, q, b, a);
+      consider_move(f, settings, s, m, a, b);
+    }
+  }
+}
+
+/// Applies the collected moves (a point next to several segments goes to the closest plane;
+/// all were decided on the labels and planes as they were) and refits the planes they changed;
+/// the moved points into s.moved. Returns whether a point moved.
+bool apply_border_moves(const Frame& f, Segmenter::Scratch& s) {
+  s.moved.clear();
+  if (s.boundary_moves.empty()) return false;
+  std::sort(s.boundary_moves.begin(), s.boundary_moves.end(),
+            [](const BoundaryMove& m, const BoundaryMove& n) {
+              return m.pixel != n.pixel ? m.pixel < n.pixel : m.distance < n.distance;
+            });
+  std::int32_t last = -1;
+  for (const BoundaryMove& m : s.boundary_moves) {
+    if (m.pixel == last) continue;
+    last = m.pixel;
+    const std::int32_t from = s.root_of[f.labels[m.pixel]];
+    if (s.regions[from].count <= 3) continue;  // a segment keeps a plane
+    const double x = f.x[m.pixel], y = f.y[m.pixel], z = f.z[m.pixel];
+    s.regions[from].remove(x, y, z);
+    s.regions[m.target].add(x, y, z);
+    f.labels[m.pixel] = m.target;
+    s.refit[from] = s.refit[m.target] = 1;
+    s.moved.push_back(m.pixel);
+  }
+  for (std::size_t r = 0; r < s.refit.size(); ++r) {
+    if (s.refit[r] != 0) s.fits[r] = s.regions[r].fit();
+    s.refit[r] = 0;
+  }
+  return !s.moved.empty();
+}
+
 }  // namespace
 
 void reassign_before_seeds(const Frame& f, const SegmentationSettings& settings,
@@ -294,6 +425,22 @@ void reassign_boundary(const Frame& f, const SegmentationSettings& settings,
     reassign_boundary_points<true>(f, settings, s);
   } else {
     reassign_boundary_points<false>(f, settings, s);
+  }
+}
+
+void refine_plane_boundaries(const Frame& f, const SegmentationSettings& settings,
+                             Segmenter::Scratch& s) {
+  const std::size_t regions = s.regions.size();
+  s.root_of.assign(regions, 0);
+  for (std::size_t r = 1; r < regions && r < s.remap.size(); ++r) {
+    const auto label = static_cast<std::int32_t>(r);
+    if (s.remap[r] == label) s.root_of[r] = find_root(s.parent, label);
+  }
+  s.refit.assign(regions, 0);
+  s.row_pixels.resize(static_cast<std::size_t>(f.width));
+  collect_border_moves(f, settings, s);
+  for (int round = 1; apply_border_moves(f, s) && round < kBorderRounds; ++round) {
+    collect_moves_around(f, settings, s);
   }
 }
 

@@ -47,6 +47,8 @@ void validate(const SegmentationSettings& s) {
           s.max_distance_sigmas, "finite and > 0");
   require(s.split_residual_factor >= 0 && std::isfinite(s.split_residual_factor),
           "split_residual_factor", s.split_residual_factor, "finite and >= 0");
+  require(s.boundary_refine_sigmas >= 0 && std::isfinite(s.boundary_refine_sigmas),
+          "boundary_refine_sigmas", s.boundary_refine_sigmas, "finite and >= 0");
   require(s.grazing_min_angle >= 0 && s.grazing_min_angle < pi / 2, "grazing_min_angle",
           s.grazing_min_angle, "in [0, pi / 2) rad");
   require(s.grazing_max_angle >= s.grazing_min_angle && s.grazing_max_angle < pi / 2,
@@ -359,6 +361,9 @@ void Segmenter::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalM
     // Both post-process their regions as planes (merging, boundary re-assignment).
     SegmentationSettings as_planes = settings;
     as_planes.model = RegionModel::plane;
+    // The auto model's plane facets may be pieces of one curved surface, where a border point
+    // lies closer to the neighbouring facet's plane without being on another surface.
+    if (settings.model == RegionModel::automatic) as_planes.boundary_refine_sigmas = 0;
     seg::postprocess(f, as_planes, s, out);
     if (settings.model == RegionModel::incremental_plane) {
       for (Segment& segment : out.segments) segment.model = settings.model;
