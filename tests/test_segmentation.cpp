@@ -26,17 +26,7 @@
 namespace rangeseg {
 namespace {
 
-using test::angle_deg;
-using test::cast;
-using test::expect_consistent;
-using test::kCx;
-using test::kCy;
-using test::kDeg;
-using test::kF;
-using test::kPi;
-using test::labelled_across_crease;
-using test::run;
-using test::Stages;
+using namespace test;  // the segmentation test helpers
 
 // --- plane statistics ---
 

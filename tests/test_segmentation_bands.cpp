@@ -14,12 +14,7 @@
 namespace rangeseg {
 namespace {
 
-using test::angle_deg;
-using test::cast;
-using test::expect_consistent;
-using test::kDeg;
-using test::run;
-using test::Stages;
+using namespace test;  // the segmentation test helpers
 
 /// Growth bands cut every region that crosses a seam; merging over the whole frame joins the
 /// pieces again. A noisy floor-like plane crossing all three seams of 4 bands is one segment as

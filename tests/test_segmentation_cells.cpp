@@ -27,9 +27,7 @@
 namespace rangeseg {
 namespace {
 
-using test::cast;
-using test::expect_consistent;
-using test::kDeg;
+using namespace test;  // the segmentation test helpers
 
 // --- coarse level (cells) ---
 

@@ -23,7 +23,7 @@
 namespace rangeseg {
 namespace {
 
-using test::expect_consistent;
+using namespace test;  // the segmentation test helpers
 
 TEST(Segmentation, SyntheticKinectScenesDetectPlanes) {
   const SegmentationSettings settings = preset("kinect");

@@ -18,15 +18,7 @@
 namespace rangeseg {
 namespace {
 
-using test::angle_deg;
-using test::cast;
-using test::expect_consistent;
-using test::kCx;
-using test::kCy;
-using test::kDeg;
-using test::kF;
-using test::run;
-using test::Stages;
+using namespace test;  // the segmentation test helpers
 
 /// A table top 0.3 m below the sensor, 2-3 m away (seen at 6-8.5 deg), with its front face and
 /// a wall at 4 m, Kinect noise along the ray and one smoothing pass, as the pipeline runs. The
