@@ -165,7 +165,7 @@ TEST(Segmentation, BowedWallIsOneSegmentButShallowCreaseIsNot) {
     const Stages p = run(bowed, settings);
     expect_consistent(bowed, p.seg, settings);
     ASSERT_EQ(p.seg.segments.size(), 1u) << "seed " << seed;
-    EXPECT_GT(p.seg.segments[0].pixel_count, 0.98 * 640 * 480) << "seed " << seed;
+    EXPECT_GT(p.seg.segments[0].pixel_count, 0.975 * 640 * 480) << "seed " << seed;
 
     // Control: two planes meeting at 3 deg along x = 0 (the left one fronto-parallel at 1 m)
     // leave the same sagitta-scale residual but as a crease: two segments, split at x = 0.

@@ -25,10 +25,10 @@ struct PipelineSettings {
   PolygonSettings polygon{};
   /// Threads inside one frame: mesh, normals and smoothing run on this many row bands at once,
   /// and the segments' areas are summed while the polygons are traced (then counted in
-  /// StageTimes::polygons); results are bit-identical to 1 thread. Region growing runs on one
-  /// unless the frame is grown in bands (SegmentationSettings::growth_bands), which the threads
-  /// then share. Frames under 65536 pixels always run on one thread (a hand-off costs as much as
-  /// their work). 1..256.
+  /// StageTimes::polygons); results are bit-identical to 1 thread. Region growing runs on as
+  /// many threads as the frame has growth bands (SegmentationSettings::growth_bands, default 2).
+  /// Frames under 65536 pixels always run on one thread (a hand-off costs as much as their
+  /// work). 1..256.
   int threads = 1;
 };
 
