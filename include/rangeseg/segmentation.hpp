@@ -93,7 +93,7 @@ struct SegmentationSettings {
   /// (32 lattice rows) tall, so small frames use fewer. 1 = the whole frame at once, in one
   /// seed order (dimensionless, 1..64). Default 2, so that region growing, most of
   /// segmentation, runs on two threads when there are two (a 640x480 Kinect frame: plane
-  /// segmentation ~0.75x the time of one band, the whole frame 1.45-1.75x faster than on one
+  /// segmentation ~0.75x the time of one band, the whole frame 1.4-1.75x faster than on one
   /// thread, against 0.85-1.4x with one band); on one thread 2 bands cost ~6 % more segmentation
   /// instructions. A region seeded in one band no longer claims pixels of the other before that
   /// band's own seeds do; `boundary_refine_sigmas` puts the borders at creases back on the

@@ -154,11 +154,11 @@ struct Segmenter::Scratch {
   std::vector<std::int32_t> marked;    ///< pixels rejected by a region (grow_pixels)
   std::vector<std::int32_t> rejected;  ///< `marked` of all regions of the cell level
   std::vector<std::pair<std::int32_t, std::int32_t>> joins;  ///< (pixel, label) re-assignments
-  /// refine_plane_boundaries: per raw label its segment's root (0 = none), moves of a round
-  std::vector<std::int32_t> root_of;
-  std::vector<seg::BoundaryMove> boundary_moves;
-  std::vector<std::uint8_t> refit;
-  std::vector<std::int32_t> moved;
+  // refine_plane_boundaries
+  std::vector<std::int32_t> root_of;              ///< per raw label its segment's root, 0 = none
+  std::vector<seg::BoundaryMove> boundary_moves;  ///< candidate moves of a round
+  std::vector<std::uint8_t> refit;                ///< per raw label: its plane changed this round
+  std::vector<std::int32_t> moved;                ///< points moved in the last round
   std::vector<detail::PlaneStats> regions;        ///< per raw region label; [0] unused
   std::vector<detail::PlaneStats> segment_stats;  ///< per segment after post-processing (auto)
   /// The primitive pass's buffers (auto model), made on its first frame.

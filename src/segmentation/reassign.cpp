@@ -10,7 +10,6 @@
 #endif
 
 #include <algorithm>
-#include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -245,13 +244,8 @@ void reassign_boundary_points(const Frame& f, const SegmentationSettings& settin
 /// off a shallow crease moves back a point per round.
 constexpr int kBorderRounds = 8;
 
-/// Direction index k (kNeighbourDu / kNeighbourDv) of the lattice step (du, dv).
-int direction(int du, int dv) {
-  for (int k = 0; k < 8; ++k) {
-    if (kNeighbourDu[k] == du && kNeighbourDv[k] == dv) return k;
-  }
-  return -1;
-}
+/// Directions 0..3 (right, down-right, down, down-left): every lattice neighbour pair once.
+constexpr unsigned kForward = 0x0Fu;
 
 /// Records the move of point `x` (segment root `from`) to segment root `to` if it lies closer
 /// to `to`'s plane by more than the margin and within the growth test's bound of it.
@@ -269,6 +263,25 @@ void consider_move(const Frame& f, const SegmentationSettings& settings, Segment
   }
 }
 
+/// Both points of the mesh edges from point p in the directions `edges` whose ends lie in
+/// different plane segments, each tested for the other's segment.
+void consider_edges(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s,
+                    std::int32_t p, unsigned edges) {
+  const std::int32_t lp = f.labels[p];
+  const std::int32_t a = lp > 0 ? s.root_of[lp] : 0;
+  if (a == 0) return;
+  while (edges != 0) {
+    const int k = std::countr_zero(edges);
+    edges &= edges - 1;
+    const auto q = static_cast<std::int32_t>(p + f.neighbour_offset[k]);
+    const std::int32_t lq = f.labels[q];
+    const std::int32_t b = lq > 0 ? s.root_of[lq] : 0;
+    if (b == 0 || b == a) continue;
+    consider_move(f, settings, s, p, a, b);
+    consider_move(f, settings, s, q, b, a);
+  }
+}
+
 /// The moves of the first round: both points of every pair of lattice neighbours joined by a
 /// mesh edge whose segments differ (from the borders merging found, unless a split changed
 /// them).
@@ -276,23 +289,8 @@ void collect_border_moves(const Frame& f, const SegmentationSettings& settings,
                           Segmenter::Scratch& s) {
   s.boundary_moves.clear();
   const int step = f.pixel_stride;
-  // Each lattice neighbour pair once: p and its right, down-left, down and down-right neighbours.
-  const std::array<int, 4> forward{direction(1, 0), direction(-1, 1), direction(0, 1),
-                                   direction(1, 1)};
   const auto pair_at = [&](std::ptrdiff_t p) {
-    const std::int32_t lp = f.labels[p];
-    const std::int32_t a = lp > 0 ? s.root_of[lp] : 0;
-    if (a == 0) return;
-    const unsigned edges = f.edges[p];
-    for (const int k : forward) {
-      if ((edges >> k & 1u) == 0) continue;
-      const auto q = static_cast<std::int32_t>(p + f.neighbour_offset[k]);
-      const std::int32_t lq = f.labels[q];
-      const std::int32_t b = lq > 0 ? s.root_of[lq] : 0;
-      if (b == 0 || b == a) continue;
-      consider_move(f, settings, s, static_cast<std::int32_t>(p), a, b);
-      consider_move(f, settings, s, q, b, a);
-    }
+    consider_edges(f, settings, s, static_cast<std::int32_t>(p), f.edges[p] & kForward);
   };
   if (s.border_regions == s.regions.size()) {
     // Merging found the borders, and merging keeps the raw labels; a split (which adds
@@ -323,20 +321,7 @@ void collect_border_moves(const Frame& f, const SegmentationSettings& settings,
 void collect_moves_around(const Frame& f, const SegmentationSettings& settings,
                           Segmenter::Scratch& s) {
   s.boundary_moves.clear();
-  for (const std::int32_t m : s.moved) {
-    const std::int32_t a = s.root_of[f.labels[m]];
-    unsigned edges = f.edges[m];
-    while (edges != 0) {
-      const int k = std::countr_zero(edges);
-      edges &= edges - 1;
-      const auto q = static_cast<std::int32_t>(m + f.neighbour_offset[k]);
-      const std::int32_t lq = f.labels[q];
-      const std::int32_t b = lq > 0 ? s.root_of[lq] : 0;
-      if (b == 0 || b == a) continue;
-      consider_move(f, settings, s, q, b, a);
-      consider_move(f, settings, s, m, a, b);
-    }
-  }
+  for (const std::int32_t m : s.moved) consider_edges(f, settings, s, m, f.edges[m]);
 }
 
 /// Applies the collected moves (a point next to several segments goes to the closest plane;
