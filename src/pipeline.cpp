@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -82,6 +83,9 @@ void Pipeline::process(const OrganizedCloud& cloud) {
   const int height = cloud.height(), stride = mesh_.pixel_stride;
   ThreadPool* const pool =
       static_cast<long>(cloud.width()) * height >= kMinPixelsForThreads ? pool_.get() : nullptr;
+  // The stages dispatch bands in quick succession, with serial work between them.
+  std::optional<ThreadPool::KeepAwake> awake;
+  if (pool != nullptr) awake.emplace(*pool);
   if (pool != nullptr) {
     // Threads: all mesh bands, then (a band's normals read the mesh beyond it) all normal bands.
     pool->for_each_band(height, stride, [&](int, int v0, int v1) {

@@ -15,16 +15,18 @@ namespace rangeseg {
 /// Workers wait for a new generation of work, run their band and count down; the caller runs
 /// band 0 and waits for the count to reach zero. Both sides spin for some microseconds before
 /// sleeping on a condition variable: the bands of one frame follow each other within
-/// microseconds, and waking a sleeping thread costs tens of them.
+/// microseconds, and waking a sleeping thread costs tens of them. While a KeepAwake guard
+/// lives, both spin on.
 struct ThreadPool::Workers {
-  static constexpr int kSpins = 4000;  // 10-150 us of pause instructions, by CPU
+  static constexpr unsigned kSpins = 4000;  // 10-150 us of pause instructions, by CPU
 
   std::mutex mutex;
   std::condition_variable work_ready;
   std::condition_variable work_done;
   std::atomic<std::uint64_t> generation{0};
   std::atomic<int> pending{0};
-  bool stopping = false;  // guarded by mutex
+  std::atomic<int> keep_awake{0};  // live KeepAwake guards
+  bool stopping = false;           // guarded by mutex
   BandFn fn = nullptr;
   void* context = nullptr;
   int rows = 0, align = 1, bands = 1;
@@ -57,14 +59,27 @@ struct ThreadPool::Workers {
 #endif
   }
 
+  /// Spins until `done()` or kSpins pauses have passed, or as long as a KeepAwake guard lives
+  /// (yielding the core every kSpins pauses).
+  template <class Done>
+  void spin_until(Done done) const {
+    for (unsigned i = 1; !done(); ++i) {
+      if (i >= kSpins) {
+        if (keep_awake.load(std::memory_order_relaxed) == 0) return;
+        if (i % kSpins == 0) std::this_thread::yield();
+      }
+      pause();
+    }
+  }
+
   void work(int band) {
     std::uint64_t seen = 0;
     for (;;) {
-      std::uint64_t now = generation.load(std::memory_order_acquire);
-      for (int i = 0; i < kSpins && now == seen; ++i) {
-        pause();
+      std::uint64_t now = seen;
+      spin_until([&] {
         now = generation.load(std::memory_order_acquire);
-      }
+        return now != seen;
+      });
       if (now == seen) {
         std::unique_lock<std::mutex> lock(mutex);
         work_ready.wait(
@@ -123,9 +138,7 @@ void ThreadPool::run_bands(int rows, int align, BandFn fn, void* context) {
   }
   w.work_ready.notify_all();
   w.run_band(0);
-  for (int i = 0; i < Workers::kSpins && w.pending.load(std::memory_order_acquire) != 0; ++i) {
-    Workers::pause();
-  }
+  w.spin_until([&] { return w.pending.load(std::memory_order_acquire) == 0; });
   std::exception_ptr error;
   {
     std::unique_lock<std::mutex> lock(w.mutex);
@@ -134,6 +147,14 @@ void ThreadPool::run_bands(int rows, int align, BandFn fn, void* context) {
     w.error = nullptr;
   }
   if (error) std::rethrow_exception(error);
+}
+
+ThreadPool::KeepAwake::KeepAwake(ThreadPool& pool) : pool_(pool) {
+  pool_.workers_->keep_awake.fetch_add(1, std::memory_order_relaxed);
+}
+
+ThreadPool::KeepAwake::~KeepAwake() {
+  pool_.workers_->keep_awake.fetch_sub(1, std::memory_order_relaxed);
 }
 
 }  // namespace rangeseg

@@ -4,11 +4,14 @@
 #include <algorithm>
 #include <atomic>
 #include <bit>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <new>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "rangeseg/pipeline.hpp"
@@ -206,6 +209,41 @@ TEST(ThreadPoolTest, BandsCoverRowsAndPropagateExceptions) {
   std::atomic<int> again{0};
   pool.for_each_band(30, 1, [&](int, int, int) { ++again; });
   EXPECT_EQ(again.load(), 3);
+}
+
+/// Without a KeepAwake guard an idle worker sleeps soon after its band; with one it spins (its
+/// CPU time grows while the caller waits between two calls), until the last guard is gone.
+TEST(ThreadPoolTest, KeepAwakeKeepsIdleWorkersSpinning) {
+  ThreadPool pool(2);
+  const auto cpu_ms = [] {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
+  };
+  std::atomic<int> bands{0};
+  // Process CPU time while the caller sleeps 60 ms after a call: the idle worker's.
+  const auto idle_cpu_ms = [&] {
+    pool.for_each_band(2, 1, [&](int, int, int) { ++bands; });
+    const double before = cpu_ms();
+    std::this_thread::sleep_for(std::chrono::milliseconds(60));
+    return cpu_ms() - before;
+  };
+  const double asleep = idle_cpu_ms();
+  double awake = 0, nested = 0;
+  {
+    const ThreadPool::KeepAwake guard(pool);
+    awake = idle_cpu_ms();
+    {
+      const ThreadPool::KeepAwake inner(pool);
+      nested = idle_cpu_ms();
+    }
+  }
+  const double released = idle_cpu_ms();
+  EXPECT_LT(asleep, 10.0);
+  EXPECT_GT(awake, 10.0);
+  EXPECT_GT(nested, 10.0);
+  EXPECT_LT(released, 10.0);
+  EXPECT_EQ(bands.load(), 8);
 }
 
 TEST(Pipeline, RejectsUnorganizedClouds) {

@@ -28,7 +28,9 @@ struct PipelineSettings {
   /// StageTimes::polygons); results are bit-identical to 1 thread. Region growing runs on as
   /// many threads as the frame has growth bands (SegmentationSettings::growth_bands, default 2).
   /// Frames under 65536 pixels always run on one thread (a hand-off costs as much as their
-  /// work). 1..256.
+  /// work). While `process` runs, idle workers spin between the stages' bands instead of
+  /// sleeping (ThreadPool::KeepAwake), so they occupy their cores for the whole frame; between
+  /// frames they sleep. 1..256.
   int threads = 1;
 };
 

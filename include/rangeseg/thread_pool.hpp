@@ -19,6 +19,23 @@ class ThreadPool {
 
   int threads() const { return threads_; }
 
+  /// While one exists, idle workers (and a caller waiting for them) keep spinning instead of
+  /// going to sleep some microseconds after their last band. For a run of `for_each_band` calls
+  /// with serial work between them, as in the stages of one frame: waking a sleeping thread
+  /// costs tens of microseconds a call, more in virtual machines. The spinning occupies the
+  /// workers' cores meanwhile; it yields them to the scheduler now and then, so an
+  /// oversubscribed machine still runs the caller. Guards may nest and overlap.
+  class KeepAwake {
+   public:
+    explicit KeepAwake(ThreadPool& pool);
+    ~KeepAwake();
+    KeepAwake(const KeepAwake&) = delete;
+    KeepAwake& operator=(const KeepAwake&) = delete;
+
+   private:
+    ThreadPool& pool_;
+  };
+
   /// Calls fn(band, row_begin, row_end) for `threads()` disjoint bands covering rows [0, rows),
   /// concurrently; the first row of every non-empty band but the first is a multiple of `align`
   /// (>= 1), and bands may be empty. Returns when every band is done and rethrows the first

@@ -171,6 +171,20 @@ class ReassignTest {
   std::ptrdiff_t block_first_, block_last_;
 };
 
+/// Candidates lie scattered along the borders of the frame, and a test reads seven planes at
+/// each: the queue loops prefetch the point kAhead places ahead (~10 % of the re-assignment's
+/// time on grabber_frame0).
+constexpr std::size_t kAhead = 8;
+inline void prefetch_point(const Frame& f, std::int32_t q) {
+  __builtin_prefetch(f.labels + q);
+  __builtin_prefetch(f.x + q);
+  __builtin_prefetch(f.y + q);
+  __builtin_prefetch(f.z + q);
+  __builtin_prefetch(f.nx + q);
+  __builtin_prefetch(f.ny + q);
+  __builtin_prefetch(f.nz + q);
+}
+
 /// The re-assignment of the candidates ring[0, size) of s.queue (flagged in s.queued): each
 /// unlabelled one joins the plane of `ReassignTest`, and newly labelled points make their
 /// neighbours candidates in turn, so dissolved small regions that lie on an adjacent plane are
@@ -191,6 +205,11 @@ void reassign_queued(const Frame& f, const SegmentationSettings& settings, Segme
   const ReassignTest<kAcrossCuts> best_plane(f, settings, s);
   while (size > 0) {
     const std::int32_t q = ring[head];
+    if (size > kAhead) {
+      std::size_t ahead = head + kAhead;
+      if (ahead >= capacity) ahead -= capacity;
+      prefetch_point(f, ring[ahead]);
+    }
     if (++head == capacity) head = 0;
     --size;
     s.queued[q] = 0;
@@ -391,6 +410,7 @@ void reassign_before_seeds(const Frame& f, const SegmentationSettings& settings,
     unsigned unlabelled = 0;
     for (int j = begin; j < end; ++j) {
       const std::int32_t q = ring[j];
+      if (j + static_cast<int>(kAhead) < end) prefetch_point(f, ring[j + kAhead]);
       s.queued[q] = 0;
       const std::int32_t best = best_plane(q, unlabelled);
       if (best != 0) joins.emplace_back(q, best);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -343,6 +344,9 @@ void Segmenter::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalM
     ~PoolGuard() { s.pool = nullptr; }
   } const guard{s};
   s.pool = pool;
+  // Its passes dispatch bands with serial work between them.
+  std::optional<ThreadPool::KeepAwake> awake;
+  if (pool != nullptr) awake.emplace(*pool);
   s.queue.resize(static_cast<std::size_t>(f.stride) * f.height);
   // The plane model collects its pixel seeds itself, after growing over cells.
   const bool cell_seeds =
