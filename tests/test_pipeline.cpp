@@ -7,12 +7,15 @@
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
-#include <ctime>
+#include <filesystem>
+#include <fstream>
 #include <new>
 #include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <unistd.h>
 
 #include "rangeseg/pipeline.hpp"
 #include "rangeseg/synth.hpp"
@@ -211,38 +214,56 @@ TEST(ThreadPoolTest, BandsCoverRowsAndPropagateExceptions) {
   EXPECT_EQ(again.load(), 3);
 }
 
-/// Without a KeepAwake guard an idle worker sleeps soon after its band; with one it spins (its
-/// CPU time grows while the caller waits between two calls), until the last guard is gone.
-TEST(ThreadPoolTest, KeepAwakeKeepsIdleWorkersSpinning) {
-  ThreadPool pool(2);
-  const auto cpu_ms = [] {
-    timespec t{};
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-    return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
-  };
-  std::atomic<int> bands{0};
-  // Process CPU time while the caller sleeps 60 ms after a call: the idle worker's.
-  const auto idle_cpu_ms = [&] {
-    pool.for_each_band(2, 1, [&](int, int, int) { ++bands; });
-    const double before = cpu_ms();
-    std::this_thread::sleep_for(std::chrono::milliseconds(60));
-    return cpu_ms() - before;
-  };
-  const double asleep = idle_cpu_ms();
-  double awake = 0, nested = 0;
-  {
-    const ThreadPool::KeepAwake guard(pool);
-    awake = idle_cpu_ms();
-    {
-      const ThreadPool::KeepAwake inner(pool);
-      nested = idle_cpu_ms();
+namespace {
+
+/// Times the process's other threads went to sleep (voluntary context switches: a yield or a
+/// preemption does not count), from /proc; -1 where that is not available.
+long other_threads_sleeps() {
+  const std::string self = std::to_string(gettid());
+  long total = 0;
+  std::error_code error;
+  for (const auto& task : std::filesystem::directory_iterator("/proc/self/task", error)) {
+    if (task.path().filename() == self) continue;
+    std::ifstream status(task.path() / "status");
+    std::string line;
+    while (std::getline(status, line)) {
+      if (line.rfind("voluntary_ctxt_switches:", 0) == 0) total += std::stol(line.substr(24));
     }
   }
-  const double released = idle_cpu_ms();
-  EXPECT_LT(asleep, 10.0);
-  EXPECT_GT(awake, 10.0);
-  EXPECT_GT(nested, 10.0);
-  EXPECT_LT(released, 10.0);
+  return error ? -1 : total;
+}
+
+}  // namespace
+
+/// Without a KeepAwake guard an idle worker goes to sleep soon after its band; with one it spins
+/// on while the caller waits between two calls, until the last guard is gone.
+TEST(ThreadPoolTest, KeepAwakeKeepsIdleWorkersSpinning) {
+  if (other_threads_sleeps() < 0) GTEST_SKIP() << "no /proc/self/task to count sleeps";
+  ThreadPool pool(2);
+  std::atomic<int> bands{0};
+  // The worker's sleeps from a call to 30 ms after it (reading /proc takes longer than the
+  // worker spins before it sleeps, so the count starts before the call).
+  const auto idle_sleeps = [&] {
+    const long before = other_threads_sleeps();
+    pool.for_each_band(2, 1, [&](int, int, int) { ++bands; });
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    return other_threads_sleeps() - before;
+  };
+  const long asleep = idle_sleeps();
+  long awake = 0, nested = 0;
+  {
+    const ThreadPool::KeepAwake guard(pool);
+    awake = idle_sleeps();
+    {
+      const ThreadPool::KeepAwake inner(pool);
+      nested = idle_sleeps();
+    }
+  }
+  const long released = idle_sleeps();
+  EXPECT_GE(asleep, 1);
+  EXPECT_EQ(awake, 0);
+  EXPECT_EQ(nested, 0);
+  EXPECT_GE(released, 1);
   EXPECT_EQ(bands.load(), 8);
 }
 
