@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "detail/radix_sort.hpp"
+#include "detail/sort_distinct.hpp"
 #include "rangeseg/camera.hpp"
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/image.hpp"
@@ -142,4 +143,29 @@ TEST(RadixSort, EqualsStableSortOfTheFloatValues) {
               rangeseg::detail::double_order_key(ordered[j + 1]));
   }
   EXPECT_EQ(rangeseg::detail::double_order_key(-0.0), rangeseg::detail::double_order_key(0.0));
+}
+
+// sort_distinct gives what std::sort + std::unique give: few distinct keys repeated many times
+// (label pairs with the across-cut bit 63), all distinct, the empty-slot value ~0 among them,
+// and a table reused from a larger call.
+TEST(SortDistinct, EqualsSortAndUnique) {
+  std::mt19937_64 random(11);
+  std::vector<std::uint64_t> table;
+  for (const int n : {5000, 0, 1, 2, 63, 64, 65, 300, 1000}) {
+    for (const std::uint64_t distinct :
+         {std::uint64_t{1}, std::uint64_t{7}, std::uint64_t{300}, ~std::uint64_t{0}}) {
+      std::vector<std::uint64_t> keys(static_cast<std::size_t>(n));
+      for (std::uint64_t& k : keys) {
+        const std::uint64_t r = random() % distinct;
+        k = distinct == ~std::uint64_t{0} ? random()
+                                          : (r % 13) << 32 | (r / 13 + 20) | (r % 2) << 63;
+        if (random() % 97 == 0) k = ~std::uint64_t{0};
+      }
+      std::vector<std::uint64_t> expected = keys;
+      std::sort(expected.begin(), expected.end());
+      expected.erase(std::unique(expected.begin(), expected.end()), expected.end());
+      rangeseg::detail::sort_distinct(keys, table);
+      EXPECT_EQ(keys, expected) << n << " keys, " << distinct << " distinct values";
+    }
+  }
 }

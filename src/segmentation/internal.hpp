@@ -172,6 +172,10 @@ struct Segmenter::Scratch {
   std::vector<std::int32_t> sort_items;  ///< radix sort scratch
   std::vector<std::uint32_t> sort_keys;  ///< radix sort scratch
   std::vector<std::int32_t> cell_queue;
+  /// Byte p / kCellSide: a pixel among p's row of kCellSide labelled by the pixel growth of the
+  /// coarse level (grow_cells, lattice step 1), so that a cell's vertices need not be read to
+  /// know it is still free.
+  std::vector<std::uint8_t> cell_touched;
   std::vector<double> cell_normal_noise;  ///< per complete cell (normal_noise_constant)
   /// The frame's normal noise constant c (sigma_n(z) = c sigma(z) / z), 0 when not measured.
   double normal_noise_c = 0;
@@ -181,6 +185,7 @@ struct Segmenter::Scratch {
   std::vector<detail::PlaneFit> fits;
   std::vector<std::int32_t> parent;  ///< union-find over raw labels
   std::vector<std::uint64_t> adjacency;
+  std::vector<std::uint64_t> adjacency_table;  ///< scratch of detail::sort_distinct
   std::vector<std::int32_t> remap;
   std::vector<std::int32_t> compact;
   std::vector<std::uint8_t> queued;

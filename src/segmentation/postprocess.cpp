@@ -19,6 +19,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "detail/simd.hpp"
+#include "detail/sort_distinct.hpp"
 #include "segmentation/internal.hpp"
 
 namespace rangeseg::seg {
@@ -421,8 +422,7 @@ void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
     const auto& pairs = s.band_adjacency[static_cast<std::size_t>(band)];
     s.adjacency.insert(s.adjacency.end(), pairs.begin(), pairs.end());
   }
-  std::sort(s.adjacency.begin(), s.adjacency.end());
-  s.adjacency.erase(std::unique(s.adjacency.begin(), s.adjacency.end()), s.adjacency.end());
+  detail::sort_distinct(s.adjacency, s.adjacency_table);
 
   // Regions that meet only where the mesh is cut (a depth step, or a terrace crack of a surface
   // seen at grazing incidence) merge only when their planes agree at the noise level the frame's

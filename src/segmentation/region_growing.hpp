@@ -157,6 +157,31 @@ inline unsigned candidate_block(const std::int32_t* labels, std::ptrdiff_t strid
 }
 #endif
 
+/// A vertex on the border of a cell (row and column in the cell) and the neighbour cells it
+/// touches (bit k: direction k of kNeighbourDu / kNeighbourDv).
+struct BorderVertex {
+  std::uint8_t row, column, touches;
+};
+/// The border vertices of a cell, row by row.
+inline constexpr auto kBorderVertices = [] {
+  std::array<BorderVertex, 4 * kCellSide - 4> border{};
+  constexpr int kLast = kCellSide - 1;
+  std::size_t n = 0;
+  for (int row = 0; row < kCellSide; ++row) {
+    const bool top = row == 0, bottom = row == kLast;
+    for (int column = 0; column < kCellSide; column += (top || bottom) ? 1 : kLast) {
+      const bool left = column == 0, right = column == kLast;
+      const unsigned touches = (right ? 1u << 0 : 0u) | (bottom ? 1u << 2 : 0u) |
+                               (left ? 1u << 4 : 0u) | (top ? 1u << 6 : 0u) |
+                               (right && bottom ? 1u << 1 : 0u) | (left && bottom ? 1u << 3 : 0u) |
+                               (left && top ? 1u << 5 : 0u) | (right && top ? 1u << 7 : 0u);
+      border[n++] = {static_cast<std::uint8_t>(row), static_cast<std::uint8_t>(column),
+                     static_cast<std::uint8_t>(touches)};
+    }
+  }
+  return border;
+}();
+
 }  // namespace detail_engine
 
 /// The pixel-wise inner loop: pops the processing queue [head, tail) and adds accepted unlabelled
@@ -169,7 +194,8 @@ template <RegionGrowingModel Model>
 std::int32_t grow_pixels(const Frame& f, Model& model, std::int32_t label, std::int32_t* queue,
                          std::int32_t head, std::int32_t tail,
                          [[maybe_unused]] std::size_t capacity,
-                         [[maybe_unused]] std::vector<std::int32_t>* marked = nullptr) {
+                         [[maybe_unused]] std::vector<std::int32_t>* marked = nullptr,
+                         std::uint8_t* touched = nullptr) {
   std::int32_t* const labels = f.labels;
   const std::uint8_t* const edges = f.edges;
   const auto offsets = f.neighbour_offset;
@@ -205,6 +231,7 @@ std::int32_t grow_pixels(const Frame& f, Model& model, std::int32_t label, std::
           continue;
         }
         labels[q] = label;
+        if (touched != nullptr) touched[q / kCellSide] = 1;
         model.add(f, q);
         assert(static_cast<std::size_t>(tail) < capacity);
         queue[tail++] = q;
@@ -227,6 +254,7 @@ std::int32_t grow_pixels(const Frame& f, Model& model, std::int32_t label, std::
         const std::int32_t q = static_cast<std::int32_t>(p + offsets[k]);
         if (labels[q] != 0 || !model.accepts(f, p, q)) continue;
         labels[q] = label;
+        if (touched != nullptr) touched[q / kCellSide] = 1;
         model.add(f, q);
         assert(static_cast<std::size_t>(tail) < capacity);
         queue[tail++] = q;
@@ -266,10 +294,27 @@ void grow_cells(const Frame& f, Model& model, Segmenter::Scratch& s, std::int32_
   std::int32_t* const queue = s.queue.data();
   const int step = f.pixel_stride;
   const std::ptrdiff_t down = step * f.stride;
+  // A cell not grown as a unit has labelled vertices only where the pixel growth of a region
+  // entered it. At lattice step 1 (and rows of whole cells) that growth flags each row of
+  // kCellSide pixels it labels, so a cell is free when its kCellSide flags are clear: the
+  // flags of the whole frame fit in cache, unlike the labels of cells not yet visited.
+  std::uint8_t* touched = nullptr;
+  if (step == 1 && f.stride % kCellSide == 0) {
+    s.cell_touched.assign(static_cast<std::size_t>(f.height) * f.stride / kCellSide + 1, 0);
+    touched = s.cell_touched.data();
+  }
+  const auto is_free = [&](std::ptrdiff_t origin) {
+    if (touched == nullptr) return cell_free(f, origin);
+    const std::uint8_t* flag = touched + origin / kCellSide;
+    const std::ptrdiff_t flag_row = f.stride / kCellSide;
+    std::uint8_t any = 0;
+    for (int j = 0; j < kCellSide; ++j) any |= flag[j * flag_row];
+    return any == 0;
+  };
   for (const std::int32_t seed : s.cell_order) {
     if (cell_label[seed] != 0) continue;
     const int su = seed % cols, sv = seed / cols;
-    if (!cell_free(f, cell_origin(f, su, sv))) {
+    if (!is_free(cell_origin(f, su, sv))) {
       cell_label[seed] = -1;
       continue;
     }
@@ -290,7 +335,7 @@ void grow_cells(const Frame& f, Model& model, Segmenter::Scratch& s, std::int32_
         if (cell_label[n] != 0 || !cells[n].complete) continue;
         if (!cells_connected(f, origin, k) || !model.accepts_cell(cells[n])) continue;
         const std::ptrdiff_t n_origin = cell_origin(f, nu, nv);
-        if (!cell_free(f, n_origin)) {
+        if (!is_free(n_origin)) {
           cell_label[n] = -1;
           continue;
         }
@@ -316,28 +361,14 @@ void grow_cells(const Frame& f, Model& model, Segmenter::Scratch& s, std::int32_
       }
       if (outside == 0) continue;
       const std::ptrdiff_t origin = cell_origin(f, cu, cv);
-      const int last = kCellSide - 1;
-      for (int jv = 0; jv < kCellSide; ++jv) {
-        const bool top = jv == 0, bottom = jv == last;
-        for (int iu = 0; iu < kCellSide; iu += (top || bottom) ? 1 : last) {
-          const bool left = iu == 0, right = iu == last;
-          unsigned touches = 0;
-          if (right) touches |= 1u << 0;
-          if (bottom) touches |= 1u << 2;
-          if (left) touches |= 1u << 4;
-          if (top) touches |= 1u << 6;
-          if (right && bottom) touches |= 1u << 1;
-          if (left && bottom) touches |= 1u << 3;
-          if (left && top) touches |= 1u << 5;
-          if (right && top) touches |= 1u << 7;
-          if (touches & outside) {
-            queue[ptail++] = static_cast<std::int32_t>(origin + jv * down +
-                                                       static_cast<std::ptrdiff_t>(iu) * step);
-          }
+      for (const BorderVertex& b : kBorderVertices) {
+        if ((b.touches & outside) != 0) {
+          queue[ptail++] =
+              static_cast<std::int32_t>(origin + b.row * down + std::ptrdiff_t{b.column} * step);
         }
       }
     }
-    grow_pixels(f, model, label, queue, 0, ptail, s.queue.size(), &s.marked);
+    grow_pixels(f, model, label, queue, 0, ptail, s.queue.size(), &s.marked, touched);
     s.rejected.insert(s.rejected.end(), s.marked.begin(), s.marked.end());
     s.regions.push_back(model.stats());
   }
