@@ -172,9 +172,9 @@ struct Segmenter::Scratch {
   std::vector<std::int32_t> sort_items;  ///< radix sort scratch
   std::vector<std::uint32_t> sort_keys;  ///< radix sort scratch
   std::vector<std::int32_t> cell_queue;
-  /// Byte p / kCellSide: a pixel among p's row of kCellSide labelled by the pixel growth of the
-  /// coarse level (grow_cells, lattice step 1), so that a cell's vertices need not be read to
-  /// know it is still free.
+  /// One flag per run of kCellSide pixels of a row (byte p / kCellSide for pixel p), set when
+  /// the coarse level's pixel growth labels one of them (grow_cells, lattice step 1): a cell is
+  /// free when the flags of its rows are clear, without reading its labels.
   std::vector<std::uint8_t> cell_touched;
   std::vector<double> cell_normal_noise;  ///< per complete cell (normal_noise_constant)
   /// The frame's normal noise constant c (sigma_n(z) = c sigma(z) / z), 0 when not measured.
