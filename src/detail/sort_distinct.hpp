@@ -10,9 +10,9 @@
 namespace rangeseg::detail {
 
 /// Sorts `keys` ascending and drops repeats: the result of std::sort and std::unique. The
-/// distinct keys are found first with an open-addressing hash table (`table`, scratch, resized
-/// to twice the keys rounded up to a power of two and never shrunk), so that only they are
-/// sorted: ~5100 pairs of ~300 distinct ones on a Kinect frame.
+/// distinct keys are found first with an open-addressing hash table (`table`, scratch: twice
+/// the keys rounded up to a power of two; reused, its capacity is kept), so that only they are
+/// sorted: 5118 label pairs of 55 distinct ones on grabber_frame0.
 inline void sort_distinct(std::vector<std::uint64_t>& keys, std::vector<std::uint64_t>& table) {
   constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // the empty slot; as a key, flagged
   const std::size_t n = keys.size();

@@ -295,9 +295,10 @@ void grow_cells(const Frame& f, Model& model, Segmenter::Scratch& s, std::int32_
   const int step = f.pixel_stride;
   const std::ptrdiff_t down = step * f.stride;
   // A cell not grown as a unit has labelled vertices only where the pixel growth of a region
-  // entered it. At lattice step 1 (and rows of whole cells) that growth flags each row of
-  // kCellSide pixels it labels, so a cell is free when its kCellSide flags are clear: the
-  // flags of the whole frame fit in cache, unlike the labels of cells not yet visited.
+  // entered it. At lattice step 1, with a row stride that is a multiple of kCellSide (so that
+  // each flag covers one row of one cell), that growth flags each such row it labels, and a
+  // cell is free when its kCellSide flags are clear: the flags of the whole frame fit in cache,
+  // unlike the labels of cells not yet visited.
   std::uint8_t* touched = nullptr;
   if (step == 1 && f.stride % kCellSide == 0) {
     s.cell_touched.assign(static_cast<std::size_t>(f.height) * f.stride / kCellSide + 1, 0);
