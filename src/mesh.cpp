@@ -40,6 +40,7 @@ namespace rangeseg {
 namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+constexpr float kInf = std::numeric_limits<float>::infinity();
 
 // Edge bits of pass 2, stored at the cell's top-left vertex a = (u, v).
 constexpr std::uint8_t kEdgeAB = 1;        // a -> b (right)

@@ -123,6 +123,15 @@ TEST(Cli, SynthSegmentEvalRoundTrip) {
           (dir / "seg" / "labels.png").string() + " --cloud " + (dir / "missing.pcd").string());
   EXPECT_EQ(no_cloud.code, 2);
   EXPECT_NE(no_cloud.out.find("missing.pcd"), std::string::npos) << no_cloud.out;
+  // A segmentation of another size: exit code 2, naming the file and both sizes.
+  const fs::path small = dir / "small_labels.png";
+  rangeseg::io::write_label_png(small.string(), rangeseg::LabelImage(64, 48));
+  const CliResult wrong_size =
+      run("eval " + (dir / "scene" / "labels.png").string() + " " + small.string());
+  EXPECT_EQ(wrong_size.code, 2);
+  EXPECT_NE(wrong_size.out.find("small_labels.png: the segmentation is 64x48"), std::string::npos)
+      << wrong_size.out;
+  EXPECT_NE(wrong_size.out.find("640x480"), std::string::npos) << wrong_size.out;
 
   // The depth PNG with the camera file gives the same grid as the PCD.
   const CliResult info = run("info " + (dir / "scene" / "depth.png").string() + " --intrinsics " +

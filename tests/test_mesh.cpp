@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <functional>
 #include <iostream>
+#include <limits>
 #include <random>
 #include <set>
 #include <vector>
@@ -605,3 +606,48 @@ TEST(Mesh, RealFrameRowBandsAndInstructionSets) {
   rangeseg::detail::simd::isa_limit = Isa::avx512;
 }
 #endif
+
+TEST(Mesh, NonFinitePointsHaveNoEdges) {
+  // A point with an infinite coordinate is no point (OrganizedCloud::valid), like a NaN one: with
+  // an infinite range, eps_d and the noise gate are infinite too, and every edge would pass.
+  // Coordinates so large that the squared range overflows are treated alike.
+  using rangeseg::detail::simd::Isa;
+  const int w = 50, h = 40;
+  OrganizedCloud cloud = plane(w, h, -0.2, 0.3, 1.0, 1.2);
+  const float inf = std::numeric_limits<float>::infinity();
+  std::set<std::pair<int, int>> bad;
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      const int kind = (u * 7 + v * 13) % 23;
+      if (kind > 4) continue;
+      bad.insert({u, v});
+      if (kind == 0) cloud.z(u, v) = inf;
+      if (kind == 1) cloud.z(u, v) = -inf;
+      if (kind == 2) cloud.x(u, v) = inf;
+      if (kind == 3) cloud.y(u, v) = -inf;
+      if (kind == 4) cloud.z(u, v) = 3e19f;
+    }
+  }
+  for (Isa isa : {Isa::baseline, Isa::avx2, Isa::avx512}) {
+    rangeseg::detail::simd::isa_limit = isa;
+    for (MeshType type : kAllTypes) {
+      for (int s : {1, 2}) {
+        const Mesh mesh = rangeseg::build_mesh(cloud, {.type = type, .pixel_stride = s});
+        int edges = 0, to_bad = 0;
+        for (int v = 0; v < h; v += s) {
+          for (int u = 0; u < w; u += s) {
+            for (int k = 0; k < 8; ++k) {
+              if (!(mesh.edges(u, v) >> k & 1)) continue;
+              ++edges;
+              to_bad += bad.count({u, v}) + bad.count({u + s * rangeseg::kNeighbourDu[k],
+                                                       v + s * rangeseg::kNeighbourDv[k]});
+            }
+          }
+        }
+        EXPECT_GT(edges, 0);
+        EXPECT_EQ(to_bad, 0) << "type " << int(type) << " stride " << s << " isa " << int(isa);
+      }
+    }
+  }
+  rangeseg::detail::simd::isa_limit = Isa::avx512;
+}

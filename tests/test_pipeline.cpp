@@ -5,11 +5,14 @@
 #include <atomic>
 #include <bit>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <new>
+#include <random>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -271,4 +274,149 @@ TEST(Pipeline, RejectsUnorganizedClouds) {
   Pipeline pipeline;
   EXPECT_THROW(pipeline.process(OrganizedCloud(100, 1)), std::invalid_argument);
   EXPECT_THROW(pipeline_preset("no-such-sensor"), std::invalid_argument);
+}
+
+TEST(Pipeline, NonFinitePointsAreNoPoints) {
+  // Points with an infinite coordinate (1 % of a synthetic Kinect frame, in every variant) are
+  // invalid (OrganizedCloud::valid) and must be treated like NaN ones by every stage: never
+  // labelled, and every segment's sums, area and pixel count finite and consistent.
+  synth::Rendering r = qvga(3);
+  OrganizedCloud& cloud = r.cloud;
+  const float inf = std::numeric_limits<float>::infinity();
+  int damaged = 0;
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      const int kind = (u * 7 + v * 13) % 101;
+      if (kind > 3 || !cloud.valid(u, v)) continue;
+      ++damaged;
+      if (kind == 0) cloud.z(u, v) = inf;
+      if (kind == 1) cloud.z(u, v) = -inf;
+      if (kind == 2) cloud.x(u, v) = inf;
+      if (kind == 3) cloud.y(u, v) = -inf;
+    }
+  }
+  ASSERT_GT(damaged, 2000);
+  for (const RegionModel model : {RegionModel::plane, RegionModel::smooth,
+                                  RegionModel::incremental_plane, RegionModel::automatic}) {
+    PipelineSettings settings = pipeline_preset("kinect");
+    settings.segmentation.model = model;
+    Pipeline pipeline(settings);
+    pipeline.process(cloud);
+    const Segmentation& seg = pipeline.segmentation();
+    ASSERT_GT(seg.segments.size(), 2u) << to_string(model);
+    std::vector<std::int64_t> counts(seg.segments.size() + 1, 0);
+    for (int v = 0; v < cloud.height(); ++v) {
+      for (int u = 0; u < cloud.width(); ++u) {
+        const int l = seg.labels(u, v);
+        ASSERT_TRUE(l == 0 || cloud.valid(u, v)) << to_string(model) << " at " << u << "," << v;
+        ++counts[static_cast<std::size_t>(l)];
+      }
+    }
+    for (const Segment& s : seg.segments) {
+      EXPECT_EQ(s.pixel_count, counts[static_cast<std::size_t>(s.label)]) << to_string(model);
+      EXPECT_TRUE(std::isfinite(s.area_m2) && s.area_m2 > 0) << to_string(model) << " " << s.label;
+      EXPECT_TRUE(std::isfinite(s.rms_residual) && std::isfinite(s.offset)) << to_string(model);
+    }
+    for (const auto& p : pipeline.polygons().points3d) {
+      ASSERT_TRUE(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]));
+    }
+  }
+}
+
+TEST(Pipeline, DamagedScenesWithRandomSettingsKeepTheInvariants) {
+  // Small synthetic scenes, damaged (dropped pixels, rows and columns, infinite or far outlying
+  // coordinates, NaN x), through random valid settings of every stage, model, preset and thread
+  // count: no stage may throw or crash (the sanitizer build runs this too), labels name segments
+  // whose pixel counts and order agree, areas are finite, polygon loops index valid points.
+  std::mt19937_64 rng(20261203);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  const char* presets[] = {"kinect", "abw", "laser", "ideal"};
+  const float inf = std::numeric_limits<float>::infinity();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int run = 0; run < 24; ++run) {
+    const int width = 48 + static_cast<int>(rng() % 260),
+              height = 32 + static_cast<int>(rng() % 200);
+    const double f = 0.8 * width;
+    synth::RenderSettings render{.camera = {.fx = f,
+                                            .fy = f,
+                                            .cx = width / 2.0,
+                                            .cy = height / 2.0,
+                                            .width = width,
+                                            .height = height},
+                                 .noise = run % 3 == 0 ? synth::Noise::none : synth::Noise::kinect,
+                                 .seed = rng()};
+    OrganizedCloud cloud =
+        synth::render(synth::random_scene(rng() % 100, run % 2 == 1), render).cloud;
+    const int damage = run % 6;
+    for (int v = 0; v < height; ++v) {
+      for (int u = 0; u < width; ++u) {
+        const double p = uniform(rng);
+        if ((damage == 1 && p < 0.3) || (damage == 2 && (v % 7 == 0 || u % 11 == 0))) {
+          cloud.x(u, v) = cloud.y(u, v) = cloud.z(u, v) = nan;
+        } else if (damage == 3 && p < 0.02) {
+          (p < 0.01 ? cloud.z(u, v) : cloud.x(u, v)) = p < 0.005 ? -inf : inf;
+        } else if (damage == 4 && p < 0.01) {
+          cloud.x(u, v) *= 100;
+          cloud.y(u, v) *= 100;
+          cloud.z(u, v) *= 100;
+        } else if (damage == 5 && p < 0.05) {
+          cloud.x(u, v) = nan;
+        }
+      }
+    }
+    PipelineSettings settings = pipeline_preset(presets[rng() % 4]);
+    settings.threads = 1 + static_cast<int>(rng() % 3);
+    settings.mesh.type = static_cast<MeshType>(rng() % 4);
+    settings.mesh.pixel_stride = uniform(rng) < 0.7 ? 1 : 1 + static_cast<int>(rng() % 3);
+    settings.smooth = uniform(rng) < 0.8;
+    settings.smoothing.iterations = static_cast<int>(rng() % 4);
+    settings.smoothing.recompute_normals = uniform(rng) < 0.3;
+    SegmentationSettings& s = settings.segmentation;
+    s.model = static_cast<RegionModel>(rng() % 4);
+    s.growth_bands = 1 + static_cast<int>(rng() % 5);
+    s.coarse_cells = uniform(rng) < 0.8;
+    s.min_region_size = 1 + static_cast<int>(rng() % 400);
+    s.seed_clearance = static_cast<int>(rng() % 5);
+    s.reassign_across_mesh_cuts = uniform(rng) < 0.3;
+    s.merge_planes = uniform(rng) < 0.9;
+    s.reassign_boundary = uniform(rng) < 0.9;
+    s.boundary_refine_sigmas = uniform(rng) < 0.8 ? 3 * uniform(rng) : 0;
+    s.split_residual_factor = 1 + 4 * uniform(rng);
+    settings.polygon.planes_only = uniform(rng) < 0.5;
+    settings.polygon.min_loop_pixels = 20 * uniform(rng);
+    const std::string what = "run " + std::to_string(run) + " " + std::to_string(width) + "x" +
+                             std::to_string(height) + " model " + to_string(s.model);
+    Pipeline pipeline(settings);
+    for (int frame = 0; frame < 2; ++frame) {
+      ASSERT_NO_THROW(pipeline.process(cloud)) << what;
+      const Segmentation& seg = pipeline.segmentation();
+      std::vector<std::int64_t> counts(seg.segments.size() + 1, 0);
+      for (int v = 0; v < height; ++v) {
+        for (int u = 0; u < width; ++u) {
+          const int l = seg.labels(u, v);
+          ASSERT_TRUE(l >= 0 && l <= static_cast<int>(seg.segments.size())) << what;
+          ASSERT_TRUE(l == 0 || cloud.valid(u, v)) << what << " at " << u << "," << v;
+          ++counts[static_cast<std::size_t>(l)];
+        }
+      }
+      for (std::size_t i = 0; i < seg.segments.size(); ++i) {
+        const Segment& g = seg.segments[i];
+        ASSERT_EQ(g.label, static_cast<int>(i + 1)) << what;
+        EXPECT_EQ(g.pixel_count, counts[i + 1]) << what << " segment " << g.label;
+        if (i > 0) {
+          EXPECT_LE(g.pixel_count, seg.segments[i - 1].pixel_count) << what;
+        }
+        EXPECT_TRUE(std::isfinite(g.area_m2) && g.area_m2 >= 0) << what << " segment " << g.label;
+      }
+      const PolygonSet& polygons = pipeline.polygons();
+      for (const PolygonLoop& loop : polygons.loops) {
+        ASSERT_GE(loop.count, 3) << what;
+        ASSERT_LE(static_cast<std::size_t>(loop.first + loop.count), polygons.points3d.size())
+            << what;
+        ASSERT_TRUE(!loop.is_hole ||
+                    (loop.parent >= 0 && loop.parent < static_cast<int>(polygons.loops.size())))
+            << what;
+      }
+    }
+  }
 }

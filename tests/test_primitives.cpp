@@ -374,6 +374,57 @@ TEST(AutoModel, KinectNoiseSmallFarBallLeftUnlabelledIsOneSphere) {
   }
 }
 
+/// Labels and segments agree (pixel counts, labels 1..N by size) on a plane at 2 m with half its
+/// pixels dropped at random: it falls into many small pieces, and the patches that the auto model
+/// keeps after the plane segments (their labels follow the plane segments') can be larger than
+/// the smallest plane segments, so the final relabelling by size must move them even when no
+/// segment was joined or dropped and no point re-assigned.
+TEST(AutoModel, LabelsAndSegmentsAgreeOnFragmentedInput) {
+  OrganizedCloud cloud(341, 260);
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      std::uint32_t h =
+          static_cast<std::uint32_t>(u) * 73856093u ^ static_cast<std::uint32_t>(v) * 19349663u;
+      h *= 2654435761u;
+      if ((h >> 16 & 1u) != 0) continue;
+      const float z = 2.0f;
+      cloud.x(u, v) = static_cast<float>((u - 170) * z / 500.0f);
+      cloud.y(u, v) = static_cast<float>((v - 130) * z / 500.0f);
+      cloud.z(u, v) = z;
+    }
+  }
+  // With the laser preset's low noise the pieces stay many small segments (the Kinect preset's
+  // smoothing joins them into a few).
+  for (const char* sensor : {"laser", "kinect"}) {
+    PipelineSettings settings = pipeline_preset(sensor);
+    settings.segmentation.model = RegionModel::automatic;
+    settings.polygons = false;
+    Pipeline pipeline(settings);
+    pipeline.process(cloud);
+    const Segmentation& seg = pipeline.segmentation();
+    std::vector<std::int64_t> counts(seg.segments.size() + 1, 0);
+    for (int v = 0; v < cloud.height(); ++v) {
+      for (int u = 0; u < cloud.width(); ++u) {
+        const int l = seg.labels(u, v);
+        ASSERT_GE(l, 0) << sensor;
+        ASSERT_LE(l, static_cast<int>(seg.segments.size())) << sensor;
+        ++counts[static_cast<std::size_t>(l)];
+      }
+    }
+    if (std::string(sensor) == "laser") {
+      EXPECT_GT(seg.segments.size(), 10u);
+    }
+    for (std::size_t i = 0; i < seg.segments.size(); ++i) {
+      const Segment& s = seg.segments[i];
+      EXPECT_EQ(s.label, static_cast<int>(i + 1)) << sensor;
+      EXPECT_EQ(s.pixel_count, counts[i + 1]) << sensor << " segment " << s.label;
+      if (i > 0) {
+        EXPECT_LE(s.pixel_count, seg.segments[i - 1].pixel_count) << sensor;
+      }
+    }
+  }
+}
+
 /// A standing cylinder (r = 0.17 m) 3.4 m away, noise-free: its plane facets face directions
 /// 30 deg and more apart, too far for merging to join them, yet their union sags from one plane
 /// by less than a third of the Kinect's sigma there (18 mm), so the flatness gate of the curved

@@ -734,5 +734,32 @@ TEST(Segmentation, PresetsAndValidation) {
   EXPECT_THROW(close_grazing_cells(out, closed), std::invalid_argument);
 }
 
+TEST(Segmentation, RejectsMeshEdgesThatLeaveTheImage) {
+  // Region growing follows mesh edges without bounds checks; a mesh made for another size or
+  // stride (or by hand) must be rejected, not followed out of the image.
+  const OrganizedCloud cloud = cast(64, 48, [](double, double) { return 1.0; });
+  for (const int step : {1, 2, 3}) {
+    const Mesh mesh = build_mesh(cloud, {.pixel_stride = step});
+    const NormalMap normals = compute_normals(cloud, mesh);
+    Segmentation out;
+    EXPECT_NO_THROW(segment(cloud, mesh, normals, {}, out));
+    // Direction 0 is right, 2 down, 4 left, 6 up (kNeighbourDu / kNeighbourDv).
+    for (const auto& [u, v, k] :
+         {std::array{63, 10, 0}, std::array{10, 47, 2}, std::array{0, 10, 4}, std::array{10, 0, 6},
+          std::array{64 - step, 10, 0}, std::array{63, 47, 1}}) {
+      Mesh bad = mesh;
+      bad.edges(u, v) |= static_cast<std::uint8_t>(1u << k);
+      try {
+        segment(cloud, bad, normals, {}, out);
+        ADD_FAILURE() << "no exception for (" << u << ", " << v << ") direction " << k
+                      << ", stride " << step;
+      } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("outside the 64x48 image"), std::string::npos)
+            << e.what();
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace rangeseg

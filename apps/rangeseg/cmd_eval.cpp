@@ -263,6 +263,12 @@ void add_eval(CLI::App& app) {
       gt.cloud = std::move(cloud);
     }
     const LabelImage ms = load_machine(o->pred);
+    if (ms.width() != gt.labels.width() || ms.height() != gt.labels.height()) {
+      throw std::runtime_error(o->pred + ": the segmentation is " + std::to_string(ms.width()) +
+                               "x" + std::to_string(ms.height()) + ", the ground truth (" + o->gt +
+                               ") " + std::to_string(gt.labels.width()) + "x" +
+                               std::to_string(gt.labels.height()));
+    }
     const eval::EvalResult r =
         eval::evaluate(gt.labels, ms, {.tolerance = o->tolerance, .min_gt_label = gt.min_label});
     const eval::AngleStats a = angles_for(r, gt, ms);

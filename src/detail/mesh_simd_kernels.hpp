@@ -16,12 +16,15 @@ constexpr int kBlock = 4 * kLanes;  // cells per byte vector
 // (Parameters are copied into local vectors and row pointers into locals: the vector stores
 // may alias anything, so members read through a reference would be reloaded after each.)
 struct QuantityConsts {
-  F vx, vy, vz, cos2, a, bs, c, na, nb, nz0, k2, zero;
+  F vx, vy, vz, cos2, a, bs, c, na, nb, nz0, k2, zero, inf, nan;
 };
 RANGESEG_KERNEL RANGESEG_SIMD_INLINE void quantities_block(F x, F y, F z, const QuantityConsts& p,
                                                            PixelRow out, int i) {
   const F r2 = x * x + y * y + z * z;
-  V::store(out.x + i, x);
+  // A point with an infinite coordinate (e.g. "no return" in REP 117) or so far away that r^2
+  // overflows is no point: its x becomes NaN, so that its edges fail on their NaN length as a
+  // NaN point's do (with an infinite range, eps_d and the noise gate would pass them).
+  V::store(out.x + i, V::pick((M)(r2 < p.inf), x, p.nan));
   V::store(out.y + i, y);
   V::store(out.z + i, z);
   V::store(out.cos2_r2 + i, p.cos2 * r2);
@@ -42,7 +45,8 @@ RANGESEG_KERNEL void pixel_quantities(const float* __restrict xs, const float* _
   const QuantityConsts p{V::set1(params.vx),   V::set1(params.vy), V::set1(params.vz),
                          V::set1(params.cos2), V::set1(params.a),  V::set1(params.bs),
                          V::set1(params.c),    V::set1(params.na), V::set1(params.nb),
-                         V::set1(params.nz0),  V::set1(params.k2), V::set1(0.0f)};
+                         V::set1(params.nz0),  V::set1(params.k2), V::set1(0.0f),
+                         V::set1(kInf),        V::set1(kNaN)};
   const PixelRow out = row;
   int i = 0;
   for (; i + kLanes <= count; i += kLanes) {

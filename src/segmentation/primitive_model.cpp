@@ -799,7 +799,11 @@ class PrimitivePass {
     s_.final_changed.assign(m + 1, 0);
     for (std::size_t j = 0; j < m; ++j) s_.final_changed[j + 1] = s_.changed[s_.order[j]];
     s_.stats.assign(m + 1, detail::PlaneStats{});
-    const bool identity = m == static_cast<std::size_t>(n_) && reassigned_ == 0;
+    // The labels stay as they are only when no group was joined or dropped, no point moved and
+    // the order by size is the old one: a tentative patch, labelled after every plane
+    // segment, may be larger than some of them.
+    bool identity = m == static_cast<std::size_t>(n_) && reassigned_ == 0;
+    for (std::int32_t l = 1; l <= n_ && identity; ++l) identity = s_.remap[l] == l;
     for (int v = 0; v < f_.height && !identity; v += step) {
       const std::ptrdiff_t row = v * f_.stride;
       for (int u = 0; u < f_.width; u += step) {

@@ -29,6 +29,36 @@ void require_size(const char* what, int width, int height, const OrganizedCloud&
   }
 }
 
+/// Region growing and re-assignment follow the mesh edges without bounds checks, so an edge that
+/// leaves the image (a mesh not built for this cloud's size or stride) is rejected here. Only
+/// pixels within one lattice step of the border can have such an edge.
+void require_edges_inside(const Mesh& mesh) {
+  const int width = mesh.width(), height = mesh.height(), step = mesh.pixel_stride;
+  const auto check = [&](int u, int v) {
+    const unsigned edges = mesh.edges(u, v);
+    for (int k = 0; k < 8; ++k) {
+      if ((edges >> k & 1u) == 0) continue;
+      const long nu = u + static_cast<long>(step) * kNeighbourDu[static_cast<std::size_t>(k)];
+      const long nv = v + static_cast<long>(step) * kNeighbourDv[static_cast<std::size_t>(k)];
+      if (nu < 0 || nv < 0 || nu >= width || nv >= height) {
+        std::ostringstream msg;
+        msg << "segment: the mesh has an edge from pixel (" << u << ", " << v << ") to (" << nu
+            << ", " << nv << "), outside the " << width << "x" << height << " image (pixel_stride "
+            << step << "); was it built for this cloud?";
+        throw std::invalid_argument(msg.str());
+      }
+    }
+  };
+  for (int v = 0; v < height; ++v) {
+    if (v < step || v >= height - step) {
+      for (int u = 0; u < width; ++u) check(u, v);
+      continue;
+    }
+    for (int u = 0; u < std::min(step, width); ++u) check(u, v);
+    for (int u = std::max(width - step, step); u < width; ++u) check(u, v);
+  }
+}
+
 void require(bool ok, const char* field, double value, const char* condition) {
   if (!ok) {
     std::ostringstream msg;
@@ -331,6 +361,7 @@ void Segmenter::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalM
     throw std::invalid_argument(
         "segment: mesh.pixel_stride = " + std::to_string(mesh.pixel_stride) + " must be >= 1");
   }
+  require_edges_inside(mesh);
   validate(settings);
   if (!scratch_) scratch_ = std::make_unique<Scratch>();
 
