@@ -45,6 +45,7 @@ OrganizedCloud depth_to_cloud(View<const std::uint16_t> depth, const CameraIntri
 }
 
 DepthImage cloud_to_depth(const OrganizedCloud& cloud, double depth_scale) {
+  require_consistent(cloud, "cloud_to_depth");
   if (!(depth_scale > 0) || !std::isfinite(depth_scale)) {
     throw std::invalid_argument("cloud_to_depth: depth_scale must be > 0, got " +
                                 std::to_string(depth_scale));

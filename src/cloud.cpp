@@ -27,6 +27,7 @@ void OrganizedCloud::add_rgb() {
 std::size_t OrganizedCloud::count_valid() const { return cloud_stats(*this).valid; }
 
 CloudStats cloud_stats(const OrganizedCloud& cloud) {
+  require_consistent(cloud, "cloud_stats");
   CloudStats s;
   float lo = std::numeric_limits<float>::infinity(), hi = -lo;
   for (int v = 0; v < cloud.height(); ++v) {
@@ -50,6 +51,34 @@ void require_organized(const OrganizedCloud& cloud, const char* what) {
         std::string(what) + ": needs an organized cloud (height >= 2), got " +
         std::to_string(cloud.width()) + "x" + std::to_string(cloud.height()));
   }
+  require_consistent(cloud, what);
+}
+
+void require_consistent(const OrganizedCloud& cloud, const char* what) {
+  // Every function indexes each plane with the cloud's size.
+  const auto require_size = [&](int width, int height, const char* plane, bool optional) {
+    if ((optional && (width == 0 || height == 0)) ||
+        (width == cloud.width() && height == cloud.height())) {
+      return;
+    }
+    throw std::invalid_argument(std::string(what) + ": the cloud's " + plane + " plane is " +
+                                std::to_string(width) + "x" + std::to_string(height) +
+                                ", its z plane " + std::to_string(cloud.width()) + "x" +
+                                std::to_string(cloud.height()));
+  };
+  require_size(cloud.x.width(), cloud.x.height(), "x", false);
+  require_size(cloud.y.width(), cloud.y.height(), "y", false);
+  require_size(cloud.intensity.width(), cloud.intensity.height(), "intensity", true);
+  require_size(cloud.label.width(), cloud.label.height(), "label", true);
+  // r, g and b come together: present (the cloud's size) or all empty.
+  const int colours = int{!cloud.r.empty()} + int{!cloud.g.empty()} + int{!cloud.b.empty()};
+  if (colours != 0 && colours != 3) {
+    throw std::invalid_argument(std::string(what) + ": the cloud has " + std::to_string(colours) +
+                                " of the r, g, b planes; they come together");
+  }
+  require_size(cloud.r.width(), cloud.r.height(), "r", true);
+  require_size(cloud.g.width(), cloud.g.height(), "g", true);
+  require_size(cloud.b.width(), cloud.b.height(), "b", true);
 }
 
 }  // namespace rangeseg

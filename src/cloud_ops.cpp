@@ -21,6 +21,7 @@ void take_every(const Plane<T>& in, int factor, int out_width, int out_height, P
 }  // namespace
 
 OrganizedCloud downsample(const OrganizedCloud& cloud, int factor) {
+  require_consistent(cloud, "downsample");
   if (factor < 1) {
     throw std::invalid_argument("downsample: factor must be >= 1, got " + std::to_string(factor));
   }

@@ -231,6 +231,7 @@ RgbImage colorize_scalar_auto(View<const float> values) {
 }
 
 RgbImage colorize_depth(const OrganizedCloud& cloud) {
+  require_consistent(cloud, "colorize_depth");
   return colorize_scalar_auto(cloud.z.view());
 }
 

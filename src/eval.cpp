@@ -344,6 +344,7 @@ EvalResult evaluate(const LabelImage& ground_truth, const LabelImage& machine,
 
 std::vector<std::optional<PlaneParams>> fit_planes(const OrganizedCloud& cloud,
                                                    const LabelImage& labels, int min_label) {
+  require_consistent(cloud, "eval::fit_planes");
   if (cloud.width() != labels.width() || cloud.height() != labels.height()) {
     throw std::invalid_argument("eval::fit_planes: cloud is " +
                                 size_string(cloud.width(), cloud.height()) + " but labels are " +

@@ -132,6 +132,18 @@ TEST(Cli, SynthSegmentEvalRoundTrip) {
   EXPECT_NE(wrong_size.out.find("small_labels.png: the segmentation is 64x48"), std::string::npos)
       << wrong_size.out;
   EXPECT_NE(wrong_size.out.find("640x480"), std::string::npos) << wrong_size.out;
+  // Ground truth the library rejects (a label beyond its range): the message names the files.
+  rangeseg::OrganizedCloud labelled =
+      rangeseg::io::read_pcd((dir / "scene" / "cloud.pcd").string());
+  labelled.add_label();
+  labelled.label(3, 3) = 2000000000;
+  const fs::path huge_label = dir / "huge_label.pcd";
+  rangeseg::io::write_pcd(huge_label.string(), labelled);
+  const CliResult bad_gt =
+      run("eval " + huge_label.string() + " " + (dir / "seg" / "labels.png").string());
+  EXPECT_EQ(bad_gt.code, 2);
+  EXPECT_NE(bad_gt.out.find("huge_label.pcd against"), std::string::npos) << bad_gt.out;
+  EXPECT_NE(bad_gt.out.find("2000000000"), std::string::npos) << bad_gt.out;
 
   // The depth PNG with the camera file gives the same grid as the PCD.
   const CliResult info = run("info " + (dir / "scene" / "depth.png").string() + " --intrinsics " +

@@ -2,7 +2,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "rangeseg/cloud.hpp"
 
@@ -73,4 +76,59 @@ TEST(Downsample, RejectsFactorBelowOne) {
   EXPECT_THROW(rangeseg::downsample(in, 0), std::invalid_argument);
   EXPECT_THROW(rangeseg::downsample(in, -2), std::invalid_argument);
   EXPECT_TRUE(rangeseg::downsample(rangeseg::OrganizedCloud{}, 3).empty());
+}
+
+TEST(Cloud, PlanesOfOtherSizesAreRejected) {
+  // Every function indexes each plane with the cloud's size (z's): a plane of another size, or
+  // some of r, g, b without the others, is an error naming the function and the plane, not a
+  // read past the plane.
+  const auto consistent = [] {
+    rangeseg::OrganizedCloud c(32, 24);
+    for (int v = 0; v < 24; ++v) {
+      for (int u = 0; u < 32; ++u) {
+        c.x(u, v) = 0.01f * static_cast<float>(u);
+        c.y(u, v) = 0.01f * static_cast<float>(v);
+        c.z(u, v) = 1.0f;
+      }
+    }
+    return c;
+  };
+  const auto expect_rejected = [](const rangeseg::OrganizedCloud& c, const std::string& plane) {
+    for (const auto& call : std::vector<std::function<void()>>{
+             [&] { rangeseg::require_organized(c, "f"); },
+             [&] { static_cast<void>(rangeseg::cloud_stats(c)); },
+             [&] { static_cast<void>(rangeseg::downsample(c, 2)); }}) {
+      try {
+        call();
+        ADD_FAILURE() << "no exception for " << plane;
+      } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find(plane), std::string::npos) << e.what();
+      }
+    }
+  };
+  rangeseg::OrganizedCloud ok = consistent();
+  ok.add_intensity();
+  ok.add_rgb();
+  ok.add_label();
+  EXPECT_NO_THROW(rangeseg::require_organized(ok, "f"));
+  EXPECT_EQ(rangeseg::cloud_stats(ok).valid, 32u * 24u);
+  rangeseg::OrganizedCloud c = consistent();
+  c.x.resize(31, 24, 0.0f);
+  expect_rejected(c, "x plane is 31x24");
+  c = consistent();
+  c.y.resize(32, 2, 0.0f);
+  expect_rejected(c, "y plane is 32x2");
+  c = consistent();
+  c.intensity.resize(10, 10, 0.0f);
+  expect_rejected(c, "intensity plane is 10x10");
+  c = consistent();
+  c.label.resize(32, 25, 0);
+  expect_rejected(c, "label plane is 32x25");
+  c = consistent();
+  c.r.resize(32, 24, 0);
+  expect_rejected(c, "1 of the r, g, b planes");
+  c = consistent();
+  c.add_rgb();
+  c.b.resize(4, 4, 0);
+  expect_rejected(c, "b plane is 4x4");
 }

@@ -16,6 +16,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include <unistd.h>
@@ -79,6 +80,64 @@ TEST(Pipeline, MatchesTheStagesCalledOneByOne) {
   }
   EXPECT_GT(pipeline.times().total, 0.0);
   EXPECT_GE(pipeline.times().total, pipeline.times().mesh + pipeline.times().segmentation);
+}
+
+/// Every field of two segmentations and polygon sets, bit for bit.
+void expect_same_output(const Pipeline& a, const Pipeline& b, const std::string& what) {
+  const Segmentation& sa = a.segmentation();
+  const Segmentation& sb = b.segmentation();
+  ASSERT_EQ(sa.segments.size(), sb.segments.size()) << what;
+  for (int v = 0; v < sa.labels.height(); ++v) {
+    ASSERT_EQ(
+        std::memcmp(sa.labels.row(v), sb.labels.row(v), sizeof(std::int32_t) * sa.labels.width()),
+        0)
+        << what << " row " << v;
+  }
+  for (std::size_t i = 0; i < sa.segments.size(); ++i) {
+    const Segment &x = sa.segments[i], &y = sb.segments[i];
+    const auto fields = [](const Segment& g) {
+      return std::tuple(g.label, g.model, g.pixel_count, g.area_m2, g.centroid, g.normal, g.offset,
+                        g.rms_residual, g.kind, g.surface_rms, g.centre, g.axis, g.radius, g.extent,
+                        g.grazing);
+    };
+    EXPECT_TRUE(fields(x) == fields(y))
+        << what << " segment " << x.label << ": radius " << x.radius << " / " << y.radius;
+  }
+  EXPECT_EQ(a.polygons().loops.size(), b.polygons().loops.size()) << what;
+  EXPECT_TRUE(a.polygons().points3d == b.polygons().points3d) << what;
+}
+
+TEST(Pipeline, ReusedOverFramesOfOtherSizesGivesWhatAFreshOneGives) {
+  // One pipeline, frames of changing size and content (with spheres and cylinders), against a
+  // new pipeline per frame: no buffer or segment may carry anything over from an earlier frame.
+  const auto scene = [](std::uint64_t seed, int width, int height) {
+    const double f = 0.82 * width;
+    const CameraIntrinsics camera{
+        .fx = f, .fy = f, .cx = width / 2.0, .cy = height / 2.0, .width = width, .height = height};
+    return synth::render(synth::random_scene(seed, true),
+                         {.camera = camera, .noise = synth::Noise::kinect, .seed = seed})
+        .cloud;
+  };
+  const std::vector<OrganizedCloud> frames = {scene(1, 320, 240), scene(2, 160, 120),
+                                              scene(3, 333, 251), scene(4, 320, 240),
+                                              scene(1, 320, 240)};
+  for (const RegionModel model : {RegionModel::plane, RegionModel::smooth,
+                                  RegionModel::incremental_plane, RegionModel::automatic}) {
+    for (const int threads : {1, 2}) {
+      PipelineSettings settings = pipeline_preset("kinect");
+      settings.segmentation.model = model;
+      settings.threads = threads;
+      Pipeline reused(settings);
+      for (std::size_t k = 0; k < frames.size(); ++k) {
+        reused.process(frames[k]);
+        Pipeline fresh(settings);
+        fresh.process(frames[k]);
+        expect_same_output(reused, fresh,
+                           std::string(to_string(model)) + ", " + std::to_string(threads) +
+                               " threads, frame " + std::to_string(k));
+      }
+    }
+  }
 }
 
 /// The first of the random QVGA scenes 3.. whose segmentation the split of regions one plane does

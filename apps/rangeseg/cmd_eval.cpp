@@ -269,9 +269,15 @@ void add_eval(CLI::App& app) {
                                ") " + std::to_string(gt.labels.width()) + "x" +
                                std::to_string(gt.labels.height()));
     }
-    const eval::EvalResult r =
-        eval::evaluate(gt.labels, ms, {.tolerance = o->tolerance, .min_gt_label = gt.min_label});
-    const eval::AngleStats a = angles_for(r, gt, ms);
+    // The library's checks (label ranges, ...) name no file: say which pair was scored.
+    eval::EvalResult r;
+    eval::AngleStats a;
+    try {
+      r = eval::evaluate(gt.labels, ms, {.tolerance = o->tolerance, .min_gt_label = gt.min_label});
+      a = angles_for(r, gt, ms);
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(o->gt + " against " + o->pred + ": " + e.what());
+    }
     print_header();
     print_row(fs::path(o->gt).filename().string().c_str(), r, a);
     if (o->regions) {

@@ -54,7 +54,13 @@ struct CloudStats {
 };
 CloudStats cloud_stats(const OrganizedCloud& cloud);
 
-/// Throws std::invalid_argument naming `what` if the cloud is not organized (height < 2).
+/// Throws std::invalid_argument naming `what` if the cloud's planes differ in size: x and y must
+/// have z's size, and so must intensity and label when present; r, g and b come together (all of
+/// z's size, or all empty).
+void require_consistent(const OrganizedCloud& cloud, const char* what);
+
+/// Throws std::invalid_argument naming `what` if the cloud is not organized (height < 2) or
+/// not consistent (`require_consistent`).
 void require_organized(const OrganizedCloud& cloud, const char* what);
 
 /// Every `factor`-th pixel along both axes: pixel (u, v) of the result is pixel

@@ -62,6 +62,7 @@ const char* encoding_name(PcdEncoding e) {
 }  // namespace
 
 std::vector<std::uint8_t> encode_pcd(const OrganizedCloud& cloud, const PcdWriteOptions& options) {
+  require_consistent(cloud, "encode_pcd");
   if (cloud.empty()) throw std::invalid_argument("encode_pcd: the cloud has no points");
   const int w = cloud.width(), h = cloud.height();
   require_size(cloud.x, cloud, "x");

@@ -653,10 +653,12 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
   const std::size_t n = s.order.size();
   out.segments.resize(n);
   for (std::size_t j = 0; j < n; ++j) {
+    // A Segmenter reuses `out` frame after frame: every field starts from its default, so that
+    // no sphere or cylinder parameter of an earlier frame's segment stays on a plane.
     Segment& seg = out.segments[j];
+    seg = Segment{};
     seg.label = static_cast<int>(j + 1);
     seg.model = settings.model;
-    seg.area_m2 = 0;
     // After merging, the fit of every surviving region is that of its final statistics.
     if (planes && settings.merge_planes) {
       fill_plane_fields(s.regions[s.order[j]], s.fits[s.order[j]], seg);
