@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <functional>
+#include <string>
 #include <vector>
 
 #include "rangeseg/mesh.hpp"
@@ -58,32 +59,43 @@ inline double angle_deg(const std::array<double, 3>& a, const std::array<double,
   return std::acos(std::clamp(d, -1.0, 1.0)) / kDeg;
 }
 
-/// Invariants every segmentation must satisfy.
-inline void expect_consistent(const OrganizedCloud& cloud, const Segmentation& seg,
-                              const SegmentationSettings& settings) {
-  ASSERT_EQ(seg.labels.width(), cloud.width());
-  ASSERT_EQ(seg.labels.height(), cloud.height());
+/// Invariants of every model's labels and segments: labels 0..N on valid points only, segment i
+/// has label i + 1 and as many pixels as carry it, segments by size descending, areas finite.
+inline void expect_labels_name_segments(const OrganizedCloud& cloud, const Segmentation& seg,
+                                        const std::string& what = {}) {
+  ASSERT_EQ(seg.labels.width(), cloud.width()) << what;
+  ASSERT_EQ(seg.labels.height(), cloud.height()) << what;
   std::vector<int> counts(seg.segments.size() + 1, 0);
   for (int v = 0; v < cloud.height(); ++v) {
     for (int u = 0; u < cloud.width(); ++u) {
       const int l = seg.labels(u, v);
-      ASSERT_GE(l, 0);
+      ASSERT_GE(l, 0) << what;
       ASSERT_LE(l, static_cast<int>(seg.segments.size()))
-          << "label not compact at " << u << "," << v;
+          << what << ": label not compact at " << u << "," << v;
       if (l != 0) {
-        ASSERT_TRUE(cloud.valid(u, v)) << "invalid pixel labelled at " << u << "," << v;
+        ASSERT_TRUE(cloud.valid(u, v)) << what << ": invalid pixel labelled at " << u << "," << v;
       }
-      ++counts[l];
+      ++counts[static_cast<std::size_t>(l)];
     }
   }
   for (std::size_t i = 0; i < seg.segments.size(); ++i) {
     const Segment& s = seg.segments[i];
-    EXPECT_EQ(s.label, static_cast<int>(i + 1));
-    EXPECT_EQ(s.pixel_count, counts[i + 1]) << "segment " << s.label;
-    EXPECT_GE(2 * s.pixel_count, settings.min_region_size);  // below it only when wide (3D)
+    EXPECT_EQ(s.label, static_cast<int>(i + 1)) << what;
+    EXPECT_EQ(s.pixel_count, counts[i + 1]) << what << ": segment " << s.label;
     if (i > 0) {
-      EXPECT_LE(s.pixel_count, seg.segments[i - 1].pixel_count);
+      EXPECT_LE(s.pixel_count, seg.segments[i - 1].pixel_count) << what;
     }
+    EXPECT_TRUE(std::isfinite(s.area_m2) && s.area_m2 >= 0) << what << ": segment " << s.label;
+  }
+}
+
+/// Invariants every plane segmentation must satisfy.
+inline void expect_consistent(const OrganizedCloud& cloud, const Segmentation& seg,
+                              const SegmentationSettings& settings) {
+  expect_labels_name_segments(cloud, seg);
+  for (std::size_t i = 0; i < seg.segments.size(); ++i) {
+    const Segment& s = seg.segments[i];
+    EXPECT_GE(2 * s.pixel_count, settings.min_region_size);  // below it only when wide (3D)
     const double norm = std::hypot(s.normal[0], s.normal[1], s.normal[2]);
     EXPECT_NEAR(norm, 1.0, 1e-9);
     EXPECT_GE(s.offset, 0.0);

@@ -5,6 +5,7 @@
 #include <functional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "rangeseg/cloud.hpp"
@@ -112,23 +113,21 @@ TEST(Cloud, PlanesOfOtherSizesAreRejected) {
   ok.add_label();
   EXPECT_NO_THROW(rangeseg::require_organized(ok, "f"));
   EXPECT_EQ(rangeseg::cloud_stats(ok).valid, 32u * 24u);
-  rangeseg::OrganizedCloud c = consistent();
-  c.x.resize(31, 24, 0.0f);
-  expect_rejected(c, "x plane is 31x24");
-  c = consistent();
-  c.y.resize(32, 2, 0.0f);
-  expect_rejected(c, "y plane is 32x2");
-  c = consistent();
-  c.intensity.resize(10, 10, 0.0f);
-  expect_rejected(c, "intensity plane is 10x10");
-  c = consistent();
-  c.label.resize(32, 25, 0);
-  expect_rejected(c, "label plane is 32x25");
-  c = consistent();
-  c.r.resize(32, 24, 0);
-  expect_rejected(c, "1 of the r, g, b planes");
-  c = consistent();
-  c.add_rgb();
-  c.b.resize(4, 4, 0);
-  expect_rejected(c, "b plane is 4x4");
+  using Change = std::function<void(rangeseg::OrganizedCloud&)>;
+  const std::vector<std::pair<Change, std::string>> changes = {
+      {[](auto& c) { c.x.resize(31, 24, 0.0f); }, "x plane is 31x24"},
+      {[](auto& c) { c.y.resize(32, 2, 0.0f); }, "y plane is 32x2"},
+      {[](auto& c) { c.intensity.resize(10, 10, 0.0f); }, "intensity plane is 10x10"},
+      {[](auto& c) { c.label.resize(32, 25, 0); }, "label plane is 32x25"},
+      {[](auto& c) { c.r.resize(32, 24, 0); }, "1 of the r, g, b planes"},
+      {[](auto& c) {
+         c.add_rgb();
+         c.b.resize(4, 4, 0);
+       },
+       "b plane is 4x4"}};
+  for (const auto& [change, message] : changes) {
+    rangeseg::OrganizedCloud c = consistent();
+    change(c);
+    expect_rejected(c, message);
+  }
 }

@@ -24,6 +24,7 @@
 #include "rangeseg/pipeline.hpp"
 #include "rangeseg/synth.hpp"
 #include "rangeseg/thread_pool.hpp"
+#include "segmentation_test_util.hpp"
 
 namespace {
 std::atomic<long> g_allocations{0};
@@ -363,17 +364,9 @@ TEST(Pipeline, NonFinitePointsAreNoPoints) {
     pipeline.process(cloud);
     const Segmentation& seg = pipeline.segmentation();
     ASSERT_GT(seg.segments.size(), 2u) << to_string(model);
-    std::vector<std::int64_t> counts(seg.segments.size() + 1, 0);
-    for (int v = 0; v < cloud.height(); ++v) {
-      for (int u = 0; u < cloud.width(); ++u) {
-        const int l = seg.labels(u, v);
-        ASSERT_TRUE(l == 0 || cloud.valid(u, v)) << to_string(model) << " at " << u << "," << v;
-        ++counts[static_cast<std::size_t>(l)];
-      }
-    }
+    test::expect_labels_name_segments(cloud, seg, to_string(model));
     for (const Segment& s : seg.segments) {
-      EXPECT_EQ(s.pixel_count, counts[static_cast<std::size_t>(s.label)]) << to_string(model);
-      EXPECT_TRUE(std::isfinite(s.area_m2) && s.area_m2 > 0) << to_string(model) << " " << s.label;
+      EXPECT_GT(s.area_m2, 0) << to_string(model) << " " << s.label;
       EXPECT_TRUE(std::isfinite(s.rms_residual) && std::isfinite(s.offset)) << to_string(model);
     }
     for (const auto& p : pipeline.polygons().points3d) {
@@ -448,25 +441,7 @@ TEST(Pipeline, DamagedScenesWithRandomSettingsKeepTheInvariants) {
     Pipeline pipeline(settings);
     for (int frame = 0; frame < 2; ++frame) {
       ASSERT_NO_THROW(pipeline.process(cloud)) << what;
-      const Segmentation& seg = pipeline.segmentation();
-      std::vector<std::int64_t> counts(seg.segments.size() + 1, 0);
-      for (int v = 0; v < height; ++v) {
-        for (int u = 0; u < width; ++u) {
-          const int l = seg.labels(u, v);
-          ASSERT_TRUE(l >= 0 && l <= static_cast<int>(seg.segments.size())) << what;
-          ASSERT_TRUE(l == 0 || cloud.valid(u, v)) << what << " at " << u << "," << v;
-          ++counts[static_cast<std::size_t>(l)];
-        }
-      }
-      for (std::size_t i = 0; i < seg.segments.size(); ++i) {
-        const Segment& g = seg.segments[i];
-        ASSERT_EQ(g.label, static_cast<int>(i + 1)) << what;
-        EXPECT_EQ(g.pixel_count, counts[i + 1]) << what << " segment " << g.label;
-        if (i > 0) {
-          EXPECT_LE(g.pixel_count, seg.segments[i - 1].pixel_count) << what;
-        }
-        EXPECT_TRUE(std::isfinite(g.area_m2) && g.area_m2 >= 0) << what << " segment " << g.label;
-      }
+      test::expect_labels_name_segments(cloud, pipeline.segmentation(), what);
       const PolygonSet& polygons = pipeline.polygons();
       for (const PolygonLoop& loop : polygons.loops) {
         ASSERT_GE(loop.count, 3) << what;
