@@ -734,6 +734,44 @@ TEST(Segmentation, PresetsAndValidation) {
   EXPECT_THROW(close_grazing_cells(out, closed), std::invalid_argument);
 }
 
+TEST(Segmentation, CallerNormalsThatDisagreeWithThePointsKeepCountsAndLabelsInStep) {
+  // A caller's NormalMap need not match the cloud: normals at points that are missing, or
+  // vertices with a normal but no curvature. A cell with a few such vertices still joins a
+  // region as a unit, and it must label exactly the vertices its statistics count (else the
+  // regions' pixel counts are wrong, and splitting sorts more pixels than it made room for).
+  OrganizedCloud cloud =
+      cast(160, 120, [](double a, double b) { return 2.0 / (1.0 + 0.3 * a + 0.2 * b); });
+  for (int v = 0; v < 120; ++v) {
+    for (int u = 0; u < 160; ++u) {
+      if ((u * 7 + v * 11) % 97 == 0) cloud.x(u, v) = cloud.y(u, v) = cloud.z(u, v) = NAN;
+    }
+  }
+  const Mesh mesh = build_mesh(cloud);
+  NormalMap normals = compute_normals(cloud, mesh);
+  int changed = 0;
+  for (int v = 0; v < 120; ++v) {
+    for (int u = 0; u < 160; ++u) {
+      if (!cloud.valid(u, v)) {
+        normals.nx(u, v) = 0.0f;  // a normal where there is no point
+        normals.ny(u, v) = 0.0f;
+        normals.nz(u, v) = -1.0f;
+        ++changed;
+      } else if ((u * 5 + v * 3) % 89 == 0) {
+        normals.curvature(u, v) = NAN;  // a normal without curvature
+        ++changed;
+      }
+    }
+  }
+  ASSERT_GT(changed, 300);
+  for (const RegionModel model : {RegionModel::plane, RegionModel::automatic}) {
+    SegmentationSettings settings = preset("kinect");
+    settings.model = model;
+    const Segmentation seg = segment(cloud, mesh, normals, settings);
+    ASSERT_FALSE(seg.segments.empty());
+    test::expect_labels_name_segments(cloud, seg, to_string(model));
+  }
+}
+
 TEST(Segmentation, RejectsMeshEdgesThatLeaveTheImage) {
   // Region growing follows mesh edges without bounds checks; a mesh made for another size or
   // stride (or by hand) must be rejected, not followed out of the image.

@@ -128,9 +128,7 @@ void finish_gapped_cell(const Frame& f, std::ptrdiff_t origin, std::ptrdiff_t st
                         std::ptrdiff_t down, Cell& cell) {
   constexpr int last = kCellSide - 1;
   constexpr unsigned right_bit = 1u << 0, down_bit = 1u << 2;
-  const auto valid = [&](std::ptrdiff_t p) {
-    return f.nz[p] == f.nz[p] && f.curvature[p] <= 3e38f;
-  };
+  const auto valid = [&](std::ptrdiff_t p) { return cell_vertex_valid(f, p); };
   int missing = 0;
   for (int j = 0; j < kCellSide; ++j) {
     for (int i = 0; i < kCellSide; ++i) {

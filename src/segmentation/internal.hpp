@@ -113,11 +113,19 @@ struct SplitPart {
 inline constexpr int kCellMaxMissing = 4;
 inline constexpr std::int64_t kCellVertices = std::int64_t{kCellSide} * kCellSide;
 
+/// A vertex that counts in its cell's statistics (point, normal and curvature present), and
+/// only such a vertex is labelled when its cell joins a region as a unit: the two must agree,
+/// or a region's point count would differ from its labelled pixels. (With the library's own
+/// normals the three go together; a caller's NormalMap need not.)
+inline bool cell_vertex_valid(const Frame& f, std::ptrdiff_t p) {
+  return f.z[p] == f.z[p] && f.nz[p] == f.nz[p] && f.curvature[p] <= 3e38f;
+}
+
 /// Statistics of one kCellSide x kCellSide cell of mesh vertices, for growing whole cells at a
 /// time (cf. CAPE / PEAC). `complete` cells have every vertex valid (point and normal), or all
 /// but at most kCellMaxMissing, and every mesh edge between horizontally and vertically adjacent
 /// valid vertices inside the cell, so the cell is one piece of surface; only complete cells are
-/// grown as units. Their vertices without a normal stay unlabelled.
+/// grown as units. Their vertices without one stay unlabelled (`cell_vertex_valid`).
 struct Cell {
   detail::PlaneStats stats;          ///< points [m] (stats.count: the valid vertices)
   double snx = 0, sny = 0, snz = 0;  ///< sum of the vertex normals

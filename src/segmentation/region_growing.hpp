@@ -66,7 +66,7 @@ inline bool cell_free(const Frame& f, std::ptrdiff_t origin) {
 }
 
 /// Labels the vertices of a complete cell; those of a cell with missing vertices only where
-/// there is a normal.
+/// they count in its statistics (`cell_vertex_valid`).
 inline void label_cell(const Frame& f, std::ptrdiff_t origin, std::int32_t label,
                        const Cell& cell) {
   const int s = f.pixel_stride;
@@ -78,7 +78,7 @@ inline void label_cell(const Frame& f, std::ptrdiff_t origin, std::int32_t label
     } else {
       for (std::ptrdiff_t i = 0; i < kCellSide; ++i) {
         const std::ptrdiff_t p = row + i * s;
-        f.labels[p] = f.nz[p] == f.nz[p] ? label : 0;
+        f.labels[p] = cell_vertex_valid(f, p) ? label : 0;
       }
     }
   }

@@ -481,7 +481,10 @@ void split_unexplained_planes(const Frame& f, const SegmentationSettings& settin
     for (int u = 0; u < f.width; u += step) {
       const std::int32_t c = slot[row[u]];
       if (c < 0) continue;
+      // A region's labelled pixels are its point count (`cell_vertex_valid` keeps the coarse
+      // level so); the guard keeps a broken count from writing into the next candidate's slots.
       assert(fill[c] < start[c + 1]);
+      if (fill[c] == start[c + 1]) continue;
       row[u] = candidates[c];
       pixels[fill[c]++] = static_cast<std::int32_t>(row - f.labels + u);
     }
