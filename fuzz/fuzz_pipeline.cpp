@@ -1,0 +1,63 @@
+// libFuzzer target: any cloud that parses runs through the whole pipeline without a crash, and
+// its labels and segments agree. Byte 0 picks the sensor preset, region model, mesh type, thread
+// count and smoothing; the rest is a PCD file (small organized clouds only, to keep runs fast).
+#include <cstddef>
+#include <cstdint>
+#include <exception>
+#include <vector>
+
+#include "rangeseg/io/pcd.hpp"
+#include "rangeseg/pipeline.hpp"
+
+namespace {
+
+constexpr int kMaxPixels = 96 * 96;
+
+/// Labels 0..N, segment i labelled i + 1 with as many pixels as carry it.
+bool labels_name_segments(const rangeseg::Segmentation& seg) {
+  std::vector<std::int64_t> counts(seg.segments.size() + 1, 0);
+  for (int v = 0; v < seg.labels.height(); ++v) {
+    for (int u = 0; u < seg.labels.width(); ++u) {
+      const int l = seg.labels(u, v);
+      if (l < 0 || static_cast<std::size_t>(l) > seg.segments.size()) return false;
+      ++counts[static_cast<std::size_t>(l)];
+    }
+  }
+  for (std::size_t i = 0; i < seg.segments.size(); ++i) {
+    if (seg.segments[i].label != static_cast<int>(i + 1) ||
+        seg.segments[i].pixel_count != counts[i + 1]) {
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  if (size < 1) return 0;
+  const unsigned pick = data[0];
+  rangeseg::OrganizedCloud cloud;
+  try {
+    cloud = rangeseg::io::parse_pcd(data + 1, size - 1, "fuzz.pcd");
+  } catch (const std::exception&) {
+    return 0;
+  }
+  if (!cloud.is_organized() || static_cast<long>(cloud.width()) * cloud.height() > kMaxPixels) {
+    return 0;
+  }
+  constexpr const char* kPresets[] = {"kinect", "abw", "laser", "ideal"};
+  rangeseg::PipelineSettings settings = rangeseg::pipeline_preset(kPresets[pick & 3u]);
+  settings.segmentation.model = static_cast<rangeseg::RegionModel>(pick >> 2 & 3u);
+  settings.mesh.type = static_cast<rangeseg::MeshType>(pick >> 4 & 3u);
+  settings.threads = (pick & 64u) != 0 ? 2 : 1;
+  settings.smooth = (pick & 128u) == 0;
+  try {
+    rangeseg::Pipeline pipeline(settings);
+    pipeline.process(cloud);
+    if (!labels_name_segments(pipeline.segmentation())) __builtin_trap();
+  } catch (const std::exception&) {
+    // Rejected input (e.g. planes of different sizes) is fine; crashes and traps are not.
+  }
+  return 0;
+}
