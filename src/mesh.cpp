@@ -100,11 +100,7 @@ const Kernels& kernels() { RANGESEG_SIMD_PICK(Kernels, RANGESEG_MESH_KERNELS); }
 #undef RANGESEG_MESH_KERNELS
 
 void validate(const OrganizedCloud& cloud, const MeshSettings& s) {
-  require_organized(cloud, "build_mesh");
-  if (cloud.x.width() != cloud.width() || cloud.y.width() != cloud.width() ||
-      cloud.x.height() != cloud.height() || cloud.y.height() != cloud.height()) {
-    throw std::invalid_argument("build_mesh: x, y, z planes differ in size");
-  }
+  require_organized(cloud, "build_mesh");  // also the planes' sizes
   if (static_cast<long long>(cloud.width()) * cloud.height() >
       std::numeric_limits<std::int32_t>::max()) {
     throw std::invalid_argument(

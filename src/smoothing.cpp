@@ -541,7 +541,7 @@ void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMa
 
 void Smoother::run_passes(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
                           OrganizedCloud& out_cloud, NormalMap& out_normals, ThreadPool* pool) {
-  require_organized(cloud, "smooth");
+  require_organized(cloud, "smooth");  // also the cloud's planes' sizes
   if (&out_cloud == &cloud || &out_normals == &normals) {
     throw std::invalid_argument("smooth: the output objects must differ from the inputs");
   }
@@ -554,8 +554,6 @@ void Smoother::run_passes(const OrganizedCloud& cloud, const Mesh& mesh, const N
     throw std::invalid_argument("smooth: mesh pixel_stride must be >= 1, got " +
                                 std::to_string(mesh.pixel_stride));
   }
-  require_same_size(cloud.x, cloud, "x");
-  require_same_size(cloud.y, cloud, "y");
   require_same_size(normals.nx, cloud, "normals.nx");
   require_same_size(normals.ny, cloud, "normals.ny");
   require_same_size(normals.nz, cloud, "normals.nz");
@@ -589,7 +587,6 @@ void Smoother::run_passes(const OrganizedCloud& cloud, const Mesh& mesh, const N
   if (st.use_intensity && (cloud.has_intensity() || cloud.has_rgb())) {
     const bool frame_range = !(st.intensity_range > 0.0f);
     if (cloud.has_intensity()) {
-      require_same_size(cloud.intensity, cloud, "intensity");
       intensity = &cloud.intensity;
       if (frame_range) range = detail::frame_intensity_range(cloud, *intensity);
     } else {

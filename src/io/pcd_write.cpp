@@ -62,24 +62,19 @@ const char* encoding_name(PcdEncoding e) {
 }  // namespace
 
 std::vector<std::uint8_t> encode_pcd(const OrganizedCloud& cloud, const PcdWriteOptions& options) {
+  // The cloud's own planes; the extra fields are checked below.
   require_consistent(cloud, "encode_pcd");
   if (cloud.empty()) throw std::invalid_argument("encode_pcd: the cloud has no points");
   const int w = cloud.width(), h = cloud.height();
-  require_size(cloud.x, cloud, "x");
-  require_size(cloud.y, cloud, "y");
 
   // Packed colour, as PCL stores it: the float whose bits are 0x00RRGGBB.
   std::vector<std::uint32_t> packed;
   std::vector<OutField> fields = {plane_field("x", 'F', cloud.x), plane_field("y", 'F', cloud.y),
                                   plane_field("z", 'F', cloud.z)};
   if (cloud.has_intensity()) {
-    require_size(cloud.intensity, cloud, "intensity");
     fields.push_back(plane_field("intensity", 'F', cloud.intensity));
   }
   if (cloud.has_rgb()) {
-    require_size(cloud.r, cloud, "r");
-    require_size(cloud.g, cloud, "g");
-    require_size(cloud.b, cloud, "b");
     packed.resize(cloud.size());
     for (int v = 0; v < h; ++v) {
       const std::uint8_t *r = cloud.r.row(v), *g = cloud.g.row(v), *b = cloud.b.row(v);
@@ -92,7 +87,6 @@ std::vector<std::uint8_t> encode_pcd(const OrganizedCloud& cloud, const PcdWrite
                       static_cast<std::ptrdiff_t>(w) * 4});
   }
   if (cloud.has_label()) {
-    require_size(cloud.label, cloud, "label");
     fields.push_back(plane_field("label", 'U', cloud.label));
   }
   for (const auto& [name, plane] : options.extra_float_fields) {
