@@ -204,6 +204,64 @@ TEST(Cli, FailedWriteLeavesNoFile) {
   EXPECT_EQ(a.count_valid(), b.count_valid());
 }
 
+// `eval-synth` scores what `synth`, `segment` and `eval` score seed by seed, and counts the
+// sphere and cylinder regions that one segment of the right kind detects.
+TEST(Cli, EvalSynthScoresWhatSynthSegmentAndEvalScore) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_eval_synth");
+  const std::string scene = (dir / "scene").string(), seg = (dir / "seg").string();
+  ASSERT_EQ(run("synth -o " + scene + " --scene mixed --seed 5").code, 0);
+  ASSERT_EQ(run("segment " + scene + "/cloud.pcd -o " + seg + " --model auto").code, 0);
+  const CliResult eval = run("eval " + scene + "/labels.png " + seg + "/labels.png --cloud " +
+                             scene + "/cloud.pcd --json " + (dir / "eval.json").string());
+  ASSERT_EQ(eval.code, 0) << eval.out;
+  const CliResult all = run("eval-synth --scene mixed --seeds 4-5 --model auto --json " +
+                            (dir / "all.json").string());
+  ASSERT_EQ(all.code, 0) << all.out;
+  EXPECT_NE(all.out.find("mixed 5"), std::string::npos) << all.out;
+  EXPECT_NE(all.out.find("curved regions:"), std::string::npos) << all.out;
+
+  const nlohmann::json expected = read_json(dir / "eval.json");
+  const nlohmann::json report = read_json(dir / "all.json");
+  ASSERT_EQ(report["seeds"].size(), 2u);
+  const nlohmann::json& row = report["seeds"][1];
+  EXPECT_EQ(row["seed"].get<int>(), 5);
+  for (const char* key :
+       {"gt_regions", "ms_regions", "correct", "over", "under", "missed", "noise"}) {
+    EXPECT_EQ(row[key].get<int>(), expected[key].get<int>()) << key;
+    EXPECT_EQ(report["total"][key].get<int>(),
+              report["seeds"][0][key].get<int>() + row[key].get<int>())
+        << key;
+  }
+  EXPECT_NEAR(row["angle_mean_deg"].get<double>(), expected["angle_mean_deg"].get<double>(), 1e-9);
+
+  // The curved regions of seed 5 scored from the files: a correct ground-truth region whose
+  // segment's surface type is the surface's own.
+  const nlohmann::json surfaces = read_json(dir / "scene" / "surfaces.json")["surfaces"];
+  const nlohmann::json segments = read_json(dir / "seg" / "segments.json")["segments"];
+  int curved = 0, right_kind = 0;
+  for (const auto& gt : expected["gt"]) {
+    const std::string type = surfaces[gt["label"].get<int>() - 1]["type"].get<std::string>();
+    if (type == "plane") continue;
+    ++curved;
+    if (gt["outcome"] != "correct") continue;
+    const auto& partner = segments[gt["partners"][0].get<int>() - 1];
+    right_kind += partner["surface"]["type"].get<std::string>() == type ? 1 : 0;
+  }
+  ASSERT_GT(curved, 0);
+  EXPECT_EQ(row["curved"]["regions"].get<int>(), curved);
+  EXPECT_EQ(row["curved"]["right_kind"].get<int>(), right_kind);
+  if (right_kind > 0) {
+    EXPECT_LT(row["curved"]["radius_error_max"].get<double>(), 0.05);
+  }
+
+  for (const char* bad : {"1-3,x", "5-2", "", "1,,2", "1-99999999"}) {
+    const CliResult r = run(std::string("eval-synth --seeds '") + bad + "'");
+    EXPECT_EQ(r.code, 2) << bad;
+    EXPECT_NE(r.out.find("--seeds"), std::string::npos) << r.out;
+  }
+  EXPECT_EQ(run("eval-synth --scene nowhere").code, 2);
+}
+
 TEST(Cli, SegcompEvaluationRuns) {
   RANGESEG_REQUIRE_DATA("segcomp_abw/abw.test.3.range");
   const CliResult r = run("eval " + (data_file.parent_path() / "abw.test.3.gt-seg").string() + " " +

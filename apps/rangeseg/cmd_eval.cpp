@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "eval_table.hpp"
 #include "input.hpp"
 #include "names.hpp"
 #include "output.hpp"
@@ -74,16 +75,6 @@ eval::AngleStats angles_for(const eval::EvalResult& r, const GroundTruth& gt,
   if (!gt.cloud) return {};
   return eval::angle_error(r, gt.labels, eval::fit_planes(*gt.cloud, gt.labels, gt.min_label),
                            eval::fit_planes(*gt.cloud, ms, 1));
-}
-
-void print_row(const char* name, const eval::EvalResult& r, const eval::AngleStats& a) {
-  std::printf("%-22s %5d %5d %7d %5d %6d %6d %6d %9.2f\n", name, r.gt_regions, r.ms_regions,
-              r.correct, r.over, r.under, r.missed, r.noise, a.mean_deg);
-}
-
-void print_header() {
-  std::printf("%-22s %5s %5s %7s %5s %6s %6s %6s %9s\n", "image", "GT", "MS", "correct", "over",
-              "under", "missed", "noise", "angle_deg");
 }
 
 struct EvalOptions {
@@ -198,7 +189,7 @@ void run_segcomp(const SegcompOptions& o) {
   Pipeline pipeline(settings_from(o.preset, "plane", o.config, o.no_smooth));
   std::vector<eval::EvalResult> results;
   std::vector<eval::AngleStats> angles;
-  print_header();
+  print_eval_header();
   for (const fs::path& range : images) {
     fs::path gt_path = range;
     gt_path.replace_extension(".gt-seg");
@@ -209,7 +200,7 @@ void run_segcomp(const SegcompOptions& o) {
     const eval::EvalResult r =
         eval::evaluate(gt.labels, ms, {.tolerance = o.tolerance, .min_gt_label = 10});
     const eval::AngleStats a = angles_for(r, gt, ms);
-    print_row(range.filename().string().c_str(), r, a);
+    print_eval_row(range.filename().string().c_str(), r, a);
     results.push_back(r);
     angles.push_back(a);
     if (!o.out_dir.empty()) {
@@ -278,8 +269,8 @@ void add_eval(CLI::App& app) {
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(o->gt + " against " + o->pred + ": " + e.what());
     }
-    print_header();
-    print_row(fs::path(o->gt).filename().string().c_str(), r, a);
+    print_eval_header();
+    print_eval_row(fs::path(o->gt).filename().string().c_str(), r, a);
     if (o->regions) {
       print_regions("ground-truth", r.gt);
       print_regions("machine", r.ms);

@@ -23,5 +23,6 @@ void add_segment(CLI::App& app);
 void add_bench(CLI::App& app);
 void add_smooth(CLI::App& app);
 void add_eval(CLI::App& app);
+void add_eval_synth(CLI::App& app);
 
 }  // namespace rangeseg::cli

@@ -1,0 +1,294 @@
+// `rangeseg eval-synth`: renders synthetic scenes, segments and scores them in one run, so that
+// the accuracy tables of the README come from one command each (the same numbers as `synth`,
+// `segment` and `eval` per seed: the PCD round trip is bit-exact).
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "eval_table.hpp"
+#include "names.hpp"
+#include "output.hpp"
+#include "rangeseg/eval.hpp"
+#include "rangeseg/io/png.hpp"
+#include "rangeseg/synth.hpp"
+#include "segment_output.hpp"
+
+namespace rangeseg::cli {
+namespace {
+
+struct EvalSynthOptions {
+  std::string scene = "boxes";
+  std::string seeds = "1-8";
+  std::string noise = "kinect";
+  std::string model = "plane";
+  std::string preset = "kinect";
+  std::string config;
+  std::string out_dir;
+  std::string json;
+  double tolerance = 0.8;
+  bool no_smooth = false;
+  bool per_surface = false;
+};
+
+constexpr std::uint64_t kMaxSeeds = 10000;
+
+std::uint64_t parse_seed(const std::string& text, const std::string& list) {
+  std::size_t used = 0;
+  unsigned long long value = 0;
+  try {
+    value = std::stoull(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (text.empty() || used != text.size() || text.front() == '-' || text.front() == '+') {
+    throw std::invalid_argument("--seeds '" + list + "': '" + text +
+                                "' is not a seed (expected e.g. 1-8 or 1,3,9-16)");
+  }
+  return value;
+}
+
+std::invalid_argument bad_range(const std::string& list, const std::string& item) {
+  return std::invalid_argument("--seeds '" + list + "': '" + item + "' is not a range of at most " +
+                               std::to_string(kMaxSeeds) + " seeds in ascending order");
+}
+
+/// "1-8", "3" or "1,4,9-16": the seeds in the order given.
+std::vector<std::uint64_t> parse_seeds(const std::string& list) {
+  std::vector<std::uint64_t> seeds;
+  std::size_t start = 0;
+  while (start <= list.size()) {
+    const std::size_t comma = std::min(list.find(',', start), list.size());
+    const std::string item = list.substr(start, comma - start);
+    const std::size_t dash = item.find('-', 1);
+    const std::uint64_t first = parse_seed(item.substr(0, dash), list);
+    const std::uint64_t last =
+        dash == std::string::npos ? first : parse_seed(item.substr(dash + 1), list);
+    if (last < first || last - first >= kMaxSeeds || seeds.size() + (last - first) >= kMaxSeeds) {
+      throw bad_range(list, item);
+    }
+    for (std::uint64_t s = first; s <= last; ++s) seeds.push_back(s);
+    start = comma + 1;
+  }
+  return seeds;
+}
+
+/// The fits of the curved ground-truth regions that were detected correctly by a segment of the
+/// same kind (`--model auto`): counts, and relative radius and axis angle errors.
+struct CurvedScore {
+  int regions = 0;     ///< curved ground-truth regions
+  int right_kind = 0;  ///< correctly detected by a segment of the surface's kind
+  /// of those, radius within 1 % and (cylinders) axis within 1 deg; within 5 % and 3 deg
+  int within_1 = 0, within_5 = 0;
+  double sum_radius_error = 0, max_radius_error = 0;  ///< relative
+  int axes = 0;
+  double sum_axis_error_deg = 0, max_axis_error_deg = 0;
+
+  void add(const CurvedScore& o) {
+    regions += o.regions;
+    right_kind += o.right_kind;
+    within_1 += o.within_1;
+    within_5 += o.within_5;
+    sum_radius_error += o.sum_radius_error;
+    max_radius_error = std::max(max_radius_error, o.max_radius_error);
+    axes += o.axes;
+    sum_axis_error_deg += o.sum_axis_error_deg;
+    max_axis_error_deg = std::max(max_axis_error_deg, o.max_axis_error_deg);
+  }
+};
+
+SurfaceKind kind_of(synth::SurfaceType type) {
+  switch (type) {
+    case synth::SurfaceType::cylinder:
+      return SurfaceKind::cylinder;
+    case synth::SurfaceType::sphere:
+      return SurfaceKind::sphere;
+    case synth::SurfaceType::plane:
+      break;
+  }
+  return SurfaceKind::plane;
+}
+
+CurvedScore score_curved(const synth::Rendering& scene, const eval::EvalResult& r,
+                         const Segmentation& segmentation) {
+  constexpr double kDegrees = 180.0 / 3.14159265358979323846;
+  CurvedScore score;
+  for (const eval::RegionOutcome& gt : r.gt) {
+    const synth::Surface& surface = scene.surfaces[static_cast<std::size_t>(gt.label) - 1];
+    if (surface.type == synth::SurfaceType::plane) continue;
+    ++score.regions;
+    if (gt.outcome != eval::Outcome::correct) continue;
+    const Segment& seg = segmentation.segments[static_cast<std::size_t>(gt.partners.front()) - 1];
+    if (seg.kind != kind_of(surface.type)) continue;
+    ++score.right_kind;
+    const double radius_error = std::fabs(seg.radius - surface.radius) / surface.radius;
+    score.sum_radius_error += radius_error;
+    score.max_radius_error = std::max(score.max_radius_error, radius_error);
+    double angle = 0;
+    if (surface.type == synth::SurfaceType::cylinder) {
+      const auto& a = surface.axis;
+      const auto& b = seg.axis;
+      const double cosine = std::fabs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) /
+                            (std::hypot(a[0], a[1], a[2]) * std::hypot(b[0], b[1], b[2]));
+      angle = std::acos(std::min(1.0, cosine)) * kDegrees;
+      ++score.axes;
+      score.sum_axis_error_deg += angle;
+      score.max_axis_error_deg = std::max(score.max_axis_error_deg, angle);
+    }
+    score.within_1 += radius_error <= 0.01 && angle <= 1 ? 1 : 0;
+    score.within_5 += radius_error <= 0.05 && angle <= 3 ? 1 : 0;
+  }
+  return score;
+}
+
+nlohmann::json counts_json(const eval::EvalResult& r) {
+  return {{"gt_regions", r.gt_regions},
+          {"ms_regions", r.ms_regions},
+          {"correct", r.correct},
+          {"over", r.over},
+          {"under", r.under},
+          {"missed", r.missed},
+          {"noise", r.noise}};
+}
+
+nlohmann::json curved_json(const CurvedScore& c) {
+  const auto mean = [](double sum, int n) {
+    return n > 0 ? nlohmann::json(sum / n) : nlohmann::json(nullptr);
+  };
+  return {{"regions", c.regions},
+          {"right_kind", c.right_kind},
+          {"within_1pct_1deg", c.within_1},
+          {"within_5pct_3deg", c.within_5},
+          {"radius_error_mean", mean(c.sum_radius_error, c.right_kind)},
+          {"radius_error_max", c.right_kind > 0 ? nlohmann::json(c.max_radius_error) : nullptr},
+          {"axis_error_mean_deg", mean(c.sum_axis_error_deg, c.axes)},
+          {"axis_error_max_deg", c.axes > 0 ? nlohmann::json(c.max_axis_error_deg) : nullptr}};
+}
+
+void run_eval_synth(const EvalSynthOptions& o) {
+  const std::vector<std::uint64_t> seeds = parse_seeds(o.seeds);
+  const synth::Noise noise = noise_by_name(o.noise);
+  scene_by_name(o.scene, seeds.front());  // rejects an unknown scene before any work
+  Pipeline pipeline(settings_from(o.preset, o.model, o.config, o.no_smooth));
+  eval::EvalResult total;
+  std::vector<eval::EvalResult> results;
+  std::vector<eval::AngleStats> angles;
+  CurvedScore curved;
+  nlohmann::json per_seed = nlohmann::json::array();
+  print_eval_header();
+  for (const std::uint64_t seed : seeds) {
+    const synth::Rendering scene =
+        synth::render(scene_by_name(o.scene, seed),
+                      {.noise = noise, .seed = seed, .split_disconnected = !o.per_surface});
+    pipeline.process(scene.cloud);
+    const Segmentation& segmentation = pipeline.segmentation();
+    const eval::EvalResult r =
+        eval::evaluate(scene.labels, segmentation.labels, {.tolerance = o.tolerance});
+    const eval::AngleStats a =
+        eval::angle_error(r, scene.labels, eval::fit_planes(scene.cloud, scene.labels, 1),
+                          eval::fit_planes(scene.cloud, segmentation.labels, 1));
+    const CurvedScore c = score_curved(scene, r, segmentation);
+    const std::string name = o.scene + " " + std::to_string(seed);
+    print_eval_row(name.c_str(), r, a);
+    for (int eval::EvalResult::*count :
+         {&eval::EvalResult::gt_regions, &eval::EvalResult::ms_regions, &eval::EvalResult::correct,
+          &eval::EvalResult::over, &eval::EvalResult::under, &eval::EvalResult::missed,
+          &eval::EvalResult::noise}) {
+      total.*count += r.*count;
+    }
+    curved.add(c);
+    results.push_back(r);
+    angles.push_back(a);
+    nlohmann::json row = counts_json(r);
+    row["seed"] = seed;
+    row["angle_mean_deg"] = std::isfinite(a.mean_deg) ? nlohmann::json(a.mean_deg) : nullptr;
+    row["curved"] = curved_json(c);
+    per_seed.push_back(std::move(row));
+    if (!o.out_dir.empty()) {
+      const std::string dir = (ensure_dir(o.out_dir) / (o.scene + std::to_string(seed))).string();
+      write_segmentation_folder(dir, scene.cloud, pipeline, false);
+      io::write_label_png((ensure_dir(dir) / "ground_truth.png").string(), scene.labels);
+    }
+  }
+  const eval::EvalSummary s = eval::summarize(results, angles);
+  print_eval_row("total", total, {.pairs = s.angle_pairs, .mean_deg = s.mean_angle_deg});
+  std::printf(
+      "correctly detected: %d of %d ground-truth regions (%.1f%%) at T = %.2f; angle error "
+      "%.2f +- %.2f deg\n",
+      total.correct, total.gt_regions,
+      total.gt_regions > 0 ? 100.0 * total.correct / total.gt_regions : 0.0, o.tolerance,
+      s.mean_angle_deg, s.std_angle_deg);
+  // The plane model labels no segment a sphere or cylinder.
+  if (curved.regions > 0 && region_model_by_name(o.model) == RegionModel::automatic) {
+    std::printf(
+        "curved regions: %d of %d correct and of the right kind, %d of them with radius "
+        "within 1%% and axis within 1 deg, %d within 5%% and 3 deg",
+        curved.right_kind, curved.regions, curved.within_1, curved.within_5);
+    if (curved.right_kind > 0) {
+      std::printf("; radius error mean %.2f%%, max %.2f%%",
+                  100 * curved.sum_radius_error / curved.right_kind, 100 * curved.max_radius_error);
+    }
+    if (curved.axes > 0) {
+      std::printf("; cylinder axis error mean %.2f deg, max %.2f deg",
+                  curved.sum_axis_error_deg / curved.axes, curved.max_axis_error_deg);
+    }
+    std::printf("\n");
+  }
+  if (!o.json.empty()) {
+    nlohmann::json totals = counts_json(total);
+    totals["angle_mean_deg"] =
+        std::isfinite(s.mean_angle_deg) ? nlohmann::json(s.mean_angle_deg) : nullptr;
+    totals["curved"] = curved_json(curved);
+    write_json(o.json, {{"scene", o.scene},
+                        {"noise", o.noise},
+                        {"model", o.model},
+                        {"preset", o.preset},
+                        {"T", o.tolerance},
+                        {"per_surface", o.per_surface},
+                        {"seeds", per_seed},
+                        {"total", totals}});
+  }
+}
+
+}  // namespace
+
+void add_eval_synth(CLI::App& app) {
+  auto o = std::make_shared<EvalSynthOptions>();
+  auto* cmd = app.add_subcommand(
+      "eval-synth",
+      "Render synthetic scenes, segment them and score them against their ground truth (SegComp "
+      "protocol), seed by seed and in total");
+  cmd->add_option("--scene", o->scene, "boxes, mixed (boxes, cylinders, spheres) or demo")
+      ->capture_default_str();
+  cmd->add_option("--seeds", o->seeds, "Seeds to render, e.g. 1-8 or 1,3,9-16")
+      ->capture_default_str();
+  cmd->add_option("--noise", o->noise, "Sensor noise model: none or kinect")->capture_default_str();
+  cmd->add_option("--model", o->model, "Region model: plane, smooth, incremental_plane or auto")
+      ->capture_default_str();
+  cmd->add_option("--preset", o->preset, "Sensor preset: kinect, abw, laser or ideal")
+      ->capture_default_str();
+  cmd->add_option("--config", o->config, "JSON file with settings overriding the preset");
+  cmd->add_option("--T", o->tolerance, "Overlap tolerance T, 0.5 < T <= 1")->capture_default_str();
+  cmd->add_flag("--no-smooth", o->no_smooth, "Skip the bilateral filter");
+  cmd->add_flag("--per-surface", o->per_surface,
+                "One ground-truth label per surface (default: one per connected part of a surface, "
+                "as `synth` writes)");
+  cmd->add_option("-o,--output", o->out_dir,
+                  "Also write each seed's results and ground_truth.png into DIR/<scene><seed>/");
+  cmd->add_option("--json", o->json, "Write the scores per seed and in total to this JSON file");
+  cmd->footer(
+      "The same scores as `rangeseg synth --scene S --seed N --noise X -o D`, `rangeseg segment "
+      "D/cloud.pcd -o R ...` and `rangeseg eval D/labels.png R/labels.png --cloud D/cloud.pcd` "
+      "for every seed. With --model auto it also reports how many sphere and cylinder regions "
+      "are one segment of the right kind, and their radius and axis errors.");
+  cmd->callback([o] { run_eval_synth(*o); });
+}
+
+}  // namespace rangeseg::cli
