@@ -238,18 +238,24 @@ TEST(Cli, EvalSynthScoresWhatSynthSegmentAndEvalScore) {
   // segment's surface type is the surface's own.
   const nlohmann::json surfaces = read_json(dir / "scene" / "surfaces.json")["surfaces"];
   const nlohmann::json segments = read_json(dir / "seg" / "segments.json")["segments"];
-  int curved = 0, right_kind = 0;
+  int curved = 0, right_kind = 0, planes_as_curved = 0;
   for (const auto& gt : expected["gt"]) {
     const std::string type = surfaces[gt["label"].get<int>() - 1]["type"].get<std::string>();
-    if (type == "plane") continue;
+    const bool correct = gt["outcome"] == "correct";
+    const std::string found =
+        correct ? segments[gt["partners"][0].get<int>() - 1]["surface"]["type"].get<std::string>()
+                : "";
+    if (type == "plane") {
+      planes_as_curved += found == "cylinder" || found == "sphere" ? 1 : 0;
+      continue;
+    }
     ++curved;
-    if (gt["outcome"] != "correct") continue;
-    const auto& partner = segments[gt["partners"][0].get<int>() - 1];
-    right_kind += partner["surface"]["type"].get<std::string>() == type ? 1 : 0;
+    right_kind += found == type ? 1 : 0;
   }
   ASSERT_GT(curved, 0);
   EXPECT_EQ(row["curved"]["regions"].get<int>(), curved);
   EXPECT_EQ(row["curved"]["right_kind"].get<int>(), right_kind);
+  EXPECT_EQ(row["curved"]["planes_as_curved"].get<int>(), planes_as_curved);
   if (right_kind > 0) {
     EXPECT_LT(row["curved"]["radius_error_max"].get<double>(), 0.05);
   }

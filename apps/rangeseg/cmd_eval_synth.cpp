@@ -87,6 +87,7 @@ struct CurvedScore {
   int right_kind = 0;  ///< correctly detected by a segment of the surface's kind
   /// of those, radius within 1 % and (cylinders) axis within 1 deg; within 5 % and 3 deg
   int within_1 = 0, within_5 = 0;
+  int planes_as_curved = 0;  ///< plane regions detected correctly by a sphere or cylinder segment
   double sum_radius_error = 0, max_radius_error = 0;  ///< relative
   int axes = 0;
   double sum_axis_error_deg = 0, max_axis_error_deg = 0;
@@ -96,6 +97,7 @@ struct CurvedScore {
     right_kind += o.right_kind;
     within_1 += o.within_1;
     within_5 += o.within_5;
+    planes_as_curved += o.planes_as_curved;
     sum_radius_error += o.sum_radius_error;
     max_radius_error = std::max(max_radius_error, o.max_radius_error);
     axes += o.axes;
@@ -122,19 +124,27 @@ CurvedScore score_curved(const synth::Rendering& scene, const eval::EvalResult& 
   CurvedScore score;
   for (const eval::RegionOutcome& gt : r.gt) {
     const synth::Surface& surface = scene.surfaces[static_cast<std::size_t>(gt.label) - 1];
-    if (surface.type == synth::SurfaceType::plane) continue;
+    const Segment* seg =
+        gt.outcome == eval::Outcome::correct
+            ? &segmentation.segments[static_cast<std::size_t>(gt.partners.front()) - 1]
+            : nullptr;
+    if (surface.type == synth::SurfaceType::plane) {
+      const bool curved = seg != nullptr &&
+                          (seg->kind == SurfaceKind::cylinder || seg->kind == SurfaceKind::sphere);
+      score.planes_as_curved += curved ? 1 : 0;
+      continue;
+    }
     ++score.regions;
-    if (gt.outcome != eval::Outcome::correct) continue;
-    const Segment& seg = segmentation.segments[static_cast<std::size_t>(gt.partners.front()) - 1];
-    if (seg.kind != kind_of(surface.type)) continue;
+    if (seg == nullptr) continue;
+    if (seg->kind != kind_of(surface.type)) continue;
     ++score.right_kind;
-    const double radius_error = std::fabs(seg.radius - surface.radius) / surface.radius;
+    const double radius_error = std::fabs(seg->radius - surface.radius) / surface.radius;
     score.sum_radius_error += radius_error;
     score.max_radius_error = std::max(score.max_radius_error, radius_error);
     double angle = 0;
     if (surface.type == synth::SurfaceType::cylinder) {
       const auto& a = surface.axis;
-      const auto& b = seg.axis;
+      const auto& b = seg->axis;
       const double cosine = std::fabs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) /
                             (std::hypot(a[0], a[1], a[2]) * std::hypot(b[0], b[1], b[2]));
       angle = std::acos(std::min(1.0, cosine)) * kDegrees;
@@ -166,10 +176,30 @@ nlohmann::json curved_json(const CurvedScore& c) {
           {"right_kind", c.right_kind},
           {"within_1pct_1deg", c.within_1},
           {"within_5pct_3deg", c.within_5},
+          {"planes_as_curved", c.planes_as_curved},
           {"radius_error_mean", mean(c.sum_radius_error, c.right_kind)},
           {"radius_error_max", c.right_kind > 0 ? nlohmann::json(c.max_radius_error) : nullptr},
           {"axis_error_mean_deg", mean(c.sum_axis_error_deg, c.axes)},
           {"axis_error_max_deg", c.axes > 0 ? nlohmann::json(c.max_axis_error_deg) : nullptr}};
+}
+
+void print_curved(const CurvedScore& c) {
+  if (c.regions > 0) {
+    std::printf(
+        "curved regions: %d of %d correct and of the right kind, %d of them with radius "
+        "within 1%% and axis within 1 deg, %d within 5%% and 3 deg",
+        c.right_kind, c.regions, c.within_1, c.within_5);
+    if (c.right_kind > 0) {
+      std::printf("; radius error mean %.2f%%, max %.2f%%", 100 * c.sum_radius_error / c.right_kind,
+                  100 * c.max_radius_error);
+    }
+    if (c.axes > 0) {
+      std::printf("; cylinder axis error mean %.2f deg, max %.2f deg",
+                  c.sum_axis_error_deg / c.axes, c.max_axis_error_deg);
+    }
+    std::printf("\n");
+  }
+  std::printf("plane regions detected by a sphere or cylinder segment: %d\n", c.planes_as_curved);
 }
 
 void run_eval_synth(const EvalSynthOptions& o) {
@@ -225,22 +255,8 @@ void run_eval_synth(const EvalSynthOptions& o) {
       total.correct, total.gt_regions,
       total.gt_regions > 0 ? 100.0 * total.correct / total.gt_regions : 0.0, o.tolerance,
       s.mean_angle_deg, s.std_angle_deg);
-  // The plane model labels no segment a sphere or cylinder.
-  if (curved.regions > 0 && region_model_by_name(o.model) == RegionModel::automatic) {
-    std::printf(
-        "curved regions: %d of %d correct and of the right kind, %d of them with radius "
-        "within 1%% and axis within 1 deg, %d within 5%% and 3 deg",
-        curved.right_kind, curved.regions, curved.within_1, curved.within_5);
-    if (curved.right_kind > 0) {
-      std::printf("; radius error mean %.2f%%, max %.2f%%",
-                  100 * curved.sum_radius_error / curved.right_kind, 100 * curved.max_radius_error);
-    }
-    if (curved.axes > 0) {
-      std::printf("; cylinder axis error mean %.2f deg, max %.2f deg",
-                  curved.sum_axis_error_deg / curved.axes, curved.max_axis_error_deg);
-    }
-    std::printf("\n");
-  }
+  // The other models label no segment a sphere or cylinder.
+  if (region_model_by_name(o.model) == RegionModel::automatic) print_curved(curved);
   if (!o.json.empty()) {
     nlohmann::json totals = counts_json(total);
     totals["angle_mean_deg"] =
