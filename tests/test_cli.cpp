@@ -268,6 +268,33 @@ TEST(Cli, EvalSynthScoresWhatSynthSegmentAndEvalScore) {
   EXPECT_EQ(run("eval-synth --scene nowhere").code, 2);
 }
 
+// The synthetic rows of the README's accuracy table (seeds 1-8, the development seeds) as lower
+// bounds: a change that loses a region there fails here, and the README must say what it gained.
+TEST(Cli, EvalSynthHoldsTheReadmeAccuracy) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_eval_synth_readme");
+  const auto total = [&](const std::string& args) {
+    const fs::path json = dir / "scores.json";
+    const CliResult r = run("eval-synth --seeds 1-8 " + args + " --json " + json.string());
+    EXPECT_EQ(r.code, 0) << r.out;
+    return read_json(json)["total"];
+  };
+  const nlohmann::json boxes = total("--scene boxes");
+  EXPECT_EQ(boxes["gt_regions"].get<int>(), 99);
+  EXPECT_GE(boxes["correct"].get<int>(), 87);
+  EXPECT_LE(boxes["noise"].get<int>(), 1);
+  const nlohmann::json mixed = total("--scene mixed --model auto");
+  EXPECT_EQ(mixed["gt_regions"].get<int>(), 134);
+  EXPECT_GE(mixed["correct"].get<int>(), 117);
+  EXPECT_GE(mixed["curved"]["within_5pct_3deg"].get<int>(), 18);
+  EXPECT_EQ(mixed["curved"]["planes_as_curved"].get<int>(), 0);
+  const nlohmann::json ideal_boxes = total("--scene boxes --noise none --preset ideal");
+  EXPECT_GE(ideal_boxes["correct"].get<int>(), 94);
+  const nlohmann::json ideal_mixed =
+      total("--scene mixed --noise none --preset ideal --model auto");
+  EXPECT_GE(ideal_mixed["correct"].get<int>(), 120);
+  EXPECT_EQ(ideal_mixed["curved"]["within_1pct_1deg"].get<int>(), 21);
+}
+
 TEST(Cli, SegcompEvaluationRuns) {
   RANGESEG_REQUIRE_DATA("segcomp_abw/abw.test.3.range");
   const CliResult r = run("eval " + (data_file.parent_path() / "abw.test.3.gt-seg").string() + " " +
