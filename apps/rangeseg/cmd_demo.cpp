@@ -45,18 +45,6 @@ RgbImage montage(const std::vector<const RgbImage*>& panels) {
   return out;
 }
 
-/// The built-in scene (which has a pillar and a ball) with a can lying on the floor, so the
-/// demo shows planes, spheres, standing and lying cylinders.
-synth::Scene demo_scene_with_curves() {
-  synth::Scene scene = synth::demo_scene();
-  scene.cylinders.push_back({.base = {0.75, 0.8 - 0.12, 2.1},
-                             .axis = {1.0, 0.0, -0.5},
-                             .radius = 0.12,
-                             .height = 0.45,
-                             .name = "can"});
-  return scene;
-}
-
 void print_surface_types(const Segmentation& seg) {
   int counts[4] = {0, 0, 0, 0};
   for (const Segment& s : seg.segments) {
@@ -79,8 +67,8 @@ void run_demo(const DemoOptions& o) {
   if (o.in.path.empty()) {
     progress("rendering the built-in demo scene (Kinect-like noise, seed " +
              std::to_string(o.seed) + ")");
-    synth::Rendering r =
-        synth::render(demo_scene_with_curves(), {.noise = synth::Noise::kinect, .seed = o.seed});
+    synth::Rendering r = synth::render(scene_by_name("demo", o.seed),
+                                       {.noise = synth::Noise::kinect, .seed = o.seed});
     in.cloud = std::move(r.cloud);
     in.ground_truth = std::move(r.labels);
     io::write_rgb_png((dir / "ground_truth.png").string(),

@@ -36,7 +36,17 @@ const char* type_name(synth::SurfaceType t) {
 }  // namespace
 
 synth::Scene scene_by_name(const std::string& name, std::uint64_t seed) {
-  if (name == "demo") return synth::demo_scene();
+  if (name == "demo") {
+    // The library's demo scene (which has a pillar and a ball) with a can lying on the floor,
+    // so that the demo shows planes, spheres, standing and lying cylinders.
+    synth::Scene scene = synth::demo_scene();
+    scene.cylinders.push_back({.base = {0.75, 0.8 - 0.12, 2.1},
+                               .axis = {1.0, 0.0, -0.5},
+                               .radius = 0.12,
+                               .height = 0.45,
+                               .name = "can"});
+    return scene;
+  }
   if (name == "boxes") return synth::random_scene(seed, false);
   if (name == "mixed") return synth::random_scene(seed, true);
   throw std::invalid_argument("unknown scene '" + name + "' (expected demo, boxes or mixed)");

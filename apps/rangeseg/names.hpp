@@ -16,6 +16,8 @@ MeshType mesh_type_by_name(const std::string& name);
 /// "plane", "smooth", "incremental_plane" (or "incremental") or "auto"; throws
 /// std::invalid_argument naming the valid models otherwise.
 RegionModel region_model_by_name(const std::string& name);
+/// "demo" (the scene of `rangeseg demo`: synth::demo_scene() with a can lying on the floor),
+/// "boxes" or "mixed" (synth::random_scene); throws std::invalid_argument naming them otherwise.
 synth::Scene scene_by_name(const std::string& name, std::uint64_t seed);
 synth::Noise noise_by_name(const std::string& name);
 nlohmann::json surfaces_json(const synth::Rendering& rendering);
