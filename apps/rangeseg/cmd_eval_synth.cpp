@@ -286,13 +286,8 @@ void add_eval_synth(CLI::App& app) {
   cmd->add_option("--seeds", o->seeds, "Seeds to render, e.g. 1-8 or 1,3,9-16")
       ->capture_default_str();
   cmd->add_option("--noise", o->noise, "Sensor noise model: none or kinect")->capture_default_str();
-  cmd->add_option("--model", o->model, "Region model: plane, smooth, incremental_plane or auto")
-      ->capture_default_str();
-  cmd->add_option("--preset", o->preset, "Sensor preset: kinect, abw, laser or ideal")
-      ->capture_default_str();
-  cmd->add_option("--config", o->config, "JSON file with settings overriding the preset");
+  add_settings_options(*cmd, o->model, o->preset, o->config, o->no_smooth);
   cmd->add_option("--T", o->tolerance, "Overlap tolerance T, 0.5 < T <= 1")->capture_default_str();
-  cmd->add_flag("--no-smooth", o->no_smooth, "Skip the bilateral filter");
   cmd->add_flag("--per-surface", o->per_surface,
                 "One ground-truth label per surface (default: one per connected part of a surface, "
                 "as `synth` writes)");

@@ -45,6 +45,19 @@ PipelineSettings settings_from(const std::string& preset, const std::string& mod
   return s;
 }
 
+void add_settings_options(CLI::App& cmd, std::string& model, std::string& preset,
+                          std::string& config, bool& no_smooth) {
+  cmd.add_option("--model", model,
+                 "Region model: plane, smooth, incremental_plane or auto (per segment: plane, "
+                 "cylinder, sphere or smooth surface)")
+      ->capture_default_str();
+  cmd.add_option("--preset", preset,
+                 "Sensor preset: kinect, abw, laser or ideal (noise-free or simulated depth)")
+      ->capture_default_str();
+  cmd.add_option("--config", config, "JSON file with settings overriding the preset");
+  cmd.add_flag("--no-smooth", no_smooth, "Skip the bilateral filter");
+}
+
 void add_segment(CLI::App& app) {
   auto o = std::make_shared<SegmentOptions>();
   auto* cmd = app.add_subcommand(
@@ -65,15 +78,7 @@ void add_segment(CLI::App& app) {
                   "inside the frame (mesh, normals, smoothing)")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
-  cmd->add_option("--model", o->model,
-                  "Region model: plane, smooth, incremental_plane or auto (per segment: plane, "
-                  "cylinder, sphere or smooth surface)")
-      ->capture_default_str();
-  cmd->add_option("--preset", o->preset,
-                  "Sensor preset: kinect, abw, laser or ideal (noise-free or simulated depth)")
-      ->capture_default_str();
-  cmd->add_option("--config", o->config, "JSON file with settings overriding the preset");
-  cmd->add_flag("--no-smooth", o->no_smooth, "Skip the bilateral filter");
+  add_settings_options(*cmd, o->model, o->preset, o->config, o->no_smooth);
   cmd->add_flag("--no-mesh", o->no_mesh, "Do not write mesh.ply");
   cmd->footer(
       "Several inputs, a directory or a TUM sequence run as a batch: a frame that cannot be read "

@@ -1,6 +1,7 @@
 // Parsing of names given on the command line, shared by several commands.
 #pragma once
 
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
@@ -30,6 +31,9 @@ void apply_config_file(const std::string& path, PipelineSettings& settings);
 }  // namespace rangeseg::cli
 
 namespace rangeseg::cli {
+/// Registers --model, --preset, --config and --no-smooth (the arguments of settings_from).
+void add_settings_options(CLI::App& cmd, std::string& model, std::string& preset,
+                          std::string& config, bool& no_smooth);
 /// Settings from --preset, --model, --config and --no-smooth.
 PipelineSettings settings_from(const std::string& preset, const std::string& model,
                                const std::string& config, bool no_smooth);
