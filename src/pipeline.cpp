@@ -54,8 +54,9 @@ PipelineSettings pipeline_preset(std::string_view sensor) {
     s.mesh.jump_sigmas = 10.0f;
     s.smooth = false;
   }
-  if (sensor == "laser") s.smoothing.pixel_angle = 0.0087f;  // 0.5 degree scan resolution
-  if (sensor == "ideal") s.smooth = false;                   // exact points: see preset("ideal")
+  if (sensor == "laser") s.smoothing.pixel_angle = 0.0087f;        // 0.5 degree scan resolution
+  if (sensor == "perceptron") s.smoothing.pixel_angle = 0.00176f;  // 51.65 deg over 512 columns
+  if (sensor == "ideal") s.smooth = false;  // exact points: see preset("ideal")
   return s;
 }
 

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <new>
 #include <random>
@@ -382,7 +383,7 @@ TEST(Pipeline, DamagedScenesWithRandomSettingsKeepTheInvariants) {
   // whose pixel counts and order agree, areas are finite, polygon loops index valid points.
   std::mt19937_64 rng(20261203);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
-  const char* presets[] = {"kinect", "abw", "laser", "ideal"};
+  const char* presets[] = {"kinect", "abw", "laser", "perceptron", "ideal"};
   const float inf = std::numeric_limits<float>::infinity();
   const float nan = std::numeric_limits<float>::quiet_NaN();
   for (int run = 0; run < 24; ++run) {
@@ -416,7 +417,7 @@ TEST(Pipeline, DamagedScenesWithRandomSettingsKeepTheInvariants) {
         }
       }
     }
-    PipelineSettings settings = pipeline_preset(presets[rng() % 4]);
+    PipelineSettings settings = pipeline_preset(presets[rng() % std::size(presets)]);
     settings.threads = 1 + static_cast<int>(rng() % 3);
     settings.mesh.type = static_cast<MeshType>(rng() % 4);
     settings.mesh.pixel_stride = uniform(rng) < 0.7 ? 1 : 1 + static_cast<int>(rng() % 3);

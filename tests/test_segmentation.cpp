@@ -677,6 +677,10 @@ TEST(Segmentation, PresetsAndValidation) {
   EXPECT_FALSE(preset("kinect").reassign_across_mesh_cuts);
   EXPECT_GE(preset("laser").noise.sigma(10.0), 0.01);
   EXPECT_NEAR(preset("ideal").noise.sigma(5.0), 0.0005, 1e-12);
+  EXPECT_NEAR(preset("perceptron").noise.sigma(3.0), preset("laser").noise.sigma(3.0), 1e-12);
+  EXPECT_EQ(preset("perceptron").min_region_size, 100);
+  EXPECT_GT(pipeline_preset("perceptron").smoothing.pixel_angle, 0.0017f);
+  EXPECT_LT(pipeline_preset("perceptron").smoothing.pixel_angle, 0.0018f);
   EXPECT_FALSE(pipeline_preset("ideal").smooth);
   EXPECT_TRUE(pipeline_preset("kinect").smooth);
   try {
@@ -688,6 +692,7 @@ TEST(Segmentation, PresetsAndValidation) {
     EXPECT_NE(what.find("kinect"), std::string::npos);
     EXPECT_NE(what.find("abw"), std::string::npos);
     EXPECT_NE(what.find("laser"), std::string::npos);
+    EXPECT_NE(what.find("perceptron"), std::string::npos);
     EXPECT_NE(what.find("ideal"), std::string::npos);
   }
   const OrganizedCloud cloud = cast(64, 48, [](double, double) { return 1.0; });

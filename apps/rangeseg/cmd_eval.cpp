@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "commands.hpp"
@@ -17,6 +18,7 @@
 #include "rangeseg/eval.hpp"
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/pcd.hpp"
+#include "rangeseg/io/perceptron.hpp"
 #include "rangeseg/io/png.hpp"
 #include "rangeseg/io/rasterfile.hpp"
 #include "segment_output.hpp"
@@ -30,6 +32,7 @@ struct GroundTruth {
   LabelImage labels;
   int min_label = 1;
   std::optional<OrganizedCloud> cloud;  ///< for plane fits, when the format brings points
+  io::SegcompSensor sensor = io::SegcompSensor::abw;  ///< of a SegComp .range beside a .gt-seg
 };
 
 GroundTruth load_ground_truth(const std::string& path) {
@@ -40,7 +43,7 @@ GroundTruth load_ground_truth(const std::string& path) {
     gt.min_label = 10;
     fs::path range = path;
     range.replace_extension(".range");
-    if (fs::exists(range)) gt.cloud = io::read_abw_range(range.string());
+    if (fs::exists(range)) gt.cloud = io::read_segcomp_range(range.string(), &gt.sensor);
   } else if (ext == ".png") {
     gt.labels = io::read_label_png(path);
   } else if (ext == ".pcd") {
@@ -139,7 +142,7 @@ nlohmann::json result_json(const EvalOptions& o, const eval::EvalResult& r,
 struct SegcompOptions {
   std::string dir;
   std::string out_dir;
-  std::string preset = "abw";
+  std::string preset = "auto";  ///< auto: abw or perceptron, by each image's scanner
   std::string config;
   double tolerance = 0.8;
   bool no_smooth = false;
@@ -157,36 +160,68 @@ void write_ms_seg(const std::string& path, const LabelImage& labels) {
   io::write_rasterfile(path, raw.view());
 }
 
-/// SegComp .ms-nor: one line per region, "label nx ny nz", the unit normal in SegComp's scanner
-/// frame (X right, Y up, Z towards the sensor), i.e. our camera-frame normal with y and z negated.
-void write_ms_nor(const std::string& path, const Segmentation& seg) {
+/// SegComp .ms-nor: one line per region, "label nx ny nz", the unit normal in the scanner frame
+/// of the SegComp tools: for ABW X right, Y up, Z towards the sensor (our camera-frame normal
+/// with y and z negated); for Perceptron X left, Y up, Z away from the sensor (x and y negated).
+void write_ms_nor(const std::string& path, const Segmentation& seg, io::SegcompSensor sensor) {
+  const bool abw = sensor == io::SegcompSensor::abw;
   std::string text;
   char line[128];
   for (const Segment& s : seg.segments) {
     if (s.label > 255) break;
-    std::snprintf(line, sizeof line, "%d %.6f %.6f %.6f\n", s.label, s.normal[0], -s.normal[1],
-                  -s.normal[2]);
+    std::snprintf(line, sizeof line, "%d %.6f %.6f %.6f\n", s.label,
+                  abw ? s.normal[0] : -s.normal[0], -s.normal[1], abw ? -s.normal[2] : s.normal[2]);
     text += line;
   }
   io::write_file_atomic(path, text);
 }
 
-void run_segcomp(const SegcompOptions& o) {
+/// The SegComp images of a folder: every .range file with a .gt-seg beside it, ordered by name
+/// with the image numbers compared as numbers (abw.test.2 before abw.test.10).
+std::vector<fs::path> segcomp_images(const std::string& dir) {
   std::vector<fs::path> images;
-  for (const auto& e : fs::directory_iterator(o.dir)) {
-    const std::string name = e.path().filename().string();
-    if (name.rfind("abw.test.", 0) == 0 && e.path().extension() == ".range") {
+  std::vector<std::string> without_truth;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (e.path().extension() != ".range") continue;
+    fs::path gt = e.path();
+    gt.replace_extension(".gt-seg");
+    if (fs::exists(gt)) {
       images.push_back(e.path());
+    } else {
+      without_truth.push_back(e.path().filename().string());
     }
   }
-  if (images.empty()) throw std::runtime_error(o.dir + ": no abw.test.*.range files");
-  std::sort(images.begin(), images.end(), [](const fs::path& a, const fs::path& b) {
-    const auto num = [](const fs::path& p) {
-      return std::stoi(p.stem().extension().string().substr(1));
-    };
-    return num(a) < num(b);
+  if (images.empty()) {
+    throw std::runtime_error(dir + ": no .range file with a .gt-seg beside it" +
+                             (without_truth.empty()
+                                  ? std::string()
+                                  : " (" + without_truth.front() + " has no ground truth)"));
+  }
+  // "abw.test.12.range" -> ("abw.test.", 12); a stem without a trailing number sorts by name.
+  const auto key = [](const fs::path& p) {
+    const std::string stem = p.stem().string();
+    std::size_t digits = stem.size();
+    while (digits > 0 && stem[digits - 1] >= '0' && stem[digits - 1] <= '9') --digits;
+    const std::string number = stem.substr(digits);
+    return std::make_pair(stem.substr(0, digits),
+                          number.empty() || number.size() > 9 ? -1 : std::stoi(number));
+  };
+  std::sort(images.begin(), images.end(), [&](const fs::path& a, const fs::path& b) {
+    const auto ka = key(a), kb = key(b);
+    return ka != kb ? ka < kb : a.filename() < b.filename();
   });
-  Pipeline pipeline(settings_from(o.preset, "plane", o.config, o.no_smooth));
+  return images;
+}
+
+void run_segcomp(const SegcompOptions& o) {
+  const std::vector<fs::path> images = segcomp_images(o.dir);
+  // One pipeline per scanner: --preset, or (auto) the scanner's own preset.
+  const auto pipeline_for = [&](io::SegcompSensor sensor) {
+    const bool abw = sensor == io::SegcompSensor::abw;
+    const std::string preset = o.preset != "auto" ? o.preset : abw ? "abw" : "perceptron";
+    return std::make_unique<Pipeline>(settings_from(preset, "plane", o.config, o.no_smooth));
+  };
+  std::unique_ptr<Pipeline> pipelines[2];
   std::vector<eval::EvalResult> results;
   std::vector<eval::AngleStats> angles;
   print_eval_header();
@@ -194,7 +229,10 @@ void run_segcomp(const SegcompOptions& o) {
     fs::path gt_path = range;
     gt_path.replace_extension(".gt-seg");
     GroundTruth gt = load_ground_truth(gt_path.string());
-    if (!gt.cloud) gt.cloud = io::read_abw_range(range.string());
+    if (!gt.cloud) gt.cloud = io::read_segcomp_range(range.string(), &gt.sensor);
+    auto& slot = pipelines[static_cast<int>(gt.sensor)];
+    if (!slot) slot = pipeline_for(gt.sensor);
+    Pipeline& pipeline = *slot;
     pipeline.process(*gt.cloud);
     const LabelImage& ms = pipeline.segmentation().labels;
     const eval::EvalResult r =
@@ -207,7 +245,7 @@ void run_segcomp(const SegcompOptions& o) {
       const std::string stem = range.stem().string();
       const auto dir = ensure_dir(o.out_dir);
       write_ms_seg((dir / (stem + ".ms-seg")).string(), ms);
-      write_ms_nor((dir / (stem + ".ms-nor")).string(), pipeline.segmentation());
+      write_ms_nor((dir / (stem + ".ms-nor")).string(), pipeline.segmentation(), gt.sensor);
       write_segmentation_folder((dir / stem).string(), *gt.cloud, pipeline, false);
     }
   }
@@ -280,10 +318,17 @@ void add_eval(CLI::App& app) {
 
   auto s = std::make_shared<SegcompOptions>();
   auto* seg = app.add_subcommand(
-      "eval-segcomp", "Segment every abw.test.*.range in a folder and score it (paper, Table II)");
-  seg->add_option("dir", s->dir, "Folder with abw.test.N.range and .gt-seg files")->required();
+      "eval-segcomp",
+      "Segment every SegComp .range image (ABW or Perceptron) that has a .gt-seg beside it in a "
+      "folder and score it (paper, Table II)");
+  seg->add_option("dir", s->dir,
+                  "Folder with SegComp images and ground truth, e.g. abw.test.N.range and "
+                  "abw.test.N.gt-seg")
+      ->required();
   seg->add_option("-o,--output", s->out_dir, "Also write .ms-seg files and result folders here");
-  seg->add_option("--preset", s->preset, "Sensor preset")->capture_default_str();
+  seg->add_option("--preset", s->preset,
+                  "Sensor preset; auto: abw for ABW images, perceptron for Perceptron images")
+      ->capture_default_str();
   seg->add_option("--config", s->config, "JSON settings overriding the preset");
   seg->add_option("--T", s->tolerance, "Overlap tolerance T")->capture_default_str();
   seg->add_flag("--no-smooth", s->no_smooth, "Skip the bilateral filter");

@@ -28,6 +28,7 @@ struct EvalSynthOptions {
   std::string scene = "boxes";
   std::string seeds = "1-8";
   std::string noise = "kinect";
+  std::string camera = "kinect";
   std::string model = "plane";
   std::string preset = "kinect";
   std::string config;
@@ -204,7 +205,7 @@ void print_curved(const CurvedScore& c) {
 
 void run_eval_synth(const EvalSynthOptions& o) {
   const std::vector<std::uint64_t> seeds = parse_seeds(o.seeds);
-  const synth::Noise noise = noise_by_name(o.noise);
+  const synth::RenderSettings sensor = sensor_by_name(o.noise, o.camera);
   scene_by_name(o.scene, seeds.front());  // rejects an unknown scene before any work
   Pipeline pipeline(settings_from(o.preset, o.model, o.config, o.no_smooth));
   eval::EvalResult total;
@@ -214,9 +215,10 @@ void run_eval_synth(const EvalSynthOptions& o) {
   nlohmann::json per_seed = nlohmann::json::array();
   print_eval_header();
   for (const std::uint64_t seed : seeds) {
-    const synth::Rendering scene =
-        synth::render(scene_by_name(o.scene, seed),
-                      {.noise = noise, .seed = seed, .split_disconnected = !o.per_surface});
+    synth::RenderSettings settings = sensor;
+    settings.seed = seed;
+    settings.split_disconnected = !o.per_surface;
+    const synth::Rendering scene = synth::render(scene_by_name(o.scene, seed), settings);
     pipeline.process(scene.cloud);
     const Segmentation& segmentation = pipeline.segmentation();
     const eval::EvalResult r =
@@ -264,6 +266,7 @@ void run_eval_synth(const EvalSynthOptions& o) {
     totals["curved"] = curved_json(curved);
     write_json(o.json, {{"scene", o.scene},
                         {"noise", o.noise},
+                        {"camera", o.camera},
                         {"model", o.model},
                         {"preset", o.preset},
                         {"T", o.tolerance},
@@ -285,7 +288,7 @@ void add_eval_synth(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--seeds", o->seeds, "Seeds to render, e.g. 1-8 or 1,3,9-16")
       ->capture_default_str();
-  cmd->add_option("--noise", o->noise, "Sensor noise model: none or kinect")->capture_default_str();
+  add_sensor_options(*cmd, o->noise, o->camera);
   add_settings_options(*cmd, o->model, o->preset, o->config, o->no_smooth);
   cmd->add_option("--T", o->tolerance, "Overlap tolerance T, 0.5 < T <= 1")->capture_default_str();
   cmd->add_flag("--per-surface", o->per_surface,

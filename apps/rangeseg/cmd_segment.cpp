@@ -51,8 +51,10 @@ void add_settings_options(CLI::App& cmd, std::string& model, std::string& preset
                  "Region model: plane, smooth, incremental_plane or auto (per segment: plane, "
                  "cylinder, sphere or smooth surface)")
       ->capture_default_str();
-  cmd.add_option("--preset", preset,
-                 "Sensor preset: kinect, abw, laser or ideal (noise-free or simulated depth)")
+  cmd.add_option(
+         "--preset", preset,
+         "Sensor preset: kinect, abw, laser, perceptron (SegComp Perceptron images) or ideal "
+         "(noise-free or simulated depth)")
       ->capture_default_str();
   cmd.add_option("--config", config, "JSON file with settings overriding the preset");
   cmd.add_flag("--no-smooth", no_smooth, "Skip the bilateral filter");

@@ -1,3 +1,5 @@
+#include <cmath>
+#include <exception>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -18,6 +20,7 @@ struct SynthOptions {
   std::string out_dir;
   std::string scene = "demo";
   std::string noise = "kinect";
+  std::string camera = "kinect";
   std::uint64_t seed = 1;
 };
 
@@ -52,10 +55,49 @@ synth::Scene scene_by_name(const std::string& name, std::uint64_t seed) {
   throw std::invalid_argument("unknown scene '" + name + "' (expected demo, boxes or mixed)");
 }
 
-synth::Noise noise_by_name(const std::string& name) {
-  if (name == "none") return synth::Noise::none;
-  if (name == "kinect") return synth::Noise::kinect;
-  throw std::invalid_argument("unknown noise model '" + name + "' (expected none or kinect)");
+synth::RenderSettings sensor_by_name(const std::string& noise, const std::string& camera) {
+  synth::RenderSettings s;
+  if (camera == "perceptron") {
+    // SegComp's Perceptron laser as a pinhole: 512 x 512 pixels over 51.65 x 36.73 deg.
+    constexpr double kDegree = 3.14159265358979323846 / 180.0;
+    s.camera = {.fx = 256.0 / std::tan(0.5 * 51.65 * kDegree),
+                .fy = 256.0 / std::tan(0.5 * 36.73 * kDegree),
+                .cx = 255.5,
+                .cy = 255.5,
+                .width = 512,
+                .height = 512};
+  } else if (camera != "kinect") {
+    throw std::invalid_argument("unknown camera '" + camera + "' (expected kinect or perceptron)");
+  }
+  if (noise == "none") return s;
+  s.noise = synth::Noise::kinect;
+  if (noise == "kinect") return s;
+  const std::string prefix = "constant:";
+  if (noise.compare(0, prefix.size(), prefix) == 0) {
+    // A laser's noise: Gaussian along the ray with one sigma at every range, no quantisation in
+    // disparity and no dropouts (the Kinect model with those terms off).
+    std::size_t used = 0;
+    double sigma = -1;
+    try {
+      sigma = std::stod(noise.substr(prefix.size()), &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != noise.size() - prefix.size() || !(sigma > 0 && sigma <= 1)) {
+      throw std::invalid_argument("--noise " + noise +
+                                  ": constant:SIGMA needs a sigma in metres in (0, 1]");
+    }
+    s.kinect = {.sigma_base = sigma,
+                .sigma_quadratic = 0,
+                .subpixel = 1e6,
+                .min_range = 0.1,
+                .max_range = 20,
+                .edge_dropout = 0,
+                .random_dropout = 0};
+    return s;
+  }
+  throw std::invalid_argument("unknown noise model '" + noise +
+                              "' (expected none, kinect or constant:SIGMA)");
 }
 
 nlohmann::json surfaces_json(const synth::Rendering& r) {
@@ -83,6 +125,17 @@ nlohmann::json surfaces_json(const synth::Rendering& r) {
   return surfaces;
 }
 
+void add_sensor_options(CLI::App& cmd, std::string& noise, std::string& camera) {
+  cmd.add_option("--noise", noise,
+                 "Sensor noise model: none, kinect (structured light, sigma growing with depth, "
+                 "dropouts) or constant:SIGMA (a laser: SIGMA metres along the ray at any range)")
+      ->capture_default_str();
+  cmd.add_option("--camera", camera,
+                 "kinect (640x480, f = 525 px) or perceptron (512x512 over 51.65 x 36.73 deg, "
+                 "SegComp's Perceptron laser)")
+      ->capture_default_str();
+}
+
 void add_synth(CLI::App& app) {
   auto o = std::make_shared<SynthOptions>();
   auto* cmd = app.add_subcommand(
@@ -92,20 +145,22 @@ void add_synth(CLI::App& app) {
   cmd->add_option("--scene", o->scene,
                   "demo, boxes (random boxes) or mixed (boxes, cylinders, spheres)")
       ->capture_default_str();
-  cmd->add_option("--noise", o->noise, "Sensor noise model: none or kinect")->capture_default_str();
+  add_sensor_options(*cmd, o->noise, o->camera);
   cmd->add_option("--seed", o->seed, "Seed of the random scene and the noise")
       ->capture_default_str();
   cmd->callback([o] {
+    synth::RenderSettings settings = sensor_by_name(o->noise, o->camera);
+    settings.seed = o->seed;
+    const synth::Scene scene = scene_by_name(o->scene, o->seed);
     const auto dir = ensure_dir(o->out_dir);
-    const synth::Rendering r = synth::render(scene_by_name(o->scene, o->seed),
-                                             {.noise = noise_by_name(o->noise), .seed = o->seed});
+    const synth::Rendering r = synth::render(scene, settings);
     io::write_pcd((dir / "cloud.pcd").string(), r.cloud,
                   {.encoding = io::PcdEncoding::binary_compressed});
     io::write_depth_png((dir / "depth.png").string(), cloud_to_depth(r.cloud, 0.001).view());
     io::write_label_png((dir / "labels.png").string(), r.labels);
     io::write_rgb_png((dir / "labels_colour.png").string(), colorize_labels(r.labels, &r.cloud));
     io::write_rgb_png((dir / "depth_colour.png").string(), colorize_depth(r.cloud));
-    const CameraIntrinsics cam{};
+    const CameraIntrinsics& cam = settings.camera;
     write_json((dir / "camera.json").string(),
                {{"width", r.cloud.width()},
                 {"height", r.cloud.height()},

@@ -11,6 +11,7 @@
 #include "rangeseg/io/camera_json.hpp"
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/pcd.hpp"
+#include "rangeseg/io/perceptron.hpp"
 #include "rangeseg/io/png.hpp"
 #include "rangeseg/io/rasterfile.hpp"
 
@@ -65,9 +66,11 @@ LoadedInput load_input(const InputOptions& o) {
     in.format = "16-bit depth PNG";
     in.fields = "depth (scale " + std::to_string(o.depth_scale) + " m/unit)";
   } else if (ext == ".range") {
-    in.cloud = io::read_abw_range(o.path);
-    in.format = "SegComp ABW rasterfile";
-    in.fields = "range (8 bit)";
+    io::SegcompSensor sensor{};
+    in.cloud = io::read_segcomp_range(o.path, &sensor);
+    const bool abw = sensor == io::SegcompSensor::abw;
+    in.format = abw ? "SegComp ABW rasterfile" : "SegComp Perceptron range image";
+    in.fields = abw ? "range (8 bit)" : "range (12 bit)";
     std::filesystem::path gt = o.path;
     gt.replace_extension(".gt-seg");
     if (std::filesystem::exists(gt)) in.ground_truth = io::read_segcomp_gt(gt.string());

@@ -20,7 +20,11 @@ RegionModel region_model_by_name(const std::string& name);
 /// "demo" (the scene of `rangeseg demo`: synth::demo_scene() with a can lying on the floor),
 /// "boxes" or "mixed" (synth::random_scene); throws std::invalid_argument naming them otherwise.
 synth::Scene scene_by_name(const std::string& name, std::uint64_t seed);
-synth::Noise noise_by_name(const std::string& name);
+/// Render settings of `--noise` (none, kinect, constant:SIGMA) and `--camera` (kinect,
+/// perceptron); throws std::invalid_argument naming a bad value.
+synth::RenderSettings sensor_by_name(const std::string& noise, const std::string& camera);
+/// Registers --noise and --camera (the arguments of sensor_by_name).
+void add_sensor_options(CLI::App& cmd, std::string& noise, std::string& camera);
 nlohmann::json surfaces_json(const synth::Rendering& rendering);
 
 /// Applies a JSON object {"noise": {a, b, z0}, "mesh": {...}, "smoothing": {...}, "segmentation":

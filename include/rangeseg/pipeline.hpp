@@ -38,9 +38,10 @@ struct PipelineSettings {
 void set_noise(PipelineSettings& settings, const SensorNoise& noise);
 
 /// Settings for a sensor: "kinect" (structured light, also PrimeSense / RealSense-like), "abw"
-/// (SegComp ABW scanner in metres), "laser" or "ideal" (noise-free or simulated depth: no
-/// smoothing; see `preset` in segmentation.hpp). Sets the noise model of every stage and the
-/// angular pixel spacing. Throws std::invalid_argument for other names, listing the valid ones.
+/// (SegComp ABW scanner in metres), "laser", "perceptron" (SegComp's Perceptron laser) or
+/// "ideal" (noise-free or simulated depth: no smoothing; see `preset` in segmentation.hpp). Sets
+/// the noise model of every stage and the angular pixel spacing. Throws std::invalid_argument for
+/// other names, listing the valid ones.
 PipelineSettings pipeline_preset(std::string_view sensor);
 
 /// Wall-clock time of each stage of the last frame [ms].

@@ -189,8 +189,9 @@ struct SegmentationSettings {
 /// Settings for a sensor: "kinect" (structured light, 0.5-6 m, sigma = 0.0012 + 0.0019 (z-0.4)^2
 /// m), "abw" (SegComp ABW structured-light scanner in metres, sigma ~ 0.5 mm over 0.8-1.1 m,
 /// dominated by the 8-bit range quantisation), "laser" (time-of-flight laser scanner, sigma ~
-/// 15 mm constant), "ideal" (noise-free or simulated depth, sigma 0.5 mm constant; the pipeline
-/// preset does not smooth). Throws std::invalid_argument naming the valid presets for any other
+/// 15 mm constant), "perceptron" (SegComp's Perceptron laser: "laser" with 100-pixel regions),
+/// "ideal" (noise-free or simulated depth, sigma 0.5 mm constant; the pipeline preset does not
+/// smooth). Throws std::invalid_argument naming the valid presets for any other
 /// name.
 SegmentationSettings preset(std::string_view name);
 
