@@ -267,10 +267,17 @@ TEST(Perceptron, EvalSegcompScoresPerceptronImagesInNumberOrder) {
                           perceptron_file(scan.words));
     io::write_rasterfile((dir / (std::string(stem) + ".gt-seg")).string(), gt.view());
   }
-  // A range image without ground truth is left out.
+  // A range image without ground truth is left out; a damaged one is reported and skipped.
   io::write_file_atomic((dir / "perc.test.3.range").string(), perceptron_file(scan.words));
+  std::vector<std::uint8_t> damaged = perceptron_file(scan.words);
+  damaged.pop_back();
+  io::write_file_atomic((dir / "perc.test.7.range").string(), damaged);
+  io::write_rasterfile((dir / "perc.test.7.gt-seg").string(), gt.view());
   const test::CliResult r = test::run_cli("eval-segcomp " + dir.string());
   ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("perc.test.7.range      skipped: Perceptron range image"), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("1 of 3 images skipped"), std::string::npos) << r.out;
   const std::size_t two = r.out.find("perc.test.2.range"), ten = r.out.find("perc.test.10.range");
   ASSERT_NE(two, std::string::npos) << r.out;
   ASSERT_NE(ten, std::string::npos) << r.out;
@@ -283,6 +290,18 @@ TEST(Perceptron, EvalSegcompScoresPerceptronImagesInNumberOrder) {
       << r.out;
   EXPECT_EQ(gt_regions, 5);
   EXPECT_EQ(correct, 5) << r.out;
+
+  const auto bad = test::scratch_dir("perceptron_segcomp_bad");
+  io::write_file_atomic((bad / "perc.test.7.range").string(), damaged);
+  io::write_rasterfile((bad / "perc.test.7.gt-seg").string(), gt.view());
+  const test::CliResult none_scored = test::run_cli("eval-segcomp " + bad.string());
+  EXPECT_EQ(none_scored.code, 2) << none_scored.out;
+  EXPECT_NE(none_scored.out.find("none of the 1 images could be scored"), std::string::npos)
+      << none_scored.out;
+  const test::CliResult bad_preset =
+      test::run_cli("eval-segcomp " + dir.string() + " --preset lidar");
+  EXPECT_EQ(bad_preset.code, 2) << bad_preset.out;
+  EXPECT_EQ(bad_preset.out.find("perc.test.2.range"), std::string::npos) << bad_preset.out;
 
   const auto empty = test::scratch_dir("perceptron_segcomp_empty");
   io::write_file_atomic((empty / "perc.test.3.range").string(), perceptron_file(scan.words));

@@ -70,6 +70,37 @@ TEST(Ply, StreamedFileEqualsTheInMemoryEncodingAcrossChunks) {
   EXPECT_EQ(files, 1) << "a temporary file was left behind";
 }
 
+TEST(Ply, WriterChecksItsLayoutAndLeavesNoFileWhenNotCommitted) {
+  const auto dir = test::scratch_dir("ply_writer");
+  const io::PlyMesh m = quad_mesh(true, true);
+  const io::PlyLayout layout{.vertices = 4, .faces = 2, .normals = true, .rgb = true};
+  const std::string path = (dir / "w.ply").string();
+  {
+    io::PlyWriter w(path, layout);
+    for (std::size_t i = 0; i < 4; ++i) w.vertex(&m.xyz[3 * i], &m.normals[3 * i], &m.rgb[3 * i]);
+    EXPECT_THROW(w.vertex(&m.xyz[0], &m.normals[0], &m.rgb[0]), std::invalid_argument);
+    const std::int32_t outside[3] = {0, 1, 4};
+    EXPECT_THROW(w.face(outside), std::invalid_argument);
+    w.face(&m.faces[0]);
+    EXPECT_THROW(w.commit(), std::logic_error);  // one face missing
+    w.face(&m.faces[3]);
+    EXPECT_THROW(w.face(&m.faces[0]), std::invalid_argument);
+    w.commit();
+  }
+  EXPECT_EQ(io::read_file(path), io::encode_ply(m));
+  {
+    io::PlyWriter w((dir / "lacking.ply").string(), layout);
+    EXPECT_THROW(w.vertex(&m.xyz[0], nullptr, &m.rgb[0]), std::invalid_argument);
+    EXPECT_THROW(w.face(&m.faces[0]), std::invalid_argument);  // before the vertices
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "lacking.ply"));
+  int files = 0;
+  for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir)) ++files;
+  EXPECT_EQ(files, 1) << "a temporary file was left behind";
+  EXPECT_THROW(io::PlyWriter((dir / "x.ply").string(), {.vertices_per_face = 2}),
+               std::invalid_argument);
+}
+
 TEST(Ply, AtomicFileWithoutCommitLeavesNothing) {
   const auto dir = test::scratch_dir("ply_atomic");
   const std::string path = (dir / "never.ply").string();

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -221,33 +222,51 @@ void run_segcomp(const SegcompOptions& o) {
     const std::string preset = o.preset != "auto" ? o.preset : abw ? "abw" : "perceptron";
     return std::make_unique<Pipeline>(settings_from(preset, "plane", o.config, o.no_smooth));
   };
+  // Bad options stop here, before any image; a bad image is reported and skipped below.
+  for (const io::SegcompSensor sensor : {io::SegcompSensor::abw, io::SegcompSensor::perceptron}) {
+    pipeline_for(sensor);
+  }
   std::unique_ptr<Pipeline> pipelines[2];
   std::vector<eval::EvalResult> results;
   std::vector<eval::AngleStats> angles;
+  std::vector<std::string> failures;
   print_eval_header();
   for (const fs::path& range : images) {
-    fs::path gt_path = range;
-    gt_path.replace_extension(".gt-seg");
-    GroundTruth gt = load_ground_truth(gt_path.string());
-    if (!gt.cloud) gt.cloud = io::read_segcomp_range(range.string(), &gt.sensor);
-    auto& slot = pipelines[static_cast<int>(gt.sensor)];
-    if (!slot) slot = pipeline_for(gt.sensor);
-    Pipeline& pipeline = *slot;
-    pipeline.process(*gt.cloud);
-    const LabelImage& ms = pipeline.segmentation().labels;
-    const eval::EvalResult r =
-        eval::evaluate(gt.labels, ms, {.tolerance = o.tolerance, .min_gt_label = 10});
-    const eval::AngleStats a = angles_for(r, gt, ms);
-    print_eval_row(range.filename().string().c_str(), r, a);
-    results.push_back(r);
-    angles.push_back(a);
-    if (!o.out_dir.empty()) {
-      const std::string stem = range.stem().string();
-      const auto dir = ensure_dir(o.out_dir);
-      write_ms_seg((dir / (stem + ".ms-seg")).string(), ms);
-      write_ms_nor((dir / (stem + ".ms-nor")).string(), pipeline.segmentation(), gt.sensor);
-      write_segmentation_folder((dir / stem).string(), *gt.cloud, pipeline, false);
+    try {
+      fs::path gt_path = range;
+      gt_path.replace_extension(".gt-seg");
+      GroundTruth gt = load_ground_truth(gt_path.string());
+      if (!gt.cloud) gt.cloud = io::read_segcomp_range(range.string(), &gt.sensor);
+      auto& slot = pipelines[static_cast<int>(gt.sensor)];
+      if (!slot) slot = pipeline_for(gt.sensor);
+      Pipeline& pipeline = *slot;
+      pipeline.process(*gt.cloud);
+      const LabelImage& ms = pipeline.segmentation().labels;
+      const eval::EvalResult r =
+          eval::evaluate(gt.labels, ms, {.tolerance = o.tolerance, .min_gt_label = 10});
+      const eval::AngleStats a = angles_for(r, gt, ms);
+      if (!o.out_dir.empty()) {
+        const std::string stem = range.stem().string();
+        const auto dir = ensure_dir(o.out_dir);
+        write_ms_seg((dir / (stem + ".ms-seg")).string(), ms);
+        write_ms_nor((dir / (stem + ".ms-nor")).string(), pipeline.segmentation(), gt.sensor);
+        write_segmentation_folder((dir / stem).string(), *gt.cloud, pipeline, false);
+      }
+      print_eval_row(range.filename().string().c_str(), r, a);
+      results.push_back(r);
+      angles.push_back(a);
+    } catch (const std::exception& e) {
+      std::printf("%-22s skipped: %s\n", range.filename().string().c_str(), e.what());
+      failures.push_back(e.what());
     }
+  }
+  if (results.empty()) {
+    throw std::runtime_error(o.dir + ": none of the " + std::to_string(images.size()) +
+                             " images could be scored; the first failure: " + failures.front());
+  }
+  if (!failures.empty()) {
+    std::printf("%zu of %zu images skipped (above); the averages are over the other %zu\n",
+                failures.size(), images.size(), results.size());
   }
   const eval::EvalSummary s = eval::summarize(results, angles);
   std::printf("%-22s %5.1f %5s %7.1f %5.1f %6.1f %6.1f %6.1f %9.2f\n", "average", s.mean_gt, "",

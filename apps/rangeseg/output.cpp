@@ -24,28 +24,31 @@ void write_mesh_ply(const std::string& path, const OrganizedCloud& cloud, const 
                     const NormalMap* normals, const RgbImage* colours) {
   TriangleList faces;
   extract_faces(mesh, /*remove_unused_vertices=*/true, faces);
-  io::PlyMesh ply;
-  ply.vertices_per_face = faces.vertices_per_face;
-  ply.faces = std::move(faces.indices);
-  const std::size_t n = faces.vertex_pixel.size();
-  ply.xyz.reserve(n * 3);
-  if (normals != nullptr) ply.normals.reserve(n * 3);
   const bool with_colour = colours != nullptr && !colours->rgb.empty();
-  if (with_colour) ply.rgb.reserve(n * 3);
+  const std::size_t n = faces.vertex_pixel.size();
+  // Streamed from the planes: a copy of the vertices would add ~8 MB at 640x480.
+  io::PlyWriter ply(
+      path, {.vertices = n,
+             .faces = faces.indices.size() / static_cast<std::size_t>(faces.vertices_per_face),
+             .vertices_per_face = faces.vertices_per_face,
+             .normals = normals != nullptr && n > 0,
+             .rgb = with_colour && n > 0});
   const int w = cloud.width();
   for (const std::int32_t pixel : faces.vertex_pixel) {
     const int u = pixel % w, v = pixel / w;
-    ply.xyz.insert(ply.xyz.end(), {cloud.x(u, v), cloud.y(u, v), cloud.z(u, v)});
-    if (normals != nullptr) {
-      ply.normals.insert(ply.normals.end(),
-                         {normals->nx(u, v), normals->ny(u, v), normals->nz(u, v)});
+    const float xyz[3] = {cloud.x(u, v), cloud.y(u, v), cloud.z(u, v)};
+    if (normals == nullptr) {
+      ply.vertex(xyz, nullptr, with_colour ? colours->pixel(u, v) : nullptr);
+      continue;
     }
-    if (with_colour) {
-      const std::uint8_t* c = colours->pixel(u, v);
-      ply.rgb.insert(ply.rgb.end(), {c[0], c[1], c[2]});
-    }
+    const float normal[3] = {normals->nx(u, v), normals->ny(u, v), normals->nz(u, v)};
+    ply.vertex(xyz, normal, with_colour ? colours->pixel(u, v) : nullptr);
   }
-  io::write_ply(path, ply);
+  for (std::size_t f = 0; f < faces.indices.size();
+       f += static_cast<std::size_t>(faces.vertices_per_face)) {
+    ply.face(&faces.indices[f]);
+  }
+  ply.commit();
 }
 
 void write_json(const std::string& path, const nlohmann::json& value) {

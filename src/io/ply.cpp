@@ -58,61 +58,57 @@ void validate(const PlyMesh& mesh) {
 
 namespace {
 
-/// Encodes a validated `mesh` in chunks of about 1 MB handed to `sink(data, size)`, so a file
-/// writer never holds the whole encoding (a 640x480 mesh is ~14 MB) next to the mesh arrays.
-template <class Sink>
-void encode_ply_chunks(const PlyMesh& mesh, Sink&& sink) {
-  const std::size_t n = mesh.vertex_count();
-  const std::size_t faces = mesh.face_count();
-  const bool has_normals = !mesh.normals.empty() && n > 0;
-  const bool has_rgb = !mesh.rgb.empty() && n > 0;
+std::string header_text(const PlyLayout& layout) {
   std::ostringstream header;
   header << "ply\nformat binary_little_endian 1.0\ncomment written by rangeseg\n"
-         << "element vertex " << n << "\n"
+         << "element vertex " << layout.vertices << "\n"
          << "property float x\nproperty float y\nproperty float z\n";
-  if (has_normals) header << "property float nx\nproperty float ny\nproperty float nz\n";
-  if (has_rgb) header << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
-  header << "element face " << faces << "\n"
+  if (layout.normals) header << "property float nx\nproperty float ny\nproperty float nz\n";
+  if (layout.rgb) header << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  header << "element face " << layout.faces << "\n"
          << "property list uchar int vertex_indices\nend_header\n";
-  const std::string text = header.str();
-
-  constexpr std::size_t kChunk = std::size_t{1} << 20;
-  std::vector<std::uint8_t> out;
-  out.reserve(kChunk + 1024);
-  const auto flush_if_full = [&] {
-    if (out.size() >= kChunk) {
-      sink(out.data(), out.size());
-      out.clear();
-    }
-  };
-  out.insert(out.end(), text.begin(), text.end());
-  for (std::size_t i = 0; i < n; ++i) {
-    for (int k = 0; k < 3; ++k) append(out, mesh.xyz[3 * i + k]);
-    if (has_normals) {
-      for (int k = 0; k < 3; ++k) append(out, mesh.normals[3 * i + k]);
-    }
-    if (has_rgb) {
-      for (int k = 0; k < 3; ++k) out.push_back(mesh.rgb[3 * i + k]);
-    }
-    flush_if_full();
-  }
-  const std::size_t m = static_cast<std::size_t>(mesh.vertices_per_face);
-  for (std::size_t f = 0; f < faces; ++f) {
-    out.push_back(static_cast<std::uint8_t>(m));
-    for (std::size_t k = 0; k < m; ++k) append(out, mesh.faces[f * m + k]);
-    flush_if_full();
-  }
-  if (!out.empty()) sink(out.data(), out.size());
+  return header.str();
 }
+
+PlyLayout layout_of(const PlyMesh& mesh) {
+  const std::size_t n = mesh.vertex_count();
+  return {.vertices = n,
+          .faces = mesh.face_count(),
+          .vertices_per_face = mesh.vertices_per_face,
+          .normals = !mesh.normals.empty() && n > 0,
+          .rgb = !mesh.rgb.empty() && n > 0};
+}
+
+void append_vertex(std::vector<std::uint8_t>& out, const PlyLayout& layout, const float* xyz,
+                   const float* normal, const std::uint8_t* rgb) {
+  for (int k = 0; k < 3; ++k) append(out, xyz[k]);
+  if (layout.normals) {
+    for (int k = 0; k < 3; ++k) append(out, normal[k]);
+  }
+  if (layout.rgb) out.insert(out.end(), rgb, rgb + 3);
+}
+
+void append_face(std::vector<std::uint8_t>& out, const PlyLayout& layout,
+                 const std::int32_t* indices) {
+  out.push_back(static_cast<std::uint8_t>(layout.vertices_per_face));
+  for (int k = 0; k < layout.vertices_per_face; ++k) append(out, indices[k]);
+}
+
+constexpr std::size_t kChunk = std::size_t{1} << 20;
 
 }  // namespace
 
 std::vector<std::uint8_t> encode_ply(const PlyMesh& mesh) {
   validate(mesh);
-  std::vector<std::uint8_t> bytes;
-  encode_ply_chunks(mesh, [&](const std::uint8_t* data, std::size_t size) {
-    bytes.insert(bytes.end(), data, data + size);
-  });
+  const PlyLayout layout = layout_of(mesh);
+  const std::string text = header_text(layout);
+  std::vector<std::uint8_t> bytes(text.begin(), text.end());
+  for (std::size_t i = 0; i < layout.vertices; ++i) {
+    append_vertex(bytes, layout, &mesh.xyz[3 * i], layout.normals ? &mesh.normals[3 * i] : nullptr,
+                  layout.rgb ? &mesh.rgb[3 * i] : nullptr);
+  }
+  const auto m = static_cast<std::size_t>(layout.vertices_per_face);
+  for (std::size_t f = 0; f < layout.faces; ++f) append_face(bytes, layout, &mesh.faces[f * m]);
   return bytes;
 }
 
@@ -122,10 +118,87 @@ void write_ply(const std::string& path, const PlyMesh& mesh) {
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument("writing '" + path + "': " + e.what());
   }
-  AtomicFile file(path);
-  encode_ply_chunks(mesh,
-                    [&](const std::uint8_t* data, std::size_t size) { file.write(data, size); });
-  file.commit();
+  const PlyLayout layout = layout_of(mesh);
+  PlyWriter writer(path, layout);
+  for (std::size_t i = 0; i < layout.vertices; ++i) {
+    writer.vertex(&mesh.xyz[3 * i], layout.normals ? &mesh.normals[3 * i] : nullptr,
+                  layout.rgb ? &mesh.rgb[3 * i] : nullptr);
+  }
+  const auto m = static_cast<std::size_t>(layout.vertices_per_face);
+  for (std::size_t f = 0; f < layout.faces; ++f) writer.face(&mesh.faces[f * m]);
+  writer.commit();
+}
+
+namespace {
+
+PlyLayout checked(const std::string& path, const PlyLayout& layout) {
+  if (layout.vertices_per_face < 3 || layout.vertices_per_face > 255 ||
+      layout.vertices > 0x7fffffffu) {
+    throw std::invalid_argument("writing '" + path + "': PLY layout with " +
+                                std::to_string(layout.vertices) + " vertices and " +
+                                std::to_string(layout.vertices_per_face) +
+                                " vertices per face (expected at most 2^31 - 1 and 3..255)");
+  }
+  return layout;
+}
+
+}  // namespace
+
+PlyWriter::PlyWriter(const std::string& path, const PlyLayout& layout)
+    : path_(path), layout_(checked(path, layout)), file_(path) {
+  const std::string text = header_text(layout_);
+  buffer_.reserve(kChunk + 1024);
+  buffer_.assign(text.begin(), text.end());
+}
+
+void PlyWriter::vertex(const float* xyz, const float* normal, const std::uint8_t* rgb) {
+  if (vertices_ == layout_.vertices || faces_ > 0 || (layout_.normals && normal == nullptr) ||
+      (layout_.rgb && rgb == nullptr)) {
+    throw std::invalid_argument("writing '" + path_ + "': vertex " + std::to_string(vertices_) +
+                                " is beyond the layout's " + std::to_string(layout_.vertices) +
+                                ", after a face, or lacks the normal or colour the layout has");
+  }
+  append_vertex(buffer_, layout_, xyz, normal, rgb);
+  ++vertices_;
+  flush_if_full();
+}
+
+void PlyWriter::face(const std::int32_t* indices) {
+  if (faces_ == layout_.faces || vertices_ != layout_.vertices) {
+    throw std::invalid_argument("writing '" + path_ + "': face " + std::to_string(faces_) +
+                                " is beyond the layout's " + std::to_string(layout_.faces) +
+                                " or comes before all " + std::to_string(layout_.vertices) +
+                                " vertices");
+  }
+  for (int k = 0; k < layout_.vertices_per_face; ++k) {
+    if (indices[k] < 0 || static_cast<std::size_t>(indices[k]) >= layout_.vertices) {
+      throw std::invalid_argument("writing '" + path_ + "': face " + std::to_string(faces_) +
+                                  " has vertex index " + std::to_string(indices[k]) +
+                                  ", outside 0.." + std::to_string(layout_.vertices) + "-1");
+    }
+  }
+  append_face(buffer_, layout_, indices);
+  ++faces_;
+  flush_if_full();
+}
+
+void PlyWriter::commit() {
+  if (vertices_ != layout_.vertices || faces_ != layout_.faces) {
+    throw std::logic_error("writing '" + path_ + "': " + std::to_string(vertices_) + " of " +
+                           std::to_string(layout_.vertices) + " vertices and " +
+                           std::to_string(faces_) + " of " + std::to_string(layout_.faces) +
+                           " faces written");
+  }
+  if (!buffer_.empty()) file_.write(buffer_.data(), buffer_.size());
+  buffer_.clear();
+  file_.commit();
+}
+
+void PlyWriter::flush_if_full() {
+  if (buffer_.size() >= kChunk) {
+    file_.write(buffer_.data(), buffer_.size());
+    buffer_.clear();
+  }
 }
 
 PlyMesh decode_ply(const std::uint8_t* data, std::size_t size, const std::string& name) {
