@@ -205,8 +205,17 @@ TEST(Perceptron, BadFilesNameTheFileAndTheProblem) {
   extra.insert(extra.end(), 20, 0);
   expect_runtime_error_with(decode(extra), "bad.range");
   expect_runtime_error_with(decode({}), "bytes");
-  std::vector<std::uint8_t> binary(good.size(), 0xff);
-  expect_runtime_error_with(decode(binary), "not text");
+  std::vector<std::uint8_t> binary(good.size() + 2000, 0xff);
+  expect_runtime_error_with(decode(binary), "not text (no line end in 1024 bytes)");
+  std::vector<std::uint8_t> short_binary(good.size(), 0xff);
+  expect_runtime_error_with(decode(short_binary), "header ends after 0 of its 10 lines");
+  std::vector<std::uint8_t> nul = good;
+  nul[3] = 0;
+  expect_runtime_error_with(decode(nul), "NUL byte at 3");
+  // Header text in any 8-bit encoding (here a Latin-1 degree sign) is read.
+  std::vector<std::uint8_t> latin1 = good;
+  latin1[2] = 0xb0;
+  EXPECT_NO_THROW(decode(latin1)());
   // Nine header lines: the pixels would start inside the header.
   std::vector<std::uint8_t> nine = perceptron_file(words, "\n", "");
   nine.erase(nine.begin(), std::find(nine.begin(), nine.end(), '\n') + 1);

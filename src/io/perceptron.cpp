@@ -14,9 +14,9 @@ namespace {
 constexpr int kSide = 512;  // every SegComp Perceptron image is 512 x 512
 constexpr std::size_t kPixelBytes = std::size_t{kSide} * kSide * 4;
 constexpr int kHeaderLines = 10;
+constexpr std::size_t kMaxLineBytes = 1024;
 constexpr std::size_t kBytesAfterHeader = 2;  // after the last field: the line end
 
-bool header_byte(std::uint8_t b) { return (b >= 0x20 && b < 0x7f) || b == '\t' || b == '\r'; }
 bool whitespace(std::uint8_t b) { return b == ' ' || b == '\t' || b == '\r' || b == '\n'; }
 
 void require_calibration(const PerceptronCalibration& c) {
@@ -96,11 +96,14 @@ Plane<std::uint16_t> decode_perceptron_range(const std::uint8_t* data, std::size
   const std::size_t pixels_at = size - kPixelBytes;
   std::size_t at = 0;
   for (int line = 0; line < kHeaderLines; ++line) {
+    const std::size_t line_start = at;
     while (at < pixels_at && data[at] != '\n') {
-      if (!header_byte(data[at])) {
-        throw fail("byte " + std::to_string(at) + " (value " + std::to_string(data[at]) +
-                   ") of header line " + std::to_string(line + 1) +
-                   " is not text; is it a Perceptron image?");
+      // Any text encoding passes; a NUL byte or an endless line is binary data.
+      if (data[at] == 0 || at - line_start >= kMaxLineBytes) {
+        throw fail("header line " + std::to_string(line + 1) + " is not text (" +
+                   (data[at] == 0 ? "a NUL byte at " + std::to_string(at)
+                                  : "no line end in " + std::to_string(kMaxLineBytes) + " bytes") +
+                   "); is it a Perceptron image?");
       }
       ++at;
     }
