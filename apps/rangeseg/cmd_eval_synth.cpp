@@ -298,8 +298,9 @@ void add_eval_synth(CLI::App& app) {
                   "Also write each seed's results and ground_truth.png into DIR/<scene><seed>/");
   cmd->add_option("--json", o->json, "Write the scores per seed and in total to this JSON file");
   cmd->footer(
-      "The same scores as `rangeseg synth --scene S --seed N --noise X -o D`, `rangeseg segment "
-      "D/cloud.pcd -o R ...` and `rangeseg eval D/labels.png R/labels.png --cloud D/cloud.pcd` "
+      "The same scores as `rangeseg synth --scene S --seed N --noise X [--camera C] -o D`, "
+      "`rangeseg segment D/cloud.pcd -o R ...` and `rangeseg eval D/labels.png R/labels.png "
+      "--cloud D/cloud.pcd` "
       "for every seed. With --model auto it also reports how many sphere and cylinder regions "
       "are one segment of the right kind, and their radius and axis errors.");
   cmd->callback([o] { run_eval_synth(*o); });

@@ -65,16 +65,8 @@ ScannerRay scanner_ray(int row, int col, int width, int height, const Perceptron
           c.r0 * c.delta - inside};
 }
 
-}  // namespace
-
-PerceptronRay perceptron_ray(int row, int col, int width, int height,
-                             const PerceptronCalibration& calib) {
-  require_calibration(calib);
-  if (width < 1 || height < 1) {
-    throw std::invalid_argument("perceptron_ray: image size " + std::to_string(width) + "x" +
-                                std::to_string(height) + " is empty");
-  }
-  const ScannerRay s = scanner_ray(row, col, width, height, calib);
+/// The ray in this library's frame (x = -X, y = -Y, z = Z) and metres.
+PerceptronRay camera_ray(const ScannerRay& s, const PerceptronCalibration& calib) {
   const double m = calib.metres_per_unit;
   PerceptronRay ray;
   ray.origin = {-s.ox * m, -s.oy * m, s.oz * m};
@@ -82,6 +74,22 @@ PerceptronRay perceptron_ray(int row, int col, int width, int height,
   ray.step = calib.delta * m;
   ray.offset = s.offset * m;
   return ray;
+}
+
+void require_size(const char* what, int width, int height) {
+  if (width < 1 || height < 1) {
+    throw std::invalid_argument(std::string(what) + ": image size " + std::to_string(width) + "x" +
+                                std::to_string(height) + " is empty");
+  }
+}
+
+}  // namespace
+
+PerceptronRay perceptron_ray(int row, int col, int width, int height,
+                             const PerceptronCalibration& calib) {
+  require_calibration(calib);
+  require_size("perceptron_ray", width, height);
+  return camera_ray(scanner_ray(row, col, width, height, calib), calib);
 }
 
 Plane<std::uint16_t> decode_perceptron_range(const std::uint8_t* data, std::size_t size,
@@ -140,11 +148,7 @@ Plane<std::uint16_t> decode_perceptron_range(const std::uint8_t* data, std::size
 OrganizedCloud perceptron_range_to_cloud(View<const std::uint16_t> range,
                                          const PerceptronCalibration& calib) {
   require_calibration(calib);
-  if (range.width < 1 || range.height < 1) {
-    throw std::invalid_argument("perceptron_range_to_cloud: image size " +
-                                std::to_string(range.width) + "x" + std::to_string(range.height) +
-                                " is empty");
-  }
+  require_size("perceptron_range_to_cloud", range.width, range.height);
   OrganizedCloud cloud(range.width, range.height);
   for (int r = 0; r < range.height; ++r) {
     const std::uint16_t* in = range.row(r);
@@ -152,7 +156,8 @@ OrganizedCloud perceptron_range_to_cloud(View<const std::uint16_t> range,
     float* ys = cloud.y.row(r);
     float* zs = cloud.z.row(r);
     for (int c = 0; c < range.width; ++c) {
-      const PerceptronRay ray = perceptron_ray(r, c, range.width, range.height, calib);
+      const PerceptronRay ray =
+          camera_ray(scanner_ray(r, c, range.width, range.height, calib), calib);
       const double t = in[c] * ray.step + ray.offset;
       xs[c] = static_cast<float>(ray.origin[0] + t * ray.direction[0]);
       ys[c] = static_cast<float>(ray.origin[1] + t * ray.direction[1]);
@@ -163,9 +168,7 @@ OrganizedCloud perceptron_range_to_cloud(View<const std::uint16_t> range,
 }
 
 SegcompSensor segcomp_sensor(const std::uint8_t* data, std::size_t size) {
-  const bool raster = data != nullptr && size >= 4 && data[0] == 0x59 && data[1] == 0xa6 &&
-                      data[2] == 0x6a && data[3] == 0x95;
-  return raster ? SegcompSensor::abw : SegcompSensor::perceptron;
+  return is_rasterfile(data, size) ? SegcompSensor::abw : SegcompSensor::perceptron;
 }
 
 OrganizedCloud read_segcomp_range(const std::string& path, SegcompSensor* sensor) {

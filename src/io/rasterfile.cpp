@@ -34,6 +34,10 @@ std::uint64_t padded_row_bytes(std::uint64_t width) { return (width + 1) / 2 * 2
 
 }  // namespace
 
+bool is_rasterfile(const std::uint8_t* data, std::size_t size) {
+  return data != nullptr && size >= 4 && read_be32(data) == kRasterMagic;
+}
+
 BytePlane decode_rasterfile(const std::uint8_t* data, std::size_t size, const std::string& name) {
   const auto fail = [&](const std::string& why) {
     return std::runtime_error("rasterfile '" + name + "': " + why);

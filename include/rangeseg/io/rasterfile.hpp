@@ -20,6 +20,9 @@ namespace rangeseg::io {
 /// sizes above 2^28 pixels, a `length` field that disagrees with the sizes, or truncated data.
 BytePlane read_rasterfile(const std::string& path);
 
+/// Whether the bytes start with the rasterfile magic number (0x59a66a95, big-endian).
+bool is_rasterfile(const std::uint8_t* data, std::size_t size);
+
 /// The decoder behind read_rasterfile, on bytes in memory; `name` is used in error messages.
 BytePlane decode_rasterfile(const std::uint8_t* data, std::size_t size, const std::string& name);
 
