@@ -52,26 +52,54 @@ void require_same_size(View<const float> a, View<const float> b, const char* wha
   }
 }
 
-// Shading factor per pixel in [0.35, 1]: the cosine between the surface normal estimated from
-// central differences of the points and the viewing ray, so tilted surfaces look darker.
-float shading_at(const OrganizedCloud& cloud, int u, int v) {
-  if (!cloud.valid(u, v)) return 0.0f;
-  const int w = cloud.width(), h = cloud.height();
-  const int u0 = u > 0 && cloud.valid(u - 1, v) ? u - 1 : u;
-  const int u1 = u + 1 < w && cloud.valid(u + 1, v) ? u + 1 : u;
-  const int v0 = v > 0 && cloud.valid(u, v - 1) ? v - 1 : v;
-  const int v1 = v + 1 < h && cloud.valid(u, v + 1) ? v + 1 : v;
-  if (u0 == u1 || v0 == v1) return 0.8f;
-  const double ax = cloud.x(u1, v) - cloud.x(u0, v), ay = cloud.y(u1, v) - cloud.y(u0, v),
-               az = cloud.z(u1, v) - cloud.z(u0, v);
-  const double bx = cloud.x(u, v1) - cloud.x(u, v0), by = cloud.y(u, v1) - cloud.y(u, v0),
-               bz = cloud.z(u, v1) - cloud.z(u, v0);
-  const double nx = ay * bz - az * by, ny = az * bx - ax * bz, nz = ax * by - ay * bx;
-  const double px = cloud.x(u, v), py = cloud.y(u, v), pz = cloud.z(u, v);
-  const double norm = std::sqrt((nx * nx + ny * ny + nz * nz) * (px * px + py * py + pz * pz));
-  if (!(norm > 0)) return 0.8f;
-  const double cosine = std::abs(nx * px + ny * py + nz * pz) / norm;
-  return static_cast<float>(0.35 + 0.65 * cosine);
+// Shading factors of row v in [0.35, 1]: the cosine between the surface normal estimated from
+// central differences of the points and the viewing ray, so tilted surfaces look darker; 0 for
+// an invalid point, 0.8 where a point has no valid neighbour along a row or a column.
+// `valid_above` / `valid_below` are the validity of rows v - 1 and v + 1 (null outside the image).
+void shading_row(const OrganizedCloud& cloud, int v, const std::uint8_t* valid_above,
+                 const std::uint8_t* valid, const std::uint8_t* valid_below, float* factor) {
+  const int w = cloud.width();
+  const float *x = cloud.x.row(v), *y = cloud.y.row(v), *z = cloud.z.row(v);
+  const float* x_above = valid_above != nullptr ? cloud.x.row(v - 1) : x;
+  const float* y_above = valid_above != nullptr ? cloud.y.row(v - 1) : y;
+  const float* z_above = valid_above != nullptr ? cloud.z.row(v - 1) : z;
+  const float* x_below = valid_below != nullptr ? cloud.x.row(v + 1) : x;
+  const float* y_below = valid_below != nullptr ? cloud.y.row(v + 1) : y;
+  const float* z_below = valid_below != nullptr ? cloud.z.row(v + 1) : z;
+  for (int u = 0; u < w; ++u) {
+    if (!valid[u]) {
+      factor[u] = 0.0f;
+      continue;
+    }
+    const int u0 = u > 0 && valid[u - 1] ? u - 1 : u;
+    const int u1 = u + 1 < w && valid[u + 1] ? u + 1 : u;
+    const bool up = valid_above != nullptr && valid_above[u];
+    const bool down = valid_below != nullptr && valid_below[u];
+    if (u0 == u1 || !(up || down)) {
+      factor[u] = 0.8f;
+      continue;
+    }
+    const double ax = x[u1] - x[u0], ay = y[u1] - y[u0], az = z[u1] - z[u0];
+    const double bx = (down ? x_below[u] : x[u]) - (up ? x_above[u] : x[u]);
+    const double by = (down ? y_below[u] : y[u]) - (up ? y_above[u] : y[u]);
+    const double bz = (down ? z_below[u] : z[u]) - (up ? z_above[u] : z[u]);
+    const double nx = ay * bz - az * by, ny = az * bx - ax * bz, nz = ax * by - ay * bx;
+    const double px = x[u], py = y[u], pz = z[u];
+    const double norm = std::sqrt((nx * nx + ny * ny + nz * nz) * (px * px + py * py + pz * pz));
+    if (!(norm > 0)) {
+      factor[u] = 0.8f;
+      continue;
+    }
+    const double cosine = std::abs(nx * px + ny * py + nz * pz) / norm;
+    factor[u] = static_cast<float>(0.35 + 0.65 * cosine);
+  }
+}
+
+void valid_row(const OrganizedCloud& cloud, int v, std::uint8_t* valid) {
+  const float *x = cloud.x.row(v), *y = cloud.y.row(v), *z = cloud.z.row(v);
+  for (int u = 0; u < cloud.width(); ++u) {
+    valid[u] = std::isfinite(x[u]) && std::isfinite(y[u]) && std::isfinite(z[u]);
+  }
 }
 
 void set_pixel(RgbImage& image, int x, int y, std::array<std::uint8_t, 3> colour) {
@@ -132,16 +160,35 @@ RgbImage colorize_labels(const LabelImage& labels, const OrganizedCloud* shade) 
                                 std::to_string(shade->width()) + " x " +
                                 std::to_string(shade->height()));
   }
-  RgbImage image = RgbImage::black(labels.width(), labels.height());
-  for (int y = 0; y < labels.height(); ++y) {
-    const std::int32_t* row = labels.row(y);
-    for (int x = 0; x < labels.width(); ++x) {
-      std::array<std::uint8_t, 3> colour = row[x] > 0 ? label_colour(row[x]) : kNoLabelColour;
-      if (shade != nullptr) {
-        const float factor = shading_at(*shade, x, y);
-        for (auto& c : colour) c = static_cast<std::uint8_t>(std::lround(c * factor));
+  const int width = labels.width(), height = labels.height();
+  RgbImage image = RgbImage::black(width, height);
+  // Validity of rows v - 1, v and v + 1, rolling.
+  std::vector<std::uint8_t> valid(shade != nullptr ? 3 * static_cast<std::size_t>(width) : 0);
+  std::vector<float> factor(shade != nullptr ? static_cast<std::size_t>(width) : 0);
+  const auto valid_of = [&](int v) {
+    return valid.data() + static_cast<std::ptrdiff_t>(v % 3) * width;
+  };
+  if (shade != nullptr && height > 0) valid_row(*shade, 0, valid_of(0));
+  // Neighbouring pixels mostly share a label: its colour is computed once per run.
+  std::int32_t last_label = 0;
+  std::array<std::uint8_t, 3> last_colour = kNoLabelColour;
+  for (int v = 0; v < height; ++v) {
+    if (shade != nullptr) {
+      if (v + 1 < height) valid_row(*shade, v + 1, valid_of(v + 1));
+      shading_row(*shade, v, v > 0 ? valid_of(v - 1) : nullptr, valid_of(v),
+                  v + 1 < height ? valid_of(v + 1) : nullptr, factor.data());
+    }
+    const std::int32_t* row = labels.row(v);
+    std::uint8_t* p = image.pixel(0, v);
+    for (int u = 0; u < width; ++u, p += 3) {
+      if (row[u] != last_label) {
+        last_label = row[u];
+        last_colour = last_label > 0 ? label_colour(last_label) : kNoLabelColour;
       }
-      std::uint8_t* p = image.pixel(x, y);
+      std::array<std::uint8_t, 3> colour = last_colour;
+      if (shade != nullptr) {
+        for (auto& c : colour) c = static_cast<std::uint8_t>(std::lround(c * factor[u]));
+      }
       p[0] = colour[0], p[1] = colour[1], p[2] = colour[2];
     }
   }

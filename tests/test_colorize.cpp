@@ -78,6 +78,56 @@ TEST(Colorize, LabelsShadedByDepth) {
   EXPECT_THROW(colorize_labels(labels, &small), std::invalid_argument);
 }
 
+// The shading factor's rules where neighbours are missing: a point without a valid neighbour
+// along its row (or its column) gets 0.8, a frontal point 1, and the colour of every label in a
+// row of alternating labels is its own (the colour of a run is computed once).
+TEST(Colorize, LabelsShadedAtHolesAndBorders) {
+  const auto scaled = [](std::array<std::uint8_t, 3> c, double factor) {
+    for (auto& v : c) v = static_cast<std::uint8_t>(std::lround(v * factor));
+    return c;
+  };
+  OrganizedCloud cloud(5, 3);
+  LabelImage labels(5, 3, 7);
+  for (int v = 0; v < 3; ++v) {
+    for (int u = 0; u < 5; ++u) {
+      cloud.x(u, v) = 0.0f;  // every ray of this toy camera along z: a frontal plane
+      cloud.y(u, v) = 0.0f;
+      cloud.z(u, v) = 2.0f;
+    }
+  }
+  // (1, 1) and (3, 1) missing: (2, 1) has no row neighbour; (2, 0) keeps row and column ones.
+  cloud.z(1, 1) = cloud.z(3, 1) = NAN;
+  RgbImage img = colorize_labels(labels, &cloud);
+  const auto base = label_colour(7);
+  EXPECT_EQ(at(img, 2, 1), scaled(base, 0.8));
+  EXPECT_EQ(at(img, 1, 1), (std::array<std::uint8_t, 3>{0, 0, 0}));
+  // Frontal points: x and y differences of 0 give a zero normal here, hence also 0.8 ...
+  EXPECT_EQ(at(img, 2, 0), scaled(base, 0.8));
+  // ... and with real rays the normal faces the camera: factor 1.
+  for (int v = 0; v < 3; ++v) {
+    for (int u = 0; u < 5; ++u) {
+      cloud.x(u, v) = 0.01f * static_cast<float>(u - 2);
+      cloud.y(u, v) = 0.01f * static_cast<float>(v - 1);
+      cloud.z(u, v) = 2.0f;
+    }
+  }
+  img = colorize_labels(labels, &cloud);
+  EXPECT_EQ(at(img, 2, 1), base);
+  // One row: no column neighbour anywhere.
+  OrganizedCloud row(3, 1);
+  LabelImage row_labels(3, 1, 7);
+  for (int u = 0; u < 3; ++u) row.x(u, 0) = 0.01f * u, row.y(u, 0) = 0.0f, row.z(u, 0) = 1.0f;
+  EXPECT_EQ(at(colorize_labels(row_labels, &row), 1, 0), scaled(base, 0.8));
+
+  LabelImage alternating(6, 1);
+  const std::int32_t values[6] = {1, 2, 1, -1, 0, 2};
+  for (int u = 0; u < 6; ++u) alternating(u, 0) = values[u];
+  const RgbImage flat = colorize_labels(alternating);
+  for (int u = 0; u < 6; ++u) {
+    EXPECT_EQ(at(flat, u, 0), values[u] > 0 ? label_colour(values[u]) : kNoLabelColour) << u;
+  }
+}
+
 TEST(Colorize, Normals) {
   FloatPlane nx(3, 1), ny(3, 1), nz(3, 1);
   nx(0, 0) = 0, ny(0, 0) = 0, nz(0, 0) = -1;

@@ -100,7 +100,7 @@ void run_demo(const DemoOptions& o) {
   write_mesh_ply((dir / "mesh.ply").string(), input, pipeline.mesh(), &raw, &normal_colours);
   write_segmentation_folder((dir / "segmentation").string(), input, pipeline, true);
   const RgbImage overlay = colorize_labels(pipeline.segmentation().labels, &input);
-  const RgbImage types = colorize_surface_types(pipeline.segmentation(), input);
+  const RgbImage types = colorize_surface_types(pipeline.segmentation(), overlay);
   io::write_rgb_png((dir / "summary.png").string(),
                     montage({&depth, &normal_colours, &smooth_colours, &overlay, &types}));
   const StageTimes& t = pipeline.times();

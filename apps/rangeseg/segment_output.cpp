@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <array>
+#include <stdexcept>
+#include <string>
 
 #include "output.hpp"
 #include "rangeseg/colorize.hpp"
@@ -70,7 +72,16 @@ nlohmann::json surface_json(const Segment& s) {
 }  // namespace
 
 RgbImage colorize_surface_types(const Segmentation& seg, const OrganizedCloud& input) {
-  RgbImage image = colorize_labels(seg.labels, &input);
+  return colorize_surface_types(seg, colorize_labels(seg.labels, &input));
+}
+
+RgbImage colorize_surface_types(const Segmentation& seg, RgbImage image) {
+  if (image.width != seg.labels.width() || image.height != seg.labels.height()) {
+    throw std::invalid_argument("colorize_surface_types: the picture is " +
+                                std::to_string(image.width) + " x " + std::to_string(image.height) +
+                                " but the labels are " + std::to_string(seg.labels.width()) +
+                                " x " + std::to_string(seg.labels.height()));
+  }
   // Per type a tint, scaled by the shaded segment colour's brightness: planes grey, cylinders
   // blue, spheres red, smooth surfaces green.
   constexpr std::array<std::array<float, 3>, 4> tint{
@@ -135,9 +146,9 @@ void write_segmentation_folder(const std::string& dir_name, const OrganizedCloud
     write_polygons_obj((dir / "polygons.obj").string(), pipeline.polygons());
   }
   RgbImage overlay = colorize_labels(seg.labels, &input);
+  io::write_rgb_png((dir / "types.png").string(), colorize_surface_types(seg, overlay));
   draw_polygons(overlay, pipeline.polygons());
   io::write_rgb_png((dir / "overlay.png").string(), overlay);
-  io::write_rgb_png((dir / "types.png").string(), colorize_surface_types(seg, input));
   if (write_mesh) {
     const RgbImage flat = colorize_labels(seg.labels);
     write_mesh_ply((dir / "mesh.ply").string(), pipeline.cloud(), pipeline.mesh(),

@@ -16,6 +16,9 @@ nlohmann::json segments_json(const Segmentation& segmentation, const PolygonSet*
 /// The segments coloured by surface type (planes grey, cylinders blue, spheres red, smooth
 /// green), shaded like colorize_labels(labels, &input).
 RgbImage colorize_surface_types(const Segmentation& segmentation, const OrganizedCloud& input);
+/// The same from `shaded` = colorize_labels(segmentation.labels, &input), which is recoloured.
+/// Throws std::invalid_argument if its size is not the labels'.
+RgbImage colorize_surface_types(const Segmentation& segmentation, RgbImage shaded);
 
 /// Writes the results (labels.png, segments.json, polygons.obj, overlay.png with the polygons
 /// drawn, types.png, optionally mesh.ply) of the pipeline's last frame into `dir` (each file

@@ -196,6 +196,12 @@ void png_flush_nothing(png_structp) {}
 bool write_png(png_structp png, png_infop info, png_uint_32 width, png_uint_32 height,
                int bit_depth, int colour_type, png_bytepp rows) {
   if (setjmp(png_jmpbuf(png))) return false;
+  // zlib level 1 without row filters: 5-9x faster than libpng's defaults (level 6, a filter
+  // chosen per row) on this library's pictures, label and depth images, and the flat-coloured
+  // pictures come out smaller too (overlay 431 -> 288 KB); a depth PNG of a real sensor grows
+  // ~20 %. Writing the pictures had dominated `rangeseg segment` (~100 ms a frame).
+  png_set_compression_level(png, 1);
+  png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_NONE);
   png_set_IHDR(png, info, width, height, bit_depth, colour_type, PNG_INTERLACE_NONE,
                PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_write_info(png, info);

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <functional>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -112,6 +113,91 @@ class VertexGrid {
     return static_cast<std::size_t>(row(p[1])) * cols_ + static_cast<std::size_t>(column(p[0]));
   }
 
+  P2 lo_{}, hi_{};
+  int cols_ = 1, rows_ = 1;
+  double sx_ = 1, sy_ = 1;
+  std::vector<std::size_t> start_, items_;
+};
+
+/// The edges of an outline and its holes bucketed by a uniform grid over their bounding box
+/// (about one edge per cell; an edge is in every cell its bounding box overlaps), so that a
+/// bridge is tested for crossings only against the edges near it.
+class EdgeGrid {
+ public:
+  struct Edge {
+    int a, b;   ///< point indices
+    int group;  ///< which loop: edges of a group can be switched off together
+  };
+
+  EdgeGrid(const std::vector<Edge>& edges, const std::vector<P2>& pts) : edges_(edges), pts_(pts) {
+    const std::size_t n = edges.size();
+    lo_ = hi_ = pts[static_cast<std::size_t>(edges[0].a)];
+    for (const Edge& e : edges) {
+      for (const int i : {e.a, e.b}) {
+        const P2& p = pts[static_cast<std::size_t>(i)];
+        for (int k = 0; k < 2; ++k) {
+          lo_[k] = std::min(lo_[k], p[k]);
+          hi_[k] = std::max(hi_[k], p[k]);
+        }
+      }
+    }
+    const double w = std::max(hi_[0] - lo_[0], 1e-12);
+    const double h = std::max(hi_[1] - lo_[1], 1e-12);
+    const double cell = std::sqrt(w * h / static_cast<double>(n)) + 1e-12;
+    cols_ = static_cast<int>(std::clamp(std::ceil(w / cell), 1.0, 4096.0));
+    rows_ = static_cast<int>(std::clamp(std::ceil(h / cell), 1.0, 4096.0));
+    sx_ = cols_ / w;
+    sy_ = rows_ / h;
+    start_.assign(static_cast<std::size_t>(cols_) * rows_ + 1, 0);
+    for_each_cell_of_edges([&](std::size_t cell, std::size_t) { ++start_[cell + 1]; });
+    for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+    items_.resize(start_.back());
+    std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
+    for_each_cell_of_edges([&](std::size_t cell, std::size_t e) { items_[fill[cell]++] = e; });
+  }
+
+  /// Whether segment p-q crosses or touches (segments_cross) an edge of a group not switched off.
+  bool crossed(const P2& p, const P2& q, const std::vector<std::uint8_t>& group_off) const {
+    const int c0 = column(std::min(p[0], q[0])), c1 = column(std::max(p[0], q[0]));
+    const int r0 = row(std::min(p[1], q[1])), r1 = row(std::max(p[1], q[1]));
+    for (int r = r0; r <= r1; ++r) {
+      for (int c = c0; c <= c1; ++c) {
+        const std::size_t cell = static_cast<std::size_t>(r) * cols_ + c;
+        for (std::size_t k = start_[cell]; k < start_[cell + 1]; ++k) {
+          const Edge& e = edges_[items_[k]];
+          if (group_off[static_cast<std::size_t>(e.group)]) continue;
+          if (segments_cross(p, q, pts_[static_cast<std::size_t>(e.a)],
+                             pts_[static_cast<std::size_t>(e.b)])) {
+            return true;
+          }
+        }
+      }
+    }
+    return false;
+  }
+
+ private:
+  template <class F>
+  void for_each_cell_of_edges(F&& fn) const {
+    for (std::size_t e = 0; e < edges_.size(); ++e) {
+      const P2& a = pts_[static_cast<std::size_t>(edges_[e].a)];
+      const P2& b = pts_[static_cast<std::size_t>(edges_[e].b)];
+      const int c0 = column(std::min(a[0], b[0])), c1 = column(std::max(a[0], b[0]));
+      const int r0 = row(std::min(a[1], b[1])), r1 = row(std::max(a[1], b[1]));
+      for (int r = r0; r <= r1; ++r) {
+        for (int c = c0; c <= c1; ++c) fn(static_cast<std::size_t>(r) * cols_ + c, e);
+      }
+    }
+  }
+  int column(double x) const {
+    return static_cast<int>(std::clamp((x - lo_[0]) * sx_, 0.0, cols_ - 1.0));
+  }
+  int row(double y) const {
+    return static_cast<int>(std::clamp((y - lo_[1]) * sy_, 0.0, rows_ - 1.0));
+  }
+
+  const std::vector<Edge>& edges_;
+  const std::vector<P2>& pts_;
   P2 lo_{}, hi_{};
   int cols_ = 1, rows_ = 1;
   double sx_ = 1, sy_ = 1;
@@ -276,6 +362,10 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
   separate_touching_vertices(polygons, pts);
   std::vector<int> poly, holes;
   std::vector<std::pair<double, std::size_t>> candidates;  // (squared distance, index in poly)
+  std::vector<EdgeGrid::Edge> edges;
+  std::vector<std::uint8_t> group_off;       // per edge group: a hole left unbridged
+  std::vector<std::pair<int, int>> bridges;  // point indices
+  std::optional<EdgeGrid> grid;
   for (std::size_t li = 0; li < polygons.loops.size(); ++li) {
     const PolygonLoop& outer = polygons.loops[li];
     if (outer.is_hole) continue;
@@ -300,47 +390,71 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
       return pts[static_cast<std::size_t>(max_x_vertex(a))][0] >
              pts[static_cast<std::size_t>(max_x_vertex(b))][0];
     });
+    if (!holes.empty()) {
+      // Group 0: the outline; group 1 + h: hole holes[h].
+      edges.clear();
+      const auto add_loop = [&](const PolygonLoop& l, int group) {
+        for (int e = 0; e < l.count; ++e) {
+          edges.push_back({l.first + e, l.first + (e + 1) % l.count, group});
+        }
+      };
+      add_loop(outer, 0);
+      for (std::size_t h = 0; h < holes.size(); ++h) {
+        add_loop(polygons.loops[static_cast<std::size_t>(holes[h])], 1 + static_cast<int>(h));
+      }
+      group_off.assign(holes.size() + 1, 0);
+      bridges.clear();
+      grid.emplace(edges, pts);
+    }
     for (std::size_t hi = 0; hi < holes.size(); ++hi) {
       const PolygonLoop& hl = polygons.loops[static_cast<std::size_t>(holes[hi])];
       const int m = max_x_vertex(holes[hi]);
       const P2& pm = pts[static_cast<std::size_t>(m)];
       // The bridge goes to the nearest vertex (first in polygon order among equals) that sees
-      // pm; candidates are tried nearest first, so usually only one pays for the visibility
-      // test (O(n) edges each: trying all made a polygon with hundreds of holes take minutes).
-      candidates.clear();
-      for (std::size_t j = 0; j < poly.size(); ++j) {
+      // pm, i.e. crosses no edge of the outline, of a hole bridged or still to bridge, or an
+      // earlier bridge. Candidates are tried nearest first, usually only the nearest.
+      const auto sees = [&](std::size_t j) {
+        const P2& pp = pts[static_cast<std::size_t>(poly[j])];
+        if (!in_wedge(poly, j, pts, pm) || grid->crossed(pm, pp, group_off)) return false;
+        return std::none_of(bridges.begin(), bridges.end(), [&](const std::pair<int, int>& b) {
+          return segments_cross(pm, pp, pts[static_cast<std::size_t>(b.first)],
+                                pts[static_cast<std::size_t>(b.second)]);
+        });
+      };
+      const auto distance2 = [&](std::size_t j) {
         const P2& pp = pts[static_cast<std::size_t>(poly[j])];
         const double dx = pp[0] - pm[0], dy = pp[1] - pm[1];
-        candidates.push_back({dx * dx + dy * dy, j});
+        return dx * dx + dy * dy;
+      };
+      double nearest_distance = INFINITY;
+      std::size_t nearest = 0;
+      for (std::size_t j = 0; j < poly.size(); ++j) {
+        const double d = distance2(j);
+        if (d < nearest_distance) nearest_distance = d, nearest = j;
       }
-      // A min-heap: building it is O(n), and only the few nearest are popped.
-      std::make_heap(candidates.begin(), candidates.end(), std::greater<>{});
       std::size_t best = poly.size();
-      while (!candidates.empty()) {
-        std::pop_heap(candidates.begin(), candidates.end(), std::greater<>{});
-        const std::size_t j = candidates.back().second;
-        candidates.pop_back();
-        const P2& pp = pts[static_cast<std::size_t>(poly[j])];
-        if (!in_wedge(poly, j, pts, pm)) continue;
-        bool clear = true;
-        for (std::size_t e = 0; e < poly.size() && clear; ++e) {
-          clear = !segments_cross(pm, pp, pts[static_cast<std::size_t>(poly[e])],
-                                  pts[static_cast<std::size_t>(poly[(e + 1) % poly.size()])]);
-        }
-        for (std::size_t oh = hi; oh < holes.size() && clear; ++oh) {
-          const PolygonLoop& o = polygons.loops[static_cast<std::size_t>(holes[oh])];
-          for (int e = 0; e < o.count && clear; ++e) {
-            const auto first = static_cast<std::size_t>(o.first);
-            clear = !segments_cross(pm, pp, pts[first + static_cast<std::size_t>(e)],
-                                    pts[first + static_cast<std::size_t>((e + 1) % o.count)]);
+      if (sees(nearest)) {
+        best = nearest;
+      } else {
+        // A min-heap: building it is O(n), and only the few nearest are popped.
+        candidates.clear();
+        for (std::size_t j = 0; j < poly.size(); ++j) candidates.push_back({distance2(j), j});
+        std::make_heap(candidates.begin(), candidates.end(), std::greater<>{});
+        while (!candidates.empty()) {
+          std::pop_heap(candidates.begin(), candidates.end(), std::greater<>{});
+          const std::size_t j = candidates.back().second;
+          candidates.pop_back();
+          if (sees(j)) {
+            best = j;
+            break;
           }
         }
-        if (clear) {
-          best = j;
-          break;
-        }
       }
-      if (best == poly.size()) continue;  // no visible vertex (degenerate input): skip the hole
+      if (best == poly.size()) {  // no visible vertex (degenerate input): skip the hole
+        group_off[hi + 1] = 1;
+        continue;
+      }
+      bridges.emplace_back(m, poly[best]);
       std::vector<int> bridge;
       const int mo = m - hl.first;
       for (int k = 0; k <= hl.count; ++k) bridge.push_back(hl.first + (mo + k) % hl.count);
