@@ -411,6 +411,41 @@ TEST(CliBatch, DirectorySkipsACorruptFrameAndCountsIt) {
   EXPECT_EQ(run("segment " + (dir / "empty").string() + " -o " + (dir / "out3").string()).code, 2);
 }
 
+// --preset auto (the default of segment): SegComp images get their scanner's preset, other inputs
+// kinect, per frame in a batch; an unknown preset fails before any input is read.
+TEST(CliBatch, AutoPresetFollowsEachInputsSensor) {
+  RANGESEG_REQUIRE_DATA("segcomp_abw/abw.test.3.range");
+  const fs::path dir = rangeseg::test::scratch_dir("cli_batch_auto_preset");
+  const std::string range = data_file.string();
+  const CliResult automatic = run("segment " + range + " --no-mesh -o " + (dir / "auto").string());
+  ASSERT_EQ(automatic.code, 0) << automatic.out;
+  EXPECT_NE(automatic.out.find("preset abw"), std::string::npos) << automatic.out;
+  for (const char* preset : {"abw", "kinect"}) {
+    const CliResult r = run("segment " + range + " --no-mesh --preset " + preset + " -o " +
+                            (dir / preset).string());
+    ASSERT_EQ(r.code, 0) << r.out;
+  }
+  const std::string auto_labels = read_text(dir / "auto" / "labels.png");
+  EXPECT_EQ(auto_labels, read_text(dir / "abw" / "labels.png"));
+  EXPECT_NE(auto_labels, read_text(dir / "kinect" / "labels.png"));
+
+  write_small_pcd(dir / "frame.pcd", 6);
+  const CliResult batch = run("segment " + range + " " + (dir / "frame.pcd").string() +
+                              " --no-mesh -o " + (dir / "batch").string());
+  ASSERT_EQ(batch.code, 0) << batch.out;
+  const auto summary = read_json(dir / "batch" / "summary.json");
+  ASSERT_EQ(summary["per_frame"].size(), 2u);
+  EXPECT_EQ(summary["per_frame"][0]["preset"], "abw");
+  EXPECT_EQ(summary["per_frame"][1]["preset"], "kinect");
+  EXPECT_EQ(read_text(dir / "batch" / "abw.test.3" / "labels.png"), auto_labels);
+
+  const CliResult bad = run("segment " + (dir / "missing.range").string() + " --preset lidar -o " +
+                            (dir / "bad").string());
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.out.find("lidar"), std::string::npos) << bad.out;
+  EXPECT_EQ(bad.out.find("missing.range"), std::string::npos) << bad.out;
+}
+
 TEST(CliBatch, ListOfFilesGetsUniqueFolderNames) {
   const fs::path dir = rangeseg::test::scratch_dir("cli_batch_list");
   write_small_pcd(dir / "a.pcd", 3);

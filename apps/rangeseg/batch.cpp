@@ -11,10 +11,12 @@
 #include <chrono>
 #include <cstdio>
 #include <exception>
+#include <map>
 #include <memory>
 #include <thread>
 #include <vector>
 
+#include "names.hpp"
 #include "output.hpp"
 #include "segment_output.hpp"
 
@@ -24,8 +26,25 @@ namespace {
 struct FrameResult {
   bool ok = false;
   std::string error;
+  std::string preset;
   StageTimes times;
   std::size_t segments = 0;
+};
+
+/// A worker's pipelines, one per preset its frames need (with --preset auto a folder may mix
+/// sensors), made when first needed: frames of one sensor reuse one pipeline's buffers.
+class WorkerPipelines {
+ public:
+  explicit WorkerPipelines(const BatchSettings& settings) : settings_(settings) {}
+  Pipeline& operator()(const std::string& preset) {
+    std::unique_ptr<Pipeline>& p = by_preset_[preset];
+    if (!p) p = std::make_unique<Pipeline>(settings_.settings_for(preset));
+    return *p;
+  }
+
+ private:
+  const BatchSettings& settings_;
+  std::map<std::string, std::unique_ptr<Pipeline>> by_preset_;
 };
 
 constexpr const char* kStages[] = {"mesh",         "normals",  "smoothing",
@@ -44,13 +63,16 @@ nlohmann::json times_json(const StageTimes& t) {
 
 /// Loads, segments and writes one frame; every failure is caught and returned as the reason.
 FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options,
-                      Pipeline& pipeline, const BatchOptions& options) {
+                      const std::string& preset, WorkerPipelines& pipelines,
+                      const BatchOptions& options) {
   FrameResult r;
   try {
     if (!frame.error.empty()) throw std::runtime_error(frame.error);
     InputOptions o = load_options;
     o.path = frame.path;
     const LoadedInput in = load_input(o);
+    r.preset = resolve_preset(preset, in.sensor_preset);
+    Pipeline& pipeline = pipelines(r.preset);
     pipeline.process(in.cloud);
     write_segmentation_folder((std::filesystem::path(options.out_dir) / frame.name).string(),
                               in.cloud, pipeline, options.write_mesh);
@@ -91,17 +113,18 @@ double median(std::vector<double> v) {
   return 0.5 * (*std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid)) + upper);
 }
 
-std::size_t segment_batch(const FrameList& list, const PipelineSettings& settings,
+std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
                           const BatchOptions& options) {
   const auto out_dir = ensure_dir(options.out_dir);
   keep_freed_memory_for_reuse();
   const std::size_t n = list.frames.size();
   const std::size_t threads = std::clamp<std::size_t>(
       static_cast<std::size_t>(std::max(options.threads, 1)), 1, std::max<std::size_t>(n, 1));
-  // Constructed here so that invalid settings throw before any work starts.
-  std::vector<std::unique_ptr<Pipeline>> pipelines;
+  // The first pipeline of each worker is made here, so that invalid settings throw before any
+  // work starts.
+  std::vector<WorkerPipelines> pipelines;
   for (std::size_t t = 0; t < threads; ++t) {
-    pipelines.push_back(std::make_unique<Pipeline>(settings));
+    pipelines.emplace_back(settings)(resolve_preset(settings.preset, ""));
   }
 
   std::vector<FrameResult> results(n);
@@ -109,20 +132,20 @@ std::size_t segment_batch(const FrameList& list, const PipelineSettings& setting
   ProgressBar bar(n);
   // Each worker takes the next unclaimed frame; a frame's result depends only on the frame, so
   // the outputs are the same for any number of threads.
-  const auto work = [&](Pipeline& pipeline) {
+  const auto work = [&](WorkerPipelines& worker) {
     for (std::size_t i = next++; i < n; i = next++) {
       const FrameSource& frame = list.frames[i];
-      results[i] = run_frame(frame, list.options, pipeline, options);
+      results[i] = run_frame(frame, list.options, settings.preset, worker, options);
       if (!results[i].ok) bar.message("skipped " + results[i].error);
       bar.advance(frame.name);
     }
   };
   const auto start = std::chrono::steady_clock::now();
   if (threads == 1) {
-    work(*pipelines[0]);
+    work(pipelines[0]);
   } else {
     std::vector<std::jthread> workers;
-    for (std::size_t t = 0; t < threads; ++t) workers.emplace_back(work, std::ref(*pipelines[t]));
+    for (std::size_t t = 0; t < threads; ++t) workers.emplace_back(work, std::ref(pipelines[t]));
   }
   const double wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -142,6 +165,7 @@ std::size_t segment_batch(const FrameList& list, const PipelineSettings& setting
       frames.push_back({{"name", f.name},
                         {"input", f.path},
                         {"ok", true},
+                        {"preset", r.preset},
                         {"segments", r.segments},
                         {"ms", times_json(r.times)}});
     } else {

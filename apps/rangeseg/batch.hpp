@@ -2,12 +2,21 @@
 // with one Pipeline per worker thread.
 #pragma once
 
+#include <functional>
 #include <string>
 
 #include "input.hpp"
 #include "rangeseg/pipeline.hpp"
 
 namespace rangeseg::cli {
+
+/// The settings of a batch's frames.
+struct BatchSettings {
+  /// A preset name, or "auto": each frame's sensor preset (resolve_preset of the loaded input).
+  std::string preset = "auto";
+  /// The settings for a preset name (with the command's --model, --config, ...).
+  std::function<PipelineSettings(const std::string& preset)> settings_for;
+};
 
 struct BatchOptions {
   std::string out_dir;     ///< one result folder per frame, named FrameSource::name
@@ -17,10 +26,11 @@ struct BatchOptions {
 
 /// Segments every frame into `out_dir/<name>/`, skipping (and reporting on stderr) frames that
 /// cannot be read or processed; shows progress on stderr, prints a summary on stdout and writes
-/// it to `out_dir/summary.json`. Results do not depend on `threads`. Returns the number of frames
-/// that succeeded. Throws std::runtime_error only if `out_dir` cannot be created or the summary
-/// cannot be written.
-std::size_t segment_batch(const FrameList& frames, const PipelineSettings& settings,
+/// it to `out_dir/summary.json` (with each frame's preset). Results do not depend on `threads`.
+/// Returns the number of frames that succeeded. Throws std::runtime_error only if `out_dir`
+/// cannot be created or the summary cannot be written, and std::invalid_argument for invalid
+/// settings (before any frame is read).
+std::size_t segment_batch(const FrameList& frames, const BatchSettings& settings,
                           const BatchOptions& options);
 
 /// Median of `values` (0 for none); the mean of the two middle values for an even count.

@@ -21,7 +21,7 @@ namespace {
 
 struct BenchOptions {
   InputOptions in;
-  std::string preset = "kinect";
+  std::string preset = "auto";
   std::string config;
   int repeat = 50;
   bool json = false;
@@ -140,7 +140,7 @@ void add_bench(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "bench", "Median milliseconds per stage over repeated runs (single thread)");
   add_input_options(*cmd, o->in);
-  cmd->add_option("--preset", o->preset, "Sensor preset")->capture_default_str();
+  cmd->add_option("--preset", o->preset, kAutoPresetHelp)->capture_default_str();
   cmd->add_option("--config", o->config, "JSON settings overriding the preset");
   cmd->add_option("--repeat", o->repeat, "Number of timed runs (after one warm-up run)")
       ->capture_default_str()
@@ -162,8 +162,10 @@ void add_bench(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
   cmd->callback([o] {
+    settings_from(resolve_preset(o->preset, ""), "plane", o->config, false);  // bad options first
     const LoadedInput in = load_input(o->in);
-    PipelineSettings settings = settings_from(o->preset, "plane", o->config, false);
+    PipelineSettings settings =
+        settings_from(resolve_preset(o->preset, in.sensor_preset), "plane", o->config, false);
     // One smoothing iteration is the unit the stage is measured in.
     settings.smoothing.iterations = 1;
     const bool multi_size = !o->sizes.empty() || !o->scales.empty();

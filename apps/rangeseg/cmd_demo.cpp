@@ -20,7 +20,7 @@ namespace {
 struct DemoOptions {
   std::string out_dir = "out";
   InputOptions in;
-  std::string preset = "kinect";
+  std::string preset = "auto";
   std::uint64_t seed = 1;
 };
 
@@ -62,6 +62,7 @@ void print_surface_types(const Segmentation& seg) {
 }
 
 void run_demo(const DemoOptions& o) {
+  pipeline_preset(resolve_preset(o.preset, ""));  // an unknown preset fails before any work
   const auto dir = ensure_dir(o.out_dir);
   LoadedInput in;
   if (o.in.path.empty()) {
@@ -78,7 +79,7 @@ void run_demo(const DemoOptions& o) {
   } else {
     in = load_input(o.in);
   }
-  PipelineSettings settings = pipeline_preset(o.preset);
+  PipelineSettings settings = pipeline_preset(resolve_preset(o.preset, in.sensor_preset));
   settings.segmentation.model = RegionModel::automatic;
   Pipeline pipeline(settings);
   // The first frame allocates and first-touches every buffer; a stream pays that once, so the
@@ -135,7 +136,7 @@ void add_demo(CLI::App& app) {
   cmd->add_option("-o,--output", o->out_dir, "Output directory")->capture_default_str();
   cmd->add_option("--input", o->in.path, "Use this file instead of the built-in scene");
   add_input_options(*cmd, o->in, false);
-  cmd->add_option("--preset", o->preset, "Sensor preset")->capture_default_str();
+  cmd->add_option("--preset", o->preset, kAutoPresetHelp)->capture_default_str();
   cmd->add_option("--seed", o->seed, "Noise seed of the built-in scene")->capture_default_str();
   cmd->callback([o] { run_demo(*o); });
 }

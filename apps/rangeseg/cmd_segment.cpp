@@ -19,7 +19,7 @@ struct SegmentOptions {
   std::string out_dir;
   int threads = 1;
   std::string model = "plane";
-  std::string preset = "kinect";
+  std::string preset = "auto";
   std::string config;
   bool no_smooth = false;
   bool no_mesh = false;
@@ -45,16 +45,26 @@ PipelineSettings settings_from(const std::string& preset, const std::string& mod
   return s;
 }
 
+std::string resolve_preset(const std::string& preset, const std::string& sensor_preset) {
+  if (preset != "auto") return preset;
+  return sensor_preset.empty() ? "kinect" : sensor_preset;
+}
+
+const char* const kAutoPresetHelp =
+    "Sensor preset: kinect, abw, laser, perceptron (SegComp Perceptron images), ideal "
+    "(noise-free or simulated depth), or auto: abw or perceptron for SegComp images (.range), "
+    "kinect for any other input";
+
 void add_settings_options(CLI::App& cmd, std::string& model, std::string& preset,
-                          std::string& config, bool& no_smooth) {
+                          std::string& config, bool& no_smooth, bool auto_preset) {
   cmd.add_option("--model", model,
                  "Region model: plane, smooth, incremental_plane or auto (per segment: plane, "
                  "cylinder, sphere or smooth surface)")
       ->capture_default_str();
-  cmd.add_option(
-         "--preset", preset,
-         "Sensor preset: kinect, abw, laser, perceptron (SegComp Perceptron images) or ideal "
-         "(noise-free or simulated depth)")
+  cmd.add_option("--preset", preset,
+                 auto_preset ? kAutoPresetHelp
+                             : "Sensor preset: kinect, abw, laser, perceptron (SegComp Perceptron "
+                               "images) or ideal (noise-free or simulated depth)")
       ->capture_default_str();
   cmd.add_option("--config", config, "JSON file with settings overriding the preset");
   cmd.add_flag("--no-smooth", no_smooth, "Skip the bilateral filter");
@@ -80,7 +90,8 @@ void add_segment(CLI::App& app) {
                   "inside the frame (mesh, normals, smoothing)")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
-  add_settings_options(*cmd, o->model, o->preset, o->config, o->no_smooth);
+  add_settings_options(*cmd, o->model, o->preset, o->config, o->no_smooth,
+                       /*auto_preset=*/true);
   cmd->add_flag("--no-mesh", o->no_mesh, "Do not write mesh.ply");
   cmd->footer(
       "Several inputs, a directory or a TUM sequence run as a batch: a frame that cannot be read "
@@ -90,27 +101,33 @@ void add_segment(CLI::App& app) {
       "are listed), 2 = bad arguments, unreadable single input, or no frame of a batch "
       "succeeded.");
   cmd->callback([o] {
+    const auto settings_for = [o](const std::string& preset) {
+      return settings_from(preset, o->model, o->config, o->no_smooth);
+    };
+    // Bad options (an unknown preset or model, a bad --config) fail before any input is read.
+    settings_for(resolve_preset(o->preset, ""));
     if (o->inputs.size() > 1 || is_batch_input(o->inputs.front())) {
       const FrameList frames = gather_frames(o->inputs, o->in);
       const std::size_t ok =
-          segment_batch(frames, settings_from(o->preset, o->model, o->config, o->no_smooth),
+          segment_batch(frames, {.preset = o->preset, .settings_for = settings_for},
                         {.out_dir = o->out_dir, .write_mesh = !o->no_mesh, .threads = o->threads});
       if (ok == 0) set_exit_code(kExitInput);
       return;
     }
     o->in.path = o->inputs.front();
     const LoadedInput in = load_input(o->in);
-    PipelineSettings settings = settings_from(o->preset, o->model, o->config, o->no_smooth);
+    const std::string preset = resolve_preset(o->preset, in.sensor_preset);
+    PipelineSettings settings = settings_for(preset);
     settings.threads = o->threads;
     Pipeline pipeline(settings);
     pipeline.process(in.cloud);
     write_segmentation_folder(o->out_dir, in.cloud, pipeline, !o->no_mesh);
     const StageTimes& t = pipeline.times();
     std::printf(
-        "%s: %zu segments in %.2f ms (mesh %.2f, normals %.2f, smoothing %.2f, segmentation %.2f, "
-        "polygons %.2f)\n",
-        o->in.path.c_str(), pipeline.segmentation().segments.size(), t.total, t.mesh, t.normals,
-        t.smoothing, t.segmentation, t.polygons);
+        "%s: %zu segments in %.2f ms (preset %s; mesh %.2f, normals %.2f, smoothing %.2f, "
+        "segmentation %.2f, polygons %.2f)\n",
+        o->in.path.c_str(), pipeline.segmentation().segments.size(), t.total, preset.c_str(),
+        t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons);
   });
 }
 

@@ -13,7 +13,7 @@ namespace {
 struct SmoothOptions {
   InputOptions in;
   std::string out;
-  std::string preset = "kinect";
+  std::string preset = "auto";
   std::string config;
   int iterations = -1;
 };
@@ -28,12 +28,14 @@ void add_smooth(CLI::App& app) {
   cmd->add_option("-o,--output", o->out,
                   "Output .pcd (x y z [intensity] [rgb] normal_x normal_y normal_z curvature)")
       ->required();
-  cmd->add_option("--preset", o->preset, "Sensor preset (noise model)")->capture_default_str();
+  cmd->add_option("--preset", o->preset, kAutoPresetHelp)->capture_default_str();
   cmd->add_option("--config", o->config, "JSON settings overriding the preset");
   cmd->add_option("--iterations", o->iterations, "Filter passes (default: the preset's)");
   cmd->callback([o] {
+    settings_from(resolve_preset(o->preset, ""), "plane", o->config, false);  // bad options first
     const LoadedInput in = load_input(o->in);
-    PipelineSettings s = settings_from(o->preset, "plane", o->config, false);
+    PipelineSettings s =
+        settings_from(resolve_preset(o->preset, in.sensor_preset), "plane", o->config, false);
     if (o->iterations >= 0) s.smoothing.iterations = o->iterations;
     s.segment = false;
     Pipeline pipeline(s);

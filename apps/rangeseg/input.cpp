@@ -71,6 +71,7 @@ LoadedInput load_input(const InputOptions& o) {
     const bool abw = sensor == io::SegcompSensor::abw;
     in.format = abw ? "SegComp ABW rasterfile" : "SegComp Perceptron range image";
     in.fields = abw ? "range (8 bit)" : "range (12 bit)";
+    in.sensor_preset = abw ? "abw" : "perceptron";
     std::filesystem::path gt = o.path;
     gt.replace_extension(".gt-seg");
     if (std::filesystem::exists(gt)) in.ground_truth = io::read_segcomp_gt(gt.string());

@@ -26,6 +26,9 @@ struct LoadedInput {
   std::string fields;  ///< e.g. "x y z rgba"
   std::string units = "m";
   LabelImage ground_truth;  ///< from a SegComp .gt-seg beside a .range, or a PCD label field
+  /// The preset of the sensor when the file tells it (SegComp images: "abw" or "perceptron"),
+  /// else empty.
+  std::string sensor_preset;
 };
 
 void add_input_options(CLI::App& cmd, InputOptions& opts, bool positional = true);

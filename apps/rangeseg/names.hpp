@@ -35,10 +35,16 @@ void apply_config_file(const std::string& path, PipelineSettings& settings);
 }  // namespace rangeseg::cli
 
 namespace rangeseg::cli {
-/// Registers --model, --preset, --config and --no-smooth (the arguments of settings_from).
+/// Registers --model, --preset, --config and --no-smooth (the arguments of settings_from);
+/// `auto_preset`: the command resolves --preset auto per input (resolve_preset).
 void add_settings_options(CLI::App& cmd, std::string& model, std::string& preset,
-                          std::string& config, bool& no_smooth);
+                          std::string& config, bool& no_smooth, bool auto_preset = false);
 /// Settings from --preset, --model, --config and --no-smooth.
 PipelineSettings settings_from(const std::string& preset, const std::string& model,
                                const std::string& config, bool no_smooth);
+/// --preset auto: the preset of the input's sensor where the file tells it (SegComp ABW and
+/// Perceptron images: abw, perceptron), else kinect. Any other name is returned unchanged.
+std::string resolve_preset(const std::string& preset, const std::string& sensor_preset);
+/// Help text of a --preset option that takes auto.
+extern const char* const kAutoPresetHelp;
 }  // namespace rangeseg::cli
