@@ -25,7 +25,6 @@ int main(int argc, char** argv) try {
   settings.threads = threads;  // row bands of one frame on a persistent thread pool
   rangeseg::Pipeline pipeline(settings);
 
-  rangeseg::OrganizedCloud cloud;
   for (int i = 0; i < frames; ++i) {
     // What a driver delivers: raw depth in millimetres, 0 = no measurement.
     const rangeseg::DepthImage depth = rangeseg::cloud_to_depth(
@@ -34,8 +33,8 @@ int main(int argc, char** argv) try {
                                         .seed = static_cast<std::uint64_t>(i + 1)})
             .cloud,
         0.001);
-    cloud = rangeseg::depth_to_cloud(depth.view(), camera, 0.001);
-    pipeline.process(cloud);
+    // Depth to points into the pipeline's own buffer (a float image in metres works too).
+    pipeline.process(depth.view(), camera, 0.001);
     const rangeseg::Segmentation& s = pipeline.segmentation();
     const rangeseg::Segment* largest = s.segments.empty() ? nullptr : &s.segments.front();
     std::printf("frame %2d: %2zu segments in %5.2f ms", i, s.segments.size(),

@@ -1,6 +1,7 @@
 #include "rangeseg/camera.hpp"
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -15,32 +16,123 @@ void validate(const CameraIntrinsics& c) {
   }
 }
 
-OrganizedCloud depth_to_cloud(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
-                              double depth_scale) {
-  validate(camera);
+namespace {
+
+void require_scale(double depth_scale) {
   if (!(depth_scale > 0) || !std::isfinite(depth_scale)) {
     throw std::invalid_argument("depth_to_cloud: depth_scale must be > 0, got " +
                                 std::to_string(depth_scale));
   }
-  OrganizedCloud cloud(depth.width, depth.height);
+}
+
+template <class T>
+void require_view(View<const T> depth) {
+  if (depth.width < 0 || depth.height < 0 || depth.stride < depth.width ||
+      (depth.data == nullptr && !depth.empty())) {
+    throw std::invalid_argument("depth_to_cloud: invalid depth view " +
+                                std::to_string(depth.width) + " x " + std::to_string(depth.height) +
+                                ", stride " + std::to_string(depth.stride) +
+                                (depth.data == nullptr ? ", no data" : ""));
+  }
+}
+
+template <class T>
+void require_rows(View<const T> depth, const OrganizedCloud& cloud, int row_begin, int row_end) {
+  require_view(depth);
+  if (cloud.width() != depth.width || cloud.height() != depth.height || row_begin < 0 ||
+      row_end > depth.height || row_begin > row_end) {
+    throw std::invalid_argument("depth_to_cloud_rows: rows [" + std::to_string(row_begin) + ", " +
+                                std::to_string(row_end) + ") of a " + std::to_string(depth.width) +
+                                " x " + std::to_string(depth.height) + " depth image into a " +
+                                std::to_string(cloud.width()) + " x " +
+                                std::to_string(cloud.height()) + " cloud");
+  }
+}
+
+/// Every pixel of the rows is written: a valid depth z = metres(raw) > 0 gives the point on the
+/// pixel's ray, anything else NaN.
+template <class T, class Metres>
+void convert_rows(View<const T> depth, const CameraIntrinsics& camera, Metres metres,
+                  OrganizedCloud& cloud, int row_begin, int row_end) {
   const float inv_fx = static_cast<float>(1.0 / camera.fx),
               inv_fy = static_cast<float>(1.0 / camera.fy);
   const float cx = static_cast<float>(camera.cx), cy = static_cast<float>(camera.cy);
-  const float scale = static_cast<float>(depth_scale);
-  for (int v = 0; v < depth.height; ++v) {
-    const std::uint16_t* d = depth.row(v);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int v = row_begin; v < row_end; ++v) {
+    const T* d = depth.row(v);
     float* xs = cloud.x.row(v);
     float* ys = cloud.y.row(v);
     float* zs = cloud.z.row(v);
     const float ray_y = (static_cast<float>(v) - cy) * inv_fy;
     for (int u = 0; u < depth.width; ++u) {
-      if (d[u] == 0) continue;
-      const float z = static_cast<float>(d[u]) * scale;
-      xs[u] = (static_cast<float>(u) - cx) * inv_fx * z;
-      ys[u] = ray_y * z;
-      zs[u] = z;
+      const float z = metres(d[u]);
+      const bool valid = z > 0 && z <= std::numeric_limits<float>::max();
+      xs[u] = valid ? (static_cast<float>(u) - cx) * inv_fx * z : nan;
+      ys[u] = valid ? ray_y * z : nan;
+      zs[u] = valid ? z : nan;
     }
   }
+}
+
+/// Gives `cloud` the size of `depth` with x, y, z only, allocating only when the size changes.
+template <class T>
+void prepare(OrganizedCloud& cloud, View<const T> depth) {
+  require_view(depth);
+  const int width = depth.width, height = depth.height;
+  cloud.intensity.clear();
+  cloud.r.clear();
+  cloud.g.clear();
+  cloud.b.clear();
+  cloud.label.clear();
+  if (cloud.width() != width || cloud.height() != height || cloud.x.width() != width ||
+      cloud.y.width() != width || cloud.x.height() != height || cloud.y.height() != height) {
+    cloud.resize(width, height);
+  }
+}
+
+auto raw_metres(double depth_scale) {
+  const float scale = static_cast<float>(depth_scale);
+  return [scale](std::uint16_t raw) { return raw == 0 ? 0.0f : static_cast<float>(raw) * scale; };
+}
+
+constexpr auto kMetres = [](float z) { return z; };
+
+}  // namespace
+
+void depth_to_cloud_rows(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
+                         double depth_scale, OrganizedCloud& cloud, int row_begin, int row_end) {
+  validate(camera);
+  require_scale(depth_scale);
+  require_rows(depth, cloud, row_begin, row_end);
+  convert_rows(depth, camera, raw_metres(depth_scale), cloud, row_begin, row_end);
+}
+
+void depth_to_cloud_rows(View<const float> depth, const CameraIntrinsics& camera,
+                         OrganizedCloud& cloud, int row_begin, int row_end) {
+  validate(camera);
+  require_rows(depth, cloud, row_begin, row_end);
+  convert_rows(depth, camera, kMetres, cloud, row_begin, row_end);
+}
+
+void depth_to_cloud(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
+                    double depth_scale, OrganizedCloud& cloud) {
+  validate(camera);
+  require_scale(depth_scale);
+  prepare(cloud, depth);
+  convert_rows(depth, camera, raw_metres(depth_scale), cloud, 0, depth.height);
+}
+
+void depth_to_cloud(View<const float> depth, const CameraIntrinsics& camera,
+                    OrganizedCloud& cloud) {
+  validate(camera);
+  prepare(cloud, depth);
+  convert_rows(depth, camera, kMetres, cloud, 0, depth.height);
+}
+
+OrganizedCloud depth_to_cloud(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
+                              double depth_scale) {
+  OrganizedCloud cloud;
+  depth_to_cloud(depth, camera, depth_scale, cloud);
   return cloud;
 }
 

@@ -169,4 +169,36 @@ void Pipeline::process(const OrganizedCloud& cloud) {
   times_.total = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
+template <class Convert>
+void Pipeline::process_depth(int width, int height, Convert&& convert_rows) {
+  const Clock::time_point start = Clock::now();
+  if (depth_cloud_.width() != width || depth_cloud_.height() != height) {
+    depth_cloud_.resize(width, height);
+  }
+  convert_rows(0, 0);  // checks the view, intrinsics and scale before any band starts
+  ThreadPool* const pool =
+      static_cast<long>(width) * height >= kMinPixelsForThreads ? pool_.get() : nullptr;
+  if (pool != nullptr) {
+    pool->for_each_band(height, 1, [&](int, int v0, int v1) { convert_rows(v0, v1); });
+  } else {
+    convert_rows(0, height);
+  }
+  const double input_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  process(depth_cloud_);
+  times_.input = input_ms;
+  times_.total += input_ms;
+}
+
+void Pipeline::process(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
+                       double depth_scale) {
+  process_depth(depth.width, depth.height, [&](int v0, int v1) {
+    depth_to_cloud_rows(depth, camera, depth_scale, depth_cloud_, v0, v1);
+  });
+}
+
+void Pipeline::process(View<const float> depth, const CameraIntrinsics& camera) {
+  process_depth(depth.width, depth.height,
+                [&](int v0, int v1) { depth_to_cloud_rows(depth, camera, depth_cloud_, v0, v1); });
+}
+
 }  // namespace rangeseg

@@ -54,11 +54,11 @@ using namespace rangeseg;
 
 namespace {
 // Quarter-VGA keeps the test quick (also under sanitizers); the code paths are the same.
+constexpr CameraIntrinsics kQvgaCamera{
+    .fx = 262.5, .fy = 262.5, .cx = 159.5, .cy = 119.5, .width = 320, .height = 240};
 synth::Rendering qvga(std::uint64_t seed) {
-  const CameraIntrinsics camera{
-      .fx = 262.5, .fy = 262.5, .cx = 159.5, .cy = 119.5, .width = 320, .height = 240};
   return synth::render(synth::random_scene(seed),
-                       {.camera = camera, .noise = synth::Noise::kinect, .seed = seed});
+                       {.camera = kQvgaCamera, .noise = synth::Noise::kinect, .seed = seed});
 }
 }  // namespace
 
@@ -182,6 +182,43 @@ TEST(Pipeline, NoAllocationPerFrameAfterTheFirst) {
   }
 }
 
+// A camera loop: depth images (millimetres, and metres as float) in, one pipeline, nothing
+// allocated after the first frame, and the depth-to-points conversion into a reused cloud.
+TEST(Pipeline, DepthImageFramesAllocateNothingAfterTheFirst) {
+  const DepthImage a = cloud_to_depth(qvga(1).cloud, 0.001);
+  const DepthImage b = cloud_to_depth(qvga(2).cloud, 0.001);
+  FloatPlane metres(a.width(), a.height());
+  for (int v = 0; v < a.height(); ++v) {
+    for (int u = 0; u < a.width(); ++u) {
+      metres(u, v) = a(u, v) == 0 ? std::numeric_limits<float>::quiet_NaN() : 0.001f * a(u, v);
+    }
+  }
+  for (const int threads : {1, 2}) {
+    PipelineSettings settings = pipeline_preset("kinect");
+    settings.threads = threads;
+    Pipeline pipeline(settings);
+    for (int warmup = 0; warmup < 4; ++warmup) {
+      pipeline.process((warmup % 2 == 0 ? a : b).view(), kQvgaCamera, 0.001);
+      pipeline.process(metres.view(), kQvgaCamera);
+    }
+    const long before = g_allocations.load();
+    for (int frame = 0; frame < 4; ++frame) {
+      pipeline.process((frame % 2 == 0 ? a : b).view(), kQvgaCamera, 0.001);
+      pipeline.process(metres.view(), kQvgaCamera);
+    }
+    EXPECT_EQ(g_allocations.load() - before, 0) << threads << " threads";
+    EXPECT_FALSE(pipeline.segmentation().segments.empty());
+    EXPECT_GT(pipeline.times().input, 0.0);
+    EXPECT_GE(pipeline.times().total, pipeline.times().input + pipeline.times().segmentation);
+  }
+  OrganizedCloud cloud;
+  depth_to_cloud(a.view(), kQvgaCamera, 0.001, cloud);
+  const long before = g_allocations.load();
+  depth_to_cloud(b.view(), kQvgaCamera, 0.001, cloud);
+  depth_to_cloud(metres.view(), kQvgaCamera, cloud);
+  EXPECT_EQ(g_allocations.load() - before, 0);
+}
+
 template <class T>
 bool same_bits(const Plane<T>& a, const Plane<T>& b) {
   if (a.width() != b.width() || a.height() != b.height()) return false;
@@ -235,6 +272,56 @@ TEST(Pipeline, ThreadsInsideAFrameGiveIdenticalResults) {
       EXPECT_EQ(threaded.polygons().points3d, reference.polygons().points3d) << what;
     }
   }
+}
+
+/// A depth image gives bit for bit what its cloud gives, for raw units and metres, with one and
+/// two threads; pixels without a measurement (0; NaN, infinite or <= 0 metres) are no points.
+TEST(Pipeline, DepthImagesGiveWhatTheirCloudsGive) {
+  const DepthImage depth = cloud_to_depth(qvga(4).cloud, 0.001);
+  FloatPlane metres(depth.width(), depth.height());
+  for (int v = 0; v < depth.height(); ++v) {
+    for (int u = 0; u < depth.width(); ++u) {
+      metres(u, v) = depth(u, v) == 0 ? 0.0f : 0.001f * depth(u, v);
+    }
+  }
+  const float odd[] = {std::numeric_limits<float>::quiet_NaN(),
+                       std::numeric_limits<float>::infinity(), -1.0f, 0.0f};
+  for (int k = 0; k < 4; ++k) metres(10 + k, 20) = odd[k];
+  const OrganizedCloud from_raw = depth_to_cloud(depth.view(), kQvgaCamera, 0.001);
+  OrganizedCloud from_metres;
+  depth_to_cloud(metres.view(), kQvgaCamera, from_metres);
+  for (int k = 0; k < 4; ++k) EXPECT_FALSE(from_metres.valid(10 + k, 20)) << k;
+  EXPECT_EQ(from_raw.count_valid(),
+            from_metres.count_valid() + 4 -
+                static_cast<std::size_t>(std::count_if(depth.row(20) + 10, depth.row(20) + 14,
+                                                       [](std::uint16_t d) { return d == 0; })));
+  for (const int threads : {1, 2}) {
+    PipelineSettings settings = pipeline_preset("kinect");
+    settings.threads = threads;
+    Pipeline from_depth(settings), from_cloud(settings);
+    from_depth.process(depth.view(), kQvgaCamera, 0.001);
+    from_cloud.process(from_raw);
+    EXPECT_TRUE(same_bits(from_depth.cloud().z, from_cloud.cloud().z)) << threads;
+    EXPECT_TRUE(same_bits(from_depth.segmentation().labels, from_cloud.segmentation().labels));
+    from_depth.process(metres.view(), kQvgaCamera);
+    from_cloud.process(from_metres);
+    EXPECT_TRUE(same_bits(from_depth.segmentation().labels, from_cloud.segmentation().labels));
+    EXPECT_TRUE(same_bits(from_depth.cloud().x, from_cloud.cloud().x));
+  }
+  Pipeline pipeline;
+  EXPECT_THROW(pipeline.process(depth.view(), kQvgaCamera, 0.0), std::invalid_argument);
+  EXPECT_THROW(pipeline.process(depth.view(), CameraIntrinsics{.fx = 0}, 0.001),
+               std::invalid_argument);
+  EXPECT_THROW(pipeline.process(metres.view(), CameraIntrinsics{.fx = NAN}), std::invalid_argument);
+  // A driver's buffer wrapped wrongly: a stride shorter than a row, or no data.
+  EXPECT_THROW(
+      pipeline.process(View<const std::uint16_t>{depth.row(0), 320, 240, 100}, kQvgaCamera, 0.001),
+      std::invalid_argument);
+  EXPECT_THROW(pipeline.process(View<const float>{nullptr, 320, 240, 320}, kQvgaCamera),
+               std::invalid_argument);
+  OrganizedCloud cloud;
+  EXPECT_THROW(depth_to_cloud(View<const float>{nullptr, 4, 4, 4}, kQvgaCamera, cloud),
+               std::invalid_argument);
 }
 
 TEST(Pipeline, RejectsInvalidThreadCounts) {

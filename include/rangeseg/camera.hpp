@@ -25,6 +25,25 @@ void validate(const CameraIntrinsics& camera);
 OrganizedCloud depth_to_cloud(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
                               double depth_scale = 0.001);
 
+/// The same into `cloud`, whose x, y, z planes are reused when they already have the depth
+/// image's size (nothing is allocated then: a camera loop converts every frame into one cloud);
+/// its optional planes (intensity, rgb, label) are removed. Throws like depth_to_cloud.
+void depth_to_cloud(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
+                    double depth_scale, OrganizedCloud& cloud);
+
+/// A depth image in metres (e.g. a ROS 32FC1 image) to a cloud, reusing `cloud` as above; NaN,
+/// infinite and non-positive depths are no measurement. Throws std::invalid_argument for invalid
+/// intrinsics.
+void depth_to_cloud(View<const float> depth, const CameraIntrinsics& camera, OrganizedCloud& cloud);
+
+/// Rows [row_begin, row_end) of the conversions above into `cloud`, which must already have the
+/// depth image's size (checked); for converting row bands on several threads. Throws
+/// std::invalid_argument for invalid intrinsics, depth_scale or rows.
+void depth_to_cloud_rows(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
+                         double depth_scale, OrganizedCloud& cloud, int row_begin, int row_end);
+void depth_to_cloud_rows(View<const float> depth, const CameraIntrinsics& camera,
+                         OrganizedCloud& cloud, int row_begin, int row_end);
+
 /// Converts the z plane of an organized cloud back to raw depth units (rounded; 0 where the
 /// point is invalid, z <= 0, or z / depth_scale does not fit in 16 bits).
 DepthImage cloud_to_depth(const OrganizedCloud& cloud, double depth_scale = 0.001);

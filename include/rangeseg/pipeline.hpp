@@ -4,6 +4,7 @@
 #include <memory>
 #include <string_view>
 
+#include "rangeseg/camera.hpp"
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/normals.hpp"
@@ -47,6 +48,7 @@ PipelineSettings pipeline_preset(std::string_view sensor);
 /// Wall-clock time of each stage of the last frame [ms].
 struct StageTimes {
   double mesh = 0, normals = 0, smoothing = 0, segmentation = 0, polygons = 0, total = 0;
+  double input = 0;  ///< depth image to points (the depth-image `process`), part of total
 };
 
 /// Runs the stages on frame after frame. It owns every intermediate buffer, so after the first
@@ -61,6 +63,15 @@ class Pipeline {
   /// Processes one organized cloud. Throws std::invalid_argument for an unorganized cloud.
   void process(const OrganizedCloud& cloud);
 
+  /// Processes a depth image (raw units, 0 = no measurement, `depth_scale` metres per unit, e.g.
+  /// 0.001 for millimetres) seen with `camera`: its points are computed (depth_to_cloud) into a
+  /// cloud the pipeline owns, so a camera loop allocates nothing after its first frame. Throws
+  /// std::invalid_argument for invalid intrinsics or depth_scale, or fewer than 2 rows.
+  void process(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
+               double depth_scale = 0.001);
+  /// The same for depth in metres (NaN, infinite or <= 0: no measurement; e.g. ROS 32FC1).
+  void process(View<const float> depth, const CameraIntrinsics& camera);
+
   const PipelineSettings& settings() const { return settings_; }
   const Mesh& mesh() const { return mesh_; }
   const NormalMap& raw_normals() const { return raw_normals_; }
@@ -72,8 +83,12 @@ class Pipeline {
   const StageTimes& times() const { return times_; }
 
  private:
+  template <class Convert>
+  void process_depth(int width, int height, Convert&& convert_rows);
+
   PipelineSettings settings_;
   const OrganizedCloud* input_ = nullptr;
+  OrganizedCloud depth_cloud_;  ///< the points of the last depth image
   Mesh mesh_;
   NormalMap raw_normals_;
   Smoother smoother_;
