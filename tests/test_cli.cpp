@@ -438,6 +438,14 @@ TEST(CliBatch, AutoPresetFollowsEachInputsSensor) {
   EXPECT_EQ(summary["per_frame"][0]["preset"], "abw");
   EXPECT_EQ(summary["per_frame"][1]["preset"], "kinect");
   EXPECT_EQ(read_text(dir / "batch" / "abw.test.3" / "labels.png"), auto_labels);
+  // mesh: the ABW preset's depth-jump gate.
+  for (const char* preset : {"auto", "abw", "kinect"}) {
+    const CliResult r = run("mesh " + range + " --preset " + preset + " -o " +
+                            (dir / (std::string(preset) + ".ply")).string());
+    ASSERT_EQ(r.code, 0) << r.out;
+  }
+  EXPECT_EQ(read_text(dir / "auto.ply"), read_text(dir / "abw.ply"));
+  EXPECT_NE(read_text(dir / "auto.ply"), read_text(dir / "kinect.ply"));
 
   const CliResult bad = run("segment " + (dir / "missing.range").string() + " --preset lidar -o " +
                             (dir / "bad").string());

@@ -20,6 +20,8 @@ struct MeshOptions {
   std::string type = "adaptive";
   std::string normal_png;
   std::string curvature_png;
+  std::string preset = "auto";
+  std::string config;
   int stride = 1;
 };
 
@@ -48,10 +50,21 @@ void add_mesh(CLI::App& app) {
   cmd->add_option("--normal-png", o->normal_png, "Also write the normal map as a PNG");
   cmd->add_option("--curvature-png", o->curvature_png,
                   "Also write the curvature as a false-colour PNG");
+  cmd->add_option("--preset", o->preset, kAutoPresetHelp)->capture_default_str();
+  cmd->add_option("--config", o->config,
+                  "JSON settings overriding the preset (its \"mesh\" and \"noise\" keys apply)");
   cmd->callback([o] {
+    // The sensor's noise model sets the mesh's depth-jump gate; --type and --stride override.
+    const auto mesh_settings = [o](const std::string& sensor_preset) {
+      MeshSettings s =
+          settings_from(resolve_preset(o->preset, sensor_preset), "plane", o->config, false).mesh;
+      s.type = mesh_type_by_name(o->type);
+      s.pixel_stride = o->stride;
+      return s;
+    };
+    mesh_settings("");  // bad options fail before the input is read
     const LoadedInput in = load_input(o->in);
-    const Mesh mesh =
-        build_mesh(in.cloud, {.type = mesh_type_by_name(o->type), .pixel_stride = o->stride});
+    const Mesh mesh = build_mesh(in.cloud, mesh_settings(in.sensor_preset));
     const NormalMap normals = compute_normals(in.cloud, mesh);
     const RgbImage colours =
         colorize_normals(normals.nx.view(), normals.ny.view(), normals.nz.view());
