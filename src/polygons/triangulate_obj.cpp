@@ -52,42 +52,43 @@ bool in_wedge(const std::vector<int>& poly, std::size_t j, const std::vector<P2>
   return orient(prev, p, next) >= 0 ? (left_prev && left_next) : (left_prev || left_next);
 }
 
-/// The vertices of a polygon bucketed by a uniform grid over their bounding box (about one
-/// vertex per cell), so that the vertices inside a small triangle are found without visiting
-/// all of them.
-class VertexGrid {
+/// Items bucketed by a uniform grid over their points' bounding box, with about one item per
+/// cell; an item is in every cell its own bounding box overlaps. Built from
+/// for_each_box(fn(lo, hi, item)), which must visit the items in the same order each call.
+class BucketGrid {
  public:
-  VertexGrid(const std::vector<int>& poly, const std::vector<P2>& pts) {
-    const std::size_t n = poly.size();
-    lo_ = hi_ = pts[static_cast<std::size_t>(poly[0])];
-    for (const int i : poly) {
-      const P2& p = pts[static_cast<std::size_t>(i)];
+  template <class ForEachBox>
+  BucketGrid(std::size_t items, ForEachBox&& for_each_box) {
+    bool first = true;
+    for_each_box([&](const P2& lo, const P2& hi, std::size_t) {
       for (int k = 0; k < 2; ++k) {
-        lo_[k] = std::min(lo_[k], p[k]);
-        hi_[k] = std::max(hi_[k], p[k]);
+        lo_[k] = first ? lo[k] : std::min(lo_[k], lo[k]);
+        hi_[k] = first ? hi[k] : std::max(hi_[k], hi[k]);
       }
-    }
+      first = false;
+    });
     const double w = std::max(hi_[0] - lo_[0], 1e-12);
     const double h = std::max(hi_[1] - lo_[1], 1e-12);
-    const double cell = std::sqrt(w * h / static_cast<double>(n)) + 1e-12;
+    const double cell =
+        std::sqrt(w * h / static_cast<double>(std::max<std::size_t>(items, 1))) + 1e-12;
     cols_ = static_cast<int>(std::clamp(std::ceil(w / cell), 1.0, 4096.0));
     rows_ = static_cast<int>(std::clamp(std::ceil(h / cell), 1.0, 4096.0));
     sx_ = cols_ / w;
     sy_ = rows_ / h;
     start_.assign(static_cast<std::size_t>(cols_) * rows_ + 1, 0);
-    std::vector<std::size_t> cell_of(n);
-    for (std::size_t j = 0; j < n; ++j) {
-      cell_of[j] = cell_index(pts[static_cast<std::size_t>(poly[j])]);
-      ++start_[cell_of[j] + 1];
-    }
+    for_each_box([&](const P2& lo, const P2& hi, std::size_t) {
+      for_each_cell(lo, hi, [&](std::size_t c) { ++start_[c + 1]; });
+    });
     for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
-    items_.resize(n);
+    items_.resize(start_.back());
     std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
-    for (std::size_t j = 0; j < n; ++j) items_[fill[cell_of[j]]++] = j;
+    for_each_box([&](const P2& lo, const P2& hi, std::size_t item) {
+      for_each_cell(lo, hi, [&](std::size_t c) { items_[fill[c]++] = item; });
+    });
   }
 
-  /// Calls fn(j) for every vertex position j in a cell the box [lo, hi] overlaps, until fn
-  /// returns false; returns whether it never did.
+  /// Calls fn(item) for every item in a cell the box [lo, hi] overlaps (an item may come more
+  /// than once), until fn returns false; returns whether it never did.
   template <class F>
   bool all_in_box(const P2& lo, const P2& hi, F&& fn) const {
     const int c0 = column(lo[0]), c1 = column(hi[0]), r0 = row(lo[1]), r1 = row(hi[1]);
@@ -103,90 +104,11 @@ class VertexGrid {
   }
 
  private:
-  int column(double x) const {
-    return static_cast<int>(std::clamp((x - lo_[0]) * sx_, 0.0, cols_ - 1.0));
-  }
-  int row(double y) const {
-    return static_cast<int>(std::clamp((y - lo_[1]) * sy_, 0.0, rows_ - 1.0));
-  }
-  std::size_t cell_index(const P2& p) const {
-    return static_cast<std::size_t>(row(p[1])) * cols_ + static_cast<std::size_t>(column(p[0]));
-  }
-
-  P2 lo_{}, hi_{};
-  int cols_ = 1, rows_ = 1;
-  double sx_ = 1, sy_ = 1;
-  std::vector<std::size_t> start_, items_;
-};
-
-/// The edges of an outline and its holes bucketed by a uniform grid over their bounding box
-/// (about one edge per cell; an edge is in every cell its bounding box overlaps), so that a
-/// bridge is tested for crossings only against the edges near it.
-class EdgeGrid {
- public:
-  struct Edge {
-    int a, b;   ///< point indices
-    int group;  ///< which loop: edges of a group can be switched off together
-  };
-
-  EdgeGrid(const std::vector<Edge>& edges, const std::vector<P2>& pts) : edges_(edges), pts_(pts) {
-    const std::size_t n = edges.size();
-    lo_ = hi_ = pts[static_cast<std::size_t>(edges[0].a)];
-    for (const Edge& e : edges) {
-      for (const int i : {e.a, e.b}) {
-        const P2& p = pts[static_cast<std::size_t>(i)];
-        for (int k = 0; k < 2; ++k) {
-          lo_[k] = std::min(lo_[k], p[k]);
-          hi_[k] = std::max(hi_[k], p[k]);
-        }
-      }
-    }
-    const double w = std::max(hi_[0] - lo_[0], 1e-12);
-    const double h = std::max(hi_[1] - lo_[1], 1e-12);
-    const double cell = std::sqrt(w * h / static_cast<double>(n)) + 1e-12;
-    cols_ = static_cast<int>(std::clamp(std::ceil(w / cell), 1.0, 4096.0));
-    rows_ = static_cast<int>(std::clamp(std::ceil(h / cell), 1.0, 4096.0));
-    sx_ = cols_ / w;
-    sy_ = rows_ / h;
-    start_.assign(static_cast<std::size_t>(cols_) * rows_ + 1, 0);
-    for_each_cell_of_edges([&](std::size_t cell, std::size_t) { ++start_[cell + 1]; });
-    for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
-    items_.resize(start_.back());
-    std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
-    for_each_cell_of_edges([&](std::size_t cell, std::size_t e) { items_[fill[cell]++] = e; });
-  }
-
-  /// Whether segment p-q crosses or touches (segments_cross) an edge of a group not switched off.
-  bool crossed(const P2& p, const P2& q, const std::vector<std::uint8_t>& group_off) const {
-    const int c0 = column(std::min(p[0], q[0])), c1 = column(std::max(p[0], q[0]));
-    const int r0 = row(std::min(p[1], q[1])), r1 = row(std::max(p[1], q[1]));
-    for (int r = r0; r <= r1; ++r) {
-      for (int c = c0; c <= c1; ++c) {
-        const std::size_t cell = static_cast<std::size_t>(r) * cols_ + c;
-        for (std::size_t k = start_[cell]; k < start_[cell + 1]; ++k) {
-          const Edge& e = edges_[items_[k]];
-          if (group_off[static_cast<std::size_t>(e.group)]) continue;
-          if (segments_cross(p, q, pts_[static_cast<std::size_t>(e.a)],
-                             pts_[static_cast<std::size_t>(e.b)])) {
-            return true;
-          }
-        }
-      }
-    }
-    return false;
-  }
-
- private:
   template <class F>
-  void for_each_cell_of_edges(F&& fn) const {
-    for (std::size_t e = 0; e < edges_.size(); ++e) {
-      const P2& a = pts_[static_cast<std::size_t>(edges_[e].a)];
-      const P2& b = pts_[static_cast<std::size_t>(edges_[e].b)];
-      const int c0 = column(std::min(a[0], b[0])), c1 = column(std::max(a[0], b[0]));
-      const int r0 = row(std::min(a[1], b[1])), r1 = row(std::max(a[1], b[1]));
-      for (int r = r0; r <= r1; ++r) {
-        for (int c = c0; c <= c1; ++c) fn(static_cast<std::size_t>(r) * cols_ + c, e);
-      }
+  void for_each_cell(const P2& lo, const P2& hi, F&& fn) const {
+    const int c0 = column(lo[0]), c1 = column(hi[0]), r0 = row(lo[1]), r1 = row(hi[1]);
+    for (int r = r0; r <= r1; ++r) {
+      for (int c = c0; c <= c1; ++c) fn(static_cast<std::size_t>(r) * cols_ + c);
     }
   }
   int column(double x) const {
@@ -196,13 +118,54 @@ class EdgeGrid {
     return static_cast<int>(std::clamp((y - lo_[1]) * sy_, 0.0, rows_ - 1.0));
   }
 
-  const std::vector<Edge>& edges_;
-  const std::vector<P2>& pts_;
   P2 lo_{}, hi_{};
   int cols_ = 1, rows_ = 1;
   double sx_ = 1, sy_ = 1;
   std::vector<std::size_t> start_, items_;
 };
+
+/// The vertices of a polygon (positions j in `poly`) bucketed, so that the vertices inside a
+/// small triangle are found without visiting all of them.
+BucketGrid vertex_grid(const std::vector<int>& poly, const std::vector<P2>& pts) {
+  return BucketGrid(poly.size(), [&](auto&& fn) {
+    for (std::size_t j = 0; j < poly.size(); ++j) {
+      const P2& p = pts[static_cast<std::size_t>(poly[j])];
+      fn(p, p, j);
+    }
+  });
+}
+
+/// An edge of an outline or a hole, with the loop it belongs to.
+struct Edge {
+  int a, b;   ///< point indices
+  int group;  ///< which loop: edges of a group can be switched off together
+};
+
+/// The edges bucketed, so that a bridge is tested for crossings only against the edges near it.
+BucketGrid edge_grid(const std::vector<Edge>& edges, const std::vector<P2>& pts) {
+  return BucketGrid(edges.size(), [&](auto&& fn) {
+    for (std::size_t e = 0; e < edges.size(); ++e) {
+      const P2& a = pts[static_cast<std::size_t>(edges[e].a)];
+      const P2& b = pts[static_cast<std::size_t>(edges[e].b)];
+      fn(P2{std::min(a[0], b[0]), std::min(a[1], b[1])},
+         P2{std::max(a[0], b[0]), std::max(a[1], b[1])}, e);
+    }
+  });
+}
+
+/// Whether segment p-q crosses or touches (segments_cross) an edge of a group not switched off.
+bool crosses_an_edge(const P2& p, const P2& q, const BucketGrid& grid,
+                     const std::vector<Edge>& edges, const std::vector<P2>& pts,
+                     const std::vector<std::uint8_t>& group_off) {
+  const P2 lo{std::min(p[0], q[0]), std::min(p[1], q[1])};
+  const P2 hi{std::max(p[0], q[0]), std::max(p[1], q[1])};
+  return !grid.all_in_box(lo, hi, [&](std::size_t k) {
+    const Edge& e = edges[k];
+    return group_off[static_cast<std::size_t>(e.group)] != 0 ||
+           !segments_cross(p, q, pts[static_cast<std::size_t>(e.a)],
+                           pts[static_cast<std::size_t>(e.b)]);
+  });
+}
 
 // Ear clipping of a weakly simple CCW polygon (bridges repeat vertices): the vertices are a
 // linked ring; the walk clips every ear it meets and goes on from the next vertex, and a
@@ -220,7 +183,7 @@ void ear_clip(const std::vector<int>& poly, const std::vector<P2>& pts,
     prev[j] = (j + n - 1) % n;
     next[j] = (j + 1) % n;
   }
-  const VertexGrid grid(poly, pts);
+  const BucketGrid grid = vertex_grid(poly, pts);
   const auto is_ear = [&](std::size_t j) {
     const std::size_t ja = prev[j], jc = next[j];
     const P2 &a = pt(ja), &b = pt(j), &c = pt(jc);
@@ -362,10 +325,10 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
   separate_touching_vertices(polygons, pts);
   std::vector<int> poly, holes;
   std::vector<std::pair<double, std::size_t>> candidates;  // (squared distance, index in poly)
-  std::vector<EdgeGrid::Edge> edges;
+  std::vector<Edge> edges;
   std::vector<std::uint8_t> group_off;       // per edge group: a hole left unbridged
   std::vector<std::pair<int, int>> bridges;  // point indices
-  std::optional<EdgeGrid> grid;
+  std::optional<BucketGrid> grid;
   for (std::size_t li = 0; li < polygons.loops.size(); ++li) {
     const PolygonLoop& outer = polygons.loops[li];
     if (outer.is_hole) continue;
@@ -404,7 +367,7 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
       }
       group_off.assign(holes.size() + 1, 0);
       bridges.clear();
-      grid.emplace(edges, pts);
+      grid.emplace(edge_grid(edges, pts));
     }
     for (std::size_t hi = 0; hi < holes.size(); ++hi) {
       const PolygonLoop& hl = polygons.loops[static_cast<std::size_t>(holes[hi])];
@@ -415,7 +378,9 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
       // earlier bridge. Candidates are tried nearest first, usually only the nearest.
       const auto sees = [&](std::size_t j) {
         const P2& pp = pts[static_cast<std::size_t>(poly[j])];
-        if (!in_wedge(poly, j, pts, pm) || grid->crossed(pm, pp, group_off)) return false;
+        if (!in_wedge(poly, j, pts, pm) || crosses_an_edge(pm, pp, *grid, edges, pts, group_off)) {
+          return false;
+        }
         return std::none_of(bridges.begin(), bridges.end(), [&](const std::pair<int, int>& b) {
           return segments_cross(pm, pp, pts[static_cast<std::size_t>(b.first)],
                                 pts[static_cast<std::size_t>(b.second)]);
