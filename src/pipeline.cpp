@@ -178,7 +178,10 @@ void Pipeline::process_depth(int width, int height, Convert&& convert_rows) {
   convert_rows(0, 0);  // checks the view, intrinsics and scale before any band starts
   ThreadPool* const pool =
       static_cast<long>(width) * height >= kMinPixelsForThreads ? pool_.get() : nullptr;
+  // The workers stay awake from the conversion into the stages (guards nest).
+  std::optional<ThreadPool::KeepAwake> awake;
   if (pool != nullptr) {
+    awake.emplace(*pool);
     pool->for_each_band(height, 1, [&](int, int v0, int v1) { convert_rows(v0, v1); });
   } else {
     convert_rows(0, height);
