@@ -125,7 +125,8 @@ void add_segment(CLI::App& app) {
     const StageTimes& t = pipeline.times();
     std::printf(
         "%s: %zu segments in %.2f ms (preset %s; mesh %.2f, normals %.2f, smoothing %.2f, "
-        "segmentation %.2f, polygons %.2f)\n",
+        "segmentation %.2f, polygons %.2f; a first frame, which allocates the buffers: `rangeseg "
+        "bench` times frames that reuse them)\n",
         o->in.path.c_str(), pipeline.segmentation().segments.size(), t.total, preset.c_str(),
         t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons);
   });
