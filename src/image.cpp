@@ -1,11 +1,40 @@
 #include "rangeseg/image.hpp"
 
 #include <algorithm>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 #include <string>
 
+#if defined(__linux__)
+#include <sys/mman.h>
+#include <unistd.h>
+#endif
+
 namespace rangeseg {
+
+namespace detail {
+
+bool populate_pages(void* data, std::size_t bytes) noexcept {
+#if defined(__linux__) && defined(MADV_POPULATE_WRITE)
+  constexpr std::size_t kMinBytes = std::size_t{1} << 18;  // smaller blocks: few faults
+  if (bytes < kMinBytes) return false;
+  const auto page = static_cast<std::uintptr_t>(sysconf(_SC_PAGESIZE));
+  const auto begin = reinterpret_cast<std::uintptr_t>(data);
+  // The whole pages inside the block, as offsets from its start.
+  const std::uintptr_t head = (page - begin % page) % page;
+  const std::uintptr_t tail = (begin + bytes) % page;
+  if (bytes < head + tail + page) return false;
+  // Failure (an older kernel: EINVAL) leaves the pages to fault in at first touch.
+  return madvise(static_cast<char*>(data) + head, bytes - head - tail, MADV_POPULATE_WRITE) == 0;
+#else
+  (void)data;
+  (void)bytes;
+  return false;
+#endif
+}
+
+}  // namespace detail
 
 template <class T>
 void Plane<T>::resize(int width, int height, T fill) {

@@ -4,7 +4,9 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <iterator>
+#include <memory>
 #include <numeric>
 #include <random>
 #include <stdexcept>
@@ -18,6 +20,8 @@
 #include "rangeseg/io/file.hpp"
 #include "test_util.hpp"
 
+#include <unistd.h>
+
 using namespace rangeseg;
 
 TEST(Plane, StrideIsPaddedAndRowsAreIndependent) {
@@ -27,6 +31,32 @@ TEST(Plane, StrideIsPaddedAndRowsAreIndependent) {
   EXPECT_EQ(p.row(1)[16], 5.0f);
   EXPECT_EQ(p(0, 2), 1.0f);
   EXPECT_THROW(p.resize(-1, 2), std::invalid_argument);
+}
+
+namespace {
+/// Resident pages of this process (Linux), or -1.
+long resident_pages() {
+  std::ifstream statm("/proc/self/statm");
+  long size = 0, resident = -1;
+  statm >> size >> resident;
+  return statm ? resident : -1;
+}
+}  // namespace
+
+// A large plane's pages are mapped when it is allocated, not page by page at first touch; small
+// blocks are left alone.
+TEST(Plane, LargeAllocationsAreMappedAtOnce) {
+  constexpr std::size_t kBytes = std::size_t{8} << 20;
+  const long page = sysconf(_SC_PAGESIZE);
+  std::unique_ptr<std::uint8_t[]> block(new std::uint8_t[kBytes + 2 * page]);
+  const long before = resident_pages();
+  if (before < 0 || !detail::populate_pages(block.get(), kBytes)) {
+    GTEST_SKIP() << "no /proc/self/statm or no MADV_POPULATE_WRITE (Linux < 5.14)";
+  }
+  EXPECT_GE(resident_pages() - before, static_cast<long>(kBytes / page) * 9 / 10);
+  EXPECT_FALSE(detail::populate_pages(block.get(), 4096));
+  FloatPlane plane(640, 480, 1.0f);  // allocated through it
+  EXPECT_EQ(plane(639, 479), 1.0f);
 }
 
 TEST(Camera, DepthToCloudAndBackIsExact) {

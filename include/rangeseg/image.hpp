@@ -36,6 +36,13 @@ namespace detail {
 /// Allocates on cache-line (64-byte) boundaries. With the row stride a multiple of 16 elements,
 /// every row of a float or int32 plane then starts on a cache line, so that no 16-lane vector
 /// load or store of a row straddles two lines.
+/// Maps the pages of a large new allocation (>= 256 KB) in one system call where the kernel
+/// offers that (Linux 5.14+: MADV_POPULATE_WRITE), instead of one page fault per 4 KB page at
+/// first touch: a first frame at 640x480 takes ~100 -> ~67 ms in a virtual machine, where
+/// faults are costly. Returns whether the pages were mapped (false for small blocks or without
+/// kernel support).
+bool populate_pages(void* data, std::size_t bytes) noexcept;
+
 template <class T>
 struct CacheLineAllocator {
   using value_type = T;
@@ -43,7 +50,11 @@ struct CacheLineAllocator {
   CacheLineAllocator() = default;
   template <class U>
   CacheLineAllocator(const CacheLineAllocator<U>& /*unused*/) noexcept {}  // NOLINT: rebinding
-  T* allocate(std::size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), kAlignment)); }
+  T* allocate(std::size_t n) {
+    T* p = static_cast<T*>(::operator new(n * sizeof(T), kAlignment));
+    populate_pages(p, n * sizeof(T));
+    return p;
+  }
   void deallocate(T* p, std::size_t /*n*/) noexcept { ::operator delete(p, kAlignment); }
   friend bool operator==(const CacheLineAllocator&, const CacheLineAllocator&) { return true; }
 };
