@@ -1,8 +1,8 @@
 #include <benchmark/benchmark.h>
 
-#include <filesystem>
 #include <string>
 
+#include "bench_data.hpp"
 #include "rangeseg/camera.hpp"
 #include "rangeseg/colorize.hpp"
 #include "rangeseg/io/file.hpp"
@@ -19,10 +19,7 @@ const std::string kPrimeSenseFrame = RANGESEG_SOURCE_DIR "/../shared/data/depth_
 
 // Whole read_pcd of a 640x480 binary_compressed Kinect frame (file read + LZF + plane decode).
 void BM_ReadPcdKinectCompressed(benchmark::State& state) {
-  if (!std::filesystem::exists(kKinectFrame)) {
-    state.SkipWithError(("shared data not found: " + kKinectFrame).c_str());
-    return;
-  }
+  if (!rangeseg::bench::have_shared_data(state, kKinectFrame)) return;
   for (auto _ : state) {
     auto cloud = rangeseg::io::read_pcd(kKinectFrame);
     benchmark::DoNotOptimize(cloud.z.row(0));
@@ -32,10 +29,7 @@ BENCHMARK(BM_ReadPcdKinectCompressed)->Unit(benchmark::kMillisecond);
 
 // Decoding only, from memory, for each encoding of the same frame.
 void BM_ParsePcdKinect(benchmark::State& state) {
-  if (!std::filesystem::exists(kKinectFrame)) {
-    state.SkipWithError(("shared data not found: " + kKinectFrame).c_str());
-    return;
-  }
+  if (!rangeseg::bench::have_shared_data(state, kKinectFrame)) return;
   const auto encoding = static_cast<rangeseg::io::PcdEncoding>(state.range(0));
   const auto bytes =
       rangeseg::io::encode_pcd(rangeseg::io::read_pcd(kKinectFrame), {.encoding = encoding});
@@ -53,10 +47,7 @@ BENCHMARK(BM_ParsePcdKinect)
 
 // Encoding the frame as binary_compressed (LZF).
 void BM_EncodePcdKinectCompressed(benchmark::State& state) {
-  if (!std::filesystem::exists(kKinectFrame)) {
-    state.SkipWithError(("shared data not found: " + kKinectFrame).c_str());
-    return;
-  }
+  if (!rangeseg::bench::have_shared_data(state, kKinectFrame)) return;
   const auto cloud = rangeseg::io::read_pcd(kKinectFrame);
   for (auto _ : state) {
     auto bytes =
@@ -70,10 +61,7 @@ BENCHMARK(BM_EncodePcdKinectCompressed)->Unit(benchmark::kMillisecond);
 // picture of the segments (colorize_labels with the cloud) encoded as PNG, and the plane
 // polygons triangulated for polygons.obj. Pipeline run once outside the loop.
 void BM_OverlayPng(benchmark::State& state) {
-  if (!std::filesystem::exists(kKinectFrame)) {
-    state.SkipWithError(("shared data not found: " + kKinectFrame).c_str());
-    return;
-  }
+  if (!rangeseg::bench::have_shared_data(state, kKinectFrame)) return;
   const auto cloud = rangeseg::io::read_pcd(kKinectFrame);
   rangeseg::Pipeline pipeline(rangeseg::pipeline_preset("kinect"));
   pipeline.process(cloud);
@@ -87,10 +75,7 @@ void BM_OverlayPng(benchmark::State& state) {
 BENCHMARK(BM_OverlayPng)->Unit(benchmark::kMillisecond);
 
 void BM_TriangulatePolygonsWithHoles(benchmark::State& state) {
-  if (!std::filesystem::exists(kPrimeSenseFrame)) {
-    state.SkipWithError(("shared data not found: " + kPrimeSenseFrame).c_str());
-    return;
-  }
+  if (!rangeseg::bench::have_shared_data(state, kPrimeSenseFrame)) return;
   const auto depth = rangeseg::io::read_depth_png(kPrimeSenseFrame);
   const auto cloud = rangeseg::depth_to_cloud(
       depth.view(), {.fx = 525, .fy = 525, .cx = 319.5, .cy = 239.5, .width = 640, .height = 480},

@@ -1,9 +1,9 @@
 // Stage 1 and 2 on a real 640x480 Kinect frame (single thread).
 #include <benchmark/benchmark.h>
 
-#include <filesystem>
 #include <string>
 
+#include "bench_data.hpp"
 #include "bench_isa.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/mesh.hpp"
@@ -14,10 +14,7 @@ namespace {
 const std::string kFrame = RANGESEG_SOURCE_DIR "/../shared/data/kinect/grabber_frame0.pcd";
 
 bool load(benchmark::State& state, rangeseg::OrganizedCloud& cloud) {
-  if (!std::filesystem::exists(kFrame)) {
-    state.SkipWithError(("shared data not found: " + kFrame).c_str());
-    return false;
-  }
+  if (!rangeseg::bench::have_shared_data(state, kFrame)) return false;
   cloud = rangeseg::io::read_pcd(kFrame);
   return true;
 }

@@ -9,9 +9,9 @@
 // the number `rangeseg bench` prints.
 #include <benchmark/benchmark.h>
 
-#include <filesystem>
 #include <string>
 
+#include "bench_data.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/pipeline.hpp"
 #include "rangeseg/polygons.hpp"
@@ -36,10 +36,7 @@ rangeseg::PipelineSettings cli_settings() {
 }
 
 void run_extract(benchmark::State& state, const rangeseg::PipelineSettings& settings) {
-  if (!std::filesystem::exists(kFrame)) {
-    state.SkipWithError(("shared data not found: " + kFrame).c_str());
-    return;
-  }
+  if (!rangeseg::bench::have_shared_data(state, kFrame)) return;
   const rangeseg::OrganizedCloud cloud = rangeseg::io::read_pcd(kFrame);
   rangeseg::Pipeline pipeline(settings);
   pipeline.process(cloud);
@@ -61,10 +58,7 @@ void BM_Polygons(benchmark::State& state) {
 void BM_PolygonsCli(benchmark::State& state) { run_extract(state, cli_settings()); }
 
 void BM_PolygonsInPipeline(benchmark::State& state) {
-  if (!std::filesystem::exists(kFrame)) {
-    state.SkipWithError(("shared data not found: " + kFrame).c_str());
-    return;
-  }
+  if (!rangeseg::bench::have_shared_data(state, kFrame)) return;
   const rangeseg::OrganizedCloud cloud = rangeseg::io::read_pcd(kFrame);
   rangeseg::Pipeline pipeline(cli_settings());
   pipeline.process(cloud);

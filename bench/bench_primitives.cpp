@@ -3,9 +3,9 @@
 // and smoothing are computed once outside the timed loop.
 #include <benchmark/benchmark.h>
 
-#include <filesystem>
 #include <string>
 
+#include "bench_data.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/pipeline.hpp"
 #include "rangeseg/segmentation.hpp"
@@ -38,10 +38,7 @@ void run(benchmark::State& state, const rangeseg::OrganizedCloud& cloud,
 
 void kinect_frame(benchmark::State& state, rangeseg::RegionModel model, int threads = 1) {
   const std::string path = RANGESEG_SOURCE_DIR "/../shared/data/kinect/grabber_frame0.pcd";
-  if (!std::filesystem::exists(path)) {
-    state.SkipWithError(("shared data not found: " + path).c_str());
-    return;
-  }
+  if (!rangeseg::bench::have_shared_data(state, path)) return;
   run(state, rangeseg::io::read_pcd(path), model, threads);
 }
 

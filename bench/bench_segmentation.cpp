@@ -1,9 +1,9 @@
 // Segmentation (stage 4) on a real Kinect frame; mesh and normals are computed once outside.
 #include <benchmark/benchmark.h>
 
-#include <filesystem>
 #include <string>
 
+#include "bench_data.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/normals.hpp"
@@ -14,10 +14,7 @@ namespace {
 void run_segmentation(benchmark::State& state, rangeseg::RegionModel model,
                       bool coarse_cells = true) {
   const std::string path = RANGESEG_SOURCE_DIR "/../shared/data/kinect/grabber_frame0.pcd";
-  if (!std::filesystem::exists(path)) {
-    state.SkipWithError(("shared data not found: " + path).c_str());
-    return;
-  }
+  if (!rangeseg::bench::have_shared_data(state, path)) return;
   const rangeseg::OrganizedCloud cloud = rangeseg::io::read_pcd(path);
   const rangeseg::Mesh mesh = rangeseg::build_mesh(cloud);
   const rangeseg::NormalMap normals = rangeseg::compute_normals(cloud, mesh);

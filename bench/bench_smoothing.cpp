@@ -1,9 +1,9 @@
 // Stage 3 (bilateral filtering of points and normals) on a real Kinect frame, one thread.
 #include <benchmark/benchmark.h>
 
-#include <filesystem>
 #include <string>
 
+#include "bench_data.hpp"
 #include "bench_isa.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/mesh.hpp"
@@ -28,10 +28,7 @@ void BM_SmoothOneIterationIsa(benchmark::State& state) {
 BENCHMARK(BM_SmoothOneIterationIsa)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
 void smooth_one_iteration(benchmark::State& state) {
-  if (!std::filesystem::exists(kFrame)) {
-    state.SkipWithError(("Kinect frame not found: " + kFrame).c_str());
-    return;
-  }
+  if (!rangeseg::bench::have_shared_data(state, kFrame)) return;
   const rangeseg::OrganizedCloud cloud = rangeseg::io::read_pcd(kFrame);
   const rangeseg::Mesh mesh = rangeseg::build_mesh(cloud);
   const rangeseg::NormalMap normals = rangeseg::compute_normals(cloud, mesh);
@@ -48,10 +45,7 @@ void smooth_one_iteration(benchmark::State& state) {
 
 /// The default settings (3 passes).
 void BM_SmoothDefault(benchmark::State& state) {
-  if (!std::filesystem::exists(kFrame)) {
-    state.SkipWithError(("Kinect frame not found: " + kFrame).c_str());
-    return;
-  }
+  if (!rangeseg::bench::have_shared_data(state, kFrame)) return;
   const rangeseg::OrganizedCloud cloud = rangeseg::io::read_pcd(kFrame);
   const rangeseg::Mesh mesh = rangeseg::build_mesh(cloud);
   const rangeseg::NormalMap normals = rangeseg::compute_normals(cloud, mesh);
