@@ -1,7 +1,7 @@
 // libFuzzer target: any depth image runs through Pipeline::process(depth, camera) without a
-// crash, and its labels and segments agree. Byte 0 picks the depth type (16-bit raw in
-// millimetres or float metres), the preset, threads and smoothing; byte 1 the width (2-96 px)
-// and the focal length; the rest are the pixels, row by row (whole rows only).
+// crash, and its labels and segments agree (fuzz_checks.hpp). Byte 0 picks the depth type (16-bit
+// raw in millimetres or float metres), the preset, threads and smoothing; byte 1 the width (2-96
+// px) and the focal length; the rest are the pixels, row by row (whole rows only).
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
@@ -9,21 +9,12 @@
 #include <exception>
 #include <vector>
 
+#include "fuzz_checks.hpp"
 #include "rangeseg/pipeline.hpp"
 
 namespace {
 
 constexpr int kMaxRows = 96;
-
-bool labels_in_range(const rangeseg::Segmentation& seg) {
-  for (int v = 0; v < seg.labels.height(); ++v) {
-    for (int u = 0; u < seg.labels.width(); ++u) {
-      const int l = seg.labels(u, v);
-      if (l < 0 || static_cast<std::size_t>(l) > seg.segments.size()) return false;
-    }
-  }
-  return true;
-}
 
 }  // namespace
 
@@ -61,7 +52,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       pipeline.process(rangeseg::View<const std::uint16_t>{raw.data(), width, height, width},
                        camera, 0.001);
     }
-    if (!labels_in_range(pipeline.segmentation())) __builtin_trap();
+    if (!rangeseg::fuzz::labels_name_segments(pipeline.segmentation())) __builtin_trap();
   } catch (const std::exception&) {
     // Rejected input (fewer than 2 rows) is fine; crashes and traps are not.
   }

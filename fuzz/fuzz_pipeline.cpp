@@ -4,33 +4,14 @@
 #include <cstddef>
 #include <cstdint>
 #include <exception>
-#include <vector>
 
+#include "fuzz_checks.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/pipeline.hpp"
 
 namespace {
 
 constexpr int kMaxPixels = 96 * 96;
-
-/// Labels 0..N, segment i labelled i + 1 with as many pixels as carry it.
-bool labels_name_segments(const rangeseg::Segmentation& seg) {
-  std::vector<std::int64_t> counts(seg.segments.size() + 1, 0);
-  for (int v = 0; v < seg.labels.height(); ++v) {
-    for (int u = 0; u < seg.labels.width(); ++u) {
-      const int l = seg.labels(u, v);
-      if (l < 0 || static_cast<std::size_t>(l) > seg.segments.size()) return false;
-      ++counts[static_cast<std::size_t>(l)];
-    }
-  }
-  for (std::size_t i = 0; i < seg.segments.size(); ++i) {
-    if (seg.segments[i].label != static_cast<int>(i + 1) ||
-        seg.segments[i].pixel_count != counts[i + 1]) {
-      return false;
-    }
-  }
-  return true;
-}
 
 }  // namespace
 
@@ -55,7 +36,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   try {
     rangeseg::Pipeline pipeline(settings);
     pipeline.process(cloud);
-    if (!labels_name_segments(pipeline.segmentation())) __builtin_trap();
+    if (!rangeseg::fuzz::labels_name_segments(pipeline.segmentation())) __builtin_trap();
   } catch (const std::exception&) {
     // Rejected input (e.g. planes of different sizes) is fine; crashes and traps are not.
   }

@@ -71,10 +71,6 @@ nlohmann::json surface_json(const Segment& s) {
 
 }  // namespace
 
-RgbImage colorize_surface_types(const Segmentation& seg, const OrganizedCloud& input) {
-  return colorize_surface_types(seg, colorize_labels(seg.labels, &input));
-}
-
 RgbImage colorize_surface_types(const Segmentation& seg, RgbImage image) {
   if (image.width != seg.labels.width() || image.height != seg.labels.height()) {
     throw std::invalid_argument("colorize_surface_types: the picture is " +

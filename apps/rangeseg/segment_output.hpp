@@ -14,9 +14,7 @@ namespace rangeseg::cli {
 nlohmann::json segments_json(const Segmentation& segmentation, const PolygonSet* polygons);
 
 /// The segments coloured by surface type (planes grey, cylinders blue, spheres red, smooth
-/// green), shaded like colorize_labels(labels, &input).
-RgbImage colorize_surface_types(const Segmentation& segmentation, const OrganizedCloud& input);
-/// The same from `shaded` = colorize_labels(segmentation.labels, &input), which is recoloured.
+/// green): `shaded` = colorize_labels(segmentation.labels, &input), recoloured with its shading.
 /// Throws std::invalid_argument if its size is not the labels'.
 RgbImage colorize_surface_types(const Segmentation& segmentation, RgbImage shaded);
 

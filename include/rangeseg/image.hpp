@@ -33,9 +33,6 @@ struct View {
 };
 
 namespace detail {
-/// Allocates on cache-line (64-byte) boundaries. With the row stride a multiple of 16 elements,
-/// every row of a float or int32 plane then starts on a cache line, so that no 16-lane vector
-/// load or store of a row straddles two lines.
 /// Maps the pages of a large new allocation (>= 256 KB) in one system call where the kernel
 /// offers that (Linux 5.14+: MADV_POPULATE_WRITE), instead of one page fault per 4 KB page at
 /// first touch: a first frame at 640x480 takes ~100 -> ~67 ms in a virtual machine, where
@@ -43,6 +40,9 @@ namespace detail {
 /// kernel support).
 bool populate_pages(void* data, std::size_t bytes) noexcept;
 
+/// Allocates on cache-line (64-byte) boundaries. With the row stride a multiple of 16 elements,
+/// every row of a float or int32 plane then starts on a cache line, so that no 16-lane vector
+/// load or store of a row straddles two lines. Large blocks are mapped at once (populate_pages).
 template <class T>
 struct CacheLineAllocator {
   using value_type = T;
