@@ -36,6 +36,7 @@ void set_noise(PipelineSettings& settings, const SensorNoise& noise) {
   settings.segmentation.noise = noise;
   settings.smoothing.noise = noise;
   settings.mesh.noise = noise;
+  settings.rings.noise = noise;
 }
 
 PipelineSettings pipeline_preset(std::string_view sensor) {
@@ -69,8 +70,49 @@ Pipeline::Pipeline(const PipelineSettings& settings)
   if (settings.threads > 1) pool_ = std::make_unique<ThreadPool>(settings.threads);
 }
 
+void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
+  const RegionModel model = settings_.segmentation.model;
+  if (settings_.segment && model != RegionModel::plane && model != RegionModel::smooth) {
+    throw std::invalid_argument(std::string("Pipeline::process: the ") + to_string(model) +
+                                " model is not available for unorganized clouds (plane or smooth)");
+  }
+  input_ = &cloud;
+  times_ = {};
+  mesh_ = Mesh{};
+  polygons_ = PolygonSet{};
+  Clock::time_point t = Clock::now();
+  const Clock::time_point start = t;
+  ThreadPool* const pool =
+      cloud.size() >= static_cast<std::size_t>(kMinPixelsForThreads) ? pool_.get() : nullptr;
+  if (pool != nullptr) {
+    build_rings(cloud, settings_.rings, rings_, *pool);
+  } else {
+    build_rings(cloud, settings_.rings, rings_);
+  }
+  times_.mesh = ms_since(t);
+  compute_normals(cloud, rings_, settings_.normals, raw_normals_);
+  times_.normals = ms_since(t);
+  if (settings_.smooth) {
+    smooth(cloud, rings_, raw_normals_, settings_.smoothing, smoothed_cloud_, smoothed_normals_);
+    times_.smoothing = ms_since(t);
+  }
+  if (settings_.segment) {
+    segment(this->cloud(), rings_, normals(), settings_.segmentation, segmentation_);
+    times_.segmentation = ms_since(t);
+  } else {
+    segmentation_ = Segmentation{};
+  }
+  times_.total = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
 void Pipeline::process(const OrganizedCloud& cloud) {
+  if (cloud.height() == 1) {
+    require_consistent(cloud, "Pipeline::process");
+    process_unorganized(cloud);
+    return;
+  }
   require_organized(cloud, "Pipeline::process");
+  rings_ = PointRings{};
   input_ = &cloud;
   times_ = {};
   Clock::time_point t = Clock::now();

@@ -12,6 +12,7 @@
 #include "rangeseg/segmentation.hpp"
 #include "rangeseg/smoothing.hpp"
 #include "rangeseg/thread_pool.hpp"
+#include "rangeseg/unorganized.hpp"
 
 namespace rangeseg {
 
@@ -33,6 +34,10 @@ struct PipelineSettings {
   /// sleeping (ThreadPool::KeepAwake), so they occupy their cores for the whole frame; between
   /// frames they sleep. 1..256.
   int threads = 1;
+  /// Unorganized clouds (height 1) only: the k-nearest-neighbour rings that stand in for the
+  /// mesh (see unorganized.hpp); `mesh`, `polygon` and the grid-only segmentation settings are
+  /// not used for them.
+  RingSettings rings{};
 };
 
 /// Sets the sensor noise model of every stage.
@@ -60,7 +65,11 @@ class Pipeline {
   /// threads, which live as long as the pipeline.
   explicit Pipeline(const PipelineSettings& settings = {});
 
-  /// Processes one organized cloud. Throws std::invalid_argument for an unorganized cloud.
+  /// Processes one cloud. An organized cloud runs the grid stages. An unorganized one (height
+  /// 1) runs the stages over k-nearest-neighbour rings (unorganized.hpp): `rings()` instead of
+  /// `mesh()` (which is left empty; StageTimes::mesh is the time of the rings), no polygons,
+  /// and only the plane and smooth models (std::invalid_argument for the others). The rings'
+  /// k-d tree is built per frame, so that path allocates per frame.
   void process(const OrganizedCloud& cloud);
 
   /// Processes a depth image (raw units, 0 = no measurement, `depth_scale` metres per unit, e.g.
@@ -74,6 +83,8 @@ class Pipeline {
 
   const PipelineSettings& settings() const { return settings_; }
   const Mesh& mesh() const { return mesh_; }
+  /// The rings of the last frame when it was unorganized, else empty.
+  const PointRings& rings() const { return rings_; }
   const NormalMap& raw_normals() const { return raw_normals_; }
   /// Smoothed points and normals, or the input and raw normals when smoothing is off.
   const OrganizedCloud& cloud() const { return settings_.smooth ? smoothed_cloud_ : *input_; }
@@ -83,6 +94,7 @@ class Pipeline {
   const StageTimes& times() const { return times_; }
 
  private:
+  void process_unorganized(const OrganizedCloud& cloud);
   template <class Convert>
   void process_depth(int width, int height, Convert&& convert_rows);
 
@@ -90,6 +102,7 @@ class Pipeline {
   const OrganizedCloud* input_ = nullptr;
   OrganizedCloud depth_cloud_;  ///< the points of the last depth image
   Mesh mesh_;
+  PointRings rings_;
   NormalMap raw_normals_;
   Smoother smoother_;
   OrganizedCloud smoothed_cloud_;

@@ -19,6 +19,9 @@
 
 namespace rangeseg::seg {
 
+/// Throws std::invalid_argument naming the field and its value for invalid settings.
+void validate(const SegmentationSettings& s);
+
 /// Flat views of every per-pixel input plane. All planes have the same width and therefore the
 /// same row stride, so one index i = v * stride + u addresses all of them.
 struct Frame {

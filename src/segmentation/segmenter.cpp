@@ -67,6 +67,10 @@ void require(bool ok, const char* field, double value, const char* condition) {
   }
 }
 
+}  // namespace
+
+namespace seg {
+
 void validate(const SegmentationSettings& s) {
   constexpr double pi = 3.14159265358979323846;
   require(std::isfinite(s.noise.a) && s.noise.a > 0, "noise.a", s.noise.a, "finite and > 0");
@@ -107,6 +111,10 @@ void validate(const SegmentationSettings& s) {
   require(s.merge_distance_sigmas > 0 && std::isfinite(s.merge_distance_sigmas),
           "merge_distance_sigmas", s.merge_distance_sigmas, "finite and > 0");
 }
+
+}  // namespace seg
+
+namespace {
 
 /// Seed order key: the bits of a non-negative float are monotone in its value, so the exponent
 /// and top 6 mantissa bits give 64 buckets per octave (a piecewise-linear log2) without a log.
@@ -362,7 +370,7 @@ void Segmenter::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalM
         "segment: mesh.pixel_stride = " + std::to_string(mesh.pixel_stride) + " must be >= 1");
   }
   require_edges_inside(mesh);
-  validate(settings);
+  seg::validate(settings);
   if (!scratch_) scratch_ = std::make_unique<Scratch>();
 
   out.labels.resize(cloud.width(), cloud.height(), 0);

@@ -1,0 +1,125 @@
+// Unorganized clouds (no pixel grid, e.g. a lidar scan without its ring order, a cloud with the
+// invalid points removed, a merged or cropped cloud): stages 2-4 of the method over
+// k-nearest-neighbour rings instead of the mesh 1-ring.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "rangeseg/cloud.hpp"
+#include "rangeseg/normals.hpp"
+#include "rangeseg/segmentation.hpp"
+#include "rangeseg/sensor.hpp"
+#include "rangeseg/smoothing.hpp"
+#include "rangeseg/thread_pool.hpp"
+
+namespace rangeseg {
+
+/// Settings of the k-nearest-neighbour rings, the stand-in for the mesh 1-ring. The ring of a
+/// valid point p_i holds its `k` nearest valid points (a k-d tree, nanoflann), without those the
+/// mesh's edge tests (`MeshSettings`) would cut:
+/// - farther than `max_distance` from p_i (when > 0);
+/// - on an occlusion veil: the edge is within `eps_theta` of the viewing ray through p_i, unless
+///   the range difference is explained by the noise, |r_i - r_j| <= jump_sigmas *
+///   sqrt(sigma(r_i)^2 + sigma(r_j)^2), with r the distance from `viewpoint`.
+/// For a cloud merged from several viewpoints set eps_theta = 0 (the veil test is off).
+struct RingSettings {
+  int k = 12;                 ///< ring size: nearest neighbours per point [1], 2..64
+  float max_distance = 0.0f;  ///< neighbours farther away are not in the ring [m]; 0 = no bound
+  float eps_theta = 0.2182f;  ///< min angle between edge and viewing ray [rad] (12.5 deg); 0 = off
+  float jump_sigmas = 3.0f;   ///< range steps up to this many sigma of the difference are noise
+  SensorNoise noise{};        ///< axial noise sigma(range) of the sensor [m]
+  std::array<float, 3> viewpoint{0.0f, 0.0f, 0.0f};  ///< sensor origin [m], cloud frame
+};
+
+/// Throws std::invalid_argument naming the field for k outside 2..64, a negative or non-finite
+/// distance or angle, or eps_theta >= pi / 2.
+void validate(const RingSettings& settings);
+
+/// The ring of every point of a cloud, indexed like the cloud's points (i = v * width + u).
+struct PointRings {
+  int k = 0;  ///< slots per point
+  /// size() * k point indices; point i's ring is neighbours[i * k, i * k + count[i]), nearest
+  /// first, the rest of its slots -1.
+  std::vector<std::int32_t> neighbours;
+  std::vector<std::uint8_t> count;  ///< per point: ring size, 0 for an invalid point
+
+  std::size_t size() const { return count.size(); }
+  std::span<const std::int32_t> ring(std::size_t i) const {
+    return {neighbours.data() + i * static_cast<std::size_t>(k), count[i]};
+  }
+};
+
+/// Builds the rings of `cloud` into `out`, reusing its buffers. Any cloud works: an organized one
+/// is taken as a list of points (its grid is ignored). The k-d tree is built per call.
+/// Throws std::invalid_argument for invalid settings or an inconsistent cloud, and
+/// std::length_error for more than 2^31 - 1 points.
+void build_rings(const OrganizedCloud& cloud, const RingSettings& settings, PointRings& out);
+/// As above, with the queries split over `pool.threads()` threads (the same result).
+void build_rings(const OrganizedCloud& cloud, const RingSettings& settings, PointRings& out,
+                 ThreadPool& pool);
+inline PointRings build_rings(const OrganizedCloud& cloud, const RingSettings& settings = {}) {
+  PointRings out;
+  build_rings(cloud, settings, out);
+  return out;
+}
+
+/// Stage 2 over the rings. The ring of p_i, ordered by angle about the least-squares (PCA)
+/// normal of p_i and its ring, is a fan of triangles (p_i, q_j, q_j+1); a gap wider than 120
+/// degrees between consecutive neighbours is a border and gets no triangle. The normal is the
+/// normalised sum of the fan's unnormalised (area-weighted) face normals (paper, eq. 2), facing
+/// `settings.viewpoint`; the curvature [1/m] is NormalMap's, 2 |(c - p) . n| / r^2 over the
+/// ring. NaN for a point without a triangle. `out` gets the cloud's width and height.
+/// Throws std::invalid_argument when the rings were built for a cloud of another size.
+void compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
+                     const NormalSettings& settings, NormalMap& out);
+inline NormalMap compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
+                                 const NormalSettings& settings = {}) {
+  NormalMap out;
+  compute_normals(cloud, rings, settings, out);
+  return out;
+}
+
+/// The area a point stands for [m^2]: a disc holding its ring at a uniform density, 2 pi
+/// mean(|q_j - p_i|^2) / (count + 1) (for points on a square grid of spacing h and k = 8 or 12:
+/// 1.05 h^2 or 1.13 h^2). 0 for a point without a ring.
+double point_area(const OrganizedCloud& cloud, const PointRings& rings, std::size_t i);
+
+/// Stage 3 over the rings: the bilateral filter of `smooth` (SmoothingSettings; its terms,
+/// iterations, move_along_ray and viewpoint) with the ring in place of the mesh 1-ring, and with
+/// the expected ring edge length at p_i measured instead of taken from the pixel angle: the RMS
+/// distance from p_i to its ring, so s_d(i)^2 = distance_scale^2 * mean(|q_j - p_i|^2) and
+/// s_n(i) = normal_scale * max(1, sigma(r_i) / rms distance). `pixel_angle` is not used.
+/// Optional planes are copied unchanged; points without a ring keep their values.
+/// Throws std::invalid_argument for invalid settings, size mismatches, or when an output
+/// object is the corresponding input.
+void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
+            const SmoothingSettings& settings, OrganizedCloud& out_cloud, NormalMap& out_normals);
+
+/// Stage 4 over the rings, for RegionModel::plane and RegionModel::smooth. Seeds are taken in
+/// ascending curvature; a region grows over the rings with the model's tests as on the grid
+/// (plane: normal within max_normal_angle of the region's normal, which is the mean normal and
+/// from 8 points the PCA normal, and distance to its plane within max_distance_sigmas
+/// sigma(r); smooth: max_smooth_angle to the neighbour's normal and max_curvature), with r the
+/// distance from the origin (points in the sensor frame). Then, for planes: segments of fewer
+/// than min_region_size points are dropped, adjacent segments whose least-squares planes agree
+/// (merge_angle, and each centroid within merge_distance_sigmas sigma of the other plane) are
+/// merged, and unlabelled points next to a plane join the closest one within
+/// max_distance_sigmas sigma(r) and reassign_max_normal_angle (reassign_boundary). Smooth
+/// segments below min_region_size are dropped. Segment::area_m2 is the sum of `point_area`.
+/// The grid-only settings (cells, bands, seed clearance, splitting, grazing planes, normal noise)
+/// are not used. `out.labels` has the cloud's size. Throws std::invalid_argument for another
+/// model, invalid settings or size mismatches.
+void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
+             const SegmentationSettings& settings, Segmentation& out);
+inline Segmentation segment(const OrganizedCloud& cloud, const PointRings& rings,
+                            const NormalMap& normals, const SegmentationSettings& settings = {}) {
+  Segmentation out;
+  segment(cloud, rings, normals, settings, out);
+  return out;
+}
+
+}  // namespace rangeseg

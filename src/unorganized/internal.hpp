@@ -1,0 +1,40 @@
+// Internal: shared helpers of the stages over k-nearest-neighbour rings.
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <vector>
+
+#include "rangeseg/cloud.hpp"
+#include "rangeseg/image.hpp"
+#include "rangeseg/unorganized.hpp"
+
+namespace rangeseg::unorganized {
+
+/// Element i = v * width + u of a plane (the point order of PointRings).
+template <class T>
+T& at(Plane<T>& plane, std::size_t i) {
+  const auto w = static_cast<std::size_t>(plane.width());
+  return plane.row(static_cast<int>(i / w))[i % w];
+}
+template <class T>
+const T& at(const Plane<T>& plane, std::size_t i) {
+  const auto w = static_cast<std::size_t>(plane.width());
+  return plane.row(static_cast<int>(i / w))[i % w];
+}
+
+/// The cloud's points packed as x, y, z triples in ring order; NaN triples for invalid points
+/// (any coordinate not finite).
+void pack_points(const OrganizedCloud& cloud, std::vector<float>& xyz);
+
+/// Throws std::invalid_argument naming `what` unless the rings and (when given) the normals have
+/// the cloud's size.
+void require_rings_match(const OrganizedCloud& cloud, const PointRings& rings,
+                         const NormalMap* normals, const char* what);
+
+inline float squared_distance(const float* a, const float* b) {
+  const float dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
+  return dx * dx + dy * dy + dz * dz;
+}
+
+}  // namespace rangeseg::unorganized

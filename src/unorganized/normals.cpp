@@ -1,0 +1,147 @@
+// Stage 2 over k-nearest-neighbour rings: area-weighted fan normals and curvature.
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <vector>
+
+#include "rangeseg/unorganized.hpp"
+#include "unorganized/internal.hpp"
+
+namespace rangeseg {
+namespace {
+
+/// A monotone stand-in for atan2(y, x) in [0, 4) (the "diamond angle"): orders directions by
+/// angle without a transcendental call.
+inline float pseudo_angle(float x, float y) {
+  const float s = std::fabs(x) + std::fabs(y);
+  if (!(s > 0)) return 0.0f;
+  const float t = y / s;
+  if (x >= 0) return y >= 0 ? t : 4.0f + t;
+  return 2.0f - t;
+}
+
+/// The least-squares normal of p and its ring (double moments about p), or false when they do
+/// not span a plane.
+bool pca_normal(const float* xyz, const float* p, std::span<const std::int32_t> ring,
+                Eigen::Vector3d& normal) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
+  for (const std::int32_t j : ring) {
+    const float* q = xyz + 3 * static_cast<std::size_t>(j);
+    const Eigen::Vector3d d(double{q[0]} - p[0], double{q[1]} - p[1], double{q[2]} - p[2]);
+    sum += d;
+    second += d * d.transpose();
+  }
+  const double count = static_cast<double>(ring.size()) + 1.0;  // p itself is at d = 0
+  const Eigen::Vector3d mean = sum / count;
+  const Eigen::Matrix3d covariance = second / count - mean * mean.transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+  solver.computeDirect(covariance);
+  const Eigen::Vector3d& ev = solver.eigenvalues();
+  if (!(ev(1) > 1e-12 * std::max(ev(2), 1e-300))) return false;
+  normal = solver.eigenvectors().col(0);
+  return normal.allFinite();
+}
+
+struct RingNormal {
+  std::array<float, 3> n{NAN, NAN, NAN};
+  float curvature = NAN;
+};
+
+RingNormal ring_normal(const float* xyz, std::size_t i, std::span<const std::int32_t> ring,
+                       const std::array<float, 3>& viewpoint) {
+  RingNormal out;
+  const std::size_t m = ring.size();
+  if (m < 2) return out;
+  const float* p = xyz + 3 * i;
+  Eigen::Vector3d n0;
+  if (!pca_normal(xyz, p, ring, n0)) return out;
+  // A right-handed basis (a, b, n0) of the tangent plane; the fan runs counter-clockwise.
+  const Eigen::Vector3d a = n0.unitOrthogonal();
+  const Eigen::Vector3d b = n0.cross(a);
+  std::array<Eigen::Vector3d, 64> d;
+  std::array<float, 64> key{};
+  std::array<std::uint8_t, 64> order{};
+  for (std::size_t j = 0; j < m; ++j) {
+    const float* q = xyz + 3 * static_cast<std::size_t>(ring[j]);
+    d[j] = Eigen::Vector3d(double{q[0]} - p[0], double{q[1]} - p[1], double{q[2]} - p[2]);
+    key[j] = pseudo_angle(static_cast<float>(d[j].dot(a)), static_cast<float>(d[j].dot(b)));
+    order[j] = static_cast<std::uint8_t>(j);
+  }
+  std::sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(m),
+            [&](std::uint8_t l, std::uint8_t r) { return key[l] < key[r]; });
+  // Consecutive neighbours more than 120 deg apart about n0 bound no triangle (a border).
+  const double cos_max_gap = std::cos(2.0 * std::numbers::pi / 3.0);
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  // (With two neighbours both pairs are tried; only one runs counter-clockwise.)
+  for (std::size_t j = 0; j < m; ++j) {
+    const Eigen::Vector3d& u = d[order[j]];
+    const Eigen::Vector3d& w = d[order[(j + 1) % m]];
+    const Eigen::Vector3d face = u.cross(w);  // twice the triangle's area
+    const double along = face.dot(n0);
+    const double cosine = u.dot(w);
+    const double lengths = std::sqrt(u.squaredNorm() * w.squaredNorm());
+    if (along <= 0 || cosine < cos_max_gap * lengths) continue;
+    sum += face;
+  }
+  const double norm = sum.norm();
+  if (!(norm > 0)) return out;
+  Eigen::Vector3d n = sum / norm;
+  const Eigen::Vector3d ray(double{p[0]} - viewpoint[0], double{p[1]} - viewpoint[1],
+                            double{p[2]} - viewpoint[2]);
+  if (n.dot(ray) > 0) n = -n;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  double r2 = 0;
+  for (std::size_t j = 0; j < m; ++j) {
+    centroid += d[j];
+    r2 += d[j].squaredNorm();
+  }
+  centroid /= static_cast<double>(m);
+  r2 /= static_cast<double>(m);
+  out.n = {static_cast<float>(n(0)), static_cast<float>(n(1)), static_cast<float>(n(2))};
+  out.curvature = r2 > 0 ? static_cast<float>(2.0 * std::fabs(centroid.dot(n)) / r2) : NAN;
+  return out;
+}
+
+}  // namespace
+
+void compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
+                     const NormalSettings& settings, NormalMap& out) {
+  unorganized::require_rings_match(cloud, rings, nullptr, "compute_normals");
+  const int w = cloud.width(), h = cloud.height();
+  out.nx.resize(w, h, NAN);
+  out.ny.resize(w, h, NAN);
+  out.nz.resize(w, h, NAN);
+  out.curvature.resize(w, h, NAN);
+  std::vector<float> xyz;
+  unorganized::pack_points(cloud, xyz);
+  for (std::size_t i = 0; i < rings.size(); ++i) {
+    if (rings.count[i] == 0) continue;
+    const RingNormal r = ring_normal(xyz.data(), i, rings.ring(i), settings.viewpoint);
+    unorganized::at(out.nx, i) = r.n[0];
+    unorganized::at(out.ny, i) = r.n[1];
+    unorganized::at(out.nz, i) = r.n[2];
+    unorganized::at(out.curvature, i) = r.curvature;
+  }
+}
+
+double point_area(const OrganizedCloud& cloud, const PointRings& rings, std::size_t i) {
+  if (i >= rings.size() || rings.count[i] == 0) return 0.0;
+  const double px = unorganized::at(cloud.x, i), py = unorganized::at(cloud.y, i),
+               pz = unorganized::at(cloud.z, i);
+  double r2 = 0;
+  for (const std::int32_t j : rings.ring(i)) {
+    const auto q = static_cast<std::size_t>(j);
+    const double dx = unorganized::at(cloud.x, q) - px, dy = unorganized::at(cloud.y, q) - py,
+                 dz = unorganized::at(cloud.z, q) - pz;
+    r2 += dx * dx + dy * dy + dz * dz;
+  }
+  const double m = rings.count[i];
+  return 2.0 * std::numbers::pi * (r2 / m) / (m + 1.0);
+}
+
+}  // namespace rangeseg

@@ -1,0 +1,208 @@
+// k-nearest-neighbour rings (the stand-in for the mesh 1-ring of an unorganized cloud).
+#include <nanoflann.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "rangeseg/unorganized.hpp"
+#include "unorganized/internal.hpp"
+
+namespace rangeseg {
+namespace unorganized {
+
+void pack_points(const OrganizedCloud& cloud, std::vector<float>& xyz) {
+  const int w = cloud.width(), h = cloud.height();
+  xyz.resize(cloud.size() * 3);
+  float* out = xyz.data();
+  for (int v = 0; v < h; ++v) {
+    const float* x = cloud.x.row(v);
+    const float* y = cloud.y.row(v);
+    const float* z = cloud.z.row(v);
+    for (int u = 0; u < w; ++u, out += 3) {
+      const bool valid = std::isfinite(x[u]) && std::isfinite(y[u]) && std::isfinite(z[u]);
+      out[0] = valid ? x[u] : NAN;
+      out[1] = valid ? y[u] : NAN;
+      out[2] = valid ? z[u] : NAN;
+    }
+  }
+}
+
+void require_rings_match(const OrganizedCloud& cloud, const PointRings& rings,
+                         const NormalMap* normals, const char* what) {
+  require_consistent(cloud, what);
+  if (rings.size() != cloud.size() || rings.k < 0 ||
+      rings.neighbours.size() != rings.size() * static_cast<std::size_t>(rings.k)) {
+    std::ostringstream msg;
+    msg << what << ": the rings are for " << rings.size() << " points (k = " << rings.k << ", "
+        << rings.neighbours.size() << " slots), the cloud has " << cloud.size();
+    throw std::invalid_argument(msg.str());
+  }
+  if (normals != nullptr &&
+      (normals->width() != cloud.width() || normals->height() != cloud.height() ||
+       normals->nx.width() != cloud.width() || normals->ny.width() != cloud.width() ||
+       normals->nx.height() != cloud.height() || normals->ny.height() != cloud.height())) {
+    std::ostringstream msg;
+    msg << what << ": normals of " << normals->width() << " x " << normals->height()
+        << " for a cloud of " << cloud.width() << " x " << cloud.height();
+    throw std::invalid_argument(msg.str());
+  }
+}
+
+}  // namespace unorganized
+
+namespace {
+
+/// nanoflann's dataset interface over the packed valid points.
+struct PackedCloud {
+  const float* xyz = nullptr;
+  std::size_t n = 0;
+  std::size_t kdtree_get_point_count() const { return n; }
+  float kdtree_get_pt(std::size_t i, std::size_t dim) const { return xyz[3 * i + dim]; }
+  template <class Box>
+  bool kdtree_get_bbox(Box& /*box*/) const {
+    return false;
+  }
+};
+using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, PackedCloud>,
+                                                 PackedCloud, 3, std::uint32_t>;
+
+void fail(const char* field, double value, const char* condition) {
+  std::ostringstream msg;
+  msg << "RingSettings::" << field << " = " << value << " must be " << condition;
+  throw std::invalid_argument(msg.str());
+}
+
+/// The ring test of the mesh (MeshSettings) for the edge from p to q.
+struct EdgeTest {
+  float max_distance2;  // 0 = none
+  float cos_theta2;     // cos(eps_theta)^2; > 1 = off
+  float jump2;          // jump_sigmas^2
+  SensorNoise noise;
+  std::array<float, 3> viewpoint;
+
+  bool operator()(const float* p, const float* q, float distance2) const {
+    if (max_distance2 > 0 && distance2 > max_distance2) return false;
+    if (cos_theta2 > 1.0f) return true;
+    const float rx = p[0] - viewpoint[0], ry = p[1] - viewpoint[1], rz = p[2] - viewpoint[2];
+    const float ex = q[0] - p[0], ey = q[1] - p[1], ez = q[2] - p[2];
+    const float dot = rx * ex + ry * ey + rz * ez;
+    const float ray2 = rx * rx + ry * ry + rz * rz;
+    if (dot * dot <= cos_theta2 * ray2 * distance2) return true;
+    // Along the ray: a veil, unless the range step is within the noise.
+    const float sx = q[0] - viewpoint[0], sy = q[1] - viewpoint[1], sz = q[2] - viewpoint[2];
+    const double ri = std::sqrt(static_cast<double>(ray2));
+    const double rj = std::sqrt(static_cast<double>(sx * sx + sy * sy + sz * sz));
+    const double si = noise.sigma(ri), sj = noise.sigma(rj);
+    const double step = ri - rj;
+    return step * step <= jump2 * (si * si + sj * sj);
+  }
+};
+
+}  // namespace
+
+void validate(const RingSettings& s) {
+  if (s.k < 2 || s.k > 64) fail("k", s.k, "in [2, 64]");
+  if (!std::isfinite(s.max_distance) || s.max_distance < 0) {
+    fail("max_distance", s.max_distance, "finite and >= 0 m");
+  }
+  if (!std::isfinite(s.eps_theta) || s.eps_theta < 0 || s.eps_theta >= 1.5707963f) {
+    fail("eps_theta", s.eps_theta, "in [0, pi / 2) rad");
+  }
+  if (!std::isfinite(s.jump_sigmas) || s.jump_sigmas < 0) {
+    fail("jump_sigmas", s.jump_sigmas, "finite and >= 0");
+  }
+  if (!std::isfinite(s.noise.a) || s.noise.a <= 0) fail("noise.a", s.noise.a, "finite and > 0");
+  if (!std::isfinite(s.noise.b) || s.noise.b < 0) fail("noise.b", s.noise.b, "finite and >= 0");
+  if (!std::isfinite(s.noise.z0)) fail("noise.z0", s.noise.z0, "finite");
+  for (const float c : s.viewpoint) {
+    if (!std::isfinite(c)) fail("viewpoint", c, "finite");
+  }
+}
+
+namespace {
+
+void build(const OrganizedCloud& cloud, const RingSettings& settings, PointRings& out,
+           ThreadPool* pool) {
+  validate(settings);
+  require_consistent(cloud, "build_rings");
+  if (cloud.size() > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max())) {
+    throw std::length_error("build_rings: " + std::to_string(cloud.size()) +
+                            " points, at most 2^31 - 1 are supported");
+  }
+  std::vector<float> xyz;
+  unorganized::pack_points(cloud, xyz);
+  const std::size_t n = cloud.size();
+  // The tree holds the valid points only, packed; `original` maps them back.
+  std::vector<float> valid_xyz;
+  std::vector<std::int32_t> original;
+  valid_xyz.reserve(xyz.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    if (std::isnan(xyz[3 * i])) continue;
+    valid_xyz.insert(valid_xyz.end(), xyz.begin() + static_cast<std::ptrdiff_t>(3 * i),
+                     xyz.begin() + static_cast<std::ptrdiff_t>(3 * i + 3));
+    original.push_back(static_cast<std::int32_t>(i));
+  }
+  const int k = settings.k;
+  out.k = k;
+  out.neighbours.assign(n * static_cast<std::size_t>(k), -1);
+  out.count.assign(n, 0);
+  if (original.empty()) return;
+  const PackedCloud data{valid_xyz.data(), original.size()};
+  const Tree tree(3, data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+  const float cos_theta = std::cos(settings.eps_theta);
+  const EdgeTest test{
+      .max_distance2 = settings.max_distance * settings.max_distance,
+      .cos_theta2 = settings.eps_theta > 0 ? cos_theta * cos_theta : 2.0f,
+      .jump2 = settings.jump_sigmas * settings.jump_sigmas,
+      .noise = settings.noise,
+      .viewpoint = settings.viewpoint,
+  };
+  const auto query = [&](int /*band*/, int begin, int end) {
+    std::array<std::uint32_t, 65> index{};
+    std::array<float, 65> distance2{};
+    for (int c = begin; c < end; ++c) {
+      const float* p = valid_xyz.data() + 3 * static_cast<std::size_t>(c);
+      // k + 1: the point itself is its own nearest neighbour.
+      nanoflann::KNNResultSet<float, std::uint32_t, std::uint32_t> result(
+          static_cast<std::uint32_t>(k + 1));
+      result.init(index.data(), distance2.data());
+      tree.findNeighbors(result, p, nanoflann::SearchParams());
+      const std::size_t i = static_cast<std::size_t>(original[static_cast<std::size_t>(c)]);
+      std::int32_t* ring = out.neighbours.data() + i * static_cast<std::size_t>(k);
+      int m = 0;
+      for (std::uint32_t j = 0; j < result.size() && m < k; ++j) {
+        if (index[j] == static_cast<std::uint32_t>(c)) continue;
+        const float* q = valid_xyz.data() + 3 * static_cast<std::size_t>(index[j]);
+        if (!test(p, q, distance2[j])) continue;
+        ring[m++] = original[index[j]];
+      }
+      out.count[i] = static_cast<std::uint8_t>(m);
+    }
+  };
+  const int points = static_cast<int>(original.size());
+  if (pool != nullptr && pool->threads() > 1) {
+    pool->for_each_band(points, 1, query);
+  } else {
+    query(0, 0, points);
+  }
+}
+
+}  // namespace
+
+void build_rings(const OrganizedCloud& cloud, const RingSettings& settings, PointRings& out) {
+  build(cloud, settings, out, nullptr);
+}
+
+void build_rings(const OrganizedCloud& cloud, const RingSettings& settings, PointRings& out,
+                 ThreadPool& pool) {
+  build(cloud, settings, out, &pool);
+}
+
+}  // namespace rangeseg

@@ -1,0 +1,415 @@
+// Stage 4 over k-nearest-neighbour rings: region growing, merging and re-assignment.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "detail/plane_stats.hpp"
+#include "rangeseg/unorganized.hpp"
+#include "segmentation/internal.hpp"
+#include "unorganized/internal.hpp"
+
+namespace rangeseg {
+namespace {
+
+using unorganized::at;
+
+/// The packed inputs of one call in ring order: points, normals, curvature, sigma(r), and the
+/// cosine of the plane model's normal-angle bound at each point.
+struct Points {
+  std::vector<float> xyz, n, curvature, sigma, cos_angle;
+
+  Points(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
+         const SegmentationSettings& s) {
+    const SensorNoise& noise = s.noise;
+    unorganized::pack_points(cloud, xyz);
+    const std::size_t count = cloud.size();
+    n.resize(3 * count);
+    curvature.resize(count);
+    sigma.resize(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      n[3 * i] = at(normals.nx, i);
+      n[3 * i + 1] = at(normals.ny, i);
+      n[3 * i + 2] = at(normals.nz, i);
+      curvature[i] = at(normals.curvature, i);
+      const float* p = &xyz[3 * i];
+      sigma[i] = static_cast<float>(
+          noise.sigma(std::sqrt(double{p[0]} * p[0] + double{p[1]} * p[1] + double{p[2]} * p[2])));
+    }
+    cos_angle.resize(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      cos_angle[i] = static_cast<float>(std::cos(normal_angle_bound(rings, i, s)));
+    }
+  }
+  /// The plane model's angle bound at point i [rad]: max_normal_angle, or normal_noise_sigmas
+  /// standard errors of a least-squares normal from the ring when that is wider. Depth noise
+  /// sigma acts along the viewing ray; a plane fitted to m points whose spread across the ray
+  /// has variance lambda along some direction tilts about the perpendicular axis by
+  /// ~sigma / sqrt(m lambda) (the slope error of a line fit), so the smaller of the two
+  /// eigenvalues of the ring's covariance across the ray bounds the worse axis. Far from a
+  /// Kinect the noise exceeds the points' spacing, and on a surface seen at grazing incidence
+  /// the ring is a line across the ray: the normals tell little, and the distance test does
+  /// the work, as on the grid.
+  double normal_angle_bound(const PointRings& rings, std::size_t i,
+                            const SegmentationSettings& s) const {
+    const std::size_t m = rings.count[i];
+    if (m < 2 || s.normal_noise_sigmas <= 0) return s.max_normal_angle;
+    const float* p = point(i);
+    const Eigen::Vector3d ray = Eigen::Vector3d(p[0], p[1], p[2]).normalized();
+    if (!ray.allFinite()) return s.max_normal_angle;
+    const Eigen::Vector3d e1 = ray.unitOrthogonal(), e2 = ray.cross(e1);
+    double sa = 0, sb = 0, saa = 0, sab = 0, sbb = 0;  // p itself is at (0, 0)
+    for (const std::int32_t j : rings.ring(i)) {
+      const float* q = point(static_cast<std::size_t>(j));
+      const Eigen::Vector3d d(double{q[0]} - p[0], double{q[1]} - p[1], double{q[2]} - p[2]);
+      const double a = d.dot(e1), b = d.dot(e2);
+      sa += a;
+      sb += b;
+      saa += a * a;
+      sab += a * b;
+      sbb += b * b;
+    }
+    const double count = static_cast<double>(m) + 1.0;
+    const double caa = saa / count - (sa / count) * (sa / count);
+    const double cab = sab / count - (sa / count) * (sb / count);
+    const double cbb = sbb / count - (sb / count) * (sb / count);
+    const double half_trace = 0.5 * (caa + cbb);
+    const double lambda = half_trace - std::sqrt(0.25 * (caa - cbb) * (caa - cbb) + cab * cab);
+    if (!(lambda > 0)) return std::numbers::pi;
+    const double error = sigma[i] / std::sqrt(count * lambda);
+    return std::min(std::numbers::pi, std::max(s.max_normal_angle, s.normal_noise_sigmas * error));
+  }
+  const float* point(std::size_t i) const { return &xyz[3 * i]; }
+  const float* normal(std::size_t i) const { return &n[3 * i]; }
+  bool has_normal(std::size_t i) const { return std::isfinite(n[3 * i]); }
+};
+
+/// The plane region model of the grid (plane_model.cpp) without its cell level: running sums
+/// of points and normals; the plane is the mean normal through the centroid, from 8 points the
+/// PCA normal, refreshed whenever the region has grown by half.
+class PlaneRegion {
+ public:
+  PlaneRegion(const Points& pts, const SegmentationSettings& s)
+      : pts_(pts), k_(static_cast<float>(s.max_distance_sigmas)) {}
+
+  void init(std::size_t seed) {
+    stats_.clear();
+    sn_[0] = sn_[1] = sn_[2] = 0;
+    next_refresh_ = 0;
+    add(seed);
+  }
+  bool accepts(std::size_t /*from*/, std::size_t q) const {
+    const float* m = pts_.normal(q);
+    const float dot = n_[0] * m[0] + n_[1] * m[1] + n_[2] * m[2];
+    if (!(dot >= pts_.cos_angle[q])) return false;  // also rejects NaN normals
+    const float* p = pts_.point(q);
+    return std::fabs(n_[0] * p[0] + n_[1] * p[1] + n_[2] * p[2] + d_) <= k_ * pts_.sigma[q];
+  }
+  void add(std::size_t q) {
+    const float* p = pts_.point(q);
+    const float* m = pts_.normal(q);
+    stats_.add(p[0], p[1], p[2]);
+    for (int c = 0; c < 3; ++c) sn_[c] += m[c];
+    if (stats_.count >= next_refresh_) refresh();
+  }
+
+ private:
+  static constexpr std::int64_t kPcaMinPoints = 8;
+
+  void refresh() {
+    double n[3] = {sn_[0], sn_[1], sn_[2]};
+    const double norm = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (norm > 0) {
+      for (double& c : n) c /= norm;
+    }
+    if (stats_.count >= kPcaMinPoints) {
+      const detail::PlaneFit fit = stats_.fit();
+      if (fit.ok) {
+        const double sign =
+            fit.normal[0] * n[0] + fit.normal[1] * n[1] + fit.normal[2] * n[2] < 0 ? -1.0 : 1.0;
+        for (int c = 0; c < 3; ++c) n[c] = sign * fit.normal[c];
+      }
+    }
+    const auto mean = stats_.mean();
+    for (int c = 0; c < 3; ++c) n_[c] = static_cast<float>(n[c]);
+    d_ = static_cast<float>(-(n[0] * mean[0] + n[1] * mean[1] + n[2] * mean[2]));
+    next_refresh_ =
+        stats_.count < kPcaMinPoints ? stats_.count + 1 : stats_.count + stats_.count / 2;
+  }
+
+  const Points& pts_;
+  float k_;
+  detail::PlaneStats stats_;
+  double sn_[3] = {0, 0, 0};
+  float n_[3] = {0, 0, 1};
+  float d_ = 0;
+  std::int64_t next_refresh_ = 0;
+};
+
+/// Local surface continuity: the neighbour's normal is within max_smooth_angle of the current
+/// point's and its curvature at most max_curvature.
+class SmoothRegion {
+ public:
+  SmoothRegion(const Points& pts, const SegmentationSettings& s)
+      : pts_(pts),
+        cos_angle_(static_cast<float>(std::cos(s.max_smooth_angle))),
+        max_curvature_(static_cast<float>(s.max_curvature)) {}
+  void init(std::size_t /*seed*/) {}
+  bool accepts(std::size_t from, std::size_t q) const {
+    const float* a = pts_.normal(from);
+    const float* b = pts_.normal(q);
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] >= cos_angle_ &&
+           pts_.curvature[q] <= max_curvature_;
+  }
+  void add(std::size_t /*q*/) {}
+
+ private:
+  const Points& pts_;
+  float cos_angle_, max_curvature_;
+};
+
+/// Region growing in ascending seed curvature; raw labels 1.. in `labels`; returns the count.
+template <class Model>
+std::int32_t grow(const PointRings& rings, const Points& pts,
+                  const std::vector<std::int32_t>& seeds, Model& model,
+                  std::vector<std::int32_t>& labels) {
+  std::vector<std::int32_t> queue;
+  queue.reserve(labels.size());
+  std::int32_t label = 0;
+  for (const std::int32_t seed : seeds) {
+    if (labels[static_cast<std::size_t>(seed)] != 0) continue;
+    ++label;
+    labels[static_cast<std::size_t>(seed)] = label;
+    model.init(static_cast<std::size_t>(seed));
+    queue.assign(1, seed);
+    for (std::size_t head = 0; head < queue.size(); ++head) {
+      const auto p = static_cast<std::size_t>(queue[head]);
+      for (const std::int32_t qq : rings.ring(p)) {
+        const auto q = static_cast<std::size_t>(qq);
+        if (labels[q] != 0 || !pts.has_normal(q) || !model.accepts(p, q)) continue;
+        labels[q] = label;
+        model.add(q);
+        queue.push_back(qq);
+      }
+    }
+  }
+  return label;
+}
+
+/// Point statistics per raw label (index 0 unused).
+std::vector<detail::PlaneStats> label_stats(const Points& pts,
+                                            const std::vector<std::int32_t>& labels,
+                                            std::int32_t count) {
+  std::vector<detail::PlaneStats> stats(static_cast<std::size_t>(count) + 1);
+  for (std::size_t i = 0; i < labels.size(); ++i) {
+    if (labels[i] <= 0) continue;
+    const float* p = pts.point(i);
+    stats[static_cast<std::size_t>(labels[i])].add(p[0], p[1], p[2]);
+  }
+  return stats;
+}
+
+void drop_small(std::vector<std::int32_t>& labels, const std::vector<detail::PlaneStats>& stats,
+                int min_size) {
+  for (std::int32_t& l : labels) {
+    if (l > 0 && stats[static_cast<std::size_t>(l)].count < min_size) l = 0;
+  }
+}
+
+double sigma_at(const SensorNoise& noise, const std::array<double, 3>& c) {
+  return noise.sigma(std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]));
+}
+
+/// Adjacent plane segments whose least-squares planes agree are merged (union-find over the
+/// ring adjacency, refitted after every union, until nothing changes).
+void merge_planes(const PointRings& rings, const SegmentationSettings& s,
+                  std::vector<std::int32_t>& labels, std::vector<detail::PlaneStats>& stats) {
+  std::vector<std::uint64_t> pairs;
+  for (std::size_t i = 0; i < labels.size(); ++i) {
+    const std::int32_t a = labels[i];
+    if (a <= 0) continue;
+    for (const std::int32_t j : rings.ring(i)) {
+      const std::int32_t b = labels[static_cast<std::size_t>(j)];
+      if (b <= 0 || b == a) continue;
+      const auto lo = static_cast<std::uint64_t>(std::min(a, b));
+      const auto hi = static_cast<std::uint64_t>(std::max(a, b));
+      pairs.push_back(lo << 32 | hi);
+    }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  std::vector<std::int32_t> parent(stats.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  const auto find = [&](std::int32_t x) {
+    while (parent[static_cast<std::size_t>(x)] != x) {
+      parent[static_cast<std::size_t>(x)] =
+          parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(x)])];
+      x = parent[static_cast<std::size_t>(x)];
+    }
+    return x;
+  };
+  const double cos_merge = std::cos(s.merge_angle);
+  const auto agree = [&](const detail::PlaneFit& a, const detail::PlaneFit& b) {
+    const double dot =
+        a.normal[0] * b.normal[0] + a.normal[1] * b.normal[1] + a.normal[2] * b.normal[2];
+    if (!(std::fabs(dot) >= cos_merge)) return false;
+    const auto& ca = a.centroid;
+    const auto& cb = b.centroid;
+    return std::fabs(b.distance(ca[0], ca[1], ca[2])) <=
+               s.merge_distance_sigmas * sigma_at(s.noise, ca) &&
+           std::fabs(a.distance(cb[0], cb[1], cb[2])) <=
+               s.merge_distance_sigmas * sigma_at(s.noise, cb);
+  };
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (const std::uint64_t pair : pairs) {
+      const std::int32_t a = find(static_cast<std::int32_t>(pair >> 32));
+      const std::int32_t b = find(static_cast<std::int32_t>(pair & 0xffffffffu));
+      if (a == b) continue;
+      const detail::PlaneFit fa = stats[static_cast<std::size_t>(a)].fit();
+      const detail::PlaneFit fb = stats[static_cast<std::size_t>(b)].fit();
+      if (!fa.ok || !fb.ok || !agree(fa, fb)) continue;
+      const std::int32_t keep = std::min(a, b), gone = std::max(a, b);
+      parent[static_cast<std::size_t>(gone)] = keep;
+      stats[static_cast<std::size_t>(keep)].merge(stats[static_cast<std::size_t>(gone)]);
+      stats[static_cast<std::size_t>(gone)].clear();
+      changed = true;
+    }
+  }
+  for (std::int32_t& l : labels) {
+    if (l > 0) l = find(l);
+  }
+}
+
+/// Unlabelled points with a plane segment in their ring join the closest such plane within
+/// max_distance_sigmas sigma(r) and reassign_max_normal_angle, widened like the growth test's
+/// angle where the ring's normals are noisier (one pass; the new labels do not spread further).
+void reassign(const PointRings& rings, const Points& pts, const SegmentationSettings& s,
+              std::vector<std::int32_t>& labels, const std::vector<detail::PlaneStats>& stats) {
+  std::vector<detail::PlaneFit> fits(stats.size());
+  for (std::size_t l = 1; l < stats.size(); ++l) {
+    if (stats[l].count > 0) fits[l] = stats[l].fit();
+  }
+  const double cos_normal = std::cos(s.reassign_max_normal_angle);
+  const std::vector<float>& cos_noise = pts.cos_angle;
+  std::vector<std::pair<std::size_t, std::int32_t>> moves;
+  for (std::size_t i = 0; i < labels.size(); ++i) {
+    if (labels[i] != 0 || rings.count[i] == 0) continue;
+    const float* p = pts.point(i);
+    const float* n = pts.normal(i);
+    double best = s.max_distance_sigmas * pts.sigma[i];
+    std::int32_t choice = 0;
+    for (const std::int32_t j : rings.ring(i)) {
+      const std::int32_t l = labels[static_cast<std::size_t>(j)];
+      if (l <= 0 || !fits[static_cast<std::size_t>(l)].ok) continue;
+      const detail::PlaneFit& f = fits[static_cast<std::size_t>(l)];
+      if (pts.has_normal(i) &&
+          std::fabs(f.normal[0] * n[0] + f.normal[1] * n[1] + f.normal[2] * n[2]) <
+              std::min(cos_normal, double{cos_noise[i]})) {
+        continue;
+      }
+      const double distance = std::fabs(f.distance(p[0], p[1], p[2]));
+      if (distance <= best) {
+        best = distance;
+        choice = l;
+      }
+    }
+    if (choice != 0) moves.emplace_back(i, choice);
+  }
+  for (const auto& [i, l] : moves) labels[i] = l;
+}
+
+}  // namespace
+
+void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
+             const SegmentationSettings& settings, Segmentation& out) {
+  seg::validate(settings);
+  const bool planes = settings.model == RegionModel::plane;
+  if (!planes && settings.model != RegionModel::smooth) {
+    throw std::invalid_argument(std::string("segment: model ") + to_string(settings.model) +
+                                " is not available for unorganized clouds (plane or smooth)");
+  }
+  unorganized::require_rings_match(cloud, rings, &normals, "segment");
+  if (normals.curvature.width() != cloud.width() || normals.curvature.height() != cloud.height()) {
+    throw std::invalid_argument("segment: the normals have no curvature of the cloud's size");
+  }
+  const Points pts(cloud, rings, normals, settings);
+  const std::size_t count = cloud.size();
+  std::vector<std::int32_t> seeds;
+  std::vector<float> keys;
+  for (std::size_t i = 0; i < count; ++i) {
+    const float c = pts.curvature[i];
+    if (rings.count[i] == 0 || !pts.has_normal(i) || !(c <= settings.max_seed_curvature)) continue;
+    if (!planes && !(c <= settings.max_curvature)) continue;
+    seeds.push_back(static_cast<std::int32_t>(i));
+  }
+  std::stable_sort(seeds.begin(), seeds.end(), [&](std::int32_t a, std::int32_t b) {
+    return pts.curvature[static_cast<std::size_t>(a)] < pts.curvature[static_cast<std::size_t>(b)];
+  });
+  std::vector<std::int32_t> labels(count, 0);
+  std::int32_t raw = 0;
+  if (planes) {
+    PlaneRegion model(pts, settings);
+    raw = grow(rings, pts, seeds, model, labels);
+  } else {
+    SmoothRegion model(pts, settings);
+    raw = grow(rings, pts, seeds, model, labels);
+  }
+  std::vector<detail::PlaneStats> stats = label_stats(pts, labels, raw);
+  drop_small(labels, stats, settings.min_region_size);
+  if (planes) {
+    for (std::size_t l = 1; l < stats.size(); ++l) {
+      if (stats[l].count < settings.min_region_size) stats[l].clear();
+    }
+    if (settings.merge_planes) merge_planes(rings, settings, labels, stats);
+    if (settings.reassign_boundary) {
+      reassign(rings, pts, settings, labels, stats);
+      stats = label_stats(pts, labels, raw);
+    }
+  }
+  // Final labels 1..N by point count, descending (ties: the earlier raw label first).
+  std::vector<std::int32_t> order;
+  for (std::int32_t l = 1; l <= raw; ++l) {
+    if (stats[static_cast<std::size_t>(l)].count >= settings.min_region_size) order.push_back(l);
+  }
+  std::stable_sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
+    return stats[static_cast<std::size_t>(a)].count > stats[static_cast<std::size_t>(b)].count;
+  });
+  std::vector<std::int32_t> final_label(static_cast<std::size_t>(raw) + 1, 0);
+  for (std::size_t j = 0; j < order.size(); ++j) {
+    final_label[static_cast<std::size_t>(order[j])] = static_cast<std::int32_t>(j) + 1;
+  }
+  out.labels.resize(cloud.width(), cloud.height(), 0);
+  out.segments.assign(order.size(), Segment{});
+  for (std::size_t i = 0; i < count; ++i) {
+    const std::int32_t l = labels[i] > 0 ? final_label[static_cast<std::size_t>(labels[i])] : 0;
+    at(out.labels, i) = l;
+    if (l > 0 && settings.compute_area) {
+      out.segments[static_cast<std::size_t>(l - 1)].area_m2 += point_area(cloud, rings, i);
+    }
+  }
+  for (std::size_t j = 0; j < order.size(); ++j) {
+    const detail::PlaneStats& st = stats[static_cast<std::size_t>(order[j])];
+    Segment& sgm = out.segments[j];
+    sgm.label = static_cast<int>(j) + 1;
+    sgm.model = settings.model;
+    sgm.kind = planes ? SurfaceKind::plane : SurfaceKind::smooth;
+    sgm.pixel_count = static_cast<int>(st.count);
+    const detail::PlaneFit fit = st.fit();
+    sgm.centroid = st.mean();
+    if (fit.ok) {
+      sgm.normal = fit.normal;
+      sgm.offset = fit.offset;
+      sgm.rms_residual = fit.rms;
+    }
+    sgm.surface_rms = sgm.rms_residual;
+  }
+}
+
+}  // namespace rangeseg
