@@ -154,7 +154,23 @@ void build(const OrganizedCloud& cloud, const RingSettings& settings, PointRings
   out.neighbours.assign(n * static_cast<std::size_t>(k), -1);
   out.count.assign(n, 0);
   if (original.empty()) return;
-  const PackedCloud data{valid_xyz.data(), original.size()};
+  // The search space: the points, or their directions from the viewpoint.
+  std::vector<float> directions;
+  if (settings.by_direction) {
+    directions.resize(valid_xyz.size());
+    for (std::size_t c = 0; c < original.size(); ++c) {
+      const float* p = valid_xyz.data() + 3 * c;
+      const float dx = p[0] - settings.viewpoint[0], dy = p[1] - settings.viewpoint[1],
+                  dz = p[2] - settings.viewpoint[2];
+      const float r = std::sqrt(dx * dx + dy * dy + dz * dz);
+      const float inv = r > 0 ? 1.0f / r : 0.0f;
+      directions[3 * c] = dx * inv;
+      directions[3 * c + 1] = dy * inv;
+      directions[3 * c + 2] = dz * inv;
+    }
+  }
+  const float* const space = settings.by_direction ? directions.data() : valid_xyz.data();
+  const PackedCloud data{space, original.size()};
   const Tree tree(3, data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
   const float cos_theta = std::cos(settings.eps_theta);
   const EdgeTest test{
@@ -173,14 +189,16 @@ void build(const OrganizedCloud& cloud, const RingSettings& settings, PointRings
       nanoflann::KNNResultSet<float, std::uint32_t, std::uint32_t> result(
           static_cast<std::uint32_t>(k + 1));
       result.init(index.data(), distance2.data());
-      tree.findNeighbors(result, p, nanoflann::SearchParams());
+      tree.findNeighbors(result, space + 3 * static_cast<std::size_t>(c),
+                         nanoflann::SearchParams());
       const std::size_t i = static_cast<std::size_t>(original[static_cast<std::size_t>(c)]);
       std::int32_t* ring = out.neighbours.data() + i * static_cast<std::size_t>(k);
       int m = 0;
       for (std::uint32_t j = 0; j < result.size() && m < k; ++j) {
         if (index[j] == static_cast<std::uint32_t>(c)) continue;
         const float* q = valid_xyz.data() + 3 * static_cast<std::size_t>(index[j]);
-        if (!test(p, q, distance2[j])) continue;
+        const float d2 = settings.by_direction ? unorganized::squared_distance(p, q) : distance2[j];
+        if (!test(p, q, d2)) continue;
         ring[m++] = original[index[j]];
       }
       out.count[i] = static_cast<std::uint8_t>(m);

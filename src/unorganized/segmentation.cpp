@@ -8,8 +8,6 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Core>
-
 #include "detail/plane_stats.hpp"
 #include "rangeseg/unorganized.hpp"
 #include "segmentation/internal.hpp"
@@ -48,42 +46,28 @@ struct Points {
     }
   }
   /// The plane model's angle bound at point i [rad]: max_normal_angle, or normal_noise_sigmas
-  /// standard errors of a least-squares normal from the ring when that is wider. Depth noise
-  /// sigma acts along the viewing ray; a plane fitted to m points whose spread across the ray
-  /// has variance lambda along some direction tilts about the perpendicular axis by
-  /// ~sigma / sqrt(m lambda) (the slope error of a line fit), so the smaller of the two
-  /// eigenvalues of the ring's covariance across the ray bounds the worse axis. Far from a
-  /// Kinect the noise exceeds the points' spacing, and on a surface seen at grazing incidence
-  /// the ring is a line across the ray: the normals tell little, and the distance test does
-  /// the work, as on the grid.
+  /// times the RMS angle of the normals of the point and its ring about their mean when that is
+  /// wider (the spread the test will meet there: from the resultant length R of the unit
+  /// normals, mean theta^2 ~ 2 (1 - R), as 1 - cos theta ~ theta^2 / 2). Far from a depth camera
+  /// the noise exceeds the points' spacing, and on a surface seen at grazing incidence the ring
+  /// is nearly a line, so the normals scatter; the distance test then does the work, as on the
+  /// grid (whose cells measure the same spread).
   double normal_angle_bound(const PointRings& rings, std::size_t i,
                             const SegmentationSettings& s) const {
-    const std::size_t m = rings.count[i];
-    if (m < 2 || s.normal_noise_sigmas <= 0) return s.max_normal_angle;
-    const float* p = point(i);
-    const Eigen::Vector3d ray = Eigen::Vector3d(p[0], p[1], p[2]).normalized();
-    if (!ray.allFinite()) return s.max_normal_angle;
-    const Eigen::Vector3d e1 = ray.unitOrthogonal(), e2 = ray.cross(e1);
-    double sa = 0, sb = 0, saa = 0, sab = 0, sbb = 0;  // p itself is at (0, 0)
-    for (const std::int32_t j : rings.ring(i)) {
-      const float* q = point(static_cast<std::size_t>(j));
-      const Eigen::Vector3d d(double{q[0]} - p[0], double{q[1]} - p[1], double{q[2]} - p[2]);
-      const double a = d.dot(e1), b = d.dot(e2);
-      sa += a;
-      sb += b;
-      saa += a * a;
-      sab += a * b;
-      sbb += b * b;
+    if (rings.count[i] == 0 || s.normal_noise_sigmas <= 0 || !has_normal(i)) {
+      return s.max_normal_angle;
     }
-    const double count = static_cast<double>(m) + 1.0;
-    const double caa = saa / count - (sa / count) * (sa / count);
-    const double cab = sab / count - (sa / count) * (sb / count);
-    const double cbb = sbb / count - (sb / count) * (sb / count);
-    const double half_trace = 0.5 * (caa + cbb);
-    const double lambda = half_trace - std::sqrt(0.25 * (caa - cbb) * (caa - cbb) + cab * cab);
-    if (!(lambda > 0)) return std::numbers::pi;
-    const double error = sigma[i] / std::sqrt(count * lambda);
-    return std::min(std::numbers::pi, std::max(s.max_normal_angle, s.normal_noise_sigmas * error));
+    double sum[3] = {n[3 * i], n[3 * i + 1], n[3 * i + 2]};
+    double count = 1;
+    for (const std::int32_t jj : rings.ring(i)) {
+      const auto j = static_cast<std::size_t>(jj);
+      if (!has_normal(j)) continue;
+      for (int c = 0; c < 3; ++c) sum[c] += n[3 * j + c];
+      count += 1;
+    }
+    const double resultant = std::sqrt(sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]) / count;
+    const double spread = std::sqrt(std::max(0.0, 2.0 * (1.0 - resultant)));
+    return std::min(std::numbers::pi, std::max(s.max_normal_angle, s.normal_noise_sigmas * spread));
   }
   const float* point(std::size_t i) const { return &xyz[3 * i]; }
   const float* normal(std::size_t i) const { return &n[3 * i]; }
@@ -230,16 +214,27 @@ double sigma_at(const SensorNoise& noise, const std::array<double, 3>& c) {
 /// ring adjacency, refitted after every union, until nothing changes).
 void merge_planes(const PointRings& rings, const SegmentationSettings& s,
                   std::vector<std::int32_t>& labels, std::vector<detail::PlaneStats>& stats) {
+  // Adjacent: joined by a ring edge, or both in the ring of one unlabelled point (a border
+  // one point wide, as growth leaves between the terraces of range quantisation).
   std::vector<std::uint64_t> pairs;
+  const auto add_pair = [&](std::int32_t a, std::int32_t b) {
+    if (a <= 0 || b <= 0 || a == b) return;
+    const auto lo = static_cast<std::uint64_t>(std::min(a, b));
+    const auto hi = static_cast<std::uint64_t>(std::max(a, b));
+    pairs.push_back(lo << 32 | hi);
+  };
   for (std::size_t i = 0; i < labels.size(); ++i) {
     const std::int32_t a = labels[i];
-    if (a <= 0) continue;
-    for (const std::int32_t j : rings.ring(i)) {
-      const std::int32_t b = labels[static_cast<std::size_t>(j)];
-      if (b <= 0 || b == a) continue;
-      const auto lo = static_cast<std::uint64_t>(std::min(a, b));
-      const auto hi = static_cast<std::uint64_t>(std::max(a, b));
-      pairs.push_back(lo << 32 | hi);
+    const auto ring = rings.ring(i);
+    for (std::size_t j = 0; j < ring.size(); ++j) {
+      const std::int32_t b = labels[static_cast<std::size_t>(ring[j])];
+      if (a > 0) {
+        add_pair(a, b);
+        continue;
+      }
+      for (std::size_t t = j + 1; t < ring.size(); ++t) {
+        add_pair(b, labels[static_cast<std::size_t>(ring[t])]);
+      }
     }
   }
   std::sort(pairs.begin(), pairs.end());
