@@ -183,7 +183,10 @@ void build(const OrganizedCloud& cloud, const RingSettings& settings, PointRings
   const auto query = [&](int /*band*/, int begin, int end) {
     std::array<std::uint32_t, 65> index{};
     std::array<float, 65> distance2{};
-    for (int c = begin; c < end; ++c) {
+    for (int t = begin; t < end; ++t) {
+      // In the tree's leaf order, so that consecutive queries walk the same nodes (1.8x faster
+      // than input order for a shuffled 640x480 frame).
+      const std::uint32_t c = tree.vAcc[static_cast<std::size_t>(t)];
       const float* p = valid_xyz.data() + 3 * static_cast<std::size_t>(c);
       // k + 1: the point itself is its own nearest neighbour.
       nanoflann::KNNResultSet<float, std::uint32_t, std::uint32_t> result(
@@ -191,11 +194,11 @@ void build(const OrganizedCloud& cloud, const RingSettings& settings, PointRings
       result.init(index.data(), distance2.data());
       tree.findNeighbors(result, space + 3 * static_cast<std::size_t>(c),
                          nanoflann::SearchParams());
-      const std::size_t i = static_cast<std::size_t>(original[static_cast<std::size_t>(c)]);
+      const auto i = static_cast<std::size_t>(original[c]);
       std::int32_t* ring = out.neighbours.data() + i * static_cast<std::size_t>(k);
       int m = 0;
       for (std::uint32_t j = 0; j < result.size() && m < k; ++j) {
-        if (index[j] == static_cast<std::uint32_t>(c)) continue;
+        if (index[j] == c) continue;
         const float* q = valid_xyz.data() + 3 * static_cast<std::size_t>(index[j]);
         const float d2 = settings.by_direction ? unorganized::squared_distance(p, q) : distance2[j];
         if (!test(p, q, d2)) continue;
