@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <memory>
+#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -37,6 +38,7 @@ struct EvalSynthOptions {
   double tolerance = 0.8;
   bool no_smooth = false;
   bool per_surface = false;
+  bool unorganized = false;
 };
 
 constexpr std::uint64_t kMaxSeeds = 10000;
@@ -203,6 +205,41 @@ void print_curved(const CurvedScore& c) {
   std::printf("plane regions detected by a sphere or cylinder segment: %d\n", c.planes_as_curved);
 }
 
+/// The valid points of `cloud` in a shuffled order (seeded) as a 1-row cloud, and the pixel
+/// index (v * width + u) of each.
+OrganizedCloud shuffled_points(const OrganizedCloud& cloud, std::uint64_t seed,
+                               std::vector<std::size_t>& pixel) {
+  pixel.clear();
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      if (cloud.valid(u, v)) pixel.push_back(static_cast<std::size_t>(v) * cloud.width() + u);
+    }
+  }
+  std::shuffle(pixel.begin(), pixel.end(), std::mt19937_64(seed));
+  OrganizedCloud list(static_cast<int>(pixel.size()), 1);
+  for (std::size_t i = 0; i < pixel.size(); ++i) {
+    const int u = static_cast<int>(pixel[i] % cloud.width());
+    const int v = static_cast<int>(pixel[i] / cloud.width());
+    list.x(static_cast<int>(i), 0) = cloud.x(u, v);
+    list.y(static_cast<int>(i), 0) = cloud.y(u, v);
+    list.z(static_cast<int>(i), 0) = cloud.z(u, v);
+  }
+  return list;
+}
+
+/// The segmentation of shuffled points with its labels put back on the grid of width x height.
+Segmentation on_grid(const Segmentation& points, const std::vector<std::size_t>& pixel, int width,
+                     int height) {
+  Segmentation out;
+  out.segments = points.segments;
+  out.labels.resize(width, height, 0);
+  for (std::size_t i = 0; i < pixel.size(); ++i) {
+    out.labels(static_cast<int>(pixel[i] % width), static_cast<int>(pixel[i] / width)) =
+        points.labels(static_cast<int>(i), 0);
+  }
+  return out;
+}
+
 void run_eval_synth(const EvalSynthOptions& o) {
   const std::vector<std::uint64_t> seeds = parse_seeds(o.seeds);
   const synth::RenderSettings sensor = sensor_by_name(o.noise, o.camera);
@@ -219,8 +256,16 @@ void run_eval_synth(const EvalSynthOptions& o) {
     settings.seed = seed;
     settings.split_disconnected = !o.per_surface;
     const synth::Rendering scene = synth::render(scene_by_name(o.scene, seed), settings);
-    pipeline.process(scene.cloud);
-    const Segmentation& segmentation = pipeline.segmentation();
+    Segmentation gridded;
+    if (o.unorganized) {
+      std::vector<std::size_t> pixel;
+      const OrganizedCloud points = shuffled_points(scene.cloud, seed, pixel);
+      pipeline.process(points);
+      gridded = on_grid(pipeline.segmentation(), pixel, scene.cloud.width(), scene.cloud.height());
+    } else {
+      pipeline.process(scene.cloud);
+    }
+    const Segmentation& segmentation = o.unorganized ? gridded : pipeline.segmentation();
     const eval::EvalResult r =
         eval::evaluate(scene.labels, segmentation.labels, {.tolerance = o.tolerance});
     const eval::AngleStats a =
@@ -245,7 +290,11 @@ void run_eval_synth(const EvalSynthOptions& o) {
     per_seed.push_back(std::move(row));
     if (!o.out_dir.empty()) {
       const std::string dir = (ensure_dir(o.out_dir) / (o.scene + std::to_string(seed))).string();
-      write_segmentation_folder(dir, scene.cloud, pipeline, false);
+      if (o.unorganized) {
+        io::write_label_png((ensure_dir(dir) / "labels.png").string(), segmentation.labels);
+      } else {
+        write_segmentation_folder(dir, scene.cloud, pipeline, false);
+      }
       io::write_label_png((ensure_dir(dir) / "ground_truth.png").string(), scene.labels);
     }
   }
@@ -271,6 +320,7 @@ void run_eval_synth(const EvalSynthOptions& o) {
                         {"preset", o.preset},
                         {"T", o.tolerance},
                         {"per_surface", o.per_surface},
+                        {"unorganized", o.unorganized},
                         {"seeds", per_seed},
                         {"total", totals}});
   }
@@ -294,8 +344,14 @@ void add_eval_synth(CLI::App& app) {
   cmd->add_flag("--per-surface", o->per_surface,
                 "One ground-truth label per surface (default: one per connected part of a surface, "
                 "as `synth` writes)");
+  cmd->add_flag(
+      "--unorganized", o->unorganized,
+      "Segment each rendering's valid points shuffled (seeded) into an unorganized cloud, "
+      "over k-nearest-neighbour rings; the labels are put back on the grid to be scored "
+      "(models plane and smooth)");
   cmd->add_option("-o,--output", o->out_dir,
-                  "Also write each seed's results and ground_truth.png into DIR/<scene><seed>/");
+                  "Also write each seed's results and ground_truth.png into DIR/<scene><seed>/ "
+                  "(with --unorganized: labels.png only)");
   cmd->add_option("--json", o->json, "Write the scores per seed and in total to this JSON file");
   cmd->footer(
       "The same scores as `rangeseg synth --scene S --seed N --noise X [--camera C] -o D`, "
