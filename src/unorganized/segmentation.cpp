@@ -282,9 +282,14 @@ void merge_planes(const PointRings& rings, const SegmentationSettings& s,
   }
 }
 
+/// Rounds of `reassign`: a hole that growth left in a noisy far surface fills from its border
+/// inwards, one ring per round (as the grid's border refinement, up to 8 rounds).
+constexpr int kReassignRounds = 8;
+
 /// Unlabelled points with a plane segment in their ring join the closest such plane within
 /// max_distance_sigmas sigma(r) and reassign_max_normal_angle, widened like the growth test's
-/// angle where the ring's normals are noisier (one pass; the new labels do not spread further).
+/// angle where the ring's normals are noisier; repeated on the points next to those that
+/// joined (the planes are not refitted between rounds).
 void reassign(const PointRings& rings, const Points& pts, const SegmentationSettings& s,
               std::vector<std::int32_t>& labels, const std::vector<detail::PlaneStats>& stats) {
   std::vector<detail::PlaneFit> fits(stats.size());
@@ -294,30 +299,34 @@ void reassign(const PointRings& rings, const Points& pts, const SegmentationSett
   const double cos_normal = std::cos(s.reassign_max_normal_angle);
   const std::vector<float>& cos_noise = pts.cos_angle;
   std::vector<std::pair<std::size_t, std::int32_t>> moves;
-  for (std::size_t i = 0; i < labels.size(); ++i) {
-    if (labels[i] != 0 || rings.count[i] == 0) continue;
-    const float* p = pts.point(i);
-    const float* n = pts.normal(i);
-    double best = s.max_distance_sigmas * pts.sigma[i];
-    std::int32_t choice = 0;
-    for (const std::int32_t j : rings.ring(i)) {
-      const std::int32_t l = labels[static_cast<std::size_t>(j)];
-      if (l <= 0 || !fits[static_cast<std::size_t>(l)].ok) continue;
-      const detail::PlaneFit& f = fits[static_cast<std::size_t>(l)];
-      if (pts.has_normal(i) &&
-          std::fabs(f.normal[0] * n[0] + f.normal[1] * n[1] + f.normal[2] * n[2]) <
-              std::min(cos_normal, double{cos_noise[i]})) {
-        continue;
+  for (int round = 0; round < kReassignRounds; ++round) {
+    moves.clear();
+    for (std::size_t i = 0; i < labels.size(); ++i) {
+      if (labels[i] != 0 || rings.count[i] == 0) continue;
+      const float* p = pts.point(i);
+      const float* n = pts.normal(i);
+      double best = s.max_distance_sigmas * pts.sigma[i];
+      std::int32_t choice = 0;
+      for (const std::int32_t j : rings.ring(i)) {
+        const std::int32_t l = labels[static_cast<std::size_t>(j)];
+        if (l <= 0 || !fits[static_cast<std::size_t>(l)].ok) continue;
+        const detail::PlaneFit& f = fits[static_cast<std::size_t>(l)];
+        if (pts.has_normal(i) &&
+            std::fabs(f.normal[0] * n[0] + f.normal[1] * n[1] + f.normal[2] * n[2]) <
+                std::min(cos_normal, double{cos_noise[i]})) {
+          continue;
+        }
+        const double distance = std::fabs(f.distance(p[0], p[1], p[2]));
+        if (distance <= best) {
+          best = distance;
+          choice = l;
+        }
       }
-      const double distance = std::fabs(f.distance(p[0], p[1], p[2]));
-      if (distance <= best) {
-        best = distance;
-        choice = l;
-      }
+      if (choice != 0) moves.emplace_back(i, choice);
     }
-    if (choice != 0) moves.emplace_back(i, choice);
+    for (const auto& [i, l] : moves) labels[i] = l;
+    if (moves.empty()) break;
   }
-  for (const auto& [i, l] : moves) labels[i] = l;
 }
 
 }  // namespace
