@@ -90,10 +90,19 @@ void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
     build_rings(cloud, settings_.rings, rings_);
   }
   times_.mesh = ms_since(t);
-  compute_normals(cloud, rings_, settings_.normals, raw_normals_);
+  if (pool != nullptr) {
+    compute_normals(cloud, rings_, settings_.normals, raw_normals_, *pool);
+  } else {
+    compute_normals(cloud, rings_, settings_.normals, raw_normals_);
+  }
   times_.normals = ms_since(t);
   if (settings_.smooth) {
-    smooth(cloud, rings_, raw_normals_, settings_.smoothing, smoothed_cloud_, smoothed_normals_);
+    if (pool != nullptr) {
+      smooth(cloud, rings_, raw_normals_, settings_.smoothing, smoothed_cloud_, smoothed_normals_,
+             *pool);
+    } else {
+      smooth(cloud, rings_, raw_normals_, settings_.smoothing, smoothed_cloud_, smoothed_normals_);
+    }
     times_.smoothing = ms_since(t);
   }
   if (settings_.segment) {

@@ -85,6 +85,9 @@ inline PointRings build_rings(const OrganizedCloud& cloud, const RingSettings& s
 /// Throws std::invalid_argument when the rings were built for a cloud of another size.
 void compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
                      const NormalSettings& settings, NormalMap& out);
+/// As above, with the points split over `pool.threads()` threads (the same result).
+void compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
+                     const NormalSettings& settings, NormalMap& out, ThreadPool& pool);
 inline NormalMap compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
                                  const NormalSettings& settings = {}) {
   NormalMap out;
@@ -107,6 +110,10 @@ double point_area(const OrganizedCloud& cloud, const PointRings& rings, std::siz
 /// object is the corresponding input.
 void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
             const SmoothingSettings& settings, OrganizedCloud& out_cloud, NormalMap& out_normals);
+/// As above, with the points split over `pool.threads()` threads (the same result).
+void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
+            const SmoothingSettings& settings, OrganizedCloud& out_cloud, NormalMap& out_normals,
+            ThreadPool& pool);
 
 /// Stage 4 over the rings, for RegionModel::plane and RegionModel::smooth. Seeds are taken in
 /// ascending curvature; a region grows over the rings with the model's tests as on the grid.

@@ -7,6 +7,7 @@
 
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/image.hpp"
+#include "rangeseg/thread_pool.hpp"
 #include "rangeseg/unorganized.hpp"
 
 namespace rangeseg::unorganized {
@@ -31,6 +32,19 @@ void pack_points(const OrganizedCloud& cloud, std::vector<float>& xyz);
 /// the cloud's size.
 void require_rings_match(const OrganizedCloud& cloud, const PointRings& rings,
                          const NormalMap* normals, const char* what);
+
+/// Calls fn(begin, end) on disjoint ranges covering points [0, count): on the pool's threads
+/// when given, else once.
+template <class F>
+void for_points(std::size_t count, ThreadPool* pool, F&& fn) {
+  if (pool == nullptr || pool->threads() < 2) {
+    fn(std::size_t{0}, count);
+    return;
+  }
+  pool->for_each_band(static_cast<int>(count), 1, [&](int, int begin, int end) {
+    fn(static_cast<std::size_t>(begin), static_cast<std::size_t>(end));
+  });
+}
 
 inline float squared_distance(const float* a, const float* b) {
   const float dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];

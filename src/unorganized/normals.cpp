@@ -109,8 +109,10 @@ RingNormal ring_normal(const float* xyz, std::size_t i, std::span<const std::int
 
 }  // namespace
 
-void compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
-                     const NormalSettings& settings, NormalMap& out) {
+namespace {
+
+void normals_over_rings(const OrganizedCloud& cloud, const PointRings& rings,
+                        const NormalSettings& settings, NormalMap& out, ThreadPool* pool) {
   unorganized::require_rings_match(cloud, rings, nullptr, "compute_normals");
   const int w = cloud.width(), h = cloud.height();
   out.nx.resize(w, h, NAN);
@@ -119,14 +121,28 @@ void compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
   out.curvature.resize(w, h, NAN);
   std::vector<float> xyz;
   unorganized::pack_points(cloud, xyz);
-  for (std::size_t i = 0; i < rings.size(); ++i) {
-    if (rings.count[i] == 0) continue;
-    const RingNormal r = ring_normal(xyz.data(), i, rings.ring(i), settings.viewpoint);
-    unorganized::at(out.nx, i) = r.n[0];
-    unorganized::at(out.ny, i) = r.n[1];
-    unorganized::at(out.nz, i) = r.n[2];
-    unorganized::at(out.curvature, i) = r.curvature;
-  }
+  unorganized::for_points(rings.size(), pool, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      if (rings.count[i] == 0) continue;
+      const RingNormal r = ring_normal(xyz.data(), i, rings.ring(i), settings.viewpoint);
+      unorganized::at(out.nx, i) = r.n[0];
+      unorganized::at(out.ny, i) = r.n[1];
+      unorganized::at(out.nz, i) = r.n[2];
+      unorganized::at(out.curvature, i) = r.curvature;
+    }
+  });
+}
+
+}  // namespace
+
+void compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
+                     const NormalSettings& settings, NormalMap& out) {
+  normals_over_rings(cloud, rings, settings, out, nullptr);
+}
+
+void compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
+                     const NormalSettings& settings, NormalMap& out, ThreadPool& pool) {
+  normals_over_rings(cloud, rings, settings, out, &pool);
 }
 
 double point_area(const OrganizedCloud& cloud, const PointRings& rings, std::size_t i) {

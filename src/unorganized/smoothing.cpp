@@ -45,86 +45,96 @@ std::vector<float> grey_values(const OrganizedCloud& cloud, const SmoothingSetti
 
 void one_pass(const PointRings& rings, const SmoothingSettings& s, const std::vector<float>& grey,
               float inv_intensity, const std::vector<float>& xyz, const std::vector<float>& n,
-              std::vector<Scales>& scales, std::vector<float>& xyz_out, std::vector<float>& n_out) {
+              std::vector<Scales>& scales, std::vector<float>& xyz_out, std::vector<float>& n_out,
+              ThreadPool* pool) {
   const std::size_t count = rings.size();
   const float ds2 = s.distance_scale * s.distance_scale;
-  for (std::size_t i = 0; i < count; ++i) {
-    if (rings.count[i] == 0) continue;
-    const float* p = xyz.data() + 3 * i;
-    double msd = 0;
-    for (const std::int32_t j : rings.ring(i)) {
-      msd += unorganized::squared_distance(p, xyz.data() + 3 * static_cast<std::size_t>(j));
+  unorganized::for_points(count, pool, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      if (rings.count[i] == 0) continue;
+      const float* p = xyz.data() + 3 * i;
+      double msd = 0;
+      for (const std::int32_t j : rings.ring(i)) {
+        msd += unorganized::squared_distance(p, xyz.data() + 3 * static_cast<std::size_t>(j));
+      }
+      msd /= rings.count[i];
+      const float rx = p[0] - s.viewpoint[0], ry = p[1] - s.viewpoint[1],
+                  rz = p[2] - s.viewpoint[2];
+      const double sigma =
+          s.noise.sigma(std::sqrt(double{rx} * rx + double{ry} * ry + double{rz} * rz));
+      scales[i].inv_distance = msd > 0 ? static_cast<float>(1.0 / (2.0 * ds2 * msd)) : 0.0f;
+      const double spread = msd > 0 ? std::max(1.0, sigma / std::sqrt(msd)) : 1.0;
+      scales[i].inv_normal = static_cast<float>(1.0 / (s.normal_scale * spread));
     }
-    msd /= rings.count[i];
-    const float rx = p[0] - s.viewpoint[0], ry = p[1] - s.viewpoint[1], rz = p[2] - s.viewpoint[2];
-    const double sigma =
-        s.noise.sigma(std::sqrt(double{rx} * rx + double{ry} * ry + double{rz} * rz));
-    scales[i].inv_distance = msd > 0 ? static_cast<float>(1.0 / (2.0 * ds2 * msd)) : 0.0f;
-    const double spread = msd > 0 ? std::max(1.0, sigma / std::sqrt(msd)) : 1.0;
-    scales[i].inv_normal = static_cast<float>(1.0 / (s.normal_scale * spread));
-  }
+  });
   xyz_out = xyz;
   n_out = n;
-  for (std::size_t i = 0; i < count; ++i) {
-    if (rings.count[i] == 0) continue;
-    const float* p = xyz.data() + 3 * i;
-    const float* ni = n.data() + 3 * i;
-    const bool normal_i = !std::isnan(ni[0]);
-    if (s.use_normals && !normal_i) continue;  // keeps its point, as on the grid
-    double sp[3] = {p[0], p[1], p[2]}, sn[3] = {ni[0], ni[1], ni[2]};
-    double total = 1.0;
-    for (const std::int32_t jj : rings.ring(i)) {
-      const auto j = static_cast<std::size_t>(jj);
-      const float* q = xyz.data() + 3 * j;
-      const float* nj = n.data() + 3 * j;
-      float exponent = 0;
-      if (s.use_distance) {
-        exponent += unorganized::squared_distance(p, q) * 0.5f *
-                    (scales[i].inv_distance + scales[j].inv_distance);
+  unorganized::for_points(count, pool, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      if (rings.count[i] == 0) continue;
+      const float* p = xyz.data() + 3 * i;
+      const float* ni = n.data() + 3 * i;
+      const bool normal_i = !std::isnan(ni[0]);
+      if (s.use_normals && !normal_i) continue;  // keeps its point, as on the grid
+      double sp[3] = {p[0], p[1], p[2]}, sn[3] = {ni[0], ni[1], ni[2]};
+      double total = 1.0;
+      for (const std::int32_t jj : rings.ring(i)) {
+        const auto j = static_cast<std::size_t>(jj);
+        const float* q = xyz.data() + 3 * j;
+        const float* nj = n.data() + 3 * j;
+        float exponent = 0;
+        if (s.use_distance) {
+          exponent += unorganized::squared_distance(p, q) * 0.5f *
+                      (scales[i].inv_distance + scales[j].inv_distance);
+        }
+        if (s.use_normals) {
+          if (std::isnan(nj[0])) continue;
+          const float l1 =
+              std::fabs(ni[0] - nj[0]) + std::fabs(ni[1] - nj[1]) + std::fabs(ni[2] - nj[2]);
+          exponent += l1 * 0.5f * (scales[i].inv_normal + scales[j].inv_normal);
+        }
+        if (!grey.empty()) exponent += std::fabs(grey[i] - grey[j]) * inv_intensity;
+        if (!(exponent < 30.0f)) continue;
+        const double wij = std::exp(-exponent);
+        total += wij;
+        for (int c = 0; c < 3; ++c) sp[c] += wij * q[c];
+        if (normal_i && !std::isnan(nj[0])) {
+          for (int c = 0; c < 3; ++c) sn[c] += wij * nj[c];
+        }
       }
-      if (s.use_normals) {
-        if (std::isnan(nj[0])) continue;
-        const float l1 =
-            std::fabs(ni[0] - nj[0]) + std::fabs(ni[1] - nj[1]) + std::fabs(ni[2] - nj[2]);
-        exponent += l1 * 0.5f * (scales[i].inv_normal + scales[j].inv_normal);
+      for (double& c : sp) c /= total;
+      float* po = xyz_out.data() + 3 * i;
+      if (s.move_along_ray) {
+        // The weighted mean projected onto the viewing ray through p.
+        const double r[3] = {double{p[0]} - s.viewpoint[0], double{p[1]} - s.viewpoint[1],
+                             double{p[2]} - s.viewpoint[2]};
+        const double r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+        const double t = r2 > 0
+                             ? ((sp[0] - s.viewpoint[0]) * r[0] + (sp[1] - s.viewpoint[1]) * r[1] +
+                                (sp[2] - s.viewpoint[2]) * r[2]) /
+                                   r2
+                             : 1.0;
+        for (int c = 0; c < 3; ++c) po[c] = static_cast<float>(s.viewpoint[c] + t * r[c]);
+      } else {
+        for (int c = 0; c < 3; ++c) po[c] = static_cast<float>(sp[c]);
       }
-      if (!grey.empty()) exponent += std::fabs(grey[i] - grey[j]) * inv_intensity;
-      if (!(exponent < 30.0f)) continue;
-      const double wij = std::exp(-double{exponent});
-      total += wij;
-      for (int c = 0; c < 3; ++c) sp[c] += wij * q[c];
-      if (normal_i && !std::isnan(nj[0])) {
-        for (int c = 0; c < 3; ++c) sn[c] += wij * nj[c];
+      if (normal_i) {
+        const double norm = std::sqrt(sn[0] * sn[0] + sn[1] * sn[1] + sn[2] * sn[2]);
+        if (norm > 0) {
+          for (int c = 0; c < 3; ++c) n_out[3 * i + c] = static_cast<float>(sn[c] / norm);
+        }
       }
     }
-    for (double& c : sp) c /= total;
-    float* po = xyz_out.data() + 3 * i;
-    if (s.move_along_ray) {
-      // The weighted mean projected onto the viewing ray through p.
-      const double r[3] = {double{p[0]} - s.viewpoint[0], double{p[1]} - s.viewpoint[1],
-                           double{p[2]} - s.viewpoint[2]};
-      const double r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-      const double t = r2 > 0 ? ((sp[0] - s.viewpoint[0]) * r[0] + (sp[1] - s.viewpoint[1]) * r[1] +
-                                 (sp[2] - s.viewpoint[2]) * r[2]) /
-                                    r2
-                              : 1.0;
-      for (int c = 0; c < 3; ++c) po[c] = static_cast<float>(s.viewpoint[c] + t * r[c]);
-    } else {
-      for (int c = 0; c < 3; ++c) po[c] = static_cast<float>(sp[c]);
-    }
-    if (normal_i) {
-      const double norm = std::sqrt(sn[0] * sn[0] + sn[1] * sn[1] + sn[2] * sn[2]);
-      if (norm > 0) {
-        for (int c = 0; c < 3; ++c) n_out[3 * i + c] = static_cast<float>(sn[c] / norm);
-      }
-    }
-  }
+  });
 }
 
 }  // namespace
 
-void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
-            const SmoothingSettings& settings, OrganizedCloud& out_cloud, NormalMap& out_normals) {
+namespace {
+
+void smooth_over_rings(const OrganizedCloud& cloud, const PointRings& rings,
+                       const NormalMap& normals, const SmoothingSettings& settings,
+                       OrganizedCloud& out_cloud, NormalMap& out_normals, ThreadPool* pool) {
   validate(settings);
   unorganized::require_rings_match(cloud, rings, &normals, "smooth");
   if (&out_cloud == &cloud || &out_normals == &normals) {
@@ -143,7 +153,7 @@ void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMa
   std::vector<Scales> scales(cloud.size());
   std::vector<float> xyz_next, n_next;
   for (int pass = 0; pass < settings.iterations; ++pass) {
-    one_pass(rings, settings, grey, inv_intensity, xyz, n, scales, xyz_next, n_next);
+    one_pass(rings, settings, grey, inv_intensity, xyz, n, scales, xyz_next, n_next, pool);
     xyz.swap(xyz_next);
     n.swap(n_next);
   }
@@ -158,6 +168,19 @@ void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMa
     at(out_normals.ny, i) = n[3 * i + 1];
     at(out_normals.nz, i) = n[3 * i + 2];
   }
+}
+
+}  // namespace
+
+void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
+            const SmoothingSettings& settings, OrganizedCloud& out_cloud, NormalMap& out_normals) {
+  smooth_over_rings(cloud, rings, normals, settings, out_cloud, out_normals, nullptr);
+}
+
+void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
+            const SmoothingSettings& settings, OrganizedCloud& out_cloud, NormalMap& out_normals,
+            ThreadPool& pool) {
+  smooth_over_rings(cloud, rings, normals, settings, out_cloud, out_normals, &pool);
 }
 
 }  // namespace rangeseg
