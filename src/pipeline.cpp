@@ -67,6 +67,7 @@ Pipeline::Pipeline(const PipelineSettings& settings)
     throw std::invalid_argument("PipelineSettings::threads = " + std::to_string(settings.threads) +
                                 " must be in [1, 256]");
   }
+  validate(settings.rings);
   if (settings.threads > 1) pool_ = std::make_unique<ThreadPool>(settings.threads);
 }
 

@@ -418,9 +418,19 @@ TEST(ThreadPoolTest, KeepAwakeKeepsIdleWorkersSpinning) {
   EXPECT_EQ(bands.load(), 8);
 }
 
-TEST(Pipeline, RejectsUnorganizedClouds) {
+TEST(Pipeline, UnorganizedCloudsTakeTheRingPathWithPlaneAndSmoothModelsOnly) {
   Pipeline pipeline;
-  EXPECT_THROW(pipeline.process(OrganizedCloud(100, 1)), std::invalid_argument);
+  pipeline.process(OrganizedCloud(100, 1));  // no valid point: no segment
+  EXPECT_TRUE(pipeline.segmentation().segments.empty());
+  EXPECT_EQ(pipeline.rings().size(), 100u);
+  EXPECT_EQ(pipeline.mesh().width(), 0);
+  PipelineSettings automatic;
+  automatic.segmentation.model = RegionModel::automatic;
+  Pipeline auto_pipeline(automatic);
+  EXPECT_THROW(auto_pipeline.process(OrganizedCloud(100, 1)), std::invalid_argument);
+  PipelineSettings bad_rings;
+  bad_rings.rings.k = 1;
+  EXPECT_THROW(Pipeline{bad_rings}, std::invalid_argument);
   EXPECT_THROW(pipeline_preset("no-such-sensor"), std::invalid_argument);
 }
 

@@ -29,6 +29,7 @@ struct FrameResult {
   std::string preset;
   StageTimes times;
   std::size_t segments = 0;
+  bool organized = true;
 };
 
 /// A worker's pipelines, one per preset its frames need (with --preset auto a folder may mix
@@ -47,19 +48,10 @@ class WorkerPipelines {
   std::map<std::string, std::unique_ptr<Pipeline>> by_preset_;
 };
 
-constexpr const char* kStages[] = {"mesh",         "normals",  "smoothing",
+/// Every stage name in the order of summary.json: an organized frame has no rings, an
+/// unorganized one no mesh and no polygons.
+constexpr const char* kStages[] = {"mesh",         "rings",    "normals", "smoothing",
                                    "segmentation", "polygons", "total"};
-
-double stage_time(const StageTimes& t, int stage) {
-  const double values[] = {t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons, t.total};
-  return values[stage];
-}
-
-nlohmann::json times_json(const StageTimes& t) {
-  nlohmann::json j;
-  for (int s = 0; s < 6; ++s) j[kStages[s]] = stage_time(t, s);
-  return j;
-}
 
 /// Loads, segments and writes one frame; every failure is caught and returned as the reason.
 FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options,
@@ -73,12 +65,14 @@ FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options
     const LoadedInput in = load_input(o);
     r.preset = resolve_preset(preset, in.sensor_preset);
     Pipeline& pipeline = pipelines(r.preset);
+    require_model_for(in.cloud, pipeline.settings(), frame.path);
     pipeline.process(in.cloud);
     write_segmentation_folder((std::filesystem::path(options.out_dir) / frame.name).string(),
                               in.cloud, pipeline, options.write_mesh);
     r.ok = true;
     r.times = pipeline.times();
     r.segments = pipeline.segmentation().segments.size();
+    r.organized = in.cloud.is_organized();
   } catch (const std::exception& e) {
     r.error = e.what();
   } catch (...) {
@@ -103,6 +97,16 @@ void keep_freed_memory_for_reuse() {
 }
 
 }  // namespace
+
+std::vector<StageTime> stage_times(const StageTimes& t, bool organized) {
+  std::vector<StageTime> stages{{organized ? "mesh" : "rings", t.mesh},
+                                {"normals", t.normals},
+                                {"smoothing", t.smoothing},
+                                {"segmentation", t.segmentation}};
+  if (organized) stages.push_back({"polygons", t.polygons});
+  stages.push_back({"total", t.total});
+  return stages;
+}
 
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -151,7 +155,7 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   bar.finish();
 
-  std::vector<std::vector<double>> per_stage(6);
+  std::map<std::string, std::vector<double>> per_stage;
   nlohmann::json frames = nlohmann::json::array(), failures = nlohmann::json::array();
   std::size_t ok = 0;
   for (std::size_t i = 0; i < n; ++i) {
@@ -159,22 +163,28 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
     const FrameResult& r = results[i];
     if (r.ok) {
       ++ok;
-      for (int s = 0; s < 6; ++s) {
-        per_stage[static_cast<std::size_t>(s)].push_back(stage_time(r.times, s));
+      nlohmann::json ms;
+      for (const StageTime& s : stage_times(r.times, r.organized)) {
+        per_stage[s.name].push_back(s.ms);
+        ms[s.name] = s.ms;
       }
       frames.push_back({{"name", f.name},
                         {"input", f.path},
                         {"ok", true},
+                        {"organized", r.organized},
                         {"preset", r.preset},
                         {"segments", r.segments},
-                        {"ms", times_json(r.times)}});
+                        {"ms", ms}});
     } else {
       frames.push_back({{"name", f.name}, {"input", f.path}, {"ok", false}, {"error", r.error}});
       failures.push_back({{"name", f.name}, {"input", f.path}, {"error", r.error}});
     }
   }
-  nlohmann::json medians;
-  for (int s = 0; s < 6; ++s) medians[kStages[s]] = median(per_stage[static_cast<std::size_t>(s)]);
+  // Medians of the stages the frames ran (mesh over the organized ones, rings over the others).
+  nlohmann::json medians = nlohmann::json::object();
+  for (const char* stage : kStages) {
+    if (per_stage.contains(stage)) medians[stage] = median(per_stage[stage]);
+  }
   const nlohmann::json summary{
       {"frames", n},
       {"succeeded", ok},
@@ -192,10 +202,13 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
               summary["frames_per_second"].get<double>());
   if (ok > 0) {
     std::printf("median per frame:");
-    for (int s = 0; s < 6; ++s) {
-      std::printf(" %s %.2f ms%s", kStages[s], medians[kStages[s]].get<double>(),
-                  s < 5 ? "," : "\n");
+    const char* separator = " ";
+    for (const char* stage : kStages) {
+      if (!medians.contains(stage)) continue;
+      std::printf("%s%s %.2f ms", separator, stage, medians[stage].get<double>());
+      separator = ", ";
     }
+    std::printf("\n");
   }
   for (const auto& f : failures) std::printf("failed: %s\n", f["error"].get<std::string>().c_str());
   std::printf("results in %s/<frame>/, summary in %s\n", out_dir.string().c_str(),

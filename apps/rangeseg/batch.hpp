@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "input.hpp"
 #include "rangeseg/pipeline.hpp"
@@ -26,12 +27,25 @@ struct BatchOptions {
 
 /// Segments every frame into `out_dir/<name>/`, skipping (and reporting on stderr) frames that
 /// cannot be read or processed; shows progress on stderr, prints a summary on stdout and writes
-/// it to `out_dir/summary.json` (with each frame's preset). Results do not depend on `threads`.
+/// it to `out_dir/summary.json` (with each frame's preset and whether it was organized; the
+/// stage medians are over the frames that ran the stage: `mesh` over the organized ones, `rings`
+/// over the unorganized ones). Results do not depend on `threads`.
 /// Returns the number of frames that succeeded. Throws std::runtime_error only if `out_dir`
 /// cannot be created or the summary cannot be written, and std::invalid_argument for invalid
 /// settings (before any frame is read).
 std::size_t segment_batch(const FrameList& frames, const BatchSettings& settings,
                           const BatchOptions& options);
+
+/// A stage's name and time [ms].
+struct StageTime {
+  const char* name;
+  double ms;
+};
+
+/// The stages a frame ran, with their times: mesh (organized) or rings (unorganized: the
+/// k-nearest-neighbour rings, StageTimes::mesh), normals, smoothing, segmentation, polygons
+/// (organized only) and total.
+std::vector<StageTime> stage_times(const StageTimes& times, bool organized);
 
 /// Median of `values` (0 for none); the mean of the two middle values for an even count.
 double median(std::vector<double> values);

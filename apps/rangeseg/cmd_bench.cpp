@@ -30,15 +30,15 @@ struct BenchOptions {
   int threads = 1;
 };
 
-constexpr const char* kStages[] = {"mesh",         "normals",  "smoothing",
-                                   "segmentation", "polygons", "total"};
-
 struct SizeResult {
   int scale = 1, width = 0, height = 0;
-  double median_ms[6] = {};
-  double fps_single = 0;       ///< frames/s of the timed single-thread runs
-  double fps_threads = 0;      ///< frames/s of `threads` pipelines in parallel (0 if threads == 1)
-  double in_frame_ms[6] = {};  ///< medians with `threads` threads inside each frame
+  std::vector<StageTime> median_ms;  ///< per stage (stage_times: rings for unorganized input)
+  double fps_single = 0;             ///< frames/s of the timed single-thread runs
+  double fps_threads = 0;  ///< frames/s of `threads` pipelines in parallel (0 if threads == 1)
+  std::vector<StageTime> in_frame_ms;  ///< medians with `threads` threads inside each frame
+
+  double total_ms() const { return median_ms.back().ms; }
+  double in_frame_total_ms() const { return in_frame_ms.back().ms; }
 };
 
 using Clock = std::chrono::steady_clock;
@@ -47,24 +47,22 @@ double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-/// Per-stage medians of one pipeline over `repeat` runs, then (threads > 1) the frame rate of
-/// `threads` pipelines sharing repeat * threads frames.
 /// Per-stage medians over `repeat` frames (after one warm-up frame) into `medians`; returns the
 /// frames per second of the timed runs.
 double time_stages(const OrganizedCloud& cloud, const PipelineSettings& settings, int repeat,
-                   double (&medians)[6]) {
+                   std::vector<StageTime>& medians) {
   Pipeline pipeline(settings);
   pipeline.process(cloud);  // warm-up: buffers are allocated here
-  std::vector<std::vector<double>> times(6);
+  medians = stage_times(pipeline.times(), cloud.is_organized());
+  std::vector<std::vector<double>> times(medians.size());
   const Clock::time_point start = Clock::now();
   for (int i = 0; i < repeat; ++i) {
     pipeline.process(cloud);
-    const StageTimes& t = pipeline.times();
-    const double values[] = {t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons, t.total};
-    for (int s = 0; s < 6; ++s) times[static_cast<std::size_t>(s)].push_back(values[s]);
+    const std::vector<StageTime> stages = stage_times(pipeline.times(), cloud.is_organized());
+    for (std::size_t s = 0; s < stages.size(); ++s) times[s].push_back(stages[s].ms);
   }
   const double fps = repeat / seconds_since(start);
-  for (int s = 0; s < 6; ++s) medians[s] = median(times[static_cast<std::size_t>(s)]);
+  for (std::size_t s = 0; s < medians.size(); ++s) medians[s].ms = median(times[s]);
   return fps;
 }
 
@@ -129,7 +127,7 @@ std::vector<int> scales_for(const BenchOptions& o, int w, int h) {
 
 nlohmann::json stages_json(const SizeResult& r) {
   nlohmann::json j;
-  for (int s = 0; s < 6; ++s) j[kStages[s]] = r.median_ms[s];
+  for (const StageTime& s : r.median_ms) j[s.name] = s.ms;
   return j;
 }
 
@@ -149,8 +147,8 @@ void add_bench(CLI::App& app) {
   auto* sizes = cmd->add_option(
       "--sizes", o->sizes,
       "Comma-separated sizes WxH to time, made by taking every k-th pixel of the input "
-      "(e.g. 160x120,320x240,640x480); --json then prints {\"sizes\": [{size, width, height, "
-      "scale, <stage>..., frames_per_second}]}");
+      "(e.g. 160x120,320x240,640x480; organized inputs only); --json then prints {\"sizes\": "
+      "[{size, width, height, scale, <stage>..., frames_per_second}]}");
   cmd->add_option("--scales", o->scales,
                   "Like --sizes, as pixel steps k (e.g. 4,2,1 = every 4th, 2nd, every pixel)")
       ->delimiter(',')
@@ -169,6 +167,12 @@ void add_bench(CLI::App& app) {
     // One smoothing iteration is the unit the stage is measured in.
     settings.smoothing.iterations = 1;
     const bool multi_size = !o->sizes.empty() || !o->scales.empty();
+    if (multi_size && !in.cloud.is_organized()) {
+      throw std::invalid_argument(o->in.path +
+                                  ": --sizes and --scales take every k-th pixel of the grid, "
+                                  "which an unorganized cloud (height 1) does not have");
+    }
+    require_model_for(in.cloud, settings, o->in.path);
     std::vector<SizeResult> results;
     for (const int k : scales_for(*o, in.cloud.width(), in.cloud.height())) {
       PipelineSettings scaled = settings;
@@ -188,26 +192,30 @@ void add_bench(CLI::App& app) {
         result["frames_per_second"] = r.fps_threads;
         result["frames_per_second_single_thread"] = r.fps_single;
         nlohmann::json in_frame;
-        for (int s = 0; s < 6; ++s) in_frame[kStages[s]] = r.in_frame_ms[s];
+        for (const StageTime& s : r.in_frame_ms) in_frame[s.name] = s.ms;
         result["in_frame"] = in_frame;
-        result["in_frame_speedup"] = r.median_ms[5] / r.in_frame_ms[5];
+        result["in_frame_speedup"] = r.total_ms() / r.in_frame_total_ms();
       }
       if (o->json) {
         std::printf("%s\n", result.dump().c_str());
         return;
       }
-      std::printf("%s: %d x %d, median of %d runs, single thread\n", o->in.path.c_str(),
-                  in.cloud.width(), in.cloud.height(), o->repeat);
-      for (int s = 0; s < 6; ++s) {
-        std::printf("  %-13s %8.3f ms", kStages[s], r.median_ms[s]);
+      const std::string size =
+          in.cloud.is_organized()
+              ? std::to_string(in.cloud.width()) + " x " + std::to_string(in.cloud.height())
+              : std::to_string(in.cloud.size()) + " points (unorganized)";
+      std::printf("%s: %s, median of %d runs, single thread\n", o->in.path.c_str(), size.c_str(),
+                  o->repeat);
+      for (std::size_t s = 0; s < r.median_ms.size(); ++s) {
+        std::printf("  %-13s %8.3f ms", r.median_ms[s].name, r.median_ms[s].ms);
         if (o->threads > 1) {
-          std::printf("   %8.3f ms with %d threads in the frame", r.in_frame_ms[s], o->threads);
+          std::printf("   %8.3f ms with %d threads in the frame", r.in_frame_ms[s].ms, o->threads);
         }
         std::printf("\n");
       }
       if (o->threads > 1) {
         std::printf("  in-frame      x%.2f faster with %d threads\n",
-                    r.median_ms[5] / r.in_frame_ms[5], o->threads);
+                    r.total_ms() / r.in_frame_total_ms(), o->threads);
         std::printf("  throughput    %8.1f frames/s with %d threads (%.1f with one, x%.2f)\n",
                     r.fps_threads, o->threads, r.fps_single, r.fps_threads / r.fps_single);
       }
@@ -225,7 +233,7 @@ void add_bench(CLI::App& app) {
         j["frames_per_second"] = r.fps_single;
         if (o->threads > 1) {
           j["frames_per_second_threads"] = r.fps_threads;
-          j["in_frame_total_ms"] = r.in_frame_ms[5];
+          j["in_frame_total_ms"] = r.in_frame_total_ms();
         }
         list.push_back(std::move(j));
       }
@@ -241,7 +249,7 @@ void add_bench(CLI::App& app) {
                 o->repeat,
                 o->threads > 1 ? "; frames/s with one thread and in parallel" : "; frames/s");
     std::printf("%-9s", "size");
-    for (const char* stage : kStages) std::printf(" %12s", stage);
+    for (const StageTime& s : results.front().median_ms) std::printf(" %12s", s.name);
     std::printf(" %10s", "frames/s");
     const std::string n = std::to_string(o->threads);
     if (o->threads > 1) {
@@ -250,9 +258,9 @@ void add_bench(CLI::App& app) {
     std::printf("\n");
     for (const SizeResult& r : results) {
       std::printf("%-9s", (std::to_string(r.width) + "x" + std::to_string(r.height)).c_str());
-      for (const double ms : r.median_ms) std::printf(" %12.3f", ms);
+      for (const StageTime& s : r.median_ms) std::printf(" %12.3f", s.ms);
       std::printf(" %10.1f", r.fps_single);
-      if (o->threads > 1) std::printf(" %14.1f %18.3f", r.fps_threads, r.in_frame_ms[5]);
+      if (o->threads > 1) std::printf(" %14.1f %18.3f", r.fps_threads, r.in_frame_total_ms());
       std::printf("\n");
     }
   });

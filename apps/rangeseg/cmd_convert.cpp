@@ -34,7 +34,7 @@ void convert(const ConvertOptions& o) {
   if (ext == ".pcd") {
     io::write_pcd(o.out, in.cloud, {.encoding = parse_encoding(o.encoding)});
   } else if (ext == ".png") {
-    require_organized(in.cloud, "convert to depth PNG");
+    require_grid(in.cloud, o.in.path, "a depth PNG", "convert it to .pcd or .ply");
     io::write_depth_png(o.out, cloud_to_depth(in.cloud, o.in.depth_scale).view());
   } else if (ext == ".ply") {
     io::PlyMesh ply;  // points only; `rangeseg mesh` writes faces

@@ -78,6 +78,8 @@ void run_demo(const DemoOptions& o) {
                   {.encoding = io::PcdEncoding::binary_compressed});
   } else {
     in = load_input(o.in);
+    require_grid(in.cloud, o.in.path, "the demo (pictures of the grid)",
+                 "`rangeseg segment` segments it (segments.json and a labelled cloud.pcd)");
   }
   PipelineSettings settings = pipeline_preset(resolve_preset(o.preset, in.sensor_preset));
   settings.segmentation.model = RegionModel::automatic;

@@ -36,6 +36,14 @@ struct GroundTruth {
   io::SegcompSensor sensor = io::SegcompSensor::abw;  ///< of a SegComp .range beside a .gt-seg
 };
 
+/// A PCD with a label field: ground truth (e.g. an OSD scene) or a segmentation (`rangeseg
+/// segment`'s cloud.pcd of an unorganized cloud).
+OrganizedCloud read_labelled_pcd(const std::string& path) {
+  OrganizedCloud cloud = io::read_pcd(path);
+  if (!cloud.has_label()) throw std::runtime_error(path + ": the PCD file has no 'label' field");
+  return cloud;
+}
+
 GroundTruth load_ground_truth(const std::string& path) {
   GroundTruth gt;
   const std::string ext = io::extension(path);
@@ -48,8 +56,7 @@ GroundTruth load_ground_truth(const std::string& path) {
   } else if (ext == ".png") {
     gt.labels = io::read_label_png(path);
   } else if (ext == ".pcd") {
-    OrganizedCloud cloud = io::read_pcd(path);
-    if (!cloud.has_label()) throw std::runtime_error(path + ": the PCD file has no 'label' field");
+    OrganizedCloud cloud = read_labelled_pcd(path);
     gt.labels = cloud.label;
     gt.cloud = std::move(cloud);
   } else {
@@ -62,6 +69,7 @@ GroundTruth load_ground_truth(const std::string& path) {
 LabelImage load_machine(const std::string& path) {
   const std::string ext = io::extension(path);
   if (ext == ".png") return io::read_label_png(path);
+  if (ext == ".pcd") return std::move(read_labelled_pcd(path).label);
   if (ext == ".ms-seg") {
     const BytePlane raw = io::read_rasterfile(path);
     LabelImage labels(raw.width(), raw.height(), 0);
@@ -71,7 +79,8 @@ LabelImage load_machine(const std::string& path) {
     return labels;
   }
   throw std::runtime_error(path + ": unsupported segmentation type '" + ext +
-                           "' (expected a 16-bit label .png or a SegComp .ms-seg)");
+                           "' (expected a 16-bit label .png, a SegComp .ms-seg or a .pcd with a "
+                           "label field)");
 }
 
 eval::AngleStats angles_for(const eval::EvalResult& r, const GroundTruth& gt,
@@ -287,7 +296,9 @@ void add_eval(CLI::App& app) {
   cmd->add_option("ground_truth", o->gt,
                   "SegComp .gt-seg, 16-bit label .png, or .pcd with a label field")
       ->required();
-  cmd->add_option("segmentation", o->pred, "16-bit label .png (e.g. labels.png) or SegComp .ms-seg")
+  cmd->add_option("segmentation", o->pred,
+                  "16-bit label .png (e.g. labels.png), SegComp .ms-seg, or .pcd with a label "
+                  "field (segment's cloud.pcd of an unorganized cloud)")
       ->required();
   cmd->add_option("--T", o->tolerance, "Overlap tolerance T, 0.5 < T <= 1")->capture_default_str();
   cmd->add_option("--cloud", o->cloud,

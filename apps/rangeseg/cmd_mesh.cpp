@@ -64,6 +64,8 @@ void add_mesh(CLI::App& app) {
     };
     mesh_settings("");  // bad options fail before the input is read
     const LoadedInput in = load_input(o->in);
+    require_grid(in.cloud, o->in.path, "a mesh",
+                 "`rangeseg smooth` writes the normals of its points");
     const Mesh mesh = build_mesh(in.cloud, mesh_settings(in.sensor_preset));
     const NormalMap normals = compute_normals(in.cloud, mesh);
     const RgbImage colours =

@@ -45,6 +45,18 @@ PipelineSettings settings_from(const std::string& preset, const std::string& mod
   return s;
 }
 
+void require_model_for(const OrganizedCloud& cloud, const PipelineSettings& settings,
+                       const std::string& path) {
+  const RegionModel model = settings.segmentation.model;
+  if (cloud.is_organized() || !settings.segment || model == RegionModel::plane ||
+      model == RegionModel::smooth) {
+    return;
+  }
+  throw std::invalid_argument(path + ": an unorganized cloud (height 1) is segmented over " +
+                              "nearest-neighbour rings, with --model plane or smooth only (not " +
+                              to_string(model) + ")");
+}
+
 std::string resolve_preset(const std::string& preset, const std::string& sensor_preset) {
   if (preset != "auto") return preset;
   return sensor_preset.empty() ? "kinect" : sensor_preset;
@@ -66,7 +78,10 @@ void add_settings_options(CLI::App& cmd, std::string& model, std::string& preset
                              : "Sensor preset: kinect, abw, laser, perceptron (SegComp Perceptron "
                                "images) or ideal (noise-free or simulated depth)")
       ->capture_default_str();
-  cmd.add_option("--config", config, "JSON file with settings overriding the preset");
+  cmd.add_option("--config", config,
+                 "JSON file with settings overriding the preset: objects noise, mesh, smoothing, "
+                 "segmentation, rings (k-nearest-neighbour rings of unorganized clouds: k, "
+                 "max_distance, eps_theta, jump_sigmas), and smooth (true/false)");
   cmd.add_flag("--no-smooth", no_smooth, "Skip the bilateral filter");
 }
 
@@ -75,7 +90,8 @@ void add_segment(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "segment",
       "Mesh, normals, smoothing and region-growing segmentation; writes labels.png, "
-      "segments.json, overlay.png and mesh.ply into a folder");
+      "segments.json, overlay.png and mesh.ply into a folder (an unorganized cloud: "
+      "segments.json and cloud.pcd)");
   cmd->add_option("input", o->inputs,
                   "Input file (.pcd, 16-bit depth .png, SegComp .range), several files, a "
                   "directory of them, or a TUM RGB-D sequence folder (with depth.txt)")
@@ -97,9 +113,12 @@ void add_segment(CLI::App& app) {
       "Several inputs, a directory or a TUM sequence run as a batch: a frame that cannot be read "
       "or processed is reported and skipped. Folders are named after the file stem (TUM: the "
       "timestamp). TUM depth PNGs default to 5000 units per metre and fx = fy = 525, cx = 319.5, "
-      "cy = 239.5.\nExit codes: 0 = done (a batch with at least one frame written; failed frames "
-      "are listed), 2 = bad arguments, unreadable single input, or no frame of a batch "
-      "succeeded.");
+      "cy = 239.5.\nAn unorganized cloud (a PCD of height 1) is segmented over the k nearest "
+      "neighbours of each point (--config \"rings\") with --model plane or smooth; its folder "
+      "holds segments.json and cloud.pcd (the processed points with normal_x normal_y normal_z "
+      "curvature, label and rgb: the label's colour).\nExit codes: 0 = done (a batch with at least "
+      "one frame written; failed frames are listed), 2 = bad arguments, unreadable single input, "
+      "or no frame of a batch succeeded.");
   cmd->callback([o] {
     const auto settings_for = [o](const std::string& preset) {
       return settings_from(preset, o->model, o->config, o->no_smooth);
@@ -119,16 +138,27 @@ void add_segment(CLI::App& app) {
     const std::string preset = resolve_preset(o->preset, in.sensor_preset);
     PipelineSettings settings = settings_for(preset);
     settings.threads = o->threads;
+    require_model_for(in.cloud, settings, o->in.path);
     Pipeline pipeline(settings);
     pipeline.process(in.cloud);
-    write_segmentation_folder(o->out_dir, in.cloud, pipeline, !o->no_mesh);
+    const std::string files =
+        write_segmentation_folder(o->out_dir, in.cloud, pipeline, !o->no_mesh);
     const StageTimes& t = pipeline.times();
+    const std::size_t segments = pipeline.segmentation().segments.size();
+    if (!in.cloud.is_organized()) {
+      std::printf(
+          "%s: %zu segments of %zu points (unorganized, %zu valid) in %.2f ms (preset %s; rings "
+          "%.2f, normals %.2f, smoothing %.2f, segmentation %.2f); wrote %s\n",
+          o->in.path.c_str(), segments, in.cloud.size(), in.cloud.count_valid(), t.total,
+          preset.c_str(), t.mesh, t.normals, t.smoothing, t.segmentation, files.c_str());
+      return;
+    }
     std::printf(
         "%s: %zu segments in %.2f ms (preset %s; mesh %.2f, normals %.2f, smoothing %.2f, "
         "segmentation %.2f, polygons %.2f; a first frame, which allocates the buffers: `rangeseg "
         "bench` times frames that reuse them)\n",
-        o->in.path.c_str(), pipeline.segmentation().segments.size(), t.total, preset.c_str(),
-        t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons);
+        o->in.path.c_str(), segments, t.total, preset.c_str(), t.mesh, t.normals, t.smoothing,
+        t.segmentation, t.polygons);
   });
 }
 

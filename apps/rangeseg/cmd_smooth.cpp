@@ -5,7 +5,6 @@
 #include "input.hpp"
 #include "names.hpp"
 #include "output.hpp"
-#include "rangeseg/io/pcd.hpp"
 
 namespace rangeseg::cli {
 namespace {
@@ -23,7 +22,9 @@ struct SmoothOptions {
 void add_smooth(CLI::App& app) {
   auto o = std::make_shared<SmoothOptions>();
   auto* cmd = app.add_subcommand(
-      "smooth", "Bilateral filter of points and normals over the mesh; writes a PCD with normals");
+      "smooth",
+      "Bilateral filter of points and normals over the mesh (an unorganized cloud: over the k "
+      "nearest neighbours of each point); writes a PCD with normals");
   add_input_options(*cmd, o->in);
   cmd->add_option("-o,--output", o->out,
                   "Output .pcd (x y z [intensity] [rgb] normal_x normal_y normal_z curvature)")
@@ -40,13 +41,7 @@ void add_smooth(CLI::App& app) {
     s.segment = false;
     Pipeline pipeline(s);
     pipeline.process(in.cloud);
-    const NormalMap& n = pipeline.normals();
-    io::write_pcd(o->out, pipeline.cloud(),
-                  {.encoding = io::PcdEncoding::binary_compressed,
-                   .extra_float_fields = {{"normal_x", &n.nx},
-                                          {"normal_y", &n.ny},
-                                          {"normal_z", &n.nz},
-                                          {"curvature", &n.curvature}}});
+    write_pcd_with_normals(o->out, pipeline.cloud(), pipeline.normals());
     progress("wrote " + o->out);
   });
 }

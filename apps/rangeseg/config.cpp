@@ -6,6 +6,7 @@
 
 #include "names.hpp"
 #include "rangeseg/io/file.hpp"
+#include "rangeseg/unorganized.hpp"
 
 namespace rangeseg::cli {
 namespace {
@@ -61,7 +62,7 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
   } catch (const json::exception& e) {
     throw std::runtime_error(path + ": not valid JSON: " + e.what());
   }
-  reject_unknown(j, {"noise", "mesh", "smoothing", "segmentation", "smooth"}, path);
+  reject_unknown(j, {"noise", "mesh", "smoothing", "segmentation", "rings", "smooth"}, path);
   take(j, "smooth", s.smooth, path);
   if (j.contains("noise")) {
     const json& m = j["noise"];
@@ -168,7 +169,21 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
     take(m, "reassign_max_normal_angle", t.reassign_max_normal_angle, where);
     take(m, "reassign_across_mesh_cuts", t.reassign_across_mesh_cuts, where);
   }
+  if (j.contains("rings")) {
+    const json& m = j["rings"];
+    const std::string where = path + " [rings]";
+    reject_unknown(m, {"k", "max_distance", "eps_theta", "jump_sigmas"}, where);
+    take(m, "k", s.rings.k, where);
+    take(m, "max_distance", s.rings.max_distance, where);
+    take(m, "eps_theta", s.rings.eps_theta, where);
+    take(m, "jump_sigmas", s.rings.jump_sigmas, where);
+  }
   validate(s.smoothing);
+  try {
+    validate(s.rings);  // Pipeline checks them only when an unorganized cloud comes
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(path + ": " + e.what());
+  }
 }
 
 }  // namespace rangeseg::cli

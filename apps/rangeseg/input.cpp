@@ -83,6 +83,14 @@ LoadedInput load_input(const InputOptions& o) {
   return in;
 }
 
+void require_grid(const OrganizedCloud& cloud, const std::string& path, const std::string& what,
+                  const std::string& instead) {
+  if (cloud.is_organized()) return;
+  throw std::runtime_error(path + ": an unorganized cloud (" + std::to_string(cloud.size()) +
+                           " points, height 1): " + what +
+                           " needs the pixel grid of an organized cloud; " + instead);
+}
+
 namespace {
 
 namespace fs = std::filesystem;

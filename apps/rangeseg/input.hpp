@@ -34,6 +34,12 @@ struct LoadedInput {
 void add_input_options(CLI::App& cmd, InputOptions& opts, bool positional = true);
 LoadedInput load_input(const InputOptions& opts);
 
+/// Throws std::runtime_error naming `path` when `cloud` is unorganized (height 1): `what` needs
+/// the pixel grid of an organized cloud (e.g. "a mesh"); `instead` suggests what works for an
+/// unorganized one.
+void require_grid(const OrganizedCloud& cloud, const std::string& path, const std::string& what,
+                  const std::string& instead);
+
 /// One frame of a batch: the file to read and the name of its result folder.
 struct FrameSource {
   std::string path;

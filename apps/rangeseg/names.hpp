@@ -28,8 +28,9 @@ void add_sensor_options(CLI::App& cmd, std::string& noise, std::string& camera);
 nlohmann::json surfaces_json(const synth::Rendering& rendering);
 
 /// Applies a JSON object {"noise": {a, b, z0}, "mesh": {...}, "smoothing": {...}, "segmentation":
-/// {...}, "smooth": bool} read from `path` on top of `settings`; unknown keys are errors naming the
-/// file and the key.
+/// {...}, "rings": {k, max_distance, eps_theta, jump_sigmas}, "smooth": bool} read from `path` on
+/// top of `settings`; unknown keys are errors naming the file and the key, and so are invalid
+/// smoothing or rings settings.
 void apply_config_file(const std::string& path, PipelineSettings& settings);
 
 }  // namespace rangeseg::cli
@@ -45,6 +46,11 @@ PipelineSettings settings_from(const std::string& preset, const std::string& mod
 /// --preset auto: the preset of the input's sensor where the file tells it (SegComp ABW and
 /// Perceptron images: abw, perceptron), else kinect. Any other name is returned unchanged.
 std::string resolve_preset(const std::string& preset, const std::string& sensor_preset);
+/// Throws std::invalid_argument naming `path` when `cloud` is unorganized (height 1) and
+/// `settings` segment it with a model the k-nearest-neighbour rings do not have (only plane and
+/// smooth: Pipeline::process).
+void require_model_for(const OrganizedCloud& cloud, const PipelineSettings& settings,
+                       const std::string& path);
 /// Help text of a --preset option that takes auto.
 extern const char* const kAutoPresetHelp;
 }  // namespace rangeseg::cli

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "rangeseg/io/file.hpp"
+#include "rangeseg/io/pcd.hpp"
 #include "rangeseg/io/ply.hpp"
 
 namespace rangeseg::cli {
@@ -49,6 +50,16 @@ void write_mesh_ply(const std::string& path, const OrganizedCloud& cloud, const 
     ply.face(&faces.indices[f]);
   }
   ply.commit();
+}
+
+void write_pcd_with_normals(const std::string& path, const OrganizedCloud& cloud,
+                            const NormalMap& normals) {
+  io::write_pcd(path, cloud,
+                {.encoding = io::PcdEncoding::binary_compressed,
+                 .extra_float_fields = {{"normal_x", &normals.nx},
+                                        {"normal_y", &normals.ny},
+                                        {"normal_z", &normals.nz},
+                                        {"curvature", &normals.curvature}}});
 }
 
 void write_json(const std::string& path, const nlohmann::json& value) {

@@ -22,6 +22,11 @@ std::filesystem::path ensure_dir(const std::string& dir);
 void write_mesh_ply(const std::string& path, const OrganizedCloud& cloud, const Mesh& mesh,
                     const NormalMap* normals, const RgbImage* colours);
 
+/// Writes `cloud` (its own fields: x y z, [intensity], [rgb], [label]) with the normals as
+/// normal_x normal_y normal_z curvature, binary_compressed, atomically (io::write_pcd).
+void write_pcd_with_normals(const std::string& path, const OrganizedCloud& cloud,
+                            const NormalMap& normals);
+
 /// Pretty-printed JSON, written atomically.
 void write_json(const std::string& path, const nlohmann::json& value);
 

@@ -69,6 +69,25 @@ nlohmann::json surface_json(const Segment& s) {
   return j;
 }
 
+/// The processed points of an unorganized frame with normals, curvature, labels and the labels'
+/// colours (colorize_labels without shading; black where there is no point).
+void write_labelled_cloud(const std::string& path, const Pipeline& pipeline) {
+  OrganizedCloud cloud = pipeline.cloud();
+  cloud.label = pipeline.segmentation().labels;
+  const RgbImage colours = colorize_labels(cloud.label);
+  cloud.add_rgb();
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      if (!cloud.valid(u, v)) continue;  // black
+      const std::uint8_t* c = colours.pixel(u, v);
+      cloud.r(u, v) = c[0];
+      cloud.g(u, v) = c[1];
+      cloud.b(u, v) = c[2];
+    }
+  }
+  write_pcd_with_normals(path, cloud, pipeline.normals());
+}
+
 }  // namespace
 
 RgbImage colorize_surface_types(const Segmentation& seg, RgbImage image) {
@@ -132,24 +151,35 @@ nlohmann::json segments_json(const Segmentation& seg, const PolygonSet* polygons
           {"segments", list}};
 }
 
-void write_segmentation_folder(const std::string& dir_name, const OrganizedCloud& input,
-                               const Pipeline& pipeline, bool write_mesh) {
+std::string write_segmentation_folder(const std::string& dir_name, const OrganizedCloud& input,
+                                      const Pipeline& pipeline, bool write_mesh) {
   const auto dir = ensure_dir(dir_name);
+  std::string files;  // the paths written, joined by ", "
+  const auto file = [&](const char* name) {
+    std::string path = (dir / name).string();
+    files += (files.empty() ? "" : ", ") + path;
+    return path;
+  };
   const Segmentation& seg = pipeline.segmentation();
-  io::write_label_png((dir / "labels.png").string(), seg.labels);
-  write_json((dir / "segments.json").string(), segments_json(seg, &pipeline.polygons()));
+  if (!input.is_organized()) {
+    write_json(file("segments.json"), segments_json(seg, nullptr));
+    write_labelled_cloud(file("cloud.pcd"), pipeline);
+    return files;
+  }
+  io::write_label_png(file("labels.png"), seg.labels);
+  write_json(file("segments.json"), segments_json(seg, &pipeline.polygons()));
   if (!pipeline.polygons().segments.empty()) {
-    write_polygons_obj((dir / "polygons.obj").string(), pipeline.polygons());
+    write_polygons_obj(file("polygons.obj"), pipeline.polygons());
   }
   RgbImage overlay = colorize_labels(seg.labels, &input);
-  io::write_rgb_png((dir / "types.png").string(), colorize_surface_types(seg, overlay));
+  io::write_rgb_png(file("types.png"), colorize_surface_types(seg, overlay));
   draw_polygons(overlay, pipeline.polygons());
-  io::write_rgb_png((dir / "overlay.png").string(), overlay);
+  io::write_rgb_png(file("overlay.png"), overlay);
   if (write_mesh) {
     const RgbImage flat = colorize_labels(seg.labels);
-    write_mesh_ply((dir / "mesh.ply").string(), pipeline.cloud(), pipeline.mesh(),
-                   &pipeline.normals(), &flat);
+    write_mesh_ply(file("mesh.ply"), pipeline.cloud(), pipeline.mesh(), &pipeline.normals(), &flat);
   }
+  return files;
 }
 
 }  // namespace rangeseg::cli

@@ -1,4 +1,5 @@
-// Writing a segmentation result folder (labels.png, segments.json, overlay.png, mesh.ply).
+// Writing a segmentation result folder (labels.png, segments.json, overlay.png, mesh.ply; for an
+// unorganized cloud segments.json and cloud.pcd).
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -18,10 +19,14 @@ nlohmann::json segments_json(const Segmentation& segmentation, const PolygonSet*
 /// Throws std::invalid_argument if its size is not the labels'.
 RgbImage colorize_surface_types(const Segmentation& segmentation, RgbImage shaded);
 
-/// Writes the results (labels.png, segments.json, polygons.obj, overlay.png with the polygons
-/// drawn, types.png, optionally mesh.ply) of the pipeline's last frame into `dir` (each file
-/// atomically). `input` is the cloud the pipeline processed (for the overlay's shading).
-void write_segmentation_folder(const std::string& dir, const OrganizedCloud& input,
-                               const Pipeline& pipeline, bool write_mesh);
+/// Writes the results of the pipeline's last frame into `dir` (each file atomically) and returns
+/// their paths, joined by ", ". An organized frame: labels.png, segments.json, polygons.obj,
+/// overlay.png with the polygons drawn, types.png and optionally mesh.ply; `input` is the cloud
+/// the pipeline processed (for the overlay's shading). An unorganized frame (nothing to draw):
+/// segments.json (without polygons) and cloud.pcd, the processed points (Pipeline::cloud())
+/// with their normals, curvature, label and rgb, the label's colour (label 0: dark grey; no
+/// point: black).
+std::string write_segmentation_folder(const std::string& dir, const OrganizedCloud& input,
+                                      const Pipeline& pipeline, bool write_mesh);
 
 }  // namespace rangeseg::cli

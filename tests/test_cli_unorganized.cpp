@@ -1,0 +1,330 @@
+// End-to-end tests of the rangeseg command-line tool on unorganized clouds (PCD of height 1):
+// segment, smooth, bench, config, and the commands that need a pixel grid.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cli_util.hpp"
+#include "rangeseg/camera.hpp"
+#include "rangeseg/colorize.hpp"
+#include "rangeseg/io/pcd.hpp"
+#include "rangeseg/synth.hpp"
+#include "test_util.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using rangeseg::OrganizedCloud;
+using rangeseg::test::CliResult;
+CliResult run(const std::string& args) { return rangeseg::test::run_cli(args); }
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+nlohmann::json read_json(const fs::path& p) { return nlohmann::json::parse(read_text(p)); }
+
+/// A quarter-size Kinect view (fx = fy = 525 / 4), so that every command takes milliseconds.
+constexpr rangeseg::CameraIntrinsics kQuarterKinect{
+    .fx = 131.25, .fy = 131.25, .cx = 79.5, .cy = 59.5, .width = 160, .height = 120};
+
+/// A synthetic box scene with Kinect noise, its ground truth in the label plane.
+OrganizedCloud organized_frame(std::uint64_t seed) {
+  namespace synth = rangeseg::synth;
+  const synth::RenderSettings render{
+      .camera = kQuarterKinect, .noise = synth::Noise::kinect, .seed = seed};
+  return synth::render(synth::random_scene(seed, false), render).cloud;
+}
+
+/// The valid points of organized_frame(seed) as one row (an unorganized cloud, as PCL writes a
+/// filtered cloud), labels kept.
+OrganizedCloud unorganized_frame(std::uint64_t seed) {
+  const OrganizedCloud grid = organized_frame(seed);
+  OrganizedCloud row(static_cast<int>(grid.count_valid()), 1);
+  row.add_label();
+  int i = 0;
+  for (int v = 0; v < grid.height(); ++v) {
+    for (int u = 0; u < grid.width(); ++u) {
+      if (!grid.valid(u, v)) continue;
+      row.x(i, 0) = grid.x(u, v);
+      row.y(i, 0) = grid.y(u, v);
+      row.z(i, 0) = grid.z(u, v);
+      row.label(i, 0) = grid.label(u, v);
+      ++i;
+    }
+  }
+  return row;
+}
+
+/// Writes unorganized_frame(seed) to `path` and returns it.
+OrganizedCloud write_unorganized(const fs::path& path, std::uint64_t seed = 1) {
+  fs::create_directories(path.parent_path());
+  OrganizedCloud cloud = unorganized_frame(seed);
+  rangeseg::io::write_pcd(path.string(), cloud,
+                          {.encoding = rangeseg::io::PcdEncoding::binary_compressed});
+  return cloud;
+}
+
+/// The normals of a PCD written with normal_x normal_y normal_z curvature, read with the library's
+/// reader (which keeps only x y z, intensity, rgb and label): the header's field names are
+/// renamed so that the normals are read as x y z and the curvature as intensity. The data
+/// (any encoding) is unchanged.
+OrganizedCloud read_normals(const fs::path& pcd) {
+  std::string text = read_text(pcd);
+  const std::size_t begin = text.find("\nFIELDS ") + 1;
+  const std::size_t end = text.find('\n', begin);
+  std::istringstream fields(text.substr(begin, end - begin));
+  const std::map<std::string, std::string> renamed = {{"x", "px"},
+                                                      {"y", "py"},
+                                                      {"z", "pz"},
+                                                      {"normal_x", "x"},
+                                                      {"normal_y", "y"},
+                                                      {"normal_z", "z"},
+                                                      {"curvature", "intensity"},
+                                                      {"intensity", "i"}};
+  std::string line, name;
+  fields >> name;  // FIELDS
+  line = name;
+  while (fields >> name) line += " " + (renamed.contains(name) ? renamed.at(name) : name);
+  text.replace(begin, end - begin, line);
+  const auto* data = reinterpret_cast<const std::uint8_t*>(text.data());
+  return rangeseg::io::parse_pcd(data, text.size(), pcd.string());
+}
+
+/// Expects unit normals at nearly every point of an n-point cloud.
+void expect_unit_normals(const fs::path& pcd, std::size_t n) {
+  const OrganizedCloud normals = read_normals(pcd);
+  ASSERT_EQ(normals.size(), n);
+  std::size_t finite = 0, off = 0;
+  for (int i = 0; i < normals.width(); ++i) {
+    if (!normals.valid(i, 0)) continue;
+    ++finite;
+    const float nx = normals.x(i, 0), ny = normals.y(i, 0), nz = normals.z(i, 0);
+    if (std::abs(std::sqrt(nx * nx + ny * ny + nz * nz) - 1.0f) > 1e-4f) ++off;
+  }
+  EXPECT_GT(finite, n * 9 / 10) << "points with a normal";
+  EXPECT_EQ(off, 0u) << "normals not of unit length";
+}
+
+}  // namespace
+
+TEST(CliUnorganized, SegmentWritesSegmentsAndALabelledCloud) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_unorganized_segment");
+  const OrganizedCloud input = write_unorganized(dir / "scan.pcd");
+  const CliResult r =
+      run("segment " + (dir / "scan.pcd").string() + " -o " + (dir / "out").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string n = std::to_string(input.size());
+  EXPECT_NE(r.out.find("segments of " + n + " points (unorganized"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find((dir / "out" / "cloud.pcd").string()), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find((dir / "out" / "segments.json").string()), std::string::npos) << r.out;
+  for (const char* grid_only :
+       {"labels.png", "overlay.png", "types.png", "polygons.obj", "mesh.ply"}) {
+    EXPECT_FALSE(fs::exists(dir / "out" / grid_only)) << grid_only;
+  }
+
+  const nlohmann::json segments = read_json(dir / "out" / "segments.json");
+  EXPECT_EQ(segments["width"], input.size());
+  EXPECT_EQ(segments["height"], 1);
+  ASSERT_GE(segments["segments"].size(), 3u) << "a box scene has several planes";
+  const OrganizedCloud cloud = rangeseg::io::read_pcd((dir / "out" / "cloud.pcd").string());
+  ASSERT_EQ(cloud.size(), input.size());
+  ASSERT_EQ(cloud.height(), 1);
+  ASSERT_TRUE(cloud.has_label() && cloud.has_rgb());
+  // Every label is a segment id, its point count is the segment's pixel_count, and its colour
+  // is the label's colour of the pictures.
+  std::map<int, int> counts;
+  std::size_t wrong_colour = 0;
+  for (int i = 0; i < cloud.width(); ++i) {
+    const int label = cloud.label(i, 0);
+    ++counts[label];
+    const auto colour = label > 0 ? rangeseg::label_colour(label) : rangeseg::kNoLabelColour;
+    if (cloud.r(i, 0) != colour[0] || cloud.g(i, 0) != colour[1] || cloud.b(i, 0) != colour[2]) {
+      ++wrong_colour;
+    }
+  }
+  EXPECT_EQ(wrong_colour, 0u);
+  for (const auto& s : segments["segments"]) {
+    const int id = s["id"].get<int>();
+    EXPECT_EQ(counts[id], s["pixel_count"].get<int>()) << "segment " << id;
+    counts.erase(id);
+  }
+  counts.erase(0);
+  EXPECT_TRUE(counts.empty()) << "labels without a segment: " << counts.size();
+  expect_unit_normals(dir / "out" / "cloud.pcd", input.size());
+
+  // The labelled cloud scores against the ground truth as a label image would.
+  const CliResult eval =
+      run("eval " + (dir / "scan.pcd").string() + " " + (dir / "out" / "cloud.pcd").string() +
+          " --json " + (dir / "eval.json").string());
+  ASSERT_EQ(eval.code, 0) << eval.out;
+  EXPECT_GE(read_json(dir / "eval.json")["correct"].get<int>(), 2) << eval.out;
+}
+
+TEST(CliUnorganized, GridOnlyModelsExitTwoNamingTheFile) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_unorganized_models");
+  write_unorganized(dir / "scan.pcd");
+  std::ofstream(dir / "auto.json") << R"({"segmentation": {"model": "auto"}})";
+  for (const std::string& options :
+       std::vector<std::string>{"--model auto", "--model incremental_plane",
+                                "--config " + (dir / "auto.json").string()}) {
+    const CliResult r = run("segment " + (dir / "scan.pcd").string() + " -o " +
+                            (dir / "out").string() + " " + options);
+    EXPECT_EQ(r.code, 2) << options << "\n" << r.out;
+    EXPECT_NE(r.out.find("scan.pcd"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("plane or smooth"), std::string::npos) << r.out;
+    EXPECT_FALSE(fs::exists(dir / "out" / "segments.json")) << options;
+  }
+  const CliResult smooth = run("segment " + (dir / "scan.pcd").string() + " -o " +
+                               (dir / "smooth").string() + " --model smooth");
+  EXPECT_EQ(smooth.code, 0) << smooth.out;
+  EXPECT_TRUE(fs::exists(dir / "smooth" / "cloud.pcd"));
+}
+
+TEST(CliUnorganized, BatchMixesOrganizedAndUnorganizedFrames) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_unorganized_batch");
+  rangeseg::io::write_pcd((dir / "grid.pcd").string(), organized_frame(2));
+  write_unorganized(dir / "scan.pcd", 3);
+  const std::string inputs = (dir / "grid.pcd").string() + " " + (dir / "scan.pcd").string();
+  const CliResult r = run("segment " + inputs + " --threads 2 -o " + (dir / "out").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "out" / "grid" / "labels.png"));
+  EXPECT_FALSE(fs::exists(dir / "out" / "grid" / "cloud.pcd"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "scan" / "segments.json"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "scan" / "cloud.pcd"));
+  EXPECT_FALSE(fs::exists(dir / "out" / "scan" / "labels.png"));
+  const nlohmann::json summary = read_json(dir / "out" / "summary.json");
+  EXPECT_EQ(summary["succeeded"], 2);
+  ASSERT_EQ(summary["per_frame"].size(), 2u);
+  const auto& grid = summary["per_frame"][0];
+  const auto& scan = summary["per_frame"][1];
+  EXPECT_TRUE(grid["organized"].get<bool>());
+  EXPECT_FALSE(scan["organized"].get<bool>());
+  EXPECT_TRUE(grid["ms"].contains("mesh") && !grid["ms"].contains("rings")) << grid.dump();
+  EXPECT_TRUE(scan["ms"].contains("rings") && !scan["ms"].contains("mesh")) << scan.dump();
+  for (const char* stage : {"mesh", "rings", "normals", "segmentation", "total"}) {
+    ASSERT_TRUE(summary["median_ms"].contains(stage)) << stage;
+    EXPECT_GT(summary["median_ms"][stage].get<double>(), 0.0) << stage;
+  }
+  EXPECT_EQ(scan["segments"].get<std::size_t>(),
+            read_json(dir / "out" / "scan" / "segments.json")["segments"].size());
+
+  // --model auto: the unorganized frame is reported and skipped, the organized one written.
+  const CliResult automatic =
+      run("segment " + inputs + " --model auto -o " + (dir / "auto").string());
+  ASSERT_EQ(automatic.code, 0) << automatic.out;
+  EXPECT_TRUE(fs::exists(dir / "auto" / "grid" / "labels.png"));
+  EXPECT_FALSE(fs::exists(dir / "auto" / "scan"));
+  const nlohmann::json failed = read_json(dir / "auto" / "summary.json");
+  EXPECT_EQ(failed["succeeded"], 1);
+  ASSERT_EQ(failed["failures"].size(), 1u);
+  const std::string error = failed["failures"][0]["error"].get<std::string>();
+  EXPECT_NE(error.find("scan.pcd"), std::string::npos) << error;
+  EXPECT_NE(error.find("plane or smooth"), std::string::npos) << error;
+}
+
+TEST(CliUnorganized, SmoothWritesPointsWithNormals) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_unorganized_smooth");
+  const OrganizedCloud input = write_unorganized(dir / "scan.pcd");
+  const CliResult r =
+      run("smooth " + (dir / "scan.pcd").string() + " -o " + (dir / "smoothed.pcd").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  rangeseg::io::PcdInfo info;
+  const OrganizedCloud smoothed = rangeseg::io::read_pcd((dir / "smoothed.pcd").string(), &info);
+  EXPECT_NE(info.fields_summary.find("normal_x normal_y normal_z curvature"), std::string::npos)
+      << info.fields_summary;
+  ASSERT_EQ(smoothed.size(), input.size());
+  // The Kinect preset's filter moves the noisy points.
+  std::size_t moved = 0;
+  for (int i = 0; i < input.width(); ++i) moved += smoothed.z(i, 0) != input.z(i, 0) ? 1 : 0;
+  EXPECT_GT(moved, input.size() / 2);
+  expect_unit_normals(dir / "smoothed.pcd", input.size());
+}
+
+TEST(CliUnorganized, BenchTimesTheRingsAndRejectsSizes) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_unorganized_bench");
+  write_unorganized(dir / "scan.pcd");
+  const std::string scan = (dir / "scan.pcd").string();
+  const CliResult text = run("bench " + scan + " --repeat 1");
+  ASSERT_EQ(text.code, 0) << text.out;
+  EXPECT_NE(text.out.find("(unorganized)"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("  rings "), std::string::npos) << text.out;
+  EXPECT_EQ(text.out.find("  mesh "), std::string::npos) << text.out;
+  const CliResult json = run("bench " + scan + " --repeat 1 --threads 2 --json");
+  ASSERT_EQ(json.code, 0) << json.out;
+  const auto stages = nlohmann::json::parse(json.out.substr(json.out.find('{')));
+  for (const char* key : {"rings", "normals", "smoothing", "segmentation", "total"}) {
+    ASSERT_TRUE(stages.contains(key)) << key;
+    EXPECT_GT(stages[key].get<double>(), 0.0) << key;
+  }
+  EXPECT_FALSE(stages.contains("mesh"));
+  EXPECT_TRUE(stages["in_frame"].contains("rings"));
+  for (const char* sizes : {"--sizes 40x30", "--scales 2,1"}) {
+    const CliResult r = run("bench " + scan + " --repeat 1 " + sizes);
+    EXPECT_EQ(r.code, 2) << r.out;
+    EXPECT_NE(r.out.find("scan.pcd"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("unorganized"), std::string::npos) << r.out;
+  }
+}
+
+TEST(CliUnorganized, GridCommandsExitTwoNamingTheFile) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_unorganized_grid");
+  write_unorganized(dir / "scan.pcd");
+  const std::string scan = (dir / "scan.pcd").string();
+  for (const std::string& command : {"mesh " + scan + " -o " + (dir / "mesh.ply").string(),
+                                     "convert " + scan + " " + (dir / "depth.png").string(),
+                                     "demo --input " + scan + " -o " + (dir / "demo").string()}) {
+    const CliResult r = run(command);
+    EXPECT_EQ(r.code, 2) << command << "\n" << r.out;
+    EXPECT_NE(r.out.find("scan.pcd: an unorganized cloud"), std::string::npos) << r.out;
+  }
+  EXPECT_FALSE(fs::exists(dir / "mesh.ply"));
+  EXPECT_FALSE(fs::exists(dir / "depth.png"));
+  EXPECT_EQ(run("convert " + scan + " " + (dir / "points.ply").string()).code, 0);
+}
+
+TEST(CliUnorganized, ConfigRingsAreAppliedAndChecked) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_unorganized_config");
+  write_unorganized(dir / "scan.pcd");
+  const std::string scan = (dir / "scan.pcd").string();
+  const auto segment = [&](const std::string& name, const std::string& config) {
+    std::ofstream(dir / (name + ".json")) << config;
+    return run("segment " + scan + " -o " + (dir / name).string() + " --config " +
+               (dir / (name + ".json")).string());
+  };
+  const CliResult defaults = segment("defaults", "{}");
+  ASSERT_EQ(defaults.code, 0) << defaults.out;
+  const CliResult k16 = segment("k16", R"({"rings": {"k": 16}})");
+  ASSERT_EQ(k16.code, 0) << k16.out;
+  // Larger rings give other normals, smoothing and areas.
+  EXPECT_NE(read_text(dir / "defaults" / "segments.json"),
+            read_text(dir / "k16" / "segments.json"));
+  EXPECT_NE(read_text(dir / "defaults" / "cloud.pcd"), read_text(dir / "k16" / "cloud.pcd"));
+  const CliResult all = segment("all", R"({"rings": {"k": 8, "max_distance": 0.5,
+      "eps_theta": 0.2, "jump_sigmas": 4}})");
+  EXPECT_EQ(all.code, 0) << all.out;
+
+  for (const auto& [config, needle] :
+       std::vector<std::pair<std::string, std::string>>{{R"({"rings": {"bogus": 1}})", "bogus"},
+                                                        {R"({"rings": {"k": 1}})", "k = 1"},
+                                                        {R"({"rings": {"k": 2.5}})", "'k'"},
+                                                        {R"({"rings": 3})", "rings"}}) {
+    const CliResult r = segment("bad", config);
+    EXPECT_EQ(r.code, 2) << config << "\n" << r.out;
+    EXPECT_NE(r.out.find("bad.json"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(needle), std::string::npos) << r.out;
+    EXPECT_FALSE(fs::exists(dir / "bad" / "segments.json")) << config;
+  }
+}
