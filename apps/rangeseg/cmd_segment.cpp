@@ -81,7 +81,7 @@ void add_settings_options(CLI::App& cmd, std::string& model, std::string& preset
   cmd.add_option("--config", config,
                  "JSON file with settings overriding the preset: objects noise, mesh, smoothing, "
                  "segmentation, rings (k-nearest-neighbour rings of unorganized clouds: k, "
-                 "max_distance, eps_theta, jump_sigmas), and smooth (true/false)");
+                 "max_distance, eps_theta, jump_sigmas, by_direction), and smooth (true/false)");
   cmd.add_flag("--no-smooth", no_smooth, "Skip the bilateral filter");
 }
 

@@ -172,15 +172,16 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
   if (j.contains("rings")) {
     const json& m = j["rings"];
     const std::string where = path + " [rings]";
-    reject_unknown(m, {"k", "max_distance", "eps_theta", "jump_sigmas"}, where);
+    reject_unknown(m, {"k", "max_distance", "eps_theta", "jump_sigmas", "by_direction"}, where);
     take(m, "k", s.rings.k, where);
     take(m, "max_distance", s.rings.max_distance, where);
     take(m, "eps_theta", s.rings.eps_theta, where);
     take(m, "jump_sigmas", s.rings.jump_sigmas, where);
+    take(m, "by_direction", s.rings.by_direction, where);
   }
   validate(s.smoothing);
   try {
-    validate(s.rings);  // Pipeline checks them only when an unorganized cloud comes
+    validate(s.rings);  // named by the file, before any input is read
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error(path + ": " + e.what());
   }
