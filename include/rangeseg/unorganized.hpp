@@ -95,9 +95,12 @@ inline NormalMap compute_normals(const OrganizedCloud& cloud, const PointRings& 
   return out;
 }
 
-/// The area a point stands for [m^2]: a disc holding its ring at a uniform density, 2 pi
-/// mean(|q_j - p_i|^2) / (count + 1) (for points on a square grid of spacing h and k = 8 or 12:
-/// 1.05 h^2 or 1.13 h^2). 0 for a point without a ring.
+/// The area a point stands for [m^2]: an ellipse holding its ring at a uniform density,
+/// 4 pi sqrt(lambda_1 lambda_2) / (count + 1), with lambda_1, lambda_2 the two larger
+/// eigenvalues of the ring's second moments about p_i (for points on a square grid of spacing h
+/// and k = 8 or 12: 1.05 h^2 or 1.13 h^2; an ellipse, not a disc, because a ring by viewing
+/// direction on a slanted surface is stretched by 1 / cos(incidence)). 0 for a point without a
+/// ring.
 double point_area(const OrganizedCloud& cloud, const PointRings& rings, std::size_t i);
 
 /// Stage 3 over the rings: the bilateral filter of `smooth` (SmoothingSettings; its terms,

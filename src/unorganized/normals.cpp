@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numbers>
 #include <vector>
 
@@ -42,7 +43,12 @@ bool pca_normal(const float* xyz, const float* p, std::span<const std::int32_t> 
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
   solver.computeDirect(covariance);
   const Eigen::Vector3d& ev = solver.eigenvalues();
-  if (!(ev(1) > 1e-12 * std::max(ev(2), 1e-300))) return false;
+  // Collinear points span no plane; in float their coordinates are only known to ~1.2e-7 |p|,
+  // so a spread across the line below a few of those steps is rounding, not a second axis.
+  const double rounding =
+      8.0 * std::numeric_limits<float>::epsilon() *
+      std::sqrt(double{p[0]} * p[0] + double{p[1]} * p[1] + double{p[2]} * p[2]);
+  if (!(ev(1) > std::max(1e-6 * ev(2), rounding * rounding))) return false;
   normal = solver.eigenvectors().col(0);
   return normal.allFinite();
 }
@@ -149,15 +155,18 @@ double point_area(const OrganizedCloud& cloud, const PointRings& rings, std::siz
   if (i >= rings.size() || rings.count[i] == 0) return 0.0;
   const double px = unorganized::at(cloud.x, i), py = unorganized::at(cloud.y, i),
                pz = unorganized::at(cloud.z, i);
-  double r2 = 0;
+  Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
   for (const std::int32_t j : rings.ring(i)) {
     const auto q = static_cast<std::size_t>(j);
-    const double dx = unorganized::at(cloud.x, q) - px, dy = unorganized::at(cloud.y, q) - py,
-                 dz = unorganized::at(cloud.z, q) - pz;
-    r2 += dx * dx + dy * dy + dz * dz;
+    const Eigen::Vector3d d(unorganized::at(cloud.x, q) - px, unorganized::at(cloud.y, q) - py,
+                            unorganized::at(cloud.z, q) - pz);
+    second += d * d.transpose();
   }
   const double m = rings.count[i];
-  return 2.0 * std::numbers::pi * (r2 / m) / (m + 1.0);
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+  solver.computeDirect(second / m, Eigen::EigenvaluesOnly);
+  const Eigen::Vector3d& ev = solver.eigenvalues();  // ascending; ev(0) ~ across the surface
+  return 4.0 * std::numbers::pi * std::sqrt(std::max(0.0, ev(1) * ev(2))) / (m + 1.0);
 }
 
 }  // namespace rangeseg

@@ -1,0 +1,122 @@
+// Stages 2-4 over k-nearest-neighbour rings (unorganized.hpp) on a real Kinect frame taken as an
+// unorganized cloud: its valid points in shuffled order as one row, one thread.
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "bench_data.hpp"
+#include "rangeseg/io/pcd.hpp"
+#include "rangeseg/pipeline.hpp"
+#include "rangeseg/unorganized.hpp"
+
+namespace {
+
+using namespace rangeseg;
+
+const std::string kFrame = RANGESEG_SOURCE_DIR "/../shared/data/kinect/grabber_frame0.pcd";
+
+/// The valid points of `grid` as a 1-row cloud, shuffled with a fixed seed.
+OrganizedCloud shuffled_valid_points(const OrganizedCloud& grid) {
+  struct P {
+    float x, y, z;
+  };
+  std::vector<P> points;
+  for (int v = 0; v < grid.height(); ++v) {
+    for (int u = 0; u < grid.width(); ++u) {
+      if (grid.valid(u, v)) points.push_back({grid.x(u, v), grid.y(u, v), grid.z(u, v)});
+    }
+  }
+  std::shuffle(points.begin(), points.end(), std::mt19937(1));
+  OrganizedCloud cloud(static_cast<int>(points.size()), 1);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const int u = static_cast<int>(i);
+    cloud.x(u, 0) = points[i].x;
+    cloud.y(u, 0) = points[i].y;
+    cloud.z(u, 0) = points[i].z;
+  }
+  return cloud;
+}
+
+/// The frame's points and the stages before the measured one, with the settings of
+/// pipeline_preset("kinect") (whose smoothing is the default, 3 passes).
+struct Frame {
+  PipelineSettings settings = pipeline_preset("kinect");
+  OrganizedCloud cloud;
+  PointRings rings;
+  NormalMap normals;
+  OrganizedCloud smoothed;
+  NormalMap smoothed_normals;
+  Segmentation segmentation;
+};
+
+enum class Stage { rings, normals, smoothing, segmentation };
+
+/// Loads the frame and runs the stages before `stage`; false (benchmark skipped) without data.
+bool prepare(benchmark::State& state, Stage stage, Frame& f) {
+  if (!bench::have_shared_data(state, kFrame)) return false;
+  f.cloud = shuffled_valid_points(io::read_pcd(kFrame));
+  if (stage > Stage::rings) build_rings(f.cloud, f.settings.rings, f.rings);
+  if (stage > Stage::normals) compute_normals(f.cloud, f.rings, f.settings.normals, f.normals);
+  if (stage > Stage::smoothing) {
+    smooth(f.cloud, f.rings, f.normals, f.settings.smoothing, f.smoothed, f.smoothed_normals);
+  }
+  return true;
+}
+
+/// Points per second, and the point count in the label.
+void report_points(benchmark::State& state, const Frame& f) {
+  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(f.cloud.size()));
+  state.SetLabel(std::to_string(f.cloud.size()) + " points");
+}
+
+void BM_RingsBuild(benchmark::State& state) {
+  Frame f;
+  if (!prepare(state, Stage::rings, f)) return;
+  for (auto _ : state) {
+    build_rings(f.cloud, f.settings.rings, f.rings);
+    benchmark::DoNotOptimize(f.rings.neighbours.data());
+  }
+  report_points(state, f);
+}
+BENCHMARK(BM_RingsBuild)->Unit(benchmark::kMillisecond);
+
+void BM_RingNormals(benchmark::State& state) {
+  Frame f;
+  if (!prepare(state, Stage::normals, f)) return;
+  for (auto _ : state) {
+    compute_normals(f.cloud, f.rings, f.settings.normals, f.normals);
+    benchmark::DoNotOptimize(f.normals.nz.row(0));
+  }
+  report_points(state, f);
+}
+BENCHMARK(BM_RingNormals)->Unit(benchmark::kMillisecond);
+
+void BM_RingSmoothing(benchmark::State& state) {
+  Frame f;
+  if (!prepare(state, Stage::smoothing, f)) return;
+  for (auto _ : state) {
+    smooth(f.cloud, f.rings, f.normals, f.settings.smoothing, f.smoothed, f.smoothed_normals);
+    benchmark::DoNotOptimize(f.smoothed.z.row(0));
+  }
+  report_points(state, f);
+}
+BENCHMARK(BM_RingSmoothing)->Unit(benchmark::kMillisecond);
+
+void BM_RingSegmentation(benchmark::State& state) {
+  Frame f;
+  if (!prepare(state, Stage::segmentation, f)) return;
+  for (auto _ : state) {
+    segment(f.smoothed, f.rings, f.smoothed_normals, f.settings.segmentation, f.segmentation);
+    benchmark::DoNotOptimize(f.segmentation.labels.row(0));
+  }
+  report_points(state, f);
+  state.counters["segments"] = static_cast<double>(f.segmentation.segments.size());
+}
+BENCHMARK(BM_RingSegmentation)->Unit(benchmark::kMillisecond);
+
+}  // namespace
