@@ -1,6 +1,8 @@
 // libFuzzer target: any cloud that parses runs through the whole pipeline without a crash, and
-// its labels and segments agree. Byte 0 picks the sensor preset, region model, mesh type, thread
-// count and smoothing; the rest is a PCD file (small organized clouds only, to keep runs fast).
+// its labels and segments agree. Byte 0 picks the sensor preset, region model, mesh type (for an
+// unorganized cloud: rings by direction or by distance), thread count and smoothing; the rest is
+// a PCD file (small clouds only, to keep runs fast; organized ones run on the grid, unorganized
+// ones over k-nearest-neighbour rings).
 #include <cstddef>
 #include <cstdint>
 #include <exception>
@@ -24,13 +26,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   } catch (const std::exception&) {
     return 0;
   }
-  if (!cloud.is_organized() || static_cast<long>(cloud.width()) * cloud.height() > kMaxPixels) {
-    return 0;
-  }
+  if (cloud.size() > static_cast<std::size_t>(kMaxPixels)) return 0;
   constexpr const char* kPresets[] = {"kinect", "abw", "laser", "ideal"};
   rangeseg::PipelineSettings settings = rangeseg::pipeline_preset(kPresets[pick & 3u]);
   settings.segmentation.model = static_cast<rangeseg::RegionModel>(pick >> 2 & 3u);
   settings.mesh.type = static_cast<rangeseg::MeshType>(pick >> 4 & 3u);
+  settings.rings.by_direction = (pick & 16u) != 0;
   settings.threads = (pick & 64u) != 0 ? 2 : 1;
   settings.smooth = (pick & 128u) == 0;
   try {
