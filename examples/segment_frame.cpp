@@ -1,5 +1,6 @@
-// Segments one organized point cloud into planes, cylinders and spheres and prints them with the
-// outline of every plane.
+// Segments one point cloud and prints the segments: an organized cloud into planes, cylinders
+// and spheres, with the outline of every plane; an unorganized one (height 1) into planes, over
+// k-nearest-neighbour rings.
 //
 //   rangeseg_example_segment_frame [frame.pcd]
 //
@@ -41,7 +42,10 @@ int main(int argc, char** argv) try {
                      .cloud;
 
   rangeseg::PipelineSettings settings = rangeseg::pipeline_preset("kinect");
-  settings.segmentation.model = rangeseg::RegionModel::automatic;  // planes + cylinders + spheres
+  // Planes, cylinders and spheres on a pixel grid; an unorganized cloud (height 1) is segmented
+  // over k-nearest-neighbour rings, into planes.
+  settings.segmentation.model =
+      cloud.is_organized() ? rangeseg::RegionModel::automatic : rangeseg::RegionModel::plane;
   rangeseg::Pipeline pipeline(settings);
   pipeline.process(cloud);
 
@@ -56,10 +60,15 @@ int main(int argc, char** argv) try {
                 p.loop_count, p.area, p.hull_area);
   }
   const rangeseg::StageTimes& t = pipeline.times();
-  std::printf(
-      "first frame %.1f ms (mesh %.2f, normals %.2f, smoothing %.2f, segmentation %.2f, "
-      "polygons %.2f); later frames of this size allocate nothing\n",
-      t.total, t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons);
+  if (cloud.is_organized()) {
+    std::printf(
+        "first frame %.1f ms (mesh %.2f, normals %.2f, smoothing %.2f, segmentation %.2f, "
+        "polygons %.2f); later frames of this size allocate nothing\n",
+        t.total, t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons);
+  } else {
+    std::printf("%.1f ms (rings %.2f, normals %.2f, smoothing %.2f, segmentation %.2f)\n", t.total,
+                t.mesh, t.normals, t.smoothing, t.segmentation);
+  }
   return segmentation.segments.empty() ? 1 : 0;
 } catch (const std::exception& e) {
   std::fprintf(stderr, "error: %s\n", e.what());
