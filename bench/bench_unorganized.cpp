@@ -52,9 +52,10 @@ struct Frame {
   OrganizedCloud smoothed;
   NormalMap smoothed_normals;
   Segmentation segmentation;
+  PolygonSet polygons;
 };
 
-enum class Stage { rings, normals, smoothing, segmentation };
+enum class Stage { rings, normals, smoothing, segmentation, polygons };
 
 /// Loads the frame and runs the stages before `stage`; false (benchmark skipped) without data.
 bool prepare(benchmark::State& state, Stage stage, Frame& f) {
@@ -64,6 +65,9 @@ bool prepare(benchmark::State& state, Stage stage, Frame& f) {
   if (stage > Stage::normals) compute_normals(f.cloud, f.rings, f.settings.normals, f.normals);
   if (stage > Stage::smoothing) {
     smooth(f.cloud, f.rings, f.normals, f.settings.smoothing, f.smoothed, f.smoothed_normals);
+  }
+  if (stage > Stage::segmentation) {
+    segment(f.smoothed, f.rings, f.smoothed_normals, f.settings.segmentation, f.segmentation);
   }
   return true;
 }
@@ -118,5 +122,17 @@ void BM_RingSegmentation(benchmark::State& state) {
   state.counters["segments"] = static_cast<double>(f.segmentation.segments.size());
 }
 BENCHMARK(BM_RingSegmentation)->Unit(benchmark::kMillisecond);
+
+void BM_RingPolygons(benchmark::State& state) {
+  Frame f;
+  if (!prepare(state, Stage::polygons, f)) return;
+  for (auto _ : state) {
+    extract_polygons(f.smoothed, f.rings, f.segmentation, f.settings.polygon, f.polygons);
+    benchmark::DoNotOptimize(f.polygons.points2d.data());
+  }
+  report_points(state, f);
+  state.counters["loops"] = static_cast<double>(f.polygons.loops.size());
+}
+BENCHMARK(BM_RingPolygons)->Unit(benchmark::kMillisecond);
 
 }  // namespace

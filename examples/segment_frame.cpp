@@ -1,6 +1,6 @@
 // Segments one point cloud and prints the segments: an organized cloud into planes, cylinders
-// and spheres, with the outline of every plane; an unorganized one (height 1) into planes, over
-// k-nearest-neighbour rings.
+// and spheres, an unorganized one (height 1) into planes over k-nearest-neighbour rings; both
+// with the outline of every plane.
 //
 //   rangeseg_example_segment_frame [frame.pcd]
 //
@@ -66,8 +66,9 @@ int main(int argc, char** argv) try {
         "polygons %.2f); later frames of this size allocate nothing\n",
         t.total, t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons);
   } else {
-    std::printf("%.1f ms (rings %.2f, normals %.2f, smoothing %.2f, segmentation %.2f)\n", t.total,
-                t.mesh, t.normals, t.smoothing, t.segmentation);
+    std::printf(
+        "%.1f ms (rings %.2f, normals %.2f, smoothing %.2f, segmentation %.2f, polygons %.2f)\n",
+        t.total, t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons);
   }
   return segmentation.segments.empty() ? 1 : 0;
 } catch (const std::exception& e) {

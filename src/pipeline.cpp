@@ -80,7 +80,6 @@ void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
   input_ = &cloud;
   times_ = {};
   mesh_ = Mesh{};
-  polygons_ = PolygonSet{};
   Clock::time_point t = Clock::now();
   const Clock::time_point start = t;
   ThreadPool* const pool =
@@ -109,8 +108,16 @@ void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
   if (settings_.segment) {
     segment(this->cloud(), rings_, normals(), settings_.segmentation, segmentation_);
     times_.segmentation = ms_since(t);
+    if (settings_.polygons) {
+      polygon_extractor_.extract(this->cloud(), rings_, segmentation_, settings_.polygon,
+                                 polygons_);
+      times_.polygons = ms_since(t);
+    } else {
+      polygons_ = PolygonSet{};
+    }
   } else {
     segmentation_ = Segmentation{};
+    polygons_ = PolygonSet{};
   }
   times_.total = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }

@@ -130,8 +130,8 @@ TEST(CliUnorganized, SegmentWritesSegmentsAndALabelledCloud) {
   EXPECT_NE(r.out.find("segments of " + n + " points (unorganized"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find((dir / "out" / "cloud.pcd").string()), std::string::npos) << r.out;
   EXPECT_NE(r.out.find((dir / "out" / "segments.json").string()), std::string::npos) << r.out;
-  for (const char* grid_only :
-       {"labels.png", "overlay.png", "types.png", "polygons.obj", "mesh.ply"}) {
+  EXPECT_NE(r.out.find((dir / "out" / "polygons.obj").string()), std::string::npos) << r.out;
+  for (const char* grid_only : {"labels.png", "overlay.png", "types.png", "mesh.ply"}) {
     EXPECT_FALSE(fs::exists(dir / "out" / grid_only)) << grid_only;
   }
 
@@ -156,11 +156,28 @@ TEST(CliUnorganized, SegmentWritesSegmentsAndALabelledCloud) {
     }
   }
   EXPECT_EQ(wrong_colour, 0u);
+  int outlined = 0;
   for (const auto& s : segments["segments"]) {
     const int id = s["id"].get<int>();
     EXPECT_EQ(counts[id], s["pixel_count"].get<int>()) << "segment " << id;
     counts.erase(id);
+    // Plane segments have their outline, with an area near the segment's.
+    ASSERT_EQ(s.contains("polygon"), s["model"] == "plane") << "segment " << id;
+    if (!s.contains("polygon")) continue;
+    ++outlined;
+    const double area = s["polygon"]["area_m2"].get<double>();
+    EXPECT_NEAR(area, s["area_m2"].get<double>(), 0.25 * s["area_m2"].get<double>())
+        << "segment " << id;
+    EXPECT_GE(s["polygon"]["loops"].size(), 1u);
+    EXPECT_GE(s["polygon"]["convex_hull"]["area_m2"].get<double>(), area * 0.999);
   }
+  EXPECT_GE(outlined, 3);
+  // One OBJ object per outlined segment.
+  std::ifstream obj(dir / "out" / "polygons.obj");
+  std::string line;
+  int objects = 0;
+  while (std::getline(obj, line)) objects += line.starts_with("o ") ? 1 : 0;
+  EXPECT_EQ(objects, outlined);
   counts.erase(0);
   EXPECT_TRUE(counts.empty()) << "labels without a segment: " << counts.size();
   expect_unit_normals(dir / "out" / "cloud.pcd", input.size());
@@ -214,7 +231,8 @@ TEST(CliUnorganized, BatchMixesOrganizedAndUnorganizedFrames) {
   EXPECT_FALSE(scan["organized"].get<bool>());
   EXPECT_TRUE(grid["ms"].contains("mesh") && !grid["ms"].contains("rings")) << grid.dump();
   EXPECT_TRUE(scan["ms"].contains("rings") && !scan["ms"].contains("mesh")) << scan.dump();
-  for (const char* stage : {"mesh", "rings", "normals", "segmentation", "total"}) {
+  EXPECT_GT(scan["ms"]["polygons"].get<double>(), 0.0) << scan.dump();
+  for (const char* stage : {"mesh", "rings", "normals", "segmentation", "polygons", "total"}) {
     ASSERT_TRUE(summary["median_ms"].contains(stage)) << stage;
     EXPECT_GT(summary["median_ms"][stage].get<double>(), 0.0) << stage;
   }
@@ -261,11 +279,12 @@ TEST(CliUnorganized, BenchTimesTheRingsAndRejectsSizes) {
   ASSERT_EQ(text.code, 0) << text.out;
   EXPECT_NE(text.out.find("(unorganized)"), std::string::npos) << text.out;
   EXPECT_NE(text.out.find("  rings "), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("  polygons "), std::string::npos) << text.out;
   EXPECT_EQ(text.out.find("  mesh "), std::string::npos) << text.out;
   const CliResult json = run("bench " + scan + " --repeat 1 --threads 2 --json");
   ASSERT_EQ(json.code, 0) << json.out;
   const auto stages = nlohmann::json::parse(json.out.substr(json.out.find('{')));
-  for (const char* key : {"rings", "normals", "smoothing", "segmentation", "total"}) {
+  for (const char* key : {"rings", "normals", "smoothing", "segmentation", "polygons", "total"}) {
     ASSERT_TRUE(stages.contains(key)) << key;
     EXPECT_GT(stages[key].get<double>(), 0.0) << key;
   }

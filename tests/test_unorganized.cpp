@@ -959,7 +959,7 @@ TEST(RingSegmentation, SortedSegmentsAndLabelsOnAScene) {
 
 // --- Pipeline ------------------------------------------------------------------------------------
 
-TEST(RingPipeline, RepeatableAndLeavesTheGridOutputsEmpty) {
+TEST(RingPipeline, RepeatableWithoutAMesh) {
   const synth::Rendering r = boxes_scene(3);
   const Unorganized u = shuffled_valid_points(r.cloud, 3);
   Pipeline pipeline(pipeline_preset("kinect"));
@@ -975,8 +975,8 @@ TEST(RingPipeline, RepeatableAndLeavesTheGridOutputsEmpty) {
   EXPECT_EQ(pipeline.rings().k, RingSettings{}.k);
   EXPECT_EQ(pipeline.mesh().width(), 0);
   EXPECT_EQ(count_faces(pipeline.mesh()), 0u);
-  EXPECT_TRUE(pipeline.polygons().segments.empty());
-  EXPECT_TRUE(pipeline.polygons().loops.empty());
+  EXPECT_FALSE(pipeline.polygons().segments.empty());  // outlined without a mesh
+  EXPECT_TRUE(pipeline.polygons().pixels.empty());
   EXPECT_EQ(pipeline.cloud().width(), u.cloud.width());
   EXPECT_GT(segments, 3u);
 

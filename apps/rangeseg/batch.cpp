@@ -49,7 +49,7 @@ class WorkerPipelines {
 };
 
 /// Every stage name in the order of summary.json: an organized frame has no rings, an
-/// unorganized one no mesh and no polygons.
+/// unorganized one no mesh.
 constexpr const char* kStages[] = {"mesh",         "rings",    "normals", "smoothing",
                                    "segmentation", "polygons", "total"};
 
@@ -99,12 +99,9 @@ void keep_freed_memory_for_reuse() {
 }  // namespace
 
 std::vector<StageTime> stage_times(const StageTimes& t, bool organized) {
-  std::vector<StageTime> stages{{organized ? "mesh" : "rings", t.mesh},
-                                {"normals", t.normals},
-                                {"smoothing", t.smoothing},
-                                {"segmentation", t.segmentation}};
-  if (organized) stages.push_back({"polygons", t.polygons});
-  stages.push_back({"total", t.total});
+  std::vector<StageTime> stages{
+      {organized ? "mesh" : "rings", t.mesh}, {"normals", t.normals},   {"smoothing", t.smoothing},
+      {"segmentation", t.segmentation},       {"polygons", t.polygons}, {"total", t.total}};
   return stages;
 }
 

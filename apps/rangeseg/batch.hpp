@@ -44,7 +44,7 @@ struct StageTime {
 
 /// The stages a frame ran, with their times: mesh (organized) or rings (unorganized: the
 /// k-nearest-neighbour rings, StageTimes::mesh), normals, smoothing, segmentation, polygons
-/// (organized only) and total.
+/// and total.
 std::vector<StageTime> stage_times(const StageTimes& times, bool organized);
 
 /// Median of `values` (0 for none); the mean of the two middle values for an even count.

@@ -162,7 +162,10 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
   };
   const Segmentation& seg = pipeline.segmentation();
   if (!input.is_organized()) {
-    write_json(file("segments.json"), segments_json(seg, nullptr));
+    write_json(file("segments.json"), segments_json(seg, &pipeline.polygons()));
+    if (!pipeline.polygons().segments.empty()) {
+      write_polygons_obj(file("polygons.obj"), pipeline.polygons());
+    }
     write_labelled_cloud(file("cloud.pcd"), pipeline);
     return files;
   }

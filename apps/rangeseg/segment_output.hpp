@@ -23,7 +23,7 @@ RgbImage colorize_surface_types(const Segmentation& segmentation, RgbImage shade
 /// their paths, joined by ", ". An organized frame: labels.png, segments.json, polygons.obj,
 /// overlay.png with the polygons drawn, types.png and optionally mesh.ply; `input` is the cloud
 /// the pipeline processed (for the overlay's shading). An unorganized frame (nothing to draw):
-/// segments.json (without polygons) and cloud.pcd, the processed points (Pipeline::cloud())
+/// segments.json, polygons.obj and cloud.pcd, the processed points (Pipeline::cloud())
 /// with their normals, curvature, label and rgb, the label's colour (label 0: dark grey; no
 /// point: black).
 std::string write_segmentation_folder(const std::string& dir, const OrganizedCloud& input,

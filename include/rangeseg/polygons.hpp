@@ -27,6 +27,8 @@
 
 namespace rangeseg {
 
+struct PointRings;  // unorganized.hpp
+
 /// An orthonormal 2D frame on a plane. A point with plane coordinates (x, y) is the camera-frame
 /// point origin + x e1 + y e2; a camera-frame point p on the plane has x = (p - origin) . e1,
 /// y = (p - origin) . e2. e1 x e2 = normal (the segment's normal, facing the camera), so seen
@@ -106,7 +108,8 @@ struct PolygonSet {
   std::vector<PolygonLoop> loops;
   std::vector<std::array<float, 3>> points3d;  ///< on the plane, camera frame [m]
   std::vector<std::array<float, 2>> points2d;  ///< plane frame (PlaneFrame) [m]
-  std::vector<std::array<float, 2>> pixels;    ///< image (u, v) of the mesh vertex [pixel]
+  /// image (u, v) of the mesh vertex [pixel]; empty for an unorganized cloud (unorganized.hpp)
+  std::vector<std::array<float, 2>> pixels;
   std::vector<std::array<float, 3>> hull_points3d;
   std::vector<std::array<float, 2>> hull_points2d;
   std::vector<std::array<float, 2>> hull_pixels;
@@ -126,11 +129,20 @@ class PolygonExtractor {
   /// mesh. Throws std::invalid_argument for mismatched sizes or invalid settings.
   void extract(const OrganizedCloud& cloud, const Mesh& mesh, const Segmentation& segmentation,
                const PolygonSettings& settings, PolygonSet& out);
+  /// The polygons of an unorganized cloud over its k-nearest-neighbour rings, without a mesh:
+  /// see extract_polygons in unorganized.hpp.
+  void extract(const OrganizedCloud& cloud, const PointRings& rings,
+               const Segmentation& segmentation, const PolygonSettings& settings, PolygonSet& out);
 
   struct Scratch;
+  struct RingScratch;
+  struct RingScratchDeleter {
+    void operator()(RingScratch* scratch) const;
+  };
 
  private:
   std::unique_ptr<Scratch> scratch_;
+  std::unique_ptr<RingScratch, RingScratchDeleter> ring_scratch_;
 };
 
 /// One-shot extraction (allocates its scratch buffers).
@@ -138,7 +150,7 @@ PolygonSet extract_polygons(const OrganizedCloud& cloud, const Mesh& mesh,
                             const Segmentation& segmentation, const PolygonSettings& settings = {});
 
 /// The pixel coordinates of loop `loop` (closed = the caller passes closed=true to
-/// draw_polyline), into `out` (reused).
+/// draw_polyline), into `out` (reused); empty when the set has no pixels (an unorganized cloud).
 void loop_pixels(const PolygonSet& polygons, int loop, std::vector<std::array<float, 2>>& out);
 /// The same for the convex hull of segment `segment` (index into PolygonSet::segments).
 void hull_pixels(const PolygonSet& polygons, int segment, std::vector<std::array<float, 2>>& out);

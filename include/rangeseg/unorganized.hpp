@@ -1,6 +1,7 @@
 // Unorganized clouds (no pixel grid, e.g. a lidar scan without its ring order, a cloud with the
 // invalid points removed, a merged or cropped cloud): stages 2-4 of the method over
-// k-nearest-neighbour rings instead of the mesh 1-ring.
+// k-nearest-neighbour rings instead of the mesh 1-ring, and stage 5 (plane polygons) without a
+// mesh.
 #pragma once
 
 #include <array>
@@ -11,6 +12,7 @@
 
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/normals.hpp"
+#include "rangeseg/polygons.hpp"
 #include "rangeseg/segmentation.hpp"
 #include "rangeseg/sensor.hpp"
 #include "rangeseg/smoothing.hpp"
@@ -142,6 +144,34 @@ inline Segmentation segment(const OrganizedCloud& cloud, const PointRings& rings
                             const NormalMap& normals, const SegmentationSettings& settings = {}) {
   Segmentation out;
   segment(cloud, rings, normals, settings, out);
+  return out;
+}
+
+/// Stage 5 without a mesh: the plane polygons of an unorganized cloud's segments, in the
+/// grid's PolygonSet (the same frames, loop order, areas, hulls and settings). Each point of a
+/// segment covers a footprint on the segment's plane: the ellipse of `point_area` in plane
+/// coordinates (points projected along their viewing ray from `settings.viewpoint`, as on the
+/// grid), taken as its bounding box; on a square grid of spacing h and k = 12 the box is 1.2 h
+/// wide, so it covers the gaps to the neighbours as a range image's pixel squares do. The union
+/// of the boxes is rasterised (cells of the median half-width of the boxes, at most 2^21
+/// cells per segment), closed with a 3x3 square and traced into outer loops and holes (no
+/// concavity or hole narrower than about a point spacing survives), which are simplified as on
+/// the grid. One "pixel" of the settings is the segment's median footprint side (the square
+/// root of its area): the simplification tolerance is the larger of simplify_tolerance and
+/// simplify_tolerance_pixels footprints, and loops smaller than min_loop_pixels footprints are
+/// dropped (except the largest outer loop). `raw_*` describe the traced raster outline; the
+/// convex hull is that of the outer loops' vertices. `pixels` and `hull_pixels` stay empty
+/// (there is no image); `out.width` and `out.height` are the cloud's. A segment whose points
+/// have no extent gets no loops. Throws std::invalid_argument for rings or labels of another
+/// size and for invalid settings.
+void extract_polygons(const OrganizedCloud& cloud, const PointRings& rings,
+                      const Segmentation& segmentation, const PolygonSettings& settings,
+                      PolygonSet& out);
+inline PolygonSet extract_polygons(const OrganizedCloud& cloud, const PointRings& rings,
+                                   const Segmentation& segmentation,
+                                   const PolygonSettings& settings = {}) {
+  PolygonSet out;
+  extract_polygons(cloud, rings, segmentation, settings, out);
   return out;
 }
 

@@ -22,8 +22,10 @@ using polygons_detail::xy_point;
 
 namespace {
 
-using Vec = std::array<double, 3>;
-double dot(const Vec& a, const Vec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+using polygons_detail::dot;
+using polygons_detail::Projection;
+using polygons_detail::Vec;
+
 Vec cross3(const Vec& a, const Vec& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
@@ -32,7 +34,9 @@ Vec normalized(const Vec& a) {
   return {a[0] / n, a[1] / n, a[2] / n};
 }
 
-PlaneFrame make_frame(const Segment& seg) {
+}  // namespace
+
+PlaneFrame polygons_detail::plane_frame(const Segment& seg) {
   PlaneFrame fr;
   Vec n = seg.normal;
   const double len = std::sqrt(dot(n, n));
@@ -54,6 +58,8 @@ PlaneFrame make_frame(const Segment& seg) {
   return fr;
 }
 
+namespace {
+
 struct RawLoop {
   int label;
   int first;  // into raw_idx
@@ -64,24 +70,9 @@ struct RawLoop {
   int u_min, u_max, v_min, v_max;  // bounding box of the vertices [pixel]
 };
 
-// The projection of mesh vertices onto a segment's plane (see polygons.hpp): along the viewing
-// ray from `vp` when it meets the plane's front side, else orthogonally; then the plane frame.
-struct Projection {
-  PlaneFrame fr;
-  Vec vp;
-  double nvp;  // signed distance of the viewpoint from the plane
-};
-
-Projection make_projection(const PlaneFrame& fr, const Vec& vp) {
-  return {fr, vp, dot(fr.normal, vp) + fr.offset};
-}
-
 // Vertices at (u, v) = uv[first, n) into xy (x, y interleaved), from `first` on.
 void project_scalar(const OrganizedCloud& cloud, const std::array<std::int32_t, 2>* uv, int first,
                     int n, const Projection& pr, double* xy) {
-  const PlaneFrame& fr = pr.fr;
-  const Vec& vp = pr.vp;
-  const double nvp = pr.nvp;
   for (int i = first; i < n; ++i) {
     // The points are scattered over cloud planes that earlier stages have mostly evicted
     // from the caches: fetch a few vertices ahead.
@@ -93,29 +84,8 @@ void project_scalar(const OrganizedCloud& cloud, const std::array<std::int32_t, 
       __builtin_prefetch(cloud.z.row(pv) + pu);
     }
     const auto [u, v] = uv[i];
-    const Vec p{cloud.x.row(v)[u], cloud.y.row(v)[u], cloud.z.row(v)[u]};
-    const Vec dir{p[0] - vp[0], p[1] - vp[1], p[2] - vp[2]};
-    const double denom = dot(fr.normal, dir);
-    // The ray meets the plane's front side when denom < -1e-6 |dir| (and nvp > 0); the
-    // square root is needed only near that limit: denom^2 > 2e-12 |dir|^2 already implies
-    // it with a margin of sqrt(2) over the rounding of either side.
-    bool ray = false;
-    if (nvp > 0 && denom < 0) {
-      const double dir2 = dot(dir, dir);
-      ray = denom * denom > 2e-12 * dir2 || denom < -1e-6 * std::sqrt(dir2);
-    }
-    Vec q;
-    if (ray) {
-      const double t = -nvp / denom;
-      q = {vp[0] + t * dir[0], vp[1] + t * dir[1], vp[2] + t * dir[2]};
-    } else {
-      const double dist = dot(fr.normal, p) + fr.offset;
-      q = {p[0] - dist * fr.normal[0], p[1] - dist * fr.normal[1], p[2] - dist * fr.normal[2]};
-    }
-    const Vec rel{q[0] - fr.origin[0], q[1] - fr.origin[1], q[2] - fr.origin[2]};
-    double* dst = xy_point(xy, i);
-    dst[0] = dot(rel, fr.e1);
-    dst[1] = dot(rel, fr.e2);
+    polygons_detail::project_point(pr, {cloud.x.row(v)[u], cloud.y.row(v)[u], cloud.z.row(v)[u]},
+                                   xy_point(xy, i));
   }
 }
 
@@ -480,7 +450,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
   for (std::size_t si = 0; si < n_segs; ++si) {
     SegmentPolygons& sp = out.segments[si];
     const Segment& seg = segmentation.segments[static_cast<std::size_t>(sp.label - 1)];
-    sp.frame = make_frame(seg);
+    sp.frame = polygons_detail::plane_frame(seg);
     sp.first_loop = static_cast<int>(out.loops.size());
     sp.hull_first = static_cast<int>(out.hull_points2d.size());
     const int b0 = sc.bucket_start[si], b1 = sc.bucket_start[si + 1];
@@ -546,7 +516,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
 
     // Project every kept loop onto the plane.
     const PlaneFrame& fr = sp.frame;
-    const Projection pr = make_projection(fr, vp);
+    const Projection pr = polygons_detail::make_projection(fr, vp);
     sc.xy_first.clear();
     std::size_t n_points = 0;
     for (int li : sc.kept) {
@@ -732,6 +702,10 @@ void loop_pixels(const PolygonSet& polygons, int loop, std::vector<std::array<fl
                                 std::to_string(polygons.loops.size()) + ")");
   }
   const PolygonLoop& lp = polygons.loops[static_cast<std::size_t>(loop)];
+  if (polygons.pixels.size() < static_cast<std::size_t>(lp.first) + lp.count) {
+    out.clear();  // no image (an unorganized cloud)
+    return;
+  }
   out.assign(polygons.pixels.begin() + lp.first, polygons.pixels.begin() + lp.first + lp.count);
 }
 
@@ -742,6 +716,10 @@ void hull_pixels(const PolygonSet& polygons, int segment, std::vector<std::array
                                 ")");
   }
   const SegmentPolygons& sp = polygons.segments[static_cast<std::size_t>(segment)];
+  if (polygons.hull_pixels.size() < static_cast<std::size_t>(sp.hull_first) + sp.hull_count) {
+    out.clear();  // no image (an unorganized cloud)
+    return;
+  }
   out.assign(polygons.hull_pixels.begin() + sp.hull_first,
              polygons.hull_pixels.begin() + sp.hull_first + sp.hull_count);
 }

@@ -7,11 +7,14 @@
 #pragma GCC optimize("fp-contract=off")
 #endif
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "detail/simd.hpp"
 #include "polygons/internal.hpp"
@@ -240,6 +243,151 @@ void convex_hull(const std::vector<std::array<float, 2>>& points,
   for (int i : idx) hull.push_back(sorted[static_cast<std::size_t>(i)]);
 }
 
+void polygons_detail::outline_raster(std::vector<std::uint8_t>& occ, int cols, int rows, double x0,
+                                     double y0, double h, double tolerance, RasterOutline& out) {
+  assert(occ.size() == static_cast<std::size_t>(cols) * static_cast<std::size_t>(rows));
+  Polygons2D& loops = out.loops;
+  loops.points.clear();
+  loops.first.clear();
+  loops.count.clear();
+  loops.is_hole.clear();
+  out.raw_area.clear();
+  out.raw_perimeter.clear();
+  out.raw_count.clear();
+  out.tolerance.clear();
+  // Closing with a 3x3 square: dilate into tmp, erode back into occ.
+  std::vector<std::uint8_t>& tmp = out.tmp;
+  tmp.assign(occ.size(), 0);
+  for (int j = 1; j + 1 < rows; ++j) {
+    for (int i = 1; i + 1 < cols; ++i) {
+      std::uint8_t any = 0;
+      for (int dj = -1; dj <= 1; ++dj) {
+        for (int di = -1; di <= 1; ++di) {
+          any |= occ[static_cast<std::size_t>(j + dj) * cols + i + di];
+        }
+      }
+      tmp[static_cast<std::size_t>(j) * cols + i] = any;
+    }
+  }
+  for (int j = 1; j + 1 < rows; ++j) {
+    for (int i = 1; i + 1 < cols; ++i) {
+      std::uint8_t all = 1;
+      for (int dj = -1; dj <= 1; ++dj) {
+        for (int di = -1; di <= 1; ++di) {
+          all &= tmp[static_cast<std::size_t>(j + dj) * cols + i + di];
+        }
+      }
+      occ[static_cast<std::size_t>(j) * cols + i] =
+          static_cast<std::uint8_t>(occ[static_cast<std::size_t>(j) * cols + i] | all);
+    }
+  }
+  // Corner lattice (cols + 1) x (rows + 1); cell (i, j) is a quad with corners (i, j)..(i+1, j+1).
+  const int vw = cols + 1, vh = rows + 1;
+  const std::ptrdiff_t stride = vw;
+  // mask and pos are zero wherever they were used (trace_loops clears what it sets).
+  std::vector<std::uint16_t>& mask = out.mask;
+  std::vector<std::int32_t>& pos = out.pos;
+  std::vector<std::int32_t>& starts = out.starts;
+  const std::size_t corners = static_cast<std::size_t>(vw) * static_cast<std::size_t>(vh);
+  if (mask.size() < corners) {
+    mask.resize(corners, 0);
+    pos.resize(corners, 0);
+  }
+  starts.clear();
+  const auto cell = [&](int i, int j) -> bool {
+    return i >= 0 && j >= 0 && i < cols && j < rows && occ[static_cast<std::size_t>(j) * cols + i];
+  };
+  for (int j = 0; j < vh; ++j) {
+    for (int i = 0; i < vw; ++i) {
+      const bool c00 = cell(i - 1, j - 1), c01 = cell(i, j - 1), c10 = cell(i - 1, j),
+                 c11 = cell(i, j);
+      const unsigned m = ((c01 && !c11) ? 1u : 0u) | ((c11 && !c10) ? 4u : 0u) |
+                         ((c10 && !c00) ? 16u : 0u) | ((c00 && !c01) ? 64u : 0u);
+      if (m) {
+        mask[static_cast<std::size_t>(j) * vw + i] = static_cast<std::uint16_t>(m * 257u);
+        starts.push_back(j * vw + i);
+      }
+    }
+  }
+  std::vector<double>& xy = out.xy;
+  std::vector<int>& loop_first = out.loop_first;
+  xy.clear();
+  loop_first.clear();
+  trace_loops(mask.data(), pos.data(), stride, 1, starts, out.steps, out.walk, out.stack,
+              [&](const std::int32_t* idx, int n) {
+                loop_first.push_back(static_cast<int>(xy.size() / 2));
+                // The tracer's orientation is for y down; reverse for y up.
+                for (int k = n - 1; k >= 0; --k) {
+                  const auto [row, column] = std::div(idx[k], vw);
+                  xy.push_back(x0 + column * h);
+                  xy.push_back(y0 + row * h);
+                }
+              });
+  loop_first.push_back(static_cast<int>(xy.size() / 2));
+  for (const std::int32_t p : starts) mask[static_cast<std::size_t>(p)] = 0;
+  const std::size_t n_loops = loop_first.size() - 1;
+  for (std::size_t k = 0; k < n_loops; ++k) {
+    double area = 0, perimeter = 0;
+    area_perimeter(xy_point(xy.data(), loop_first[k]), loop_first[k + 1] - loop_first[k], area,
+                   perimeter);
+    out.raw_area.push_back(std::abs(area));
+    out.raw_perimeter.push_back(perimeter);
+    out.raw_count.push_back(loop_first[k + 1] - loop_first[k]);
+  }
+  std::vector<double>& tol = out.tolerance;
+  tol.assign(n_loops, tolerance);
+  std::vector<int>& keep = out.keep;
+  std::vector<int>& keep_first = out.keep_first;
+  std::vector<std::array<int, 2>>& dp_stack = out.dp_stack;
+  std::vector<CheckEdge>& edges = out.edges;
+  std::vector<std::uint8_t>& bad = out.bad;
+  for (int attempt = 0;; ++attempt) {
+    keep.clear();
+    keep_first.clear();
+    for (std::size_t k = 0; k < n_loops; ++k) {
+      keep_first.push_back(static_cast<int>(keep.size()));
+      simplify_closed(xy_point(xy.data(), loop_first[k]), loop_first[k + 1] - loop_first[k], tol[k],
+                      keep, dp_stack);
+    }
+    keep_first.push_back(static_cast<int>(keep.size()));
+    edges.clear();
+    for (std::size_t k = 0; k < n_loops; ++k) {
+      const double* base = xy_point(xy.data(), loop_first[k]);
+      for (int i = keep_first[k], j = keep_first[k + 1] - 1; i < keep_first[k + 1]; j = i++) {
+        const int a = keep[static_cast<std::size_t>(j)], b = keep[static_cast<std::size_t>(i)];
+        const double *pa = xy_point(base, a), *pb = xy_point(base, b);
+        edges.push_back({pa[0], pa[1], pb[0], pb[1], loop_first[k] + a, loop_first[k] + b,
+                         static_cast<int>(k)});
+      }
+    }
+    // Corner ids are per loop; loops touching at a lattice corner share coordinates, so identify
+    // ends by their lattice position instead.
+    for (auto& e : edges) {
+      e.id0 = std::llround((e.x0 - x0) / h) * (vh + 1) + std::llround((e.y0 - y0) / h);
+      e.id1 = std::llround((e.x1 - x0) / h) * (vh + 1) + std::llround((e.y1 - y0) / h);
+    }
+    bad.assign(n_loops, 0);
+    if (!mark_crossings(edges, bad) || attempt >= 5) break;
+    for (std::size_t k = 0; k < n_loops; ++k) {
+      if (bad[k]) tol[k] = attempt >= 4 ? 0.0 : 0.5 * tol[k];
+    }
+  }
+  for (std::size_t k = 0; k < n_loops; ++k) {
+    const double* base = xy_point(xy.data(), loop_first[k]);
+    loops.first.push_back(static_cast<int>(loops.points.size()));
+    double area2 = 0;
+    const int kb = keep_first[k], ke = keep_first[k + 1];
+    for (int i = kb, j = ke - 1; i < ke; j = i++) {
+      const int a = keep[static_cast<std::size_t>(j)], b = keep[static_cast<std::size_t>(i)];
+      const double *pa = xy_point(base, a), *pb = xy_point(base, b);
+      area2 += pa[0] * pb[1] - pb[0] * pa[1];
+      loops.points.push_back({static_cast<float>(pb[0]), static_cast<float>(pb[1])});
+    }
+    loops.count.push_back(ke - kb);
+    loops.is_hole.push_back(area2 < 0 ? 1 : 0);
+  }
+}
+
 void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha, Polygons2D& out) {
   if (!(alpha > 0) || !std::isfinite(alpha)) {
     throw std::invalid_argument("concave_hull: alpha must be finite and > 0 [m], got " +
@@ -271,122 +419,16 @@ void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha,
   }
   const int cols = static_cast<int>(cols_d), rows = static_cast<int>(rows_d);
   const double x0 = minx - kMargin * h, y0 = miny - kMargin * h;
-  std::vector<std::uint8_t> occ(static_cast<std::size_t>(cols) * rows, 0), tmp(occ.size(), 0);
+  std::vector<std::uint8_t> occ(static_cast<std::size_t>(cols) * rows, 0);
   for (const auto& p : points) {
     if (!std::isfinite(p[0]) || !std::isfinite(p[1])) continue;
     const int i = std::clamp(static_cast<int>((p[0] - x0) / h), 0, cols - 1);
     const int j = std::clamp(static_cast<int>((p[1] - y0) / h), 0, rows - 1);
     occ[static_cast<std::size_t>(j) * cols + i] = 1;
   }
-  // Closing with a 3x3 square: dilate into tmp, erode back into occ.
-  for (int j = 1; j + 1 < rows; ++j) {
-    for (int i = 1; i + 1 < cols; ++i) {
-      std::uint8_t any = 0;
-      for (int dj = -1; dj <= 1; ++dj) {
-        for (int di = -1; di <= 1; ++di) {
-          any |= occ[static_cast<std::size_t>(j + dj) * cols + i + di];
-        }
-      }
-      tmp[static_cast<std::size_t>(j) * cols + i] = any;
-    }
-  }
-  for (int j = 1; j + 1 < rows; ++j) {
-    for (int i = 1; i + 1 < cols; ++i) {
-      std::uint8_t all = 1;
-      for (int dj = -1; dj <= 1; ++dj) {
-        for (int di = -1; di <= 1; ++di) {
-          all &= tmp[static_cast<std::size_t>(j + dj) * cols + i + di];
-        }
-      }
-      occ[static_cast<std::size_t>(j) * cols + i] =
-          static_cast<std::uint8_t>(occ[static_cast<std::size_t>(j) * cols + i] | all);
-    }
-  }
-  // Corner lattice (cols + 1) x (rows + 1); cell (i, j) is a quad with corners (i, j)..(i+1, j+1).
-  const int vw = cols + 1, vh = rows + 1;
-  const std::ptrdiff_t stride = vw;
-  std::vector<std::uint16_t> mask(static_cast<std::size_t>(vw) * vh, 0);
-  std::vector<std::int32_t> pos(mask.size(), 0), starts, walk, stack;
-  const auto cell = [&](int i, int j) -> bool {
-    return i >= 0 && j >= 0 && i < cols && j < rows && occ[static_cast<std::size_t>(j) * cols + i];
-  };
-  for (int j = 0; j < vh; ++j) {
-    for (int i = 0; i < vw; ++i) {
-      const bool c00 = cell(i - 1, j - 1), c01 = cell(i, j - 1), c10 = cell(i - 1, j),
-                 c11 = cell(i, j);
-      const unsigned m = ((c01 && !c11) ? 1u : 0u) | ((c11 && !c10) ? 4u : 0u) |
-                         ((c10 && !c00) ? 16u : 0u) | ((c00 && !c01) ? 64u : 0u);
-      if (m) {
-        mask[static_cast<std::size_t>(j) * vw + i] = static_cast<std::uint16_t>(m * 257u);
-        starts.push_back(j * vw + i);
-      }
-    }
-  }
-  std::vector<double> xy;
-  std::vector<int> loop_first;
-  polygons_detail::TraceSteps steps;
-  polygons_detail::trace_loops(mask.data(), pos.data(), stride, 1, starts, steps, walk, stack,
-                               [&](const std::int32_t* idx, int n) {
-                                 loop_first.push_back(static_cast<int>(xy.size() / 2));
-                                 // The tracer's orientation is for y down; reverse for y up.
-                                 for (int k = n - 1; k >= 0; --k) {
-                                   const auto [row, column] = std::div(idx[k], vw);
-                                   xy.push_back(x0 + column * h);
-                                   xy.push_back(y0 + row * h);
-                                 }
-                               });
-  loop_first.push_back(static_cast<int>(xy.size() / 2));
-  const std::size_t n_loops = loop_first.size() - 1;
-  std::vector<double> tol(n_loops, alpha / 4);
-  std::vector<int> keep, keep_first;
-  std::vector<std::array<int, 2>> dp_stack;
-  std::vector<polygons_detail::CheckEdge> edges;
-  std::vector<std::uint8_t> bad;
-  for (int attempt = 0;; ++attempt) {
-    keep.clear();
-    keep_first.clear();
-    for (std::size_t k = 0; k < n_loops; ++k) {
-      keep_first.push_back(static_cast<int>(keep.size()));
-      polygons_detail::simplify_closed(xy_point(xy.data(), loop_first[k]),
-                                       loop_first[k + 1] - loop_first[k], tol[k], keep, dp_stack);
-    }
-    keep_first.push_back(static_cast<int>(keep.size()));
-    edges.clear();
-    for (std::size_t k = 0; k < n_loops; ++k) {
-      const double* base = xy_point(xy.data(), loop_first[k]);
-      for (int i = keep_first[k], j = keep_first[k + 1] - 1; i < keep_first[k + 1]; j = i++) {
-        const int a = keep[static_cast<std::size_t>(j)], b = keep[static_cast<std::size_t>(i)];
-        const double *pa = xy_point(base, a), *pb = xy_point(base, b);
-        edges.push_back({pa[0], pa[1], pb[0], pb[1], loop_first[k] + a, loop_first[k] + b,
-                         static_cast<int>(k)});
-      }
-    }
-    // Corner ids are per loop; loops touching at a lattice corner share coordinates, so identify
-    // ends by their lattice position instead.
-    for (auto& e : edges) {
-      e.id0 = std::llround((e.x0 - x0) / h) * (vh + 1) + std::llround((e.y0 - y0) / h);
-      e.id1 = std::llround((e.x1 - x0) / h) * (vh + 1) + std::llround((e.y1 - y0) / h);
-    }
-    bad.assign(n_loops, 0);
-    if (!polygons_detail::mark_crossings(edges, bad) || attempt >= 5) break;
-    for (std::size_t k = 0; k < n_loops; ++k) {
-      if (bad[k]) tol[k] = attempt >= 4 ? 0.0 : 0.5 * tol[k];
-    }
-  }
-  for (std::size_t k = 0; k < n_loops; ++k) {
-    const double* base = xy_point(xy.data(), loop_first[k]);
-    out.first.push_back(static_cast<int>(out.points.size()));
-    double area2 = 0;
-    const int kb = keep_first[k], ke = keep_first[k + 1];
-    for (int i = kb, j = ke - 1; i < ke; j = i++) {
-      const int a = keep[static_cast<std::size_t>(j)], b = keep[static_cast<std::size_t>(i)];
-      const double *pa = xy_point(base, a), *pb = xy_point(base, b);
-      area2 += pa[0] * pb[1] - pb[0] * pa[1];
-      out.points.push_back({static_cast<float>(pb[0]), static_cast<float>(pb[1])});
-    }
-    out.count.push_back(ke - kb);
-    out.is_hole.push_back(area2 < 0 ? 1 : 0);
-  }
+  polygons_detail::RasterOutline outline;
+  polygons_detail::outline_raster(occ, cols, rows, x0, y0, h, alpha / 4, outline);
+  out = std::move(outline.loops);
 }
 
 }  // namespace rangeseg

@@ -4,14 +4,63 @@
 
 #include <array>
 #include <cassert>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <vector>
 
 #include "rangeseg/mesh.hpp"
+#include "rangeseg/polygons.hpp"
+#include "rangeseg/segmentation.hpp"
 
 namespace rangeseg::polygons_detail {
+
+using Vec = std::array<double, 3>;
+inline double dot(const Vec& a, const Vec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+/// The plane frame of a segment (polygons.hpp, PlaneFrame): its plane, origin at the point of
+/// the plane closest to its centroid.
+PlaneFrame plane_frame(const Segment& segment);
+
+/// The projection of points onto a segment's plane (see polygons.hpp): along the viewing ray
+/// from `vp` when it meets the plane's front side, else orthogonally; then the plane frame.
+struct Projection {
+  PlaneFrame fr;
+  Vec vp;
+  double nvp;  ///< signed distance of the viewpoint from the plane
+};
+
+inline Projection make_projection(const PlaneFrame& fr, const Vec& vp) {
+  return {fr, vp, dot(fr.normal, vp) + fr.offset};
+}
+
+/// Plane coordinates (x, y) of camera-frame point p under `pr`.
+inline void project_point(const Projection& pr, const Vec& p, double* xy) {
+  const PlaneFrame& fr = pr.fr;
+  const Vec& vp = pr.vp;
+  const Vec dir{p[0] - vp[0], p[1] - vp[1], p[2] - vp[2]};
+  const double denom = dot(fr.normal, dir);
+  // The ray meets the plane's front side when denom < -1e-6 |dir| (and nvp > 0); the square
+  // root is needed only near that limit: denom^2 > 2e-12 |dir|^2 already implies it with a
+  // margin of sqrt(2) over the rounding of either side.
+  bool ray = false;
+  if (pr.nvp > 0 && denom < 0) {
+    const double dir2 = dot(dir, dir);
+    ray = denom * denom > 2e-12 * dir2 || denom < -1e-6 * std::sqrt(dir2);
+  }
+  Vec q;
+  if (ray) {
+    const double t = -pr.nvp / denom;
+    q = {vp[0] + t * dir[0], vp[1] + t * dir[1], vp[2] + t * dir[2]};
+  } else {
+    const double dist = dot(fr.normal, p) + fr.offset;
+    q = {p[0] - dist * fr.normal[0], p[1] - dist * fr.normal[1], p[2] - dist * fr.normal[2]};
+  }
+  const Vec rel{q[0] - fr.origin[0], q[1] - fr.origin[1], q[2] - fr.origin[2]};
+  xy[0] = dot(rel, fr.e1);
+  xy[1] = dot(rel, fr.e2);
+}
 
 /// Point i of x, y interleaved coordinates: xy + 2 i, with the offset computed in
 /// std::ptrdiff_t (an int product would overflow first).
@@ -223,5 +272,31 @@ void sort_points_xy(const double* xy, std::vector<int>& order, PointSortScratch&
 /// Andrew's monotone chain on points sorted by (x, y) ascending: writes hull indices,
 /// counter-clockwise, into `hull`. Points with equal coordinates may repeat.
 void monotone_chain_sorted(const double* xy, int n, std::vector<int>& hull);
+
+/// The outline of a raster of occupied square cells: cell (i, j) of `cols` x `rows`, row-major in
+/// `occ`, covers [x0 + i h, x0 + (i + 1) h) x [y0 + j h, y0 + (j + 1) h). The raster is first
+/// closed with a 3x3 square (bridging gaps of one cell); the two outermost rows and columns must
+/// be empty. The boundary loops of the occupied cells are traced and simplified (Douglas-Peucker
+/// at `tolerance`, halved for loops that then cross or touch another, unsimplified after a few
+/// halvings). `loops` gets them with outer loops counter-clockwise (y up) and holes clockwise;
+/// per loop also the unsimplified area (unsigned), perimeter and vertex count and the tolerance
+/// used.
+struct RasterOutline {
+  Polygons2D loops;
+  std::vector<double> raw_area, raw_perimeter, tolerance;
+  std::vector<int> raw_count;
+  // Buffers reused call after call (`mask` and `pos` are all zero between calls).
+  std::vector<std::uint8_t> tmp;
+  std::vector<std::uint16_t> mask;
+  std::vector<std::int32_t> pos, starts, walk, stack;
+  std::vector<double> xy;
+  std::vector<int> loop_first, keep, keep_first;
+  std::vector<std::array<int, 2>> dp_stack;
+  std::vector<CheckEdge> edges;
+  std::vector<std::uint8_t> bad;
+  TraceSteps steps;
+};
+void outline_raster(std::vector<std::uint8_t>& occ, int cols, int rows, double x0, double y0,
+                    double h, double tolerance, RasterOutline& out);
 
 }  // namespace rangeseg::polygons_detail

@@ -44,6 +44,24 @@ void require_rings_match(const OrganizedCloud& cloud, const PointRings& rings,
         << rings.neighbours.size() << " slots), the cloud has " << cloud.size();
     throw std::invalid_argument(msg.str());
   }
+  // The stages index the cloud by the rings without checks: rings filled by the caller are
+  // checked here once (count <= k, neighbours in range).
+  const auto n = static_cast<std::int64_t>(cloud.size());
+  for (std::size_t i = 0; i < rings.size(); ++i) {
+    const bool count_ok = rings.count[i] <= rings.k;
+    bool in_range = true;
+    if (count_ok) {
+      for (const std::int32_t j : rings.ring(i)) in_range &= j >= 0 && j < n;
+    }
+    if (!count_ok || !in_range) {
+      std::ostringstream msg;
+      msg << what << ": the ring of point " << i << " has "
+          << (count_ok ? "a neighbour index outside [0, " + std::to_string(n) + ")"
+                       : std::to_string(rings.count[i]) +
+                             " neighbours for k = " + std::to_string(rings.k));
+      throw std::invalid_argument(msg.str());
+    }
+  }
   if (normals != nullptr &&
       (normals->width() != cloud.width() || normals->height() != cloud.height() ||
        normals->nx.width() != cloud.width() || normals->ny.width() != cloud.width() ||
