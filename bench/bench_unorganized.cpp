@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -19,28 +18,6 @@ namespace {
 using namespace rangeseg;
 
 const std::string kFrame = RANGESEG_SOURCE_DIR "/../shared/data/kinect/grabber_frame0.pcd";
-
-/// The valid points of `grid` as a 1-row cloud, shuffled with a fixed seed.
-OrganizedCloud shuffled_valid_points(const OrganizedCloud& grid) {
-  struct P {
-    float x, y, z;
-  };
-  std::vector<P> points;
-  for (int v = 0; v < grid.height(); ++v) {
-    for (int u = 0; u < grid.width(); ++u) {
-      if (grid.valid(u, v)) points.push_back({grid.x(u, v), grid.y(u, v), grid.z(u, v)});
-    }
-  }
-  std::shuffle(points.begin(), points.end(), std::mt19937(1));
-  OrganizedCloud cloud(static_cast<int>(points.size()), 1);
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const int u = static_cast<int>(i);
-    cloud.x(u, 0) = points[i].x;
-    cloud.y(u, 0) = points[i].y;
-    cloud.z(u, 0) = points[i].z;
-  }
-  return cloud;
-}
 
 /// The frame's points and the stages before the measured one, with the settings of
 /// pipeline_preset("kinect") (whose smoothing is the default, 3 passes).
@@ -60,7 +37,7 @@ enum class Stage { rings, normals, smoothing, segmentation, polygons };
 /// Loads the frame and runs the stages before `stage`; false (benchmark skipped) without data.
 bool prepare(benchmark::State& state, Stage stage, Frame& f) {
   if (!bench::have_shared_data(state, kFrame)) return false;
-  f.cloud = shuffled_valid_points(io::read_pcd(kFrame));
+  f.cloud = shuffled_valid_points(io::read_pcd(kFrame), 1);
   if (stage > Stage::rings) build_rings(f.cloud, f.settings.rings, f.rings);
   if (stage > Stage::normals) compute_normals(f.cloud, f.rings, f.settings.normals, f.normals);
   if (stage > Stage::smoothing) {

@@ -1,6 +1,12 @@
+#include <algorithm>
 #include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <random>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "rangeseg/cloud.hpp"
 
@@ -18,7 +24,63 @@ void take_every(const Plane<T>& in, int factor, int out_width, int out_height, P
   }
 }
 
+template <class T>
+void gather(const Plane<T>& in, const std::vector<std::size_t>& pixels, Plane<T>& out) {
+  if (in.empty()) return;
+  out.resize(static_cast<int>(pixels.size()), 1);
+  const auto width = static_cast<std::size_t>(in.width());
+  T* dst = out.row(0);
+  for (std::size_t i = 0; i < pixels.size(); ++i) {
+    dst[i] = in.row(static_cast<int>(pixels[i] / width))[pixels[i] % width];
+  }
+}
+
+OrganizedCloud points_at(const OrganizedCloud& cloud, const std::vector<std::size_t>& pixels) {
+  if (pixels.size() > static_cast<std::size_t>(std::numeric_limits<int>::max())) {
+    throw std::invalid_argument("valid_points: " + std::to_string(pixels.size()) +
+                                " points do not fit in one row");
+  }
+  OrganizedCloud out;
+  gather(cloud.x, pixels, out.x);
+  gather(cloud.y, pixels, out.y);
+  gather(cloud.z, pixels, out.z);
+  gather(cloud.intensity, pixels, out.intensity);
+  gather(cloud.r, pixels, out.r);
+  gather(cloud.g, pixels, out.g);
+  gather(cloud.b, pixels, out.b);
+  gather(cloud.label, pixels, out.label);
+  return out;
+}
+
+std::vector<std::size_t> valid_pixels(const OrganizedCloud& cloud) {
+  require_consistent(cloud, "valid_points");
+  std::vector<std::size_t> pixels;
+  pixels.reserve(cloud.size());
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      if (cloud.valid(u, v)) pixels.push_back(static_cast<std::size_t>(v) * cloud.width() + u);
+    }
+  }
+  return pixels;
+}
+
 }  // namespace
+
+OrganizedCloud valid_points(const OrganizedCloud& cloud, std::vector<std::size_t>* pixels) {
+  std::vector<std::size_t> p = valid_pixels(cloud);
+  OrganizedCloud out = points_at(cloud, p);
+  if (pixels != nullptr) *pixels = std::move(p);
+  return out;
+}
+
+OrganizedCloud shuffled_valid_points(const OrganizedCloud& cloud, std::uint64_t seed,
+                                     std::vector<std::size_t>* pixels) {
+  std::vector<std::size_t> p = valid_pixels(cloud);
+  std::shuffle(p.begin(), p.end(), std::mt19937_64(seed));
+  OrganizedCloud out = points_at(cloud, p);
+  if (pixels != nullptr) *pixels = std::move(p);
+  return out;
+}
 
 OrganizedCloud downsample(const OrganizedCloud& cloud, int factor) {
   require_consistent(cloud, "downsample");

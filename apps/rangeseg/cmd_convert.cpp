@@ -1,4 +1,6 @@
+#include <cstdint>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -18,6 +20,8 @@ struct ConvertOptions {
   InputOptions in;
   std::string out;
   std::string encoding = "binary";
+  bool unorganized = false;
+  std::optional<std::uint64_t> shuffle;
 };
 
 io::PcdEncoding parse_encoding(const std::string& name) {
@@ -29,8 +33,18 @@ io::PcdEncoding parse_encoding(const std::string& name) {
 }
 
 void convert(const ConvertOptions& o) {
-  const LoadedInput in = load_input(o.in);
   const std::string ext = io::extension(o.out);
+  if ((o.unorganized || o.shuffle) && ext == ".png") {
+    throw std::invalid_argument(o.out +
+                                ": a depth PNG needs a pixel grid, which --unorganized and "
+                                "--shuffle remove (write .pcd or .ply)");
+  }
+  LoadedInput in = load_input(o.in);
+  if (o.shuffle) {
+    in.cloud = shuffled_valid_points(in.cloud, *o.shuffle);
+  } else if (o.unorganized) {
+    in.cloud = valid_points(in.cloud);
+  }
   if (ext == ".pcd") {
     io::write_pcd(o.out, in.cloud, {.encoding = parse_encoding(o.encoding)});
   } else if (ext == ".png") {
@@ -65,6 +79,10 @@ void add_convert(CLI::App& app) {
   cmd->add_option("output", o->out, "Output file: .pcd, .png (16-bit depth) or .ply")->required();
   cmd->add_option("--encoding", o->encoding, "PCD encoding: ascii, binary or binary_compressed")
       ->capture_default_str();
+  cmd->add_flag("--unorganized", o->unorganized,
+                "Keep only the valid points, as an unorganized cloud (height 1, row-major order)");
+  cmd->add_option("--shuffle", o->shuffle,
+                  "As --unorganized, in an order shuffled with this seed (an integer)");
   cmd->callback([o] { convert(*o); });
 }
 

@@ -8,7 +8,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <memory>
-#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -205,28 +204,6 @@ void print_curved(const CurvedScore& c) {
   std::printf("plane regions detected by a sphere or cylinder segment: %d\n", c.planes_as_curved);
 }
 
-/// The valid points of `cloud` in a shuffled order (seeded) as a 1-row cloud, and the pixel
-/// index (v * width + u) of each.
-OrganizedCloud shuffled_points(const OrganizedCloud& cloud, std::uint64_t seed,
-                               std::vector<std::size_t>& pixel) {
-  pixel.clear();
-  for (int v = 0; v < cloud.height(); ++v) {
-    for (int u = 0; u < cloud.width(); ++u) {
-      if (cloud.valid(u, v)) pixel.push_back(static_cast<std::size_t>(v) * cloud.width() + u);
-    }
-  }
-  std::shuffle(pixel.begin(), pixel.end(), std::mt19937_64(seed));
-  OrganizedCloud list(static_cast<int>(pixel.size()), 1);
-  for (std::size_t i = 0; i < pixel.size(); ++i) {
-    const int u = static_cast<int>(pixel[i] % cloud.width());
-    const int v = static_cast<int>(pixel[i] / cloud.width());
-    list.x(static_cast<int>(i), 0) = cloud.x(u, v);
-    list.y(static_cast<int>(i), 0) = cloud.y(u, v);
-    list.z(static_cast<int>(i), 0) = cloud.z(u, v);
-  }
-  return list;
-}
-
 /// The segmentation of shuffled points with its labels put back on the grid of width x height.
 Segmentation on_grid(const Segmentation& points, const std::vector<std::size_t>& pixel, int width,
                      int height) {
@@ -259,7 +236,7 @@ void run_eval_synth(const EvalSynthOptions& o) {
     Segmentation gridded;
     if (o.unorganized) {
       std::vector<std::size_t> pixel;
-      const OrganizedCloud points = shuffled_points(scene.cloud, seed, pixel);
+      const OrganizedCloud points = shuffled_valid_points(scene.cloud, seed, &pixel);
       pipeline.process(points);
       gridded = on_grid(pipeline.segmentation(), pixel, scene.cloud.width(), scene.cloud.height());
     } else {

@@ -3,6 +3,8 @@
 
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <vector>
 
 #include "rangeseg/image.hpp"
 
@@ -68,5 +70,16 @@ void require_organized(const OrganizedCloud& cloud, const char* what);
 /// ceil(width / factor) x ceil(height / factor) pixels; its angular pixel spacing is `factor`
 /// times the input's. Defined in src/cloud_ops.cpp. Throws std::invalid_argument if factor < 1.
 OrganizedCloud downsample(const OrganizedCloud& cloud, int factor);
+
+/// The valid points of `cloud` as an unorganized cloud (height 1) with the optional planes that
+/// `cloud` has, in row-major order: e.g. a range image for the unorganized path. `pixels`, when
+/// given, receives for each point the index v * width + u of its pixel in `cloud`. Defined in
+/// src/cloud_ops.cpp. Throws std::invalid_argument for an inconsistent cloud.
+OrganizedCloud valid_points(const OrganizedCloud& cloud,
+                            std::vector<std::size_t>* pixels = nullptr);
+/// The same in a shuffled order (std::shuffle with std::mt19937_64(seed): the same order for a
+/// seed with one standard library), e.g. to check that nothing depends on the points' order.
+OrganizedCloud shuffled_valid_points(const OrganizedCloud& cloud, std::uint64_t seed,
+                                     std::vector<std::size_t>* pixels = nullptr);
 
 }  // namespace rangeseg
