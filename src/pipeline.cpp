@@ -84,29 +84,17 @@ void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
   const Clock::time_point start = t;
   ThreadPool* const pool =
       cloud.size() >= static_cast<std::size_t>(kMinPixelsForThreads) ? pool_.get() : nullptr;
-  if (pool != nullptr) {
-    build_rings(cloud, settings_.rings, rings_, *pool);
-  } else {
-    build_rings(cloud, settings_.rings, rings_);
-  }
+  build_rings(cloud, settings_.rings, rings_, pool, ring_buffers_);
   times_.mesh = ms_since(t);
-  if (pool != nullptr) {
-    compute_normals(cloud, rings_, settings_.normals, raw_normals_, *pool);
-  } else {
-    compute_normals(cloud, rings_, settings_.normals, raw_normals_);
-  }
+  compute_normals(cloud, rings_, settings_.normals, raw_normals_, pool, ring_buffers_);
   times_.normals = ms_since(t);
   if (settings_.smooth) {
-    if (pool != nullptr) {
-      smooth(cloud, rings_, raw_normals_, settings_.smoothing, smoothed_cloud_, smoothed_normals_,
-             *pool);
-    } else {
-      smooth(cloud, rings_, raw_normals_, settings_.smoothing, smoothed_cloud_, smoothed_normals_);
-    }
+    smooth(cloud, rings_, raw_normals_, settings_.smoothing, smoothed_cloud_, smoothed_normals_,
+           pool, ring_buffers_);
     times_.smoothing = ms_since(t);
   }
   if (settings_.segment) {
-    segment(this->cloud(), rings_, normals(), settings_.segmentation, segmentation_);
+    segment(this->cloud(), rings_, normals(), settings_.segmentation, segmentation_, ring_buffers_);
     times_.segmentation = ms_since(t);
     if (settings_.polygons) {
       polygon_extractor_.extract(this->cloud(), rings_, segmentation_, settings_.polygon,

@@ -375,14 +375,15 @@ TEST(CliUnorganized, ConfigRingsAreAppliedAndChecked) {
             read_text(dir / "k16" / "segments.json"));
   EXPECT_NE(read_text(dir / "defaults" / "cloud.pcd"), read_text(dir / "k16" / "cloud.pcd"));
   const CliResult all = segment("all", R"({"rings": {"k": 8, "max_distance": 0.5,
-      "eps_theta": 0.2, "jump_sigmas": 4}})");
+      "eps_theta": 0.2, "jump_sigmas": 4, "by_direction": true, "balanced": false}})");
   EXPECT_EQ(all.code, 0) << all.out;
 
-  for (const auto& [config, needle] :
-       std::vector<std::pair<std::string, std::string>>{{R"({"rings": {"bogus": 1}})", "bogus"},
-                                                        {R"({"rings": {"k": 1}})", "k = 1"},
-                                                        {R"({"rings": {"k": 2.5}})", "'k'"},
-                                                        {R"({"rings": 3})", "rings"}}) {
+  for (const auto& [config, needle] : std::vector<std::pair<std::string, std::string>>{
+           {R"({"rings": {"bogus": 1}})", "bogus"},
+           {R"({"rings": {"k": 1}})", "k = 1"},
+           {R"({"rings": {"k": 2.5}})", "'k'"},
+           {R"({"rings": 3})", "rings"},
+           {R"({"rings": {"balanced": 1}})", "balanced"}}) {
     const CliResult r = segment("bad", config);
     EXPECT_EQ(r.code, 2) << config << "\n" << r.out;
     EXPECT_NE(r.out.find("bad.json"), std::string::npos) << r.out;

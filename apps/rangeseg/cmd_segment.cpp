@@ -78,10 +78,11 @@ void add_settings_options(CLI::App& cmd, std::string& model, std::string& preset
                              : "Sensor preset: kinect, abw, laser, perceptron (SegComp Perceptron "
                                "images) or ideal (noise-free or simulated depth)")
       ->capture_default_str();
-  cmd.add_option("--config", config,
-                 "JSON file with settings overriding the preset: objects noise, mesh, smoothing, "
-                 "segmentation, rings (k-nearest-neighbour rings of unorganized clouds: k, "
-                 "max_distance, eps_theta, jump_sigmas, by_direction), and smooth (true/false)");
+  cmd.add_option(
+      "--config", config,
+      "JSON file with settings overriding the preset: objects noise, mesh, smoothing, "
+      "segmentation, rings (k-nearest-neighbour rings of unorganized clouds: k, "
+      "max_distance, eps_theta, jump_sigmas, by_direction, balanced), and smooth (true/false)");
   cmd.add_flag("--no-smooth", no_smooth, "Skip the bilateral filter");
 }
 
@@ -148,9 +149,10 @@ void add_segment(CLI::App& app) {
     if (!in.cloud.is_organized()) {
       std::printf(
           "%s: %zu segments of %zu points (unorganized, %zu valid) in %.2f ms (preset %s; rings "
-          "%.2f, normals %.2f, smoothing %.2f, segmentation %.2f); wrote %s\n",
+          "%.2f, normals %.2f, smoothing %.2f, segmentation %.2f, polygons %.2f); wrote %s\n",
           o->in.path.c_str(), segments, in.cloud.size(), in.cloud.count_valid(), t.total,
-          preset.c_str(), t.mesh, t.normals, t.smoothing, t.segmentation, files.c_str());
+          preset.c_str(), t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons,
+          files.c_str());
       return;
     }
     std::printf(

@@ -172,12 +172,14 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
   if (j.contains("rings")) {
     const json& m = j["rings"];
     const std::string where = path + " [rings]";
-    reject_unknown(m, {"k", "max_distance", "eps_theta", "jump_sigmas", "by_direction"}, where);
+    reject_unknown(m, {"k", "max_distance", "eps_theta", "jump_sigmas", "by_direction", "balanced"},
+                   where);
     take(m, "k", s.rings.k, where);
     take(m, "max_distance", s.rings.max_distance, where);
     take(m, "eps_theta", s.rings.eps_theta, where);
     take(m, "jump_sigmas", s.rings.jump_sigmas, where);
     take(m, "by_direction", s.rings.by_direction, where);
+    take(m, "balanced", s.rings.balanced, where);
   }
   validate(s.smoothing);
   try {

@@ -108,6 +108,7 @@ class Pipeline {
   OrganizedCloud smoothed_cloud_;
   NormalMap smoothed_normals_;
   Segmenter segmenter_;
+  RingBuffers ring_buffers_;  ///< smoothing and segmentation of unorganized clouds
   Segmentation segmentation_;
   PolygonExtractor polygon_extractor_;
   PolygonSet polygons_;

@@ -7,6 +7,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -44,11 +45,36 @@ struct RingSettings {
   /// unorganized: 24 of 99 regions correct by distance, 64 by direction). false: by 3D distance,
   /// for clouds merged from several viewpoints (then also set eps_theta = 0).
   bool by_direction = true;
+  /// true (and k >= 6): where the k nearest neighbours lie along a line (their scatter about p_i in
+  /// the search space has its second principal axis below 0.1 of the first: the scan line of a
+  /// multi-beam lidar, whose beams are further apart than its points), the ring is instead
+  /// chosen from the 4k nearest in turn per 45-degree sector about p_i (the nearest of each
+  /// sector, then the second nearest of each, ...), so that it surrounds p_i as the mesh's
+  /// 1-ring surrounds a pixel. A 16-beam lidar's room scan (beams 2 deg apart, points 0.2 deg):
+  /// 6 of 6 walls, floor and ceiling one segment each, 0 of 6 without.
+  bool balanced = true;
 };
 
 /// Throws std::invalid_argument naming the field for k outside 2..64, a negative or non-finite
 /// distance or angle, or eps_theta >= pi / 2.
 void validate(const RingSettings& settings);
+
+/// Buffers of the stages over rings, kept from call to call so that a stream of
+/// clouds does not map fresh memory for every frame (tens of MB for a 640 x 480 frame; Pipeline
+/// keeps one). Not thread-safe: one per thread.
+class RingBuffers {
+ public:
+  RingBuffers();
+  ~RingBuffers();
+  RingBuffers(RingBuffers&&) noexcept;
+  RingBuffers& operator=(RingBuffers&&) noexcept;
+
+  struct Impl;
+  Impl& impl() { return *impl_; }
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
 
 /// The ring of every point of a cloud, indexed like the cloud's points (i = v * width + u).
 struct PointRings {
@@ -72,6 +98,9 @@ void build_rings(const OrganizedCloud& cloud, const RingSettings& settings, Poin
 /// As above, with the queries split over `pool.threads()` threads (the same result).
 void build_rings(const OrganizedCloud& cloud, const RingSettings& settings, PointRings& out,
                  ThreadPool& pool);
+/// As above, on the pool's threads when `pool` is given, reusing `buffers`.
+void build_rings(const OrganizedCloud& cloud, const RingSettings& settings, PointRings& out,
+                 ThreadPool* pool, RingBuffers& buffers);
 inline PointRings build_rings(const OrganizedCloud& cloud, const RingSettings& settings = {}) {
   PointRings out;
   build_rings(cloud, settings, out);
@@ -90,6 +119,10 @@ void compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
 /// As above, with the points split over `pool.threads()` threads (the same result).
 void compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
                      const NormalSettings& settings, NormalMap& out, ThreadPool& pool);
+/// As above, on the pool's threads when `pool` is given, reusing `buffers`.
+void compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
+                     const NormalSettings& settings, NormalMap& out, ThreadPool* pool,
+                     RingBuffers& buffers);
 inline NormalMap compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
                                  const NormalSettings& settings = {}) {
   NormalMap out;
@@ -119,6 +152,10 @@ void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMa
 void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
             const SmoothingSettings& settings, OrganizedCloud& out_cloud, NormalMap& out_normals,
             ThreadPool& pool);
+/// As above, on the pool's threads when `pool` is given, reusing `buffers`.
+void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
+            const SmoothingSettings& settings, OrganizedCloud& out_cloud, NormalMap& out_normals,
+            ThreadPool* pool, RingBuffers& buffers);
 
 /// Stage 4 over the rings, for RegionModel::plane and RegionModel::smooth. Seeds are taken in
 /// ascending curvature; a region grows over the rings with the model's tests as on the grid.
@@ -140,6 +177,9 @@ void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMa
 /// settings or size mismatches.
 void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
              const SegmentationSettings& settings, Segmentation& out);
+/// As above, reusing `buffers`.
+void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
+             const SegmentationSettings& settings, Segmentation& out, RingBuffers& buffers);
 inline Segmentation segment(const OrganizedCloud& cloud, const PointRings& rings,
                             const NormalMap& normals, const SegmentationSettings& settings = {}) {
   Segmentation out;

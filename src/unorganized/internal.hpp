@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "rangeseg/cloud.hpp"
@@ -46,9 +47,34 @@ void for_points(std::size_t count, ThreadPool* pool, F&& fn) {
   });
 }
 
+/// Per point and pass of the filter: the inverse scales of the distance and normal terms.
+struct Scales {
+  float inv_distance = 0;  // 1 / (2 s_d^2)
+  float inv_normal = 0;    // 1 / s_n
+};
+
 inline float squared_distance(const float* a, const float* b) {
   const float dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
   return dx * dx + dy * dy + dz * dz;
 }
 
 }  // namespace rangeseg::unorganized
+
+namespace rangeseg {
+
+/// The buffers of one RingBuffers (their capacity only grows).
+struct RingBuffers::Impl {
+  // build_rings: the valid points packed, their indices in the cloud, their directions.
+  std::vector<float> valid_xyz, directions;
+  std::vector<std::int32_t> original;
+  // All stages: the cloud's points packed. smooth: normals packed (this pass and the next),
+  // grey values, scales.
+  std::vector<float> xyz, n, xyz_next, n_next, grey;
+  std::vector<unorganized::Scales> scales;
+  // segment: packed points, normals, curvature, sigma(r), cosine of the angle bound; seeds,
+  // their keys, raw labels, the growth queue.
+  std::vector<float> seg_xyz, seg_n, curvature, sigma, cos_angle;
+  std::vector<std::int32_t> seeds, labels, queue;
+};
+
+}  // namespace rangeseg

@@ -118,14 +118,14 @@ RingNormal ring_normal(const float* xyz, std::size_t i, std::span<const std::int
 namespace {
 
 void normals_over_rings(const OrganizedCloud& cloud, const PointRings& rings,
-                        const NormalSettings& settings, NormalMap& out, ThreadPool* pool) {
+                        const NormalSettings& settings, NormalMap& out, ThreadPool* pool,
+                        std::vector<float>& xyz) {
   unorganized::require_rings_match(cloud, rings, nullptr, "compute_normals");
   const int w = cloud.width(), h = cloud.height();
   out.nx.resize(w, h, NAN);
   out.ny.resize(w, h, NAN);
   out.nz.resize(w, h, NAN);
   out.curvature.resize(w, h, NAN);
-  std::vector<float> xyz;
   unorganized::pack_points(cloud, xyz);
   unorganized::for_points(rings.size(), pool, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
@@ -143,12 +143,20 @@ void normals_over_rings(const OrganizedCloud& cloud, const PointRings& rings,
 
 void compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
                      const NormalSettings& settings, NormalMap& out) {
-  normals_over_rings(cloud, rings, settings, out, nullptr);
+  std::vector<float> xyz;
+  normals_over_rings(cloud, rings, settings, out, nullptr, xyz);
 }
 
 void compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
                      const NormalSettings& settings, NormalMap& out, ThreadPool& pool) {
-  normals_over_rings(cloud, rings, settings, out, &pool);
+  std::vector<float> xyz;
+  normals_over_rings(cloud, rings, settings, out, &pool, xyz);
+}
+
+void compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
+                     const NormalSettings& settings, NormalMap& out, ThreadPool* pool,
+                     RingBuffers& buffers) {
+  normals_over_rings(cloud, rings, settings, out, pool, buffers.impl().xyz);
 }
 
 double point_area(const OrganizedCloud& cloud, const PointRings& rings, std::size_t i) {

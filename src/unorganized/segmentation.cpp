@@ -21,10 +21,11 @@ using unorganized::at;
 /// The packed inputs of one call in ring order: points, normals, curvature, sigma(r), and the
 /// cosine of the plane model's normal-angle bound at each point.
 struct Points {
-  std::vector<float> xyz, n, curvature, sigma, cos_angle;
+  std::vector<float>&xyz, &n, &curvature, &sigma, &cos_angle;
 
-  Points(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
-         const SegmentationSettings& s) {
+  Points(RingBuffers::Impl& b, const OrganizedCloud& cloud, const PointRings& rings,
+         const NormalMap& normals, const SegmentationSettings& s)
+      : xyz(b.seg_xyz), n(b.seg_n), curvature(b.curvature), sigma(b.sigma), cos_angle(b.cos_angle) {
     const SensorNoise& noise = s.noise;
     unorganized::pack_points(cloud, xyz);
     const std::size_t count = cloud.size();
@@ -162,9 +163,7 @@ class SmoothRegion {
 template <class Model>
 std::int32_t grow(const PointRings& rings, const Points& pts,
                   const std::vector<std::int32_t>& seeds, Model& model,
-                  std::vector<std::int32_t>& labels) {
-  std::vector<std::int32_t> queue;
-  queue.reserve(labels.size());
+                  std::vector<std::int32_t>& labels, std::vector<std::int32_t>& queue) {
   std::int32_t label = 0;
   for (const std::int32_t seed : seeds) {
     if (labels[static_cast<std::size_t>(seed)] != 0) continue;
@@ -333,6 +332,12 @@ void reassign(const PointRings& rings, const Points& pts, const SegmentationSett
 
 void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
              const SegmentationSettings& settings, Segmentation& out) {
+  RingBuffers buffers;
+  segment(cloud, rings, normals, settings, out, buffers);
+}
+
+void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
+             const SegmentationSettings& settings, Segmentation& out, RingBuffers& buffers) {
   seg::validate(settings);
   const bool planes = settings.model == RegionModel::plane;
   if (!planes && settings.model != RegionModel::smooth) {
@@ -343,10 +348,11 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
   if (normals.curvature.width() != cloud.width() || normals.curvature.height() != cloud.height()) {
     throw std::invalid_argument("segment: the normals have no curvature of the cloud's size");
   }
-  const Points pts(cloud, rings, normals, settings);
+  RingBuffers::Impl& b = buffers.impl();
+  const Points pts(b, cloud, rings, normals, settings);
   const std::size_t count = cloud.size();
-  std::vector<std::int32_t> seeds;
-  std::vector<float> keys;
+  std::vector<std::int32_t>& seeds = b.seeds;
+  seeds.clear();
   for (std::size_t i = 0; i < count; ++i) {
     const float c = pts.curvature[i];
     if (rings.count[i] == 0 || !pts.has_normal(i) || !(c <= settings.max_seed_curvature)) continue;
@@ -356,14 +362,15 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
   std::stable_sort(seeds.begin(), seeds.end(), [&](std::int32_t a, std::int32_t b) {
     return pts.curvature[static_cast<std::size_t>(a)] < pts.curvature[static_cast<std::size_t>(b)];
   });
-  std::vector<std::int32_t> labels(count, 0);
+  std::vector<std::int32_t>& labels = b.labels;
+  labels.assign(count, 0);
   std::int32_t raw = 0;
   if (planes) {
     PlaneRegion model(pts, settings);
-    raw = grow(rings, pts, seeds, model, labels);
+    raw = grow(rings, pts, seeds, model, labels, b.queue);
   } else {
     SmoothRegion model(pts, settings);
-    raw = grow(rings, pts, seeds, model, labels);
+    raw = grow(rings, pts, seeds, model, labels, b.queue);
   }
   std::vector<detail::PlaneStats> stats = label_stats(pts, labels, raw);
   drop_small(labels, stats, settings.min_region_size);

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <stdexcept>
 #include <vector>
 
@@ -13,19 +14,15 @@ namespace {
 
 using unorganized::at;
 
-/// Per point and pass: the inverse scales of the distance and normal terms.
-struct Scales {
-  float inv_distance = 0;  // 1 / (2 s_d^2)
-  float inv_normal = 0;    // 1 / s_n
-};
+using unorganized::Scales;
 
 /// Grey values in ring order (intensity, else from RGB), or empty when the cloud has neither,
 /// and c_I: the setting, or max - min over the valid points.
-std::vector<float> grey_values(const OrganizedCloud& cloud, const SmoothingSettings& s,
-                               const std::vector<float>& xyz, float& range) {
-  std::vector<float> grey;
+void grey_values(const OrganizedCloud& cloud, const SmoothingSettings& s,
+                 const std::vector<float>& xyz, std::vector<float>& grey, float& range) {
+  grey.clear();
   range = 0;
-  if (!s.use_intensity || (!cloud.has_intensity() && !cloud.has_rgb())) return grey;
+  if (!s.use_intensity || (!cloud.has_intensity() && !cloud.has_rgb())) return;
   grey.resize(cloud.size());
   float lo = INFINITY, hi = -INFINITY;
   for (std::size_t i = 0; i < grey.size(); ++i) {
@@ -40,7 +37,6 @@ std::vector<float> grey_values(const OrganizedCloud& cloud, const SmoothingSetti
   }
   range = s.intensity_range > 0 ? s.intensity_range : (hi > lo ? hi - lo : 0.0f);
   if (!(range > 0)) grey.clear();
-  return grey;
 }
 
 void one_pass(const PointRings& rings, const SmoothingSettings& s, const std::vector<float>& grey,
@@ -134,13 +130,16 @@ namespace {
 
 void smooth_over_rings(const OrganizedCloud& cloud, const PointRings& rings,
                        const NormalMap& normals, const SmoothingSettings& settings,
-                       OrganizedCloud& out_cloud, NormalMap& out_normals, ThreadPool* pool) {
+                       OrganizedCloud& out_cloud, NormalMap& out_normals, ThreadPool* pool,
+                       RingBuffers::Impl& b) {
   validate(settings);
   unorganized::require_rings_match(cloud, rings, &normals, "smooth");
   if (&out_cloud == &cloud || &out_normals == &normals) {
     throw std::invalid_argument("smooth: an output object is the corresponding input");
   }
-  std::vector<float> xyz, n(cloud.size() * 3);
+  std::vector<float>& xyz = b.xyz;
+  std::vector<float>& n = b.n;
+  n.resize(cloud.size() * 3);
   unorganized::pack_points(cloud, xyz);
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     n[3 * i] = at(normals.nx, i);
@@ -148,12 +147,13 @@ void smooth_over_rings(const OrganizedCloud& cloud, const PointRings& rings,
     n[3 * i + 2] = at(normals.nz, i);
   }
   float range = 0;
-  const std::vector<float> grey = grey_values(cloud, settings, xyz, range);
-  const float inv_intensity = grey.empty() ? 0.0f : 1.0f / (range * settings.intensity_scale);
-  std::vector<Scales> scales(cloud.size());
-  std::vector<float> xyz_next, n_next;
+  grey_values(cloud, settings, xyz, b.grey, range);
+  const float inv_intensity = b.grey.empty() ? 0.0f : 1.0f / (range * settings.intensity_scale);
+  b.scales.resize(cloud.size());
+  std::vector<float>& xyz_next = b.xyz_next;
+  std::vector<float>& n_next = b.n_next;
   for (int pass = 0; pass < settings.iterations; ++pass) {
-    one_pass(rings, settings, grey, inv_intensity, xyz, n, scales, xyz_next, n_next, pool);
+    one_pass(rings, settings, b.grey, inv_intensity, xyz, n, b.scales, xyz_next, n_next, pool);
     xyz.swap(xyz_next);
     n.swap(n_next);
   }
@@ -172,15 +172,29 @@ void smooth_over_rings(const OrganizedCloud& cloud, const PointRings& rings,
 
 }  // namespace
 
+RingBuffers::RingBuffers() : impl_(std::make_unique<Impl>()) {}
+RingBuffers::~RingBuffers() = default;
+RingBuffers::RingBuffers(RingBuffers&&) noexcept = default;
+RingBuffers& RingBuffers::operator=(RingBuffers&&) noexcept = default;
+
 void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
             const SmoothingSettings& settings, OrganizedCloud& out_cloud, NormalMap& out_normals) {
-  smooth_over_rings(cloud, rings, normals, settings, out_cloud, out_normals, nullptr);
+  RingBuffers buffers;
+  smooth_over_rings(cloud, rings, normals, settings, out_cloud, out_normals, nullptr,
+                    buffers.impl());
 }
 
 void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
             const SmoothingSettings& settings, OrganizedCloud& out_cloud, NormalMap& out_normals,
             ThreadPool& pool) {
-  smooth_over_rings(cloud, rings, normals, settings, out_cloud, out_normals, &pool);
+  RingBuffers buffers;
+  smooth_over_rings(cloud, rings, normals, settings, out_cloud, out_normals, &pool, buffers.impl());
+}
+
+void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
+            const SmoothingSettings& settings, OrganizedCloud& out_cloud, NormalMap& out_normals,
+            ThreadPool* pool, RingBuffers& buffers) {
+  smooth_over_rings(cloud, rings, normals, settings, out_cloud, out_normals, pool, buffers.impl());
 }
 
 }  // namespace rangeseg
