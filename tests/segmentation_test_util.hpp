@@ -21,6 +21,18 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 constexpr double kF = 525.0, kCx = 319.5, kCy = 239.5;
 
+/// A 1-row (unorganized) cloud of the points, in their order.
+inline OrganizedCloud row_cloud(const std::vector<std::array<double, 3>>& points) {
+  OrganizedCloud cloud(static_cast<int>(points.size()), 1);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const int u = static_cast<int>(i);
+    cloud.x(u, 0) = static_cast<float>(points[i][0]);
+    cloud.y(u, 0) = static_cast<float>(points[i][1]);
+    cloud.z(u, 0) = static_cast<float>(points[i][2]);
+  }
+  return cloud;
+}
+
 /// Ray-casts a depth function: `depth(a, b)` gives the depth t of the point t (a, b, 1) seen
 /// through the pixel with ray slopes a = (u - cx) / f, b = (v - cy) / f (NaN = no point).
 inline OrganizedCloud cast(int width, int height,

@@ -60,17 +60,7 @@ double kinect_sigma(double r) { return SensorNoise{}.sigma(r); }
 
 // --- Clouds --------------------------------------------------------------------------------------
 
-/// A 1-row (unorganized) cloud of the points.
-OrganizedCloud row_cloud(const Points& points) {
-  OrganizedCloud cloud(static_cast<int>(points.size()), 1);
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const int u = static_cast<int>(i);
-    cloud.x(u, 0) = static_cast<float>(points[i][0]);
-    cloud.y(u, 0) = static_cast<float>(points[i][1]);
-    cloud.z(u, 0) = static_cast<float>(points[i][2]);
-  }
-  return cloud;
-}
+using test::row_cloud;
 
 /// Point i = v * width + u of any cloud, in double.
 Vec3 point_of(const OrganizedCloud& c, std::size_t i) {

@@ -21,6 +21,7 @@
 #include "rangeseg/polygons.hpp"
 #include "rangeseg/synth.hpp"
 #include "rangeseg/unorganized.hpp"
+#include "segmentation_test_util.hpp"
 
 namespace rangeseg {
 namespace {
@@ -37,14 +38,7 @@ Vec3 cross(const Vec3& a, const Vec3& b) {
 OrganizedCloud shuffled_cloud(Points points, unsigned seed) {
   std::mt19937 rng(seed);
   std::shuffle(points.begin(), points.end(), rng);
-  OrganizedCloud cloud(static_cast<int>(points.size()), 1);
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const int u = static_cast<int>(i);
-    cloud.x(u, 0) = static_cast<float>(points[i][0]);
-    cloud.y(u, 0) = static_cast<float>(points[i][1]);
-    cloud.z(u, 0) = static_cast<float>(points[i][2]);
-  }
-  return cloud;
+  return test::row_cloud(points);
 }
 
 Vec3 point_of(const OrganizedCloud& c, int i) { return {c.x(i, 0), c.y(i, 0), c.z(i, 0)}; }
@@ -646,6 +640,38 @@ TEST(RingPolygons, DegenerateSegmentsGetNoLoops) {
   EXPECT_EQ(set.segments[2].loop_count, 0);
   EXPECT_EQ(set.segments[1].area, 0.0);
   test::check_properties(set);
+}
+
+TEST(RingPolygons, LongThinSegmentStaysWithinTheRasterBounds) {
+  // Two rows of 3000 points 1 cm apart along 300 m (0.1 m apart along the rows): the raster
+  // along the line is bounded (kMaxSide cells), the outline one long sliver.
+  Points points;
+  for (int i = 0; i < 3000; ++i) {
+    for (const double y : {0.3, 0.31}) points.push_back({-150.0 + 0.1 * i, y, 2.0});
+  }
+  const OrganizedCloud cloud = shuffled_cloud(points, 9);
+  const TestPlane plane{{0, 0, 2}, {1, 0, 0}, {0, 1, 0}};
+  const PointRings rings = build_rings(cloud, {.by_direction = false});
+  const PolygonSet set = extract_polygons(cloud, rings, one_plane(cloud, plane));
+  ASSERT_EQ(set.segments.size(), 1u);
+  test::check_properties(set);
+  const SegmentPolygons& sp = set.segments[0];
+  std::printf(
+      "  300 m strip: %d loop(s), area %.3f m^2 (unsimplified %.3f), hull perimeter %.1f m\n",
+      sp.loop_count, sp.area, sp.raw_area, sp.hull_perimeter);
+  ASSERT_EQ(sp.loop_count, 1);
+  // The footprints cover 300 m x 1-2 cm; simplified at 1.5 footprints (~5 cm), the sliver
+  // thins.
+  EXPECT_NEAR(sp.raw_area, 300.0 * 0.015, 300.0 * 0.006);
+  EXPECT_GT(sp.area, 0.0);
+  EXPECT_GE(sp.hull_perimeter, 2 * 299.0);
+  // Collinear points have no extent across the line: no loop.
+  Points line;
+  for (int i = 0; i < 3000; ++i) line.push_back({-150.0 + 0.1 * i, 0.3, 2.0});
+  const OrganizedCloud line_cloud = shuffled_cloud(line, 9);
+  const PolygonSet none = extract_polygons(
+      line_cloud, build_rings(line_cloud, {.by_direction = false}), one_plane(line_cloud, plane));
+  EXPECT_EQ(none.segments.at(0).loop_count, 0);
 }
 
 TEST(RingPolygons, BadInputThrows) {

@@ -113,6 +113,18 @@ struct PolygonSet {
   std::vector<std::array<float, 3>> hull_points3d;
   std::vector<std::array<float, 2>> hull_points2d;
   std::vector<std::array<float, 2>> hull_pixels;
+
+  /// Empties every array, keeping their capacity (the extractors start each frame so).
+  void clear() {
+    segments.clear();
+    loops.clear();
+    points3d.clear();
+    points2d.clear();
+    pixels.clear();
+    hull_points3d.clear();
+    hull_points2d.clear();
+    hull_pixels.clear();
+  }
 };
 
 /// Computes plane polygons frame after frame. Reusing one extractor and one PolygonSet for a

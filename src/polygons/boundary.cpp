@@ -339,16 +339,9 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
   }
 
   Scratch& sc = *scratch_;
+  out.clear();
   out.width = width;
   out.height = height;
-  out.segments.clear();
-  out.loops.clear();
-  out.points3d.clear();
-  out.points2d.clear();
-  out.pixels.clear();
-  out.hull_points3d.clear();
-  out.hull_points2d.clear();
-  out.hull_pixels.clear();
   if (width == 0 || height == 0) return;
 
   // --- which segments ---

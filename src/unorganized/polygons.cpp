@@ -26,6 +26,7 @@ using unorganized::at;
 /// At most this many raster cells per segment: bounds the time and memory of one outline
 /// whatever the spread of the point spacing.
 constexpr double kMaxCells = 1 << 21;
+constexpr double kMaxSide = 1 << 16;
 
 /// A segment's points on its plane: coordinates, and the half-widths in x and y of each point's
 /// footprint.
@@ -200,8 +201,7 @@ struct PolygonExtractor::RingScratch {
   /// Returns false when the segment has no extent.
   bool trace(double tolerance) {
     const std::size_t m = f.xy.size() / 2;
-    double minx = INFINITY, miny = INFINITY, maxx = -INFINITY, maxy = -INFINITY,
-           min_half = INFINITY;
+    double minx = INFINITY, miny = INFINITY, maxx = -INFINITY, maxy = -INFINITY;
     f.spread.clear();
     for (std::size_t a = 0; a < m; ++a) {
       const double x = f.xy[2 * a], y = f.xy[2 * a + 1], hx = f.half[2 * a], hy = f.half[2 * a + 1];
@@ -210,22 +210,24 @@ struct PolygonExtractor::RingScratch {
       miny = std::min(miny, y - hy);
       maxy = std::max(maxy, y + hy);
       f.spread.push_back(std::min(hx, hy));
-      min_half = std::min(min_half, std::min(hx, hy));
     }
     if (!(maxx > minx) || !(maxy > miny) || !std::isfinite(maxx - minx + maxy - miny)) {
       return false;
     }
-    // Cells of the median smaller half-width: the typical box is about two cells wide. (Where
-    // the points are denser, several share a cell; the outline's detail there is below the
-    // simplification tolerance, a few median footprints.)
+    // Cells of 1.5 median smaller half-widths: a typical box covers one or two cells along
+    // each axis. (Where the points are denser, several share a cell; the outline's detail there
+    // is below the simplification tolerance, 1.5 median footprints.) At most kMaxCells cells,
+    // and at most kMaxSide along either axis (a long, thin segment).
     auto mid = f.spread.begin() + static_cast<std::ptrdiff_t>(f.spread.size() / 2);
     std::nth_element(f.spread.begin(), mid, f.spread.end());
     double h = 1.5 * *mid;
-    h = std::max(h, std::sqrt((maxx - minx) * (maxy - miny) / kMaxCells));
+    h = std::max({h, std::sqrt((maxx - minx) * (maxy - miny) / kMaxCells), (maxx - minx) / kMaxSide,
+                  (maxy - miny) / kMaxSide});
     if (!(h > 0)) return false;
     // Gaps between the footprints (random points leave some a spacing wide) up to two median
-    // footprints across are closed; outline_raster needs two more empty rows and columns.
-    const int close = static_cast<int>(std::lround(f.median_side / h));
+    // footprints across are closed (at most 8 cells, for footprints far from square);
+    // outline_raster needs two more empty rows and columns.
+    const int close = static_cast<int>(std::min(8.0, std::round(f.median_side / h)));
     const int kMargin = 2 + close;
     const int cols = static_cast<int>(std::floor((maxx - minx) / h)) + 1 + 2 * kMargin;
     const int rows = static_cast<int>(std::floor((maxy - miny) / h)) + 1 + 2 * kMargin;
@@ -395,16 +397,9 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const PointRings& ri
   require_settings(settings);
   if (!ring_scratch_) ring_scratch_.reset(new RingScratch);
   RingScratch& sc = *ring_scratch_;
+  out.clear();
   out.width = cloud.width();
   out.height = cloud.height();
-  out.segments.clear();
-  out.loops.clear();
-  out.points3d.clear();
-  out.points2d.clear();
-  out.pixels.clear();
-  out.hull_points3d.clear();
-  out.hull_points2d.clear();
-  out.hull_pixels.clear();
   const std::size_t n = cloud.size(), n_labels = segmentation.segments.size() + 1;
   // The points of every label, grouped (a counting sort).
   sc.first.assign(n_labels + 1, 0);
