@@ -73,9 +73,10 @@ Pipeline::Pipeline(const PipelineSettings& settings)
 
 void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
   const RegionModel model = settings_.segmentation.model;
-  if (settings_.segment && model != RegionModel::plane && model != RegionModel::smooth) {
+  if (settings_.segment && model == RegionModel::incremental_plane) {
     throw std::invalid_argument(std::string("Pipeline::process: the ") + to_string(model) +
-                                " model is not available for unorganized clouds (plane or smooth)");
+                                " model is not available for unorganized clouds (plane, smooth "
+                                "or auto)");
   }
   input_ = &cloud;
   times_ = {};

@@ -7,13 +7,16 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <functional>
 #include <string>
 #include <vector>
 
+#include "rangeseg/cloud.hpp"
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/normals.hpp"
 #include "rangeseg/segmentation.hpp"
+#include "rangeseg/synth.hpp"
 
 namespace rangeseg::test {
 
@@ -135,6 +138,56 @@ inline int labelled_across_crease(const Segmentation& seg, double margin) {
     }
   }
   return across;
+}
+
+/// The valid points of an organized cloud as a 1-row cloud in shuffled order; pixel[i] is the
+/// grid index of point i.
+struct Unorganized {
+  OrganizedCloud cloud;
+  std::vector<std::size_t> pixel;
+};
+
+inline Unorganized shuffled(const OrganizedCloud& grid, unsigned seed) {
+  Unorganized out;
+  out.cloud = shuffled_valid_points(grid, seed, &out.pixel);
+  return out;
+}
+
+/// The 1-row labels on the grid the points came from (0 elsewhere).
+inline LabelImage to_grid(const LabelImage& labels, const Unorganized& u, int width, int height) {
+  LabelImage grid(width, height, 0);
+  for (std::size_t i = 0; i < u.pixel.size(); ++i) {
+    grid(static_cast<int>(u.pixel[i] % static_cast<std::size_t>(width)),
+         static_cast<int>(u.pixel[i] / static_cast<std::size_t>(width))) =
+        labels(static_cast<int>(i), 0);
+  }
+  return grid;
+}
+
+/// A floor 0.9 m below the camera and a back wall `wall_z` metres away (the room reaches 0.5 m
+/// behind the camera), nothing else.
+inline synth::Scene floor_and_wall(double wall_z) {
+  synth::Scene scene;
+  synth::Room room;
+  room.half_extent = {6.0, 2.0, (wall_z + 0.5) / 2};
+  room.centre = {0.0, 0.9 - 2.0, (wall_z - 0.5) / 2};
+  room.left_wall = room.right_wall = false;
+  scene.room = room;
+  return scene;
+}
+
+/// A floor and back wall with a standing cylinder, a lying (tilted) cylinder and a sphere.
+inline synth::Scene curved_scene() {
+  synth::Scene scene = floor_and_wall(4.5);
+  scene.cylinders.push_back(
+      {.base = {-0.6, 0.9, 2.6}, .radius = 0.15, .height = 0.7, .name = "standing"});
+  scene.cylinders.push_back({.base = {0.1, 0.78, 2.2},
+                             .axis = {1.0, 0.0, 0.35},
+                             .radius = 0.12,
+                             .height = 0.6,
+                             .name = "lying"});
+  scene.spheres.push_back({.centre = {0.55, 0.9 - 0.2, 2.9}, .radius = 0.2, .name = "ball"});
+  return scene;
 }
 
 }  // namespace rangeseg::test

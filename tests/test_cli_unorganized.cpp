@@ -177,24 +177,31 @@ TEST(CliUnorganized, SegmentWritesSegmentsAndALabelledCloud) {
   EXPECT_GE(read_json(dir / "eval.json")["correct"].get<int>(), 2) << eval.out;
 }
 
-TEST(CliUnorganized, GridOnlyModelsExitTwoNamingTheFile) {
+TEST(CliUnorganized, IncrementalPlaneModelExitsTwoNamingTheFile) {
   const fs::path dir = rangeseg::test::scratch_dir("cli_unorganized_models");
   write_unorganized(dir / "scan.pcd");
-  std::ofstream(dir / "auto.json") << R"({"segmentation": {"model": "auto"}})";
-  for (const std::string& options :
-       std::vector<std::string>{"--model auto", "--model incremental_plane",
-                                "--config " + (dir / "auto.json").string()}) {
+  std::ofstream(dir / "incremental.json") << R"({"segmentation": {"model": "incremental_plane"}})";
+  for (const std::string& options : std::vector<std::string>{
+           "--model incremental_plane", "--config " + (dir / "incremental.json").string()}) {
     const CliResult r = run("segment " + (dir / "scan.pcd").string() + " -o " +
                             (dir / "out").string() + " " + options);
     EXPECT_EQ(r.code, 2) << options << "\n" << r.out;
     EXPECT_NE(r.out.find("scan.pcd"), std::string::npos) << r.out;
-    EXPECT_NE(r.out.find("plane or smooth"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("plane, smooth or auto"), std::string::npos) << r.out;
     EXPECT_FALSE(fs::exists(dir / "out" / "segments.json")) << options;
   }
-  const CliResult smooth = run("segment " + (dir / "scan.pcd").string() + " -o " +
-                               (dir / "smooth").string() + " --model smooth");
-  EXPECT_EQ(smooth.code, 0) << smooth.out;
-  EXPECT_TRUE(fs::exists(dir / "smooth" / "cloud.pcd"));
+  for (const char* model : {"smooth", "auto"}) {
+    const CliResult r = run("segment " + (dir / "scan.pcd").string() + " -o " +
+                            (dir / model).string() + " --model " + model);
+    EXPECT_EQ(r.code, 0) << model << "\n" << r.out;
+    EXPECT_TRUE(fs::exists(dir / model / "cloud.pcd")) << model;
+    const nlohmann::json segments = read_json(dir / model / "segments.json")["segments"];
+    EXPECT_FALSE(segments.empty()) << model;
+    for (const auto& s : segments) {
+      const std::string type = s["surface"]["type"].get<std::string>();
+      EXPECT_EQ(type, std::string(model) == "smooth" ? "smooth" : "plane") << s.dump();
+    }
+  }
 }
 
 TEST(CliUnorganized, BatchMixesOrganizedAndUnorganizedFrames) {
@@ -226,18 +233,19 @@ TEST(CliUnorganized, BatchMixesOrganizedAndUnorganizedFrames) {
   EXPECT_EQ(scan["segments"].get<std::size_t>(),
             read_json(dir / "out" / "scan" / "segments.json")["segments"].size());
 
-  // --model auto: the unorganized frame is reported and skipped, the organized one written.
-  const CliResult automatic =
-      run("segment " + inputs + " --model auto -o " + (dir / "auto").string());
-  ASSERT_EQ(automatic.code, 0) << automatic.out;
-  EXPECT_TRUE(fs::exists(dir / "auto" / "grid" / "labels.png"));
-  EXPECT_FALSE(fs::exists(dir / "auto" / "scan"));
-  const nlohmann::json failed = read_json(dir / "auto" / "summary.json");
+  // --model incremental_plane: the unorganized frame is reported and skipped, the organized
+  // one written.
+  const CliResult incremental =
+      run("segment " + inputs + " --model incremental_plane -o " + (dir / "inc").string());
+  ASSERT_EQ(incremental.code, 0) << incremental.out;
+  EXPECT_TRUE(fs::exists(dir / "inc" / "grid" / "labels.png"));
+  EXPECT_FALSE(fs::exists(dir / "inc" / "scan"));
+  const nlohmann::json failed = read_json(dir / "inc" / "summary.json");
   EXPECT_EQ(failed["succeeded"], 1);
   ASSERT_EQ(failed["failures"].size(), 1u);
   const std::string error = failed["failures"][0]["error"].get<std::string>();
   EXPECT_NE(error.find("scan.pcd"), std::string::npos) << error;
-  EXPECT_NE(error.find("plane or smooth"), std::string::npos) << error;
+  EXPECT_NE(error.find("plane, smooth or auto"), std::string::npos) << error;
 }
 
 TEST(CliUnorganized, SmoothWritesPointsWithNormals) {

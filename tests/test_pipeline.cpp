@@ -418,7 +418,7 @@ TEST(ThreadPoolTest, KeepAwakeKeepsIdleWorkersSpinning) {
   EXPECT_EQ(bands.load(), 8);
 }
 
-TEST(Pipeline, UnorganizedCloudsTakeTheRingPathWithPlaneAndSmoothModelsOnly) {
+TEST(Pipeline, UnorganizedCloudsTakeTheRingPathWithoutTheIncrementalPlaneModel) {
   Pipeline pipeline;
   pipeline.process(OrganizedCloud(100, 1));  // no valid point: no segment
   EXPECT_TRUE(pipeline.segmentation().segments.empty());
@@ -427,7 +427,12 @@ TEST(Pipeline, UnorganizedCloudsTakeTheRingPathWithPlaneAndSmoothModelsOnly) {
   PipelineSettings automatic;
   automatic.segmentation.model = RegionModel::automatic;
   Pipeline auto_pipeline(automatic);
-  EXPECT_THROW(auto_pipeline.process(OrganizedCloud(100, 1)), std::invalid_argument);
+  auto_pipeline.process(OrganizedCloud(100, 1));
+  EXPECT_TRUE(auto_pipeline.segmentation().segments.empty());
+  PipelineSettings incremental;
+  incremental.segmentation.model = RegionModel::incremental_plane;
+  Pipeline incremental_pipeline(incremental);
+  EXPECT_THROW(incremental_pipeline.process(OrganizedCloud(100, 1)), std::invalid_argument);
   PipelineSettings bad_rings;
   bad_rings.rings.k = 1;
   EXPECT_THROW(Pipeline{bad_rings}, std::invalid_argument);

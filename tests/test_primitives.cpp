@@ -235,6 +235,9 @@ TEST(FitPrimitives, KinectNoiseWithinFivePercentAndThreeDegrees) {
 
 // --- region models on rendered scenes ---
 
+using test::curved_scene;
+using test::floor_and_wall;
+
 struct SceneRun {
   synth::Rendering r;
   Segmentation seg;
@@ -266,32 +269,6 @@ int best_segment(const SceneRun& run, int gt) {
     if (c > count) best = label, count = c;
   }
   return best;
-}
-
-/// A floor 0.9 m below the camera and a back wall `wall_z` metres away (the room reaches 0.5 m
-/// behind the camera), nothing else.
-synth::Scene floor_and_wall(double wall_z) {
-  synth::Scene scene;
-  synth::Room room;
-  room.half_extent = {6.0, 2.0, (wall_z + 0.5) / 2};
-  room.centre = {0.0, 0.9 - 2.0, (wall_z - 0.5) / 2};
-  room.left_wall = room.right_wall = false;
-  scene.room = room;
-  return scene;
-}
-
-/// A floor and back wall with a standing cylinder, a lying (tilted) cylinder and a sphere.
-synth::Scene curved_scene() {
-  synth::Scene scene = floor_and_wall(4.5);
-  scene.cylinders.push_back(
-      {.base = {-0.6, 0.9, 2.6}, .radius = 0.15, .height = 0.7, .name = "standing"});
-  scene.cylinders.push_back({.base = {0.1, 0.78, 2.2},
-                             .axis = {1.0, 0.0, 0.35},
-                             .radius = 0.12,
-                             .height = 0.6,
-                             .name = "lying"});
-  scene.spheres.push_back({.centre = {0.55, 0.9 - 0.2, 2.9}, .radius = 0.2, .name = "ball"});
-  return scene;
 }
 
 /// Each curved surface of at least 500 pixels (or only the one named `only`) is one segment of

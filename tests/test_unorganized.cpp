@@ -832,29 +832,9 @@ TEST(RingSmoothing, IterationsZeroCopiesAndOutputMustNotBeInput) {
 
 // --- Segmentation --------------------------------------------------------------------------------
 
-/// The valid points of an organized cloud as a 1-row cloud in shuffled order; pixel[i] is the
-/// grid index of point i.
-struct Unorganized {
-  OrganizedCloud cloud;
-  std::vector<std::size_t> pixel;
-};
-
-Unorganized shuffled(const OrganizedCloud& grid, unsigned seed) {
-  Unorganized out;
-  out.cloud = shuffled_valid_points(grid, seed, &out.pixel);
-  return out;
-}
-
-/// The 1-row labels on the grid the points came from (0 elsewhere).
-LabelImage to_grid(const LabelImage& labels, const Unorganized& u, int width, int height) {
-  LabelImage grid(width, height, 0);
-  for (std::size_t i = 0; i < u.pixel.size(); ++i) {
-    grid(static_cast<int>(u.pixel[i] % static_cast<std::size_t>(width)),
-         static_cast<int>(u.pixel[i] / static_cast<std::size_t>(width))) =
-        labels(static_cast<int>(i), 0);
-  }
-  return grid;
-}
+using test::shuffled;
+using test::to_grid;
+using test::Unorganized;
 
 synth::Rendering boxes_scene(std::uint64_t seed) {
   return synth::render(synth::random_scene(seed),
@@ -948,19 +928,17 @@ TEST(RingSegmentation, PerpendicularPlanesAreTwoSegmentsWithTheirNormalsAndAreas
   EXPECT_EQ(smooth_seg.segments.size(), 2u);
 }
 
-TEST(RingSegmentation, OtherModelsThrow) {
+TEST(RingSegmentation, IncrementalPlaneModelThrows) {
   const OrganizedCloud cloud = row_cloud(TwoPlanes().points);
   const PointRings rings = build_rings(cloud);
   const NormalMap normals = compute_normals(cloud, rings);
-  for (const RegionModel model : {RegionModel::automatic, RegionModel::incremental_plane}) {
-    SegmentationSettings s;
-    s.model = model;
-    EXPECT_THROW(segment(cloud, rings, normals, s), std::invalid_argument) << to_string(model);
-    PipelineSettings p;
-    p.segmentation.model = model;
-    Pipeline pipeline(p);
-    EXPECT_THROW(pipeline.process(cloud), std::invalid_argument) << to_string(model);
-  }
+  SegmentationSettings s;
+  s.model = RegionModel::incremental_plane;
+  EXPECT_THROW(segment(cloud, rings, normals, s), std::invalid_argument);
+  PipelineSettings p;
+  p.segmentation.model = RegionModel::incremental_plane;
+  Pipeline pipeline(p);
+  EXPECT_THROW(pipeline.process(cloud), std::invalid_argument);
   EXPECT_THROW(segment(cloud, build_rings(row_cloud(random_box(5, 1))), normals),
                std::invalid_argument);
 }

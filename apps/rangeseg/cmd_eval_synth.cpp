@@ -325,7 +325,7 @@ void add_eval_synth(CLI::App& app) {
       "--unorganized", o->unorganized,
       "Segment each rendering's valid points shuffled (seeded) into an unorganized cloud, "
       "over k-nearest-neighbour rings; the labels are put back on the grid to be scored "
-      "(models plane and smooth)");
+      "(models plane, smooth and auto)");
   cmd->add_option("-o,--output", o->out_dir,
                   "Also write each seed's results and ground_truth.png into DIR/<scene><seed>/ "
                   "(with --unorganized: labels.png only)");

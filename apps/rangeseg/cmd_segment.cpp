@@ -48,12 +48,11 @@ PipelineSettings settings_from(const std::string& preset, const std::string& mod
 void require_model_for(const OrganizedCloud& cloud, const PipelineSettings& settings,
                        const std::string& path) {
   const RegionModel model = settings.segmentation.model;
-  if (cloud.is_organized() || !settings.segment || model == RegionModel::plane ||
-      model == RegionModel::smooth) {
+  if (cloud.is_organized() || !settings.segment || model != RegionModel::incremental_plane) {
     return;
   }
   throw std::invalid_argument(path + ": an unorganized cloud (height 1) is segmented over " +
-                              "nearest-neighbour rings, with --model plane or smooth only (not " +
+                              "nearest-neighbour rings, with --model plane, smooth or auto (not " +
                               to_string(model) + ")");
 }
 
@@ -115,7 +114,8 @@ void add_segment(CLI::App& app) {
       "or processed is reported and skipped. Folders are named after the file stem (TUM: the "
       "timestamp). TUM depth PNGs default to 5000 units per metre and fx = fy = 525, cx = 319.5, "
       "cy = 239.5.\nAn unorganized cloud (a PCD of height 1) is segmented over the k nearest "
-      "neighbours of each point (--config \"rings\") with --model plane or smooth; its folder "
+      "neighbours of each point (--config \"rings\") with --model plane, smooth or auto; its "
+      "folder "
       "holds segments.json and cloud.pcd (the processed points with normal_x normal_y normal_z "
       "curvature, label and rgb: the label's colour).\nExit codes: 0 = done (a batch with at least "
       "one frame written; failed frames are listed), 2 = bad arguments, unreadable single input, "

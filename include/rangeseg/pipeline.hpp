@@ -67,9 +67,10 @@ class Pipeline {
 
   /// Processes one cloud. An organized cloud runs the grid stages. An unorganized one (height
   /// 1) runs the stages over k-nearest-neighbour rings (unorganized.hpp): `rings()` instead of
-  /// `mesh()` (which is left empty; StageTimes::mesh is the time of the rings), no polygons,
-  /// and only the plane and smooth models (std::invalid_argument for the others). The rings'
-  /// k-d tree is built per frame, so that path allocates per frame.
+  /// `mesh()` (which is left empty; StageTimes::mesh is the time of the rings), polygons from
+  /// the points' footprints, and the plane, smooth and auto models (std::invalid_argument for
+  /// incremental_plane). The rings' k-d tree is built per frame, so that path allocates per
+  /// frame.
   void process(const OrganizedCloud& cloud);
 
   /// Processes a depth image (raw units, 0 = no measurement, `depth_scale` metres per unit, e.g.

@@ -157,7 +157,7 @@ void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMa
             const SmoothingSettings& settings, OrganizedCloud& out_cloud, NormalMap& out_normals,
             ThreadPool* pool, RingBuffers& buffers);
 
-/// Stage 4 over the rings, for RegionModel::plane and RegionModel::smooth. Seeds are taken in
+/// Stage 4 over the rings, for RegionModel::plane, smooth and automatic. Seeds are taken in
 /// ascending curvature; a region grows over the rings with the model's tests as on the grid.
 /// plane: the point's normal is within an angle of the region's normal (the mean normal, from 8
 /// points the PCA normal) and its distance to the region's plane within max_distance_sigmas
@@ -171,9 +171,15 @@ void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMa
 /// centroid within merge_distance_sigmas sigma of the other plane) are merged, and unlabelled
 /// points next to a plane join the closest one within max_distance_sigmas sigma(r) and
 /// reassign_max_normal_angle (widened like the growth's angle). Smooth segments below
-/// min_region_size are dropped. Segment::area_m2 is the sum of `point_area`. The grid-only
-/// settings (cells, bands, seed clearance, splitting, refinement, grazing planes) are not used.
-/// `out.labels` has the cloud's size. Throws std::invalid_argument for another model, invalid
+/// min_region_size are dropped. automatic: the plane model's segments, then, as on the grid,
+/// the points left are grown as smooth regions and tentative patches, adjacent segments that
+/// one sphere or cylinder explains are joined and every segment is labelled with its surface
+/// kind and parameters (Segment::kind, centre, axis, radius, extent); the ring is the
+/// neighbourhood, sigma is sigma(r), and the normals compared with the models' are averaged
+/// over the ring twice first (ring normals of depth-camera data scatter more than the grid's).
+/// Segment::area_m2 is the sum of `point_area`. The grid-only settings (cells, bands, seed
+/// clearance, splitting, refinement, grazing planes) are not used. `out.labels` has the
+/// cloud's size. Throws std::invalid_argument for RegionModel::incremental_plane, invalid
 /// settings or size mismatches.
 void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
              const SegmentationSettings& settings, Segmentation& out);

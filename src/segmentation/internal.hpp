@@ -40,6 +40,12 @@ struct Frame {
   int pixel_stride = 1;       ///< mesh lattice step s
   /// Index offset of the 8 mesh neighbour directions (kNeighbourDu/Dv, scaled by s).
   std::array<std::ptrdiff_t, 8> neighbour_offset{};
+  /// Only the primitive pass (fit_primitives) reads a frame of k-nearest-neighbour rings: one
+  /// row of points, each neighbouring ring_neighbours[i * ring_k, i * ring_k + ring_count[i])
+  /// instead of its mesh edges, with sigma a function of the range from the origin, not of z.
+  const std::int32_t* ring_neighbours = nullptr;
+  const std::uint8_t* ring_count = nullptr;
+  int ring_k = 0;
 };
 
 /// Direction bits (kNeighbourDu/Dv order) of the 3 x 3 block around a pixel, from 3 bits per
@@ -149,6 +155,7 @@ struct PrimitiveScratch;
 struct PrimitiveScratchDeleter {
   void operator()(PrimitiveScratch* p) const;
 };
+using PrimitiveScratchPtr = std::unique_ptr<PrimitiveScratch, PrimitiveScratchDeleter>;
 
 }  // namespace rangeseg::seg
 
@@ -173,7 +180,7 @@ struct Segmenter::Scratch {
   std::vector<detail::PlaneStats> regions;        ///< per raw region label; [0] unused
   std::vector<detail::PlaneStats> segment_stats;  ///< per segment after post-processing (auto)
   /// The primitive pass's buffers (auto model), made on its first frame.
-  std::unique_ptr<seg::PrimitiveScratch, seg::PrimitiveScratchDeleter> primitive;
+  seg::PrimitiveScratchPtr primitive;
   // coarse level (models with a cell interface)
   std::vector<seg::Cell> cells;  ///< row-major, cell_cols x cell_rows
   int cell_cols = 0, cell_rows = 0;

@@ -27,7 +27,9 @@ struct PrimitiveContext {
   /// first segments); the others are summed from their pixels when needed.
   std::span<const detail::PlaneStats> segment_stats;
 };
+/// `frame` may be one of rings (Frame::ring_neighbours); its labels are 1..out.segments.size().
+/// Segment fields read: normal, centroid, rms_residual, area_m2, grazing.
 void fit_primitives(const Frame& frame, const SegmentationSettings& settings, Segmentation& out,
-                    Segmenter::Scratch& scratch, const PrimitiveContext& context);
+                    PrimitiveScratchPtr& scratch, const PrimitiveContext& context);
 
 }  // namespace rangeseg::seg

@@ -183,6 +183,27 @@ class PrimitivePass {
 
  private:
   double sigma(double z) const { return settings_.noise.sigma(z); }
+  /// The argument of sigma at p: its depth z on the grid, its range over rings.
+  double depth(const Point3& p) const {
+    return f_.ring_neighbours == nullptr ? p[2]
+                                         : std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+  }
+  /// Calls fn(q) for the neighbours of point i: its ring, or its mesh neighbours (`forward`:
+  /// only right and down, mesh directions 0 and 2).
+  template <class Fn>
+  void for_each_neighbour(std::ptrdiff_t i, bool forward, Fn&& fn) const {
+    if (f_.ring_neighbours != nullptr) {
+      const std::int32_t* ring = f_.ring_neighbours + i * f_.ring_k;
+      for (int j = 0; j < f_.ring_count[i]; ++j) fn(std::ptrdiff_t{ring[j]});
+      return;
+    }
+    unsigned mask = f_.edges[i] & (forward ? 0x05u : 0xFFu);
+    while (mask != 0) {
+      const int k = std::countr_zero(mask);
+      mask &= mask - 1;
+      fn(i + f_.neighbour_offset[k]);
+    }
+  }
 
   void group_pixels_by_label() {
     s_.start.assign(static_cast<std::size_t>(n_) + 2, 0);
@@ -230,26 +251,23 @@ class PrimitivePass {
     s_.pairs.clear();
     std::uint64_t last = 0;
     const int step = f_.pixel_stride;
-    // Right and down neighbours (mesh directions 0 and 2): 4-connected adjacency suffices to
-    // find the facets of one surface and halves the work.
+    // On the grid, right and down neighbours: 4-connected adjacency suffices to find the
+    // facets of one surface and halves the work.
     const auto visit = [&](std::ptrdiff_t i) {
       const std::int32_t a = f_.labels[i];
-      unsigned mask = f_.edges[i] & 0x05u;
-      if (a == 0 || mask == 0) return;
-      while (mask != 0) {
-        const int k = std::countr_zero(mask);
-        mask &= mask - 1;
-        const std::int32_t b = f_.labels[i + f_.neighbour_offset[k]];
-        if (b == 0 || b == a) continue;
+      if (a == 0) return;
+      for_each_neighbour(i, true, [&](std::ptrdiff_t q) {
+        const std::int32_t b = f_.labels[q];
+        if (b == 0 || b == a) return;
         const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) |
                                   static_cast<std::uint32_t>(std::max(a, b));
         if (key != last) s_.pairs.push_back(key);
         last = key;
-      }
+      });
     };
     // At stride 1 the inner rows are screened a vector at a time: only a pixel whose label
     // differs from a forward neighbour's can add a pair.
-    const bool screen = step == 1 && f_.width > 2;
+    const bool screen = step == 1 && f_.width > 2 && f_.ring_neighbours == nullptr;
     if (screen) s_.row_pixels.resize(static_cast<std::size_t>(f_.width));
     for (int v = 0; v < f_.height; v += step) {
       const std::ptrdiff_t row = v * f_.stride;
@@ -324,7 +342,7 @@ class PrimitivePass {
     for (std::size_t j = 0; j < s_.points.size(); ++j) {
       const Point3& p = s_.points[j];
       Point3 normal{};
-      const double d = m.distance(p, &normal) / sigma(p[2]);
+      const double d = m.distance(p, &normal) / sigma(depth(p));
       sum += d * d;
       mx += normal[0];
       my += normal[1];
@@ -342,7 +360,7 @@ class PrimitivePass {
     m.spread = 1.0 - std::sqrt(mx * mx + my * my + mz * mz) / count;
     // Per-axis spread s = sigma_n(z) makes the angle Rayleigh distributed, mean s sqrt(pi / 2).
     double noise = 0;
-    for (const Point3& p : s_.points) noise += sigma(p[2]) / p[2];
+    for (const Point3& p : s_.points) noise += sigma(depth(p)) / depth(p);
     m.noise_angle = std::sqrt(std::numbers::pi / 2) * normal_noise_c_ * noise / count;
   }
 
@@ -351,7 +369,7 @@ class PrimitivePass {
     if (!fit.ok) return INFINITY;
     double sum = 0;
     for (const Point3& p : s_.points) {
-      const double d = fit.distance(p[0], p[1], p[2]) / sigma(p[2]);
+      const double d = fit.distance(p[0], p[1], p[2]) / sigma(depth(p));
       sum += d * d;
     }
     return std::sqrt(sum / static_cast<double>(std::max<std::size_t>(1, s_.points.size())));
@@ -577,7 +595,7 @@ class PrimitivePass {
     if (s_.models[root].kind != SurfaceKind::plane) return s_.models[root].nrms;
     const detail::PlaneFit fit = stats_of(root).fit();
     if (!fit.ok) return INFINITY;
-    return fit.rms / sigma(fit.centroid[2]);
+    return fit.rms / sigma(depth(fit.centroid));
   }
 
   void classify_groups() {
@@ -591,7 +609,7 @@ class PrimitivePass {
         // A tentative patch is one the plane model did not grow: tested as curved even where a
         // plane explains it within the noise.
         const bool tentative = l > tentative_from_;
-        if (!tentative && seg.rms_residual <= kPlaneSigmas * sigma(seg.centroid[2])) continue;
+        if (!tentative && seg.rms_residual <= kPlaneSigmas * sigma(depth(seg.centroid))) continue;
         gather(l, kTestSample);
         const double plane = plane_nrms(stats_of(l));
         if (!tentative && plane <= kPlaneSigmas) continue;
@@ -621,16 +639,12 @@ class PrimitivePass {
     }
     if (!any_curved) return;
     const auto push_unlabelled_neighbours = [&](std::ptrdiff_t i) {
-      unsigned mask = f_.edges[i];
-      while (mask != 0) {
-        const int k = std::countr_zero(mask);
-        mask &= mask - 1;
-        const std::ptrdiff_t q = i + f_.neighbour_offset[k];
+      for_each_neighbour(i, false, [&](std::ptrdiff_t q) {
         if (f_.labels[q] == 0 && !s_.queued[q] && std::isfinite(f_.z[q])) {
           s_.queued[q] = 1;
           s_.queue.push_back(static_cast<std::int32_t>(q));
         }
-      }
+      });
     };
     for (std::int32_t l = 1; l <= n_; ++l) {
       if (curved_root(l) == 0) continue;
@@ -642,21 +656,18 @@ class PrimitivePass {
     for (std::size_t head = 0; head < s_.queue.size(); ++head) {
       const std::int32_t q = s_.queue[head];
       const Point3 p{f_.x[q], f_.y[q], f_.z[q]};
-      double best_distance = k * sigma(p[2]);
+      double best_distance = k * sigma(depth(p));
       std::int32_t best = 0;
-      unsigned mask = f_.edges[q];
-      while (mask != 0) {
-        const int n = std::countr_zero(mask);
-        mask &= mask - 1;
-        const std::int32_t label = f_.labels[q + f_.neighbour_offset[n]];
+      for_each_neighbour(q, false, [&](std::ptrdiff_t o) {
+        const std::int32_t label = f_.labels[o];
         const std::int32_t r = curved_root(label);
-        if (r == 0) continue;
+        if (r == 0) return;
         const double d = std::fabs(s_.models[r].distance(p, nullptr));
         if (d <= best_distance) {
           best_distance = d;
           best = label;
         }
-      }
+      });
       if (best == 0) continue;
       f_.labels[q] = best;
       ++reassigned_;
@@ -671,17 +682,14 @@ class PrimitivePass {
   /// Records the pairs of group `root` (curved, which point q just joined) and the other groups
   /// among q's mesh neighbours.
   void note_new_neighbours(std::int32_t q, std::int32_t root) {
-    unsigned mask = f_.edges[q];
-    while (mask != 0) {
-      const int n = std::countr_zero(mask);
-      mask &= mask - 1;
-      const std::int32_t other = f_.labels[q + f_.neighbour_offset[n]];
-      if (other == 0) continue;
+    for_each_neighbour(q, false, [&](std::ptrdiff_t o) {
+      const std::int32_t other = f_.labels[o];
+      if (other == 0) return;
       const std::int32_t other_root = find_root(s_.parent, other);
-      if (other_root == root) continue;
+      if (other_root == root) return;
       s_.new_pairs.push_back((static_cast<std::uint64_t>(root) << 32) |
                              static_cast<std::uint32_t>(other_root));
-    }
+    });
   }
 
   /// The pairs that re-assigned points made adjacent are tested as merge_pairs tests pairs, and
@@ -863,9 +871,9 @@ class PrimitivePass {
 }  // namespace
 
 void fit_primitives(const Frame& frame, const SegmentationSettings& settings, Segmentation& out,
-                    Segmenter::Scratch& scratch, const PrimitiveContext& context) {
-  if (!scratch.primitive) scratch.primitive.reset(new PrimitiveScratch);
-  PrimitivePass(frame, settings, out, *scratch.primitive, context).run();
+                    PrimitiveScratchPtr& scratch, const PrimitiveContext& context) {
+  if (!scratch) scratch.reset(new PrimitiveScratch);
+  PrimitivePass(frame, settings, out, *scratch, context).run();
 }
 
 }  // namespace rangeseg::seg

@@ -436,7 +436,7 @@ void Segmenter::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalM
     }
   }
   if (settings.model == RegionModel::automatic) {
-    seg::fit_primitives(f, settings, out, s,
+    seg::fit_primitives(f, settings, out, s.primitive,
                         {.tentative_from = tentative_from,
                          .normal_noise_c = s.normal_noise_c,
                          .segment_stats = s.segment_stats});

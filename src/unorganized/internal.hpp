@@ -10,6 +10,7 @@
 #include "rangeseg/image.hpp"
 #include "rangeseg/thread_pool.hpp"
 #include "rangeseg/unorganized.hpp"
+#include "segmentation/internal.hpp"
 
 namespace rangeseg::unorganized {
 
@@ -75,6 +76,12 @@ struct RingBuffers::Impl {
   // their keys, raw labels, the growth queue.
   std::vector<float> seg_xyz, seg_n, curvature, sigma, cos_angle;
   std::vector<std::int32_t> seeds, labels, queue;
+  // segment, auto model: raw label counts, noise samples, the points and averaged normals as
+  // planes, the primitive pass's buffers.
+  std::vector<std::int64_t> counts;
+  std::vector<double> noise_samples;
+  std::vector<float> planar, pass_normals, pass_normals_next;
+  seg::PrimitiveScratchPtr primitive;
 };
 
 }  // namespace rangeseg

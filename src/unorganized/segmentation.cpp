@@ -2,7 +2,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <numbers>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -12,68 +11,38 @@
 #include "rangeseg/unorganized.hpp"
 #include "segmentation/internal.hpp"
 #include "unorganized/internal.hpp"
+#include "unorganized/region_growing.hpp"
 
-namespace rangeseg {
+namespace rangeseg::unorganized {
+
+std::vector<detail::PlaneStats> label_stats(const Points& pts,
+                                            const std::vector<std::int32_t>& labels,
+                                            std::int32_t count) {
+  std::vector<detail::PlaneStats> stats(static_cast<std::size_t>(count) + 1);
+  for (std::size_t i = 0; i < labels.size(); ++i) {
+    if (labels[i] <= 0) continue;
+    const float* p = pts.point(i);
+    stats[static_cast<std::size_t>(labels[i])].add(p[0], p[1], p[2]);
+  }
+  return stats;
+}
+
+void collect_seeds(const PointRings& rings, const Points& pts, const SegmentationSettings& s,
+                   bool planes, const std::vector<std::int32_t>& labels,
+                   std::vector<std::int32_t>& seeds) {
+  seeds.clear();
+  for (std::size_t i = 0; i < labels.size(); ++i) {
+    const float c = pts.curvature[i];
+    if (labels[i] != 0 || rings.count[i] == 0 || !pts.has_normal(i)) continue;
+    if (!(c <= s.max_seed_curvature) || (!planes && !(c <= s.max_curvature))) continue;
+    seeds.push_back(static_cast<std::int32_t>(i));
+  }
+  std::stable_sort(seeds.begin(), seeds.end(), [&](std::int32_t a, std::int32_t b) {
+    return pts.curvature[static_cast<std::size_t>(a)] < pts.curvature[static_cast<std::size_t>(b)];
+  });
+}
+
 namespace {
-
-using unorganized::at;
-
-/// The packed inputs of one call in ring order: points, normals, curvature, sigma(r), and the
-/// cosine of the plane model's normal-angle bound at each point.
-struct Points {
-  std::vector<float>&xyz, &n, &curvature, &sigma, &cos_angle;
-
-  Points(RingBuffers::Impl& b, const OrganizedCloud& cloud, const PointRings& rings,
-         const NormalMap& normals, const SegmentationSettings& s)
-      : xyz(b.seg_xyz), n(b.seg_n), curvature(b.curvature), sigma(b.sigma), cos_angle(b.cos_angle) {
-    const SensorNoise& noise = s.noise;
-    unorganized::pack_points(cloud, xyz);
-    const std::size_t count = cloud.size();
-    n.resize(3 * count);
-    curvature.resize(count);
-    sigma.resize(count);
-    for (std::size_t i = 0; i < count; ++i) {
-      n[3 * i] = at(normals.nx, i);
-      n[3 * i + 1] = at(normals.ny, i);
-      n[3 * i + 2] = at(normals.nz, i);
-      curvature[i] = at(normals.curvature, i);
-      const float* p = &xyz[3 * i];
-      sigma[i] = static_cast<float>(
-          noise.sigma(std::sqrt(double{p[0]} * p[0] + double{p[1]} * p[1] + double{p[2]} * p[2])));
-    }
-    cos_angle.resize(count);
-    for (std::size_t i = 0; i < count; ++i) {
-      cos_angle[i] = static_cast<float>(std::cos(normal_angle_bound(rings, i, s)));
-    }
-  }
-  /// The plane model's angle bound at point i [rad]: max_normal_angle, or normal_noise_sigmas
-  /// times the RMS angle of the normals of the point and its ring about their mean when that is
-  /// wider (the spread the test will meet there: from the resultant length R of the unit
-  /// normals, mean theta^2 ~ 2 (1 - R), as 1 - cos theta ~ theta^2 / 2). Far from a depth camera
-  /// the noise exceeds the points' spacing, and on a surface seen at grazing incidence the ring
-  /// is nearly a line, so the normals scatter; the distance test then does the work, as on the
-  /// grid (whose cells measure the same spread).
-  double normal_angle_bound(const PointRings& rings, std::size_t i,
-                            const SegmentationSettings& s) const {
-    if (rings.count[i] == 0 || s.normal_noise_sigmas <= 0 || !has_normal(i)) {
-      return s.max_normal_angle;
-    }
-    double sum[3] = {n[3 * i], n[3 * i + 1], n[3 * i + 2]};
-    double count = 1;
-    for (const std::int32_t jj : rings.ring(i)) {
-      const auto j = static_cast<std::size_t>(jj);
-      if (!has_normal(j)) continue;
-      for (int c = 0; c < 3; ++c) sum[c] += n[3 * j + c];
-      count += 1;
-    }
-    const double resultant = std::sqrt(sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]) / count;
-    const double spread = std::sqrt(std::max(0.0, 2.0 * (1.0 - resultant)));
-    return std::min(std::numbers::pi, std::max(s.max_normal_angle, s.normal_noise_sigmas * spread));
-  }
-  const float* point(std::size_t i) const { return &xyz[3 * i]; }
-  const float* normal(std::size_t i) const { return &n[3 * i]; }
-  bool has_normal(std::size_t i) const { return std::isfinite(n[3 * i]); }
-};
 
 /// The plane region model of the grid (plane_model.cpp) without its cell level: running sums
 /// of points and normals; the plane is the mean normal through the centroid, from 8 points the
@@ -136,67 +105,6 @@ class PlaneRegion {
   float d_ = 0;
   std::int64_t next_refresh_ = 0;
 };
-
-/// Local surface continuity: the neighbour's normal is within max_smooth_angle of the current
-/// point's and its curvature at most max_curvature.
-class SmoothRegion {
- public:
-  SmoothRegion(const Points& pts, const SegmentationSettings& s)
-      : pts_(pts),
-        cos_angle_(static_cast<float>(std::cos(s.max_smooth_angle))),
-        max_curvature_(static_cast<float>(s.max_curvature)) {}
-  void init(std::size_t /*seed*/) {}
-  bool accepts(std::size_t from, std::size_t q) const {
-    const float* a = pts_.normal(from);
-    const float* b = pts_.normal(q);
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] >= cos_angle_ &&
-           pts_.curvature[q] <= max_curvature_;
-  }
-  void add(std::size_t /*q*/) {}
-
- private:
-  const Points& pts_;
-  float cos_angle_, max_curvature_;
-};
-
-/// Region growing in ascending seed curvature; raw labels 1.. in `labels`; returns the count.
-template <class Model>
-std::int32_t grow(const PointRings& rings, const Points& pts,
-                  const std::vector<std::int32_t>& seeds, Model& model,
-                  std::vector<std::int32_t>& labels, std::vector<std::int32_t>& queue) {
-  std::int32_t label = 0;
-  for (const std::int32_t seed : seeds) {
-    if (labels[static_cast<std::size_t>(seed)] != 0) continue;
-    ++label;
-    labels[static_cast<std::size_t>(seed)] = label;
-    model.init(static_cast<std::size_t>(seed));
-    queue.assign(1, seed);
-    for (std::size_t head = 0; head < queue.size(); ++head) {
-      const auto p = static_cast<std::size_t>(queue[head]);
-      for (const std::int32_t qq : rings.ring(p)) {
-        const auto q = static_cast<std::size_t>(qq);
-        if (labels[q] != 0 || !pts.has_normal(q) || !model.accepts(p, q)) continue;
-        labels[q] = label;
-        model.add(q);
-        queue.push_back(qq);
-      }
-    }
-  }
-  return label;
-}
-
-/// Point statistics per raw label (index 0 unused).
-std::vector<detail::PlaneStats> label_stats(const Points& pts,
-                                            const std::vector<std::int32_t>& labels,
-                                            std::int32_t count) {
-  std::vector<detail::PlaneStats> stats(static_cast<std::size_t>(count) + 1);
-  for (std::size_t i = 0; i < labels.size(); ++i) {
-    if (labels[i] <= 0) continue;
-    const float* p = pts.point(i);
-    stats[static_cast<std::size_t>(labels[i])].add(p[0], p[1], p[2]);
-  }
-  return stats;
-}
 
 void drop_small(std::vector<std::int32_t>& labels, const std::vector<detail::PlaneStats>& stats,
                 int min_size) {
@@ -329,6 +237,22 @@ void reassign(const PointRings& rings, const Points& pts, const SegmentationSett
 }
 
 }  // namespace
+}  // namespace rangeseg::unorganized
+
+namespace rangeseg {
+
+using unorganized::at;
+using unorganized::collect_seeds;
+using unorganized::drop_small;
+using unorganized::fit_ring_primitives;
+using unorganized::grow;
+using unorganized::grow_leftovers;
+using unorganized::label_stats;
+using unorganized::merge_planes;
+using unorganized::PlaneRegion;
+using unorganized::Points;
+using unorganized::reassign;
+using unorganized::SmoothRegion;
 
 void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
              const SegmentationSettings& settings, Segmentation& out) {
@@ -339,10 +263,11 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
 void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
              const SegmentationSettings& settings, Segmentation& out, RingBuffers& buffers) {
   seg::validate(settings);
-  const bool planes = settings.model == RegionModel::plane;
+  const bool automatic = settings.model == RegionModel::automatic;
+  const bool planes = settings.model == RegionModel::plane || automatic;
   if (!planes && settings.model != RegionModel::smooth) {
     throw std::invalid_argument(std::string("segment: model ") + to_string(settings.model) +
-                                " is not available for unorganized clouds (plane or smooth)");
+                                " is not available for unorganized clouds (plane, smooth or auto)");
   }
   unorganized::require_rings_match(cloud, rings, &normals, "segment");
   if (normals.curvature.width() != cloud.width() || normals.curvature.height() != cloud.height()) {
@@ -351,19 +276,10 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
   RingBuffers::Impl& b = buffers.impl();
   const Points pts(b, cloud, rings, normals, settings);
   const std::size_t count = cloud.size();
-  std::vector<std::int32_t>& seeds = b.seeds;
-  seeds.clear();
-  for (std::size_t i = 0; i < count; ++i) {
-    const float c = pts.curvature[i];
-    if (rings.count[i] == 0 || !pts.has_normal(i) || !(c <= settings.max_seed_curvature)) continue;
-    if (!planes && !(c <= settings.max_curvature)) continue;
-    seeds.push_back(static_cast<std::int32_t>(i));
-  }
-  std::stable_sort(seeds.begin(), seeds.end(), [&](std::int32_t a, std::int32_t b) {
-    return pts.curvature[static_cast<std::size_t>(a)] < pts.curvature[static_cast<std::size_t>(b)];
-  });
   std::vector<std::int32_t>& labels = b.labels;
   labels.assign(count, 0);
+  std::vector<std::int32_t>& seeds = b.seeds;
+  collect_seeds(rings, pts, settings, planes, labels, seeds);
   std::int32_t raw = 0;
   if (planes) {
     PlaneRegion model(pts, settings);
@@ -392,6 +308,22 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
   std::stable_sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
     return stats[static_cast<std::size_t>(a)].count > stats[static_cast<std::size_t>(b)].count;
   });
+  std::int32_t tentative_from = 0;
+  if (automatic) {
+    // The primitive pass's labels: the plane segments, the smooth and then the tentative
+    // leftovers, each in the order grown.
+    const std::int32_t first = raw + 1;
+    tentative_from = grow_leftovers(rings, pts, settings, labels, b, raw);
+    stats = label_stats(pts, labels, raw);
+    drop_small(labels, stats, settings.min_region_size);
+    std::int32_t kept = static_cast<std::int32_t>(order.size());
+    for (std::int32_t l = first; l <= raw; ++l) {
+      if (stats[static_cast<std::size_t>(l)].count < settings.min_region_size) continue;
+      order.push_back(l);
+      if (l <= tentative_from) kept = static_cast<std::int32_t>(order.size());
+    }
+    tentative_from = kept;
+  }
   std::vector<std::int32_t> final_label(static_cast<std::size_t>(raw) + 1, 0);
   for (std::size_t j = 0; j < order.size(); ++j) {
     final_label[static_cast<std::size_t>(order[j])] = static_cast<std::int32_t>(j) + 1;
@@ -406,21 +338,14 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
     }
   }
   for (std::size_t j = 0; j < order.size(); ++j) {
-    const detail::PlaneStats& st = stats[static_cast<std::size_t>(order[j])];
     Segment& sgm = out.segments[j];
+    seg::set_plane_fields(stats[static_cast<std::size_t>(order[j])], sgm);
     sgm.label = static_cast<int>(j) + 1;
-    sgm.model = settings.model;
+    sgm.model = automatic ? RegionModel::plane : settings.model;
     sgm.kind = planes ? SurfaceKind::plane : SurfaceKind::smooth;
-    sgm.pixel_count = static_cast<int>(st.count);
-    const detail::PlaneFit fit = st.fit();
-    sgm.centroid = st.mean();
-    if (fit.ok) {
-      sgm.normal = fit.normal;
-      sgm.offset = fit.offset;
-      sgm.rms_residual = fit.rms;
-    }
     sgm.surface_rms = sgm.rms_residual;
   }
+  if (automatic) fit_ring_primitives(cloud, rings, pts, settings, tentative_from, b, out);
 }
 
 }  // namespace rangeseg
