@@ -3,6 +3,7 @@
 
 #include <array>
 #include <bit>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -47,6 +48,30 @@ struct Frame {
   const std::uint8_t* ring_count = nullptr;
   int ring_k = 0;
 };
+
+/// Calls fn(q) for the neighbours q of point i: its ring in a frame of rings, else its mesh
+/// neighbours in `directions` (bit k: direction k; 0x05: right and down only).
+template <class Fn>
+void for_each_neighbour(const Frame& f, std::ptrdiff_t i, unsigned directions, Fn&& fn) {
+  if (f.ring_neighbours != nullptr) {
+    const std::int32_t* ring = f.ring_neighbours + i * f.ring_k;
+    for (int j = 0; j < f.ring_count[i]; ++j) fn(std::ptrdiff_t{ring[j]});
+    return;
+  }
+  unsigned mask = f.edges[i] & directions;
+  while (mask != 0) {
+    const int k = std::countr_zero(mask);
+    mask &= mask - 1;
+    fn(i + f.neighbour_offset[k]);
+  }
+}
+
+/// The argument of the noise model sigma at point p: its z on the grid, its distance from the
+/// origin in a frame of rings (`by_range`; unorganized clouds need not have z along the view,
+/// and the stages over rings take sigma of the range).
+inline double noise_depth(const std::array<double, 3>& p, bool by_range) {
+  return by_range ? std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) : p[2];
+}
 
 /// Direction bits (kNeighbourDu/Dv order) of the 3 x 3 block around a pixel, from 3 bits per
 /// row (columns -1, 0, +1) of the rows above, at and below it: index up | mid << 3 | down << 6.

@@ -183,26 +183,10 @@ class PrimitivePass {
 
  private:
   double sigma(double z) const { return settings_.noise.sigma(z); }
-  /// The argument of sigma at p: its depth z on the grid, its range over rings.
-  double depth(const Point3& p) const {
-    return f_.ring_neighbours == nullptr ? p[2]
-                                         : std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
-  }
-  /// Calls fn(q) for the neighbours of point i: its ring, or its mesh neighbours (`forward`:
-  /// only right and down, mesh directions 0 and 2).
+  double depth(const Point3& p) const { return noise_depth(p, f_.ring_neighbours != nullptr); }
   template <class Fn>
   void for_each_neighbour(std::ptrdiff_t i, bool forward, Fn&& fn) const {
-    if (f_.ring_neighbours != nullptr) {
-      const std::int32_t* ring = f_.ring_neighbours + i * f_.ring_k;
-      for (int j = 0; j < f_.ring_count[i]; ++j) fn(std::ptrdiff_t{ring[j]});
-      return;
-    }
-    unsigned mask = f_.edges[i] & (forward ? 0x05u : 0xFFu);
-    while (mask != 0) {
-      const int k = std::countr_zero(mask);
-      mask &= mask - 1;
-      fn(i + f_.neighbour_offset[k]);
-    }
+    seg::for_each_neighbour(f_, i, forward ? 0x05u : 0xFFu, fn);
   }
 
   void group_pixels_by_label() {

@@ -14,6 +14,42 @@
 namespace rangeseg::unorganized {
 namespace {
 
+/// A frame of the grid's segmentation passes over the rings (seg::Frame::ring_neighbours): one
+/// row of the points and the given packed normals, copied to planes in `planar`, and `labels`
+/// (one per point).
+seg::Frame ring_frame(const PointRings& rings, const Points& pts, const std::vector<float>& normals,
+                      std::int32_t* labels, std::vector<float>& planar) {
+  const std::size_t count = rings.count.size();
+  planar.resize(6 * count);
+  float* const plane[6] = {planar.data(),
+                           planar.data() + count,
+                           planar.data() + 2 * count,
+                           planar.data() + 3 * count,
+                           planar.data() + 4 * count,
+                           planar.data() + 5 * count};
+  for (std::size_t i = 0; i < count; ++i) {
+    for (std::size_t c = 0; c < 3; ++c) {
+      plane[c][i] = pts.xyz[3 * i + c];
+      plane[3 + c][i] = normals[3 * i + c];
+    }
+  }
+  seg::Frame f;
+  f.x = plane[0];
+  f.y = plane[1];
+  f.z = plane[2];
+  f.nx = plane[3];
+  f.ny = plane[4];
+  f.nz = plane[5];
+  f.labels = labels;
+  f.width = static_cast<int>(count);
+  f.height = 1;
+  f.stride = static_cast<std::ptrdiff_t>(count);
+  f.ring_neighbours = rings.neighbours.data();
+  f.ring_count = rings.count.data();
+  f.ring_k = rings.k;
+  return f;
+}
+
 /// c of the normal noise model sigma_n(r) = c sigma(r) / r (the grid's normal_noise_constant
 /// over rings instead of cells): the median over every 4th point of s r / sigma(r), s =
 /// sqrt(1 - R) the per-axis spread of the normals of the point and its ring (R their mean
@@ -103,37 +139,10 @@ void fit_ring_primitives(const OrganizedCloud& cloud, const PointRings& rings, c
                          const SegmentationSettings& settings, std::int32_t tentative_from,
                          RingBuffers::Impl& b, Segmentation& out) {
   const std::size_t count = cloud.size();
-  std::vector<float>& planar = b.planar;
-  planar.resize(6 * count);
-  float* const plane[6] = {planar.data(),
-                           planar.data() + count,
-                           planar.data() + 2 * count,
-                           planar.data() + 3 * count,
-                           planar.data() + 4 * count,
-                           planar.data() + 5 * count};
-  const std::vector<float>& normals = average_ring_normals(rings, pts, b);
-  for (std::size_t i = 0; i < count; ++i) {
-    for (std::size_t c = 0; c < 3; ++c) {
-      plane[c][i] = pts.xyz[3 * i + c];
-      plane[3 + c][i] = normals[3 * i + c];
-    }
-  }
   std::vector<std::int32_t>& labels = b.labels;
   for (std::size_t i = 0; i < count; ++i) labels[i] = at(out.labels, i);
-  seg::Frame f;
-  f.x = plane[0];
-  f.y = plane[1];
-  f.z = plane[2];
-  f.nx = plane[3];
-  f.ny = plane[4];
-  f.nz = plane[5];
-  f.labels = labels.data();
-  f.width = static_cast<int>(count);
-  f.height = 1;
-  f.stride = static_cast<std::ptrdiff_t>(count);
-  f.ring_neighbours = rings.neighbours.data();
-  f.ring_count = rings.count.data();
-  f.ring_k = rings.k;
+  const seg::Frame f =
+      ring_frame(rings, pts, average_ring_normals(rings, pts, b), labels.data(), b.planar);
   seg::fit_primitives(
       f, settings, out, b.primitive,
       {.tentative_from = tentative_from,
