@@ -8,7 +8,9 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -138,6 +140,21 @@ inline int labelled_across_crease(const Segmentation& seg, double margin) {
     }
   }
   return across;
+}
+
+/// Two box fronts 3 m away meeting at a vertical crease on the optical axis, the left one
+/// fronto-parallel, the right one turned by `degrees`; each 0.27 m wide and 0.36 m tall (47 x 63
+/// pixels), before a wall at 4 m; Gaussian noise of `sigmas` sigma(z) along the ray.
+inline OrganizedCloud two_fronts(double degrees, double sigmas, const SensorNoise& noise,
+                                 std::uint32_t seed) {
+  const double slope = std::tan(degrees * kDeg);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  return cast(640, 480, [&](double a, double b) {
+    double t = 4.0;
+    if (std::fabs(b) <= 0.06 && std::fabs(a) <= 0.09) t = a <= 0 ? 3.0 : 3.0 / (1.0 - slope * a);
+    return t + sigmas * noise.sigma(t) * unit(rng);
+  });
 }
 
 /// The valid points of an organized cloud as a 1-row cloud in shuffled order; pixel[i] is the

@@ -217,21 +217,6 @@ TEST(Segmentation, MeasuredNormalNoiseKeepsRegionsOffShallowCreases) {
   EXPECT_GT(wrong_fixed, 4 * wrong_measured);
 }
 
-/// Two box fronts 3 m away meeting at a vertical crease on the optical axis, the left one
-/// fronto-parallel, the right one turned by `degrees`; each 0.27 m wide and 0.36 m tall (47 x 63
-/// pixels), before a wall at 4 m; Gaussian noise of `sigmas` sigma(z) along the ray.
-OrganizedCloud two_fronts(double degrees, double sigmas, const SensorNoise& noise,
-                          std::uint32_t seed) {
-  const double slope = std::tan(degrees * kDeg);
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> unit(0.0, 1.0);
-  return cast(640, 480, [&](double a, double b) {
-    double t = 4.0;
-    if (std::fabs(b) <= 0.06 && std::fabs(a) <= 0.09) t = a <= 0 ? 3.0 : 3.0 / (1.0 - slope * a);
-    return t + sigmas * noise.sigma(t) * unit(rng);
-  });
-}
-
 /// Two box fronts 3 m away whose normals differ by 10 or 14 deg, meeting at a crease, with the
 /// noise of smoothed Kinect points (0.3 sigma(z) along the ray): each part fits its plane to a
 /// few mm, one plane fits their union to about twice that, still below sigma(3 m) = 14 mm. The

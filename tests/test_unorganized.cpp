@@ -17,6 +17,7 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "rangeseg/eval.hpp"
@@ -926,6 +927,47 @@ TEST(RingSegmentation, PerpendicularPlanesAreTwoSegmentsWithTheirNormalsAndAreas
   const Segmentation smooth_seg = segment_points(cloud, {.model = RegionModel::smooth});
   test::expect_labels_name_segments(cloud, smooth_seg);
   EXPECT_EQ(smooth_seg.segments.size(), 2u);
+}
+
+/// The grid's RegionThatCreptOverACreaseIsSplit over rings: two box fronts 3 m away, 14 and 20
+/// deg apart, with the full Kinect noise, smoothed (the wall behind them only around them, to
+/// keep the test fast); growth over the rings takes both fronts into one region for at least
+/// one angle, and the split (split_residual_factor, against the segment's own ring residual)
+/// cuts it at the crease, each part with its front's normal.
+TEST(RingSegmentation, RegionThatCreptOverACreaseIsSplit) {
+  int joined_without_split = 0;
+  for (const double degrees : {14.0, 20.0}) {
+    OrganizedCloud grid = test::two_fronts(degrees, 1.0, preset("kinect").noise, 5);
+    for (int v = 0; v < grid.height(); ++v) {
+      for (int u = 0; u < grid.width(); ++u) {
+        if (std::abs(u - 320) > 100 || std::abs(v - 240) > 80) grid.z(u, v) = NAN;
+      }
+    }
+    const Unorganized u = shuffled(grid, 7);
+    const auto segment_fronts = [&](double split_factor) {
+      PipelineSettings settings = pipeline_preset("kinect");
+      settings.segmentation.split_residual_factor = split_factor;
+      Pipeline pipeline(settings);
+      pipeline.process(u.cloud);
+      const Segmentation& seg = pipeline.segmentation();
+      test::expect_labels_name_segments(u.cloud, seg);
+      return std::pair{to_grid(seg.labels, u, grid.width(), grid.height()), seg.segments};
+    };
+    const auto [labels, segments] =
+        segment_fronts(pipeline_preset("kinect").segmentation.split_residual_factor);
+    const int left = labels(296, 240), right = labels(343, 240);
+    ASSERT_NE(left, 0) << degrees;
+    ASSERT_NE(right, 0) << degrees;
+    EXPECT_NE(left, right) << degrees;
+    if (left != right) {
+      const double c = std::cos(degrees * kDeg), s = std::sin(degrees * kDeg);
+      EXPECT_LT(test::angle_deg(segments[left - 1].normal, {0.0, 0.0, -1.0}), 2.0) << degrees;
+      EXPECT_LT(test::angle_deg(segments[right - 1].normal, {s, 0.0, -c}), 2.0) << degrees;
+    }
+    const LabelImage joined = segment_fronts(0.0).first;
+    joined_without_split += joined(296, 240) == joined(343, 240) ? 1 : 0;
+  }
+  EXPECT_GE(joined_without_split, 1);
 }
 
 TEST(RingSegmentation, IncrementalPlaneModelThrows) {

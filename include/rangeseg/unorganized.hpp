@@ -168,7 +168,9 @@ void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMa
 /// neighbour's normal and max_curvature. Then, for planes: segments of fewer than
 /// min_region_size points are dropped, adjacent segments (joined by a ring edge or through the
 /// ring of one unlabelled point) whose least-squares planes agree (merge_angle, and each
-/// centroid within merge_distance_sigmas sigma of the other plane) are merged, and unlabelled
+/// centroid within merge_distance_sigmas sigma of the other plane) are merged, segments that
+/// one plane explains split_residual_factor times worse than their own rings (the RMS distance
+/// of ring neighbours from each point's tangent plane) are split as on the grid, and unlabelled
 /// points next to a plane join the closest one within max_distance_sigmas sigma(r) and
 /// reassign_max_normal_angle (widened like the growth's angle). Smooth segments below
 /// min_region_size are dropped. automatic: the plane model's segments, then, as on the grid,
@@ -178,7 +180,7 @@ void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMa
 /// neighbourhood, sigma is sigma(r), and the normals compared with the models' are averaged
 /// over the ring twice first (ring normals of depth-camera data scatter more than the grid's).
 /// Segment::area_m2 is the sum of `point_area`. The grid-only settings (cells, bands, seed
-/// clearance, splitting, refinement, grazing planes) are not used. `out.labels` has the
+/// clearance, refinement, grazing planes) are not used. `out.labels` has the
 /// cloud's size. Throws std::invalid_argument for RegionModel::incremental_plane, invalid
 /// settings or size mismatches.
 void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,

@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -465,11 +466,12 @@ inline std::int32_t find_root(std::vector<std::int32_t>& parent, std::int32_t a)
 /// Whether post-processing merges two adjacent plane segments (statistics and fits of each):
 /// their planes agree, or one plane explains their union within the noise (see
 /// SegmentationSettings::merge_angle .. merge_rms_max_angle). On true, the union's statistics
-/// and fit are stored where given.
+/// and fit are stored where given. `by_range`: sigma of the distance from the origin, not of z
+/// (noise_depth).
 bool planes_merge(const detail::PlaneStats& sa, const detail::PlaneFit& a,
                   const detail::PlaneStats& sb, const detail::PlaneFit& b,
                   const SegmentationSettings& settings, detail::PlaneStats* merged = nullptr,
-                  detail::PlaneFit* merged_fit = nullptr);
+                  detail::PlaneFit* merged_fit = nullptr, bool by_range = false);
 
 /// `settings` with the sensor noise model scaled by `ratio`, a frame's measured RMS residual /
 /// sigma(z) of good planes, clamped to [0.05, 1]: smoothed points fit far below the sensor's
@@ -480,9 +482,10 @@ SegmentationSettings with_measured_noise(const SegmentationSettings& settings, d
 /// sigma(z) exceeds split_residual_factor times the lower tercile of the other segments' is cut
 /// into up to four planes (two-plane k-means while a part is still that far off), and the parts
 /// that merging would join at the frame's noise level are joined again. New parts are appended
-/// as raw regions (scratch.regions, fits, parent, remap).
+/// as raw regions (scratch.regions, fits, parent, remap). `references`, when given: per raw
+/// region the RMS / sigma that stands for its noise instead of the other segments' tercile.
 void split_unexplained_planes(const Frame& frame, const SegmentationSettings& settings,
-                              Segmenter::Scratch& scratch);
+                              Segmenter::Scratch& scratch, std::span<const double> references = {});
 
 /// After boundary re-assignment (raw labels): plane regions of the unlabelled points of surfaces
 /// seen at grazing incidence (SegmentationSettings::grazing_min_angle), appended as raw regions

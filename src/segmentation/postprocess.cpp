@@ -214,7 +214,8 @@ double dot(const std::array<double, 3>& a, const std::array<double, 3>& b) {
 /// plus the statistical uncertainty of both normals, and each centroid lies on the other plane
 /// within the sensor noise plus the error that the other normal's uncertainty causes over the
 /// distance between the centroids.
-bool same_plane(const PlaneFit& a, const PlaneFit& b, const SegmentationSettings& s) {
+bool same_plane(const PlaneFit& a, const PlaneFit& b, const SegmentationSettings& s,
+                bool by_range = false) {
   const double k = s.merge_distance_sigmas;
   const double cos_angle = std::min(1.0, std::fabs(dot(a.normal, b.normal)));
   const double angle = std::acos(cos_angle);
@@ -223,7 +224,7 @@ bool same_plane(const PlaneFit& a, const PlaneFit& b, const SegmentationSettings
                dz = a.centroid[2] - b.centroid[2];
   const double lever2 = dx * dx + dy * dy + dz * dz;
   const auto on_plane = [&](const PlaneFit& point_of, const PlaneFit& plane) {
-    const double sigma = s.noise.sigma(point_of.centroid[2]);
+    const double sigma = s.noise.sigma(noise_depth(point_of.centroid, by_range));
     const double tol2 =
         k * k * (sigma * sigma + lever2 * plane.normal_stderr * plane.normal_stderr);
     const double d =
@@ -257,15 +258,16 @@ double floored_normal_stderr(const PlaneStats& stats, const PlaneFit& fit, doubl
 /// when one plane fits their union much worse than each fits itself (box fronts a few degrees
 /// apart: parts 4 mm, union 12 mm, sigma 14 mm at 3 m).
 bool merged_residual_ok(const PlaneFit& merged, const PlaneStats& sa, const PlaneFit& a,
-                        const PlaneStats& sb, const PlaneFit& b, const SegmentationSettings& s) {
-  const double sigma = s.noise.sigma(merged.centroid[2]);
+                        const PlaneStats& sb, const PlaneFit& b, const SegmentationSettings& s,
+                        bool by_range) {
+  const double sigma = s.noise.sigma(noise_depth(merged.centroid, by_range));
   const double pooled = std::max(a.rms, b.rms);
   if (!(merged.rms <= 1.5 * pooled + 0.5 * sigma)) return false;
   if (merged.rms <= 1.5 * pooled) return true;
   const double angle = std::acos(std::min(1.0, std::fabs(dot(a.normal, b.normal))));
   const bool a_smaller = sa.count < sb.count;
   const PlaneFit& small_fit = a_smaller ? a : b;
-  const double small_sigma = s.noise.sigma(small_fit.centroid[2]);
+  const double small_sigma = s.noise.sigma(noise_depth(small_fit.centroid, by_range));
   return angle <=
          s.merge_angle + s.merge_distance_sigmas *
                              floored_normal_stderr(a_smaller ? sa : sb, small_fit, small_sigma);
@@ -279,11 +281,12 @@ bool merged_residual_ok(const PlaneFit& merged, const PlaneStats& sa, const Plan
 /// any crease worth a segment boundary. This also joins the strips that range quantisation
 /// terraces cut a grazing surface into, whose own fits are tilted by the staircase.
 bool fits_as_one(const PlaneFit& merged, const PlaneStats& sa, const PlaneFit& a,
-                 const PlaneStats& sb, const PlaneFit& b, const SegmentationSettings& s) {
+                 const PlaneStats& sb, const PlaneFit& b, const SegmentationSettings& s,
+                 bool by_range = false) {
   if (std::fabs(dot(a.normal, b.normal)) < std::cos(s.merge_rms_max_angle)) return false;
-  const double sigma = s.noise.sigma(merged.centroid[2]);
+  const double sigma = s.noise.sigma(noise_depth(merged.centroid, by_range));
   if (!(merged.rms <= s.merge_rms_sigmas * sigma)) return false;
-  return merged_residual_ok(merged, sa, a, sb, b, s);
+  return merged_residual_ok(merged, sa, a, sb, b, s, by_range);
 }
 
 /// The scanner's view of a merge: two adjacent segments are one surface when the points of each
@@ -299,10 +302,11 @@ bool fits_as_one(const PlaneFit& merged, const PlaneStats& sa, const PlaneFit& a
 /// orientation cannot, and the merged residual must stay within the bound of `fits_as_one`
 /// relative to the parts. Cheap tests first; the eigen-solve only for strips at a large angle.
 bool lies_on_merged_plane(const PlaneFit& merged, const PlaneStats& sa, const PlaneFit& a,
-                          const PlaneStats& sb, const PlaneFit& b, const SegmentationSettings& s) {
+                          const PlaneStats& sb, const PlaneFit& b, const SegmentationSettings& s,
+                          bool by_range = false) {
   const double k = s.merge_distance_sigmas;
-  const double sigma = s.noise.sigma(merged.centroid[2]);
-  if (!merged_residual_ok(merged, sa, a, sb, b, s)) return false;
+  const double sigma = s.noise.sigma(noise_depth(merged.centroid, by_range));
+  if (!merged_residual_ok(merged, sa, a, sb, b, s, by_range)) return false;
   const double na = static_cast<double>(sa.count), nb = static_cast<double>(sb.count);
   const double pooled2 = (na * a.rms * a.rms + nb * b.rms * b.rms) / (na + nb);
   const double bound2 = k * k * std::max(sigma * sigma, pooled2);
@@ -314,7 +318,7 @@ bool lies_on_merged_plane(const PlaneFit& merged, const PlaneStats& sa, const Pl
   if (angle <= s.merge_rms_max_angle) return true;
   const bool a_smaller = sa.count < sb.count;
   const PlaneFit& small_fit = a_smaller ? a : b;
-  const double small_sigma = s.noise.sigma(small_fit.centroid[2]);
+  const double small_sigma = s.noise.sigma(noise_depth(small_fit.centroid, by_range));
   return angle <= s.merge_rms_max_angle +
                       k * floored_normal_stderr(a_smaller ? sa : sb, small_fit, small_sigma);
 }
@@ -579,13 +583,14 @@ bool wide_enough(const PlaneStats& stats, int min_region_size, double footprint)
 
 bool planes_merge(const PlaneStats& sa, const PlaneFit& a, const PlaneStats& sb, const PlaneFit& b,
                   const SegmentationSettings& settings, PlaneStats* merged_out,
-                  PlaneFit* merged_fit_out) {
+                  PlaneFit* merged_fit_out, bool by_range) {
   PlaneStats merged = sa;
   merged.merge(sb);
   const PlaneFit merged_fit = merged.fit();
   if (!merged_fit.ok) return false;
-  if (!same_plane(a, b, settings) && !fits_as_one(merged_fit, sa, a, sb, b, settings) &&
-      !lies_on_merged_plane(merged_fit, sa, a, sb, b, settings)) {
+  if (!same_plane(a, b, settings, by_range) &&
+      !fits_as_one(merged_fit, sa, a, sb, b, settings, by_range) &&
+      !lies_on_merged_plane(merged_fit, sa, a, sb, b, settings, by_range)) {
     return false;
   }
   if (merged_out != nullptr) *merged_out = merged;

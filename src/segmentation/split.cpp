@@ -8,6 +8,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "segmentation/internal.hpp"
@@ -59,7 +60,7 @@ class Splitter {
   bool flagged(const PlaneStats& stats, const PlaneFit& fit, double reference) const {
     if (!fit.ok || stats.count < 2 * min_size_) return false;
     return fit.rms >
-           settings_.split_residual_factor * reference * settings_.noise.sigma(fit.centroid[2]);
+           settings_.split_residual_factor * reference * settings_.noise.sigma(depth(fit.centroid));
   }
 
   /// Splits region `label` (its points pixels[0, count), all labelled `label`) into up to
@@ -78,7 +79,7 @@ class Splitter {
       double worst_ratio = 0;
       for (Part& p : parts_) {
         if (!p.splittable || !flagged(p.stats, p.fit, reference)) continue;
-        const double ratio = p.fit.rms / settings_.noise.sigma(p.fit.centroid[2]);
+        const double ratio = p.fit.rms / settings_.noise.sigma(depth(p.fit.centroid));
         if (ratio > worst_ratio) {
           worst_ratio = ratio;
           worst = &p;
@@ -118,7 +119,7 @@ class Splitter {
     xyzw.resize(4 * samples.size());
     for (std::size_t j = 0; j < samples.size(); ++j) {
       const std::int32_t i = samples[j];
-      const double sigma = settings_.noise.sigma(f_.z[i]);
+      const double sigma = settings_.noise.sigma(depth({f_.x[i], f_.y[i], f_.z[i]}));
       xyzw[4 * j] = f_.x[i];
       xyzw[4 * j + 1] = f_.y[i];
       xyzw[4 * j + 2] = f_.z[i];
@@ -212,15 +213,11 @@ class Splitter {
     std::size_t same = 0, edges = 0;
     for (const std::int32_t i : s_.split_samples) {
       const bool side = closer_to(fits[0], fits[1], f_.x[i], f_.y[i], f_.z[i]);
-      unsigned mask = f_.edges[i];
-      while (mask != 0) {
-        const int k = std::countr_zero(mask);
-        mask &= mask - 1;
-        const auto q = static_cast<std::int32_t>(i + f_.neighbour_offset[k]);
-        if (f_.labels[q] != label) continue;
+      for_each_neighbour(f_, i, 0xFFu, [&](std::ptrdiff_t q) {
+        if (f_.labels[q] != label) return;
         ++edges;
         same += closer_to(fits[0], fits[1], f_.x[q], f_.y[q], f_.z[q]) == side ? 1 : 0;
-      }
+      });
     }
     return static_cast<double>(same) >= kMinCoherence * static_cast<double>(edges);
   }
@@ -247,7 +244,8 @@ class Splitter {
       part_fits[k] = s.fit();
       if (!part_fits[k].ok) return false;
     }
-    return planes_merge(stats[0], part_fits[0], stats[1], part_fits[1], measured_);
+    return planes_merge(stats[0], part_fits[0], stats[1], part_fits[1], measured_, nullptr, nullptr,
+                        by_range());
   }
 
   /// k-means with two planes over the samples (split_xyzw) from the partition split_side: the
@@ -303,16 +301,12 @@ class Splitter {
       pieces.push_back(seed);
       for (std::size_t head = start; head < pieces.size(); ++head) {
         const std::int32_t q = pieces[head];
-        unsigned mask = f_.edges[q];
-        while (mask != 0) {
-          const int k = std::countr_zero(mask);
-          mask &= mask - 1;
-          const auto r = static_cast<std::int32_t>(q + f_.neighbour_offset[k]);
+        for_each_neighbour(f_, q, 0xFFu, [&](std::ptrdiff_t r) {
           if (f_.labels[r] == label && s_.queued[r] == 0) {
             s_.queued[r] = 1;
-            pieces.push_back(r);
+            pieces.push_back(static_cast<std::int32_t>(r));
           }
-        }
+        });
       }
       if (pieces.size() - start > largest_size) {
         largest_size = pieces.size() - start;
@@ -344,13 +338,10 @@ class Splitter {
     for (std::size_t j = 0; j < count; ++j) {
       const std::int32_t i = pixels[j];
       const int a = index_of(f_.labels[i]);
-      unsigned mask = f_.edges[i];
-      while (mask != 0) {
-        const int k = std::countr_zero(mask);
-        mask &= mask - 1;
-        const int b = index_of(f_.labels[i + f_.neighbour_offset[k]]);
+      for_each_neighbour(f_, i, 0xFFu, [&](std::ptrdiff_t q) {
+        const int b = index_of(f_.labels[q]);
         if (b >= 0 && b != a) adjacent[a] |= 1u << b;
-      }
+      });
     }
     // into[a]: the part that part a was merged into (itself while it stands).
     std::array<std::size_t, kMaxParts> into{};
@@ -365,7 +356,7 @@ class Splitter {
           PlaneStats merged;
           PlaneFit merged_fit;
           if (!planes_merge(parts_[a].stats, parts_[a].fit, parts_[b].stats, parts_[b].fit,
-                            measured_, &merged, &merged_fit)) {
+                            measured_, &merged, &merged_fit, by_range())) {
             continue;
           }
           if (best_a == n || merged_fit.rms < best_fit.rms) {
@@ -404,6 +395,9 @@ class Splitter {
     parts_.resize(kept);
   }
 
+  bool by_range() const { return f_.ring_neighbours != nullptr; }
+  double depth(const std::array<double, 3>& p) const { return noise_depth(p, by_range()); }
+
   const Frame& f_;
   const SegmentationSettings& settings_;
   Segmenter::Scratch& s_;
@@ -415,7 +409,7 @@ class Splitter {
 }  // namespace
 
 void split_unexplained_planes(const Frame& f, const SegmentationSettings& settings,
-                              Segmenter::Scratch& s) {
+                              Segmenter::Scratch& s, std::span<const double> references) {
   if (!(settings.split_residual_factor > 0)) return;
   const auto region_count = static_cast<std::int32_t>(s.regions.size());
   const auto min_size = static_cast<std::int64_t>(settings.min_region_size);
@@ -423,8 +417,9 @@ void split_unexplained_planes(const Frame& f, const SegmentationSettings& settin
     return s.remap[r] == r && find_root(s.parent, r) == r && s.fits[r].ok &&
            s.regions[r].count >= min_size;
   };
+  const bool by_range = f.ring_neighbours != nullptr;
   const auto ratio_of = [&](std::int32_t r) {
-    return s.fits[r].rms / settings.noise.sigma(s.fits[r].centroid[2]);
+    return s.fits[r].rms / settings.noise.sigma(noise_depth(s.fits[r].centroid, by_range));
   };
   // What the frame's good planes achieve: RMS residual / sigma(z) of its segments, sorted; a
   // segment is compared with the lower tercile of the others (the median rises with the
@@ -434,7 +429,7 @@ void split_unexplained_planes(const Frame& f, const SegmentationSettings& settin
   for (std::int32_t r = 1; r < region_count; ++r) {
     if (is_segment(r)) ratios.push_back(ratio_of(r));
   }
-  if (ratios.size() < 2) return;
+  if (references.empty() && ratios.size() < 2) return;
   std::sort(ratios.begin(), ratios.end());
   const auto others_tercile = [&](double ratio) {
     const auto rank = static_cast<std::size_t>(
@@ -454,7 +449,7 @@ void split_unexplained_planes(const Frame& f, const SegmentationSettings& settin
   reference.clear();
   for (std::int32_t r = 1; r < region_count; ++r) {
     if (!is_segment(r)) continue;
-    const double others = others_tercile(ratio_of(r));
+    const double others = references.empty() ? others_tercile(ratio_of(r)) : references[r];
     if (!splitter.flagged(s.regions[r], s.fits[r], others)) continue;
     slot[r] = static_cast<std::int32_t>(candidates.size());
     candidates.push_back(r);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "rangeseg/cloud.hpp"
@@ -82,6 +83,10 @@ struct RingBuffers::Impl {
   std::vector<double> noise_samples;
   std::vector<float> planar, pass_normals, pass_normals_next;
   seg::PrimitiveScratchPtr primitive;
+  // segment: splitting planes, the grid's scratch and per raw label local residual sums and
+  // noise references.
+  std::unique_ptr<Segmenter::Scratch> split;
+  std::vector<double> local_sums, references;
 };
 
 }  // namespace rangeseg

@@ -12,11 +12,7 @@
 #include "unorganized/region_growing.hpp"
 
 namespace rangeseg::unorganized {
-namespace {
 
-/// A frame of the grid's segmentation passes over the rings (seg::Frame::ring_neighbours): one
-/// row of the points and the given packed normals, copied to planes in `planar`, and `labels`
-/// (one per point).
 seg::Frame ring_frame(const PointRings& rings, const Points& pts, const std::vector<float>& normals,
                       std::int32_t* labels, std::vector<float>& planar) {
   const std::size_t count = rings.count.size();
@@ -49,6 +45,8 @@ seg::Frame ring_frame(const PointRings& rings, const Points& pts, const std::vec
   f.ring_k = rings.k;
   return f;
 }
+
+namespace {
 
 /// c of the normal noise model sigma_n(r) = c sigma(r) / r (the grid's normal_noise_constant
 /// over rings instead of cells): the median over every 4th point of s r / sigma(r), s =

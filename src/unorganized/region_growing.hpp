@@ -11,6 +11,7 @@
 #include "detail/plane_stats.hpp"
 #include "rangeseg/segmentation.hpp"
 #include "rangeseg/unorganized.hpp"
+#include "segmentation/internal.hpp"
 #include "unorganized/internal.hpp"
 
 namespace rangeseg::unorganized {
@@ -141,6 +142,12 @@ std::vector<detail::PlaneStats> label_stats(const Points& pts,
 void collect_seeds(const PointRings& rings, const Points& pts, const SegmentationSettings& s,
                    bool planes, const std::vector<std::int32_t>& labels,
                    std::vector<std::int32_t>& seeds);
+
+/// A frame of the grid's segmentation passes over the rings (seg::Frame::ring_neighbours): one
+/// row of the points and the given packed normals, copied to planes in `planar`, and `labels`
+/// (one per point).
+seg::Frame ring_frame(const PointRings& rings, const Points& pts, const std::vector<float>& normals,
+                      std::int32_t* labels, std::vector<float>& planar);
 
 /// RegionModel::automatic after the leftovers are grown (grow_leftovers): the grid's primitive
 /// pass over the rings. out.labels holds 1..out.segments.size(); segments 1..tentative_from are

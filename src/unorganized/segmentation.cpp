@@ -189,6 +189,60 @@ void merge_planes(const PointRings& rings, const SegmentationSettings& s,
   }
 }
 
+/// The grid's splitting of plane segments that one plane does not explain
+/// (seg::split_unexplained_planes) over the rings, after merging: raw labels and their
+/// statistics (roots only); parts split off get new raw labels, appended to `stats`. A
+/// segment's noise reference is what its own rings show, not the frame's other segments (whose
+/// RMS / sigma differ from surface to surface in a sparse scan): the RMS distance of its ring
+/// neighbours in the segment from each point's tangent plane, / sqrt 2 (both points are noisy),
+/// in units of sigma(r) at its centroid. A segment flagged against it is one that a single
+/// plane explains much worse than its points' neighbourhoods do.
+void split_planes(const PointRings& rings, const Points& pts, const SegmentationSettings& s,
+                  std::vector<std::int32_t>& labels, std::vector<detail::PlaneStats>& stats,
+                  RingBuffers::Impl& b) {
+  if (!(s.split_residual_factor > 0)) return;
+  const std::size_t n = stats.size();
+  std::vector<double>& sums = b.local_sums;
+  std::vector<std::int64_t>& counts = b.counts;
+  sums.assign(n, 0.0);
+  counts.assign(n, 0);
+  for (std::size_t i = 0; i < labels.size(); ++i) {
+    const std::int32_t l = labels[i];
+    if (l <= 0 || !pts.has_normal(i)) continue;
+    const float* p = pts.point(i);
+    const float* m = pts.normal(i);
+    for (const std::int32_t jj : rings.ring(i)) {
+      const auto j = static_cast<std::size_t>(jj);
+      if (labels[j] != l) continue;
+      const float* q = pts.point(j);
+      const double d = double{m[0]} * (q[0] - p[0]) + double{m[1]} * (q[1] - p[1]) +
+                       double{m[2]} * (q[2] - p[2]);
+      sums[static_cast<std::size_t>(l)] += d * d;
+      counts[static_cast<std::size_t>(l)] += 1;
+    }
+  }
+  if (!b.split) b.split = std::make_unique<Segmenter::Scratch>();
+  Segmenter::Scratch& scratch = *b.split;
+  scratch.regions = stats;
+  scratch.fits.assign(n, detail::PlaneFit{});
+  scratch.parent.resize(n);
+  std::iota(scratch.parent.begin(), scratch.parent.end(), 0);
+  scratch.remap.assign(n, 0);
+  scratch.grazing_region.assign(n, 0);
+  std::vector<double>& references = b.references;
+  references.assign(n, 0.0);
+  for (std::size_t r = 1; r < n; ++r) {
+    if (stats[r].count < s.min_region_size || counts[r] == 0) continue;
+    scratch.remap[r] = static_cast<std::int32_t>(r);
+    scratch.fits[r] = stats[r].fit();
+    const double local = std::sqrt(sums[r] / static_cast<double>(counts[r]) / 2.0);
+    references[r] = local / sigma_at(s.noise, scratch.fits[r].centroid);
+  }
+  const seg::Frame f = ring_frame(rings, pts, pts.n, labels.data(), b.planar);
+  seg::split_unexplained_planes(f, s, scratch, references);
+  stats = scratch.regions;
+}
+
 /// Rounds of `reassign`: a hole that growth left in a noisy far surface fills from its border
 /// inwards, one ring per round (as the grid's border refinement, up to 8 rounds).
 constexpr int kReassignRounds = 8;
@@ -253,6 +307,7 @@ using unorganized::PlaneRegion;
 using unorganized::Points;
 using unorganized::reassign;
 using unorganized::SmoothRegion;
+using unorganized::split_planes;
 
 void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,
              const SegmentationSettings& settings, Segmentation& out) {
@@ -294,7 +349,11 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
     for (std::size_t l = 1; l < stats.size(); ++l) {
       if (stats[l].count < settings.min_region_size) stats[l].clear();
     }
-    if (settings.merge_planes) merge_planes(rings, settings, labels, stats);
+    if (settings.merge_planes) {
+      merge_planes(rings, settings, labels, stats);
+      split_planes(rings, pts, settings, labels, stats, b);
+      raw = static_cast<std::int32_t>(stats.size()) - 1;
+    }
     if (settings.reassign_boundary) {
       reassign(rings, pts, settings, labels, stats);
       stats = label_stats(pts, labels, raw);
