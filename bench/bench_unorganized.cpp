@@ -88,17 +88,29 @@ void BM_RingSmoothing(benchmark::State& state) {
 }
 BENCHMARK(BM_RingSmoothing)->Unit(benchmark::kMillisecond);
 
-void BM_RingSegmentation(benchmark::State& state) {
+/// Segmentation with `model` (the plane model of the preset, or auto: planes, then cylinders
+/// and spheres), its buffers kept from call to call as Pipeline keeps them.
+void ring_segmentation(benchmark::State& state, RegionModel model) {
   Frame f;
   if (!prepare(state, Stage::segmentation, f)) return;
+  SegmentationSettings settings = f.settings.segmentation;
+  settings.model = model;
+  RingBuffers buffers;
   for (auto _ : state) {
-    segment(f.smoothed, f.rings, f.smoothed_normals, f.settings.segmentation, f.segmentation);
+    segment(f.smoothed, f.rings, f.smoothed_normals, settings, f.segmentation, buffers);
     benchmark::DoNotOptimize(f.segmentation.labels.row(0));
   }
   report_points(state, f);
   state.counters["segments"] = static_cast<double>(f.segmentation.segments.size());
 }
+
+void BM_RingSegmentation(benchmark::State& state) { ring_segmentation(state, RegionModel::plane); }
 BENCHMARK(BM_RingSegmentation)->Unit(benchmark::kMillisecond);
+
+void BM_RingSegmentationAuto(benchmark::State& state) {
+  ring_segmentation(state, RegionModel::automatic);
+}
+BENCHMARK(BM_RingSegmentationAuto)->Unit(benchmark::kMillisecond);
 
 void BM_RingPolygons(benchmark::State& state) {
   Frame f;
