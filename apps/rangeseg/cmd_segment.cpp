@@ -115,8 +115,8 @@ void add_segment(CLI::App& app) {
       "timestamp). TUM depth PNGs default to 5000 units per metre and fx = fy = 525, cx = 319.5, "
       "cy = 239.5.\nAn unorganized cloud (a PCD of height 1) is segmented over the k nearest "
       "neighbours of each point (--config \"rings\") with --model plane, smooth or auto; its "
-      "folder "
-      "holds segments.json and cloud.pcd (the processed points with normal_x normal_y normal_z "
+      "folder holds segments.json and cloud.pcd (the processed points with normal_x normal_y "
+      "normal_z "
       "curvature, label and rgb: the label's colour).\nExit codes: 0 = done (a batch with at least "
       "one frame written; failed frames are listed), 2 = bad arguments, unreadable single input, "
       "or no frame of a batch succeeded.");

@@ -42,9 +42,10 @@ struct Frame {
   int pixel_stride = 1;       ///< mesh lattice step s
   /// Index offset of the 8 mesh neighbour directions (kNeighbourDu/Dv, scaled by s).
   std::array<std::ptrdiff_t, 8> neighbour_offset{};
-  /// Only the primitive pass (fit_primitives) reads a frame of k-nearest-neighbour rings: one
-  /// row of points, each neighbouring ring_neighbours[i * ring_k, i * ring_k + ring_count[i])
-  /// instead of its mesh edges, with sigma a function of the range from the origin, not of z.
+  /// Only the primitive pass (fit_primitives) and the plane split (split_unexplained_planes)
+  /// read a frame of k-nearest-neighbour rings: one row of points, each neighbouring
+  /// ring_neighbours[i * ring_k, i * ring_k + ring_count[i]) instead of its mesh edges, with
+  /// sigma a function of the range from the origin, not of z (noise_depth).
   const std::int32_t* ring_neighbours = nullptr;
   const std::uint8_t* ring_count = nullptr;
   int ring_k = 0;

@@ -423,14 +423,17 @@ void split_unexplained_planes(const Frame& f, const SegmentationSettings& settin
   };
   // What the frame's good planes achieve: RMS residual / sigma(z) of its segments, sorted; a
   // segment is compared with the lower tercile of the others (the median rises with the
-  // facets of curved objects, which a plane does not explain either).
+  // facets of curved objects, which a plane does not explain either). Not needed when the
+  // caller gives each region its own reference.
   auto& ratios = s.quantile_values;
   ratios.clear();
-  for (std::int32_t r = 1; r < region_count; ++r) {
-    if (is_segment(r)) ratios.push_back(ratio_of(r));
+  if (references.empty()) {
+    for (std::int32_t r = 1; r < region_count; ++r) {
+      if (is_segment(r)) ratios.push_back(ratio_of(r));
+    }
+    if (ratios.size() < 2) return;
+    std::sort(ratios.begin(), ratios.end());
   }
-  if (references.empty() && ratios.size() < 2) return;
-  std::sort(ratios.begin(), ratios.end());
   const auto others_tercile = [&](double ratio) {
     const auto rank = static_cast<std::size_t>(
         std::lower_bound(ratios.begin(), ratios.end(), ratio) - ratios.begin());
