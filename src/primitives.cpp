@@ -2,6 +2,8 @@
 // circle fit), refined by Levenberg-Marquardt on the geometric point-to-surface distances.
 #include "rangeseg/primitives.hpp"
 
+#include "detail/primitive_fit.hpp"
+
 #include <Eigen/Dense>
 #include <Eigen/Eigenvalues>
 
@@ -80,11 +82,26 @@ double levenberg_marquardt(Params& params, int max_iterations, Evaluate&& evalua
   return cost;
 }
 
+using Matrix3XMap = Eigen::Map<Eigen::Matrix3Xd>;
+
+/// The points a fit currently runs over: all, or the inliers of a refit (3 x cols).
+struct Points {
+  const double* data = nullptr;
+  Eigen::Index cols = 0;
+  Eigen::Map<const Eigen::Matrix3Xd> map() const { return {data, 3, cols}; }
+};
+
+/// Resizes `storage` for 3 x n doubles and maps it.
+Matrix3XMap map_3xn(std::vector<double>& storage, Eigen::Index n) {
+  storage.resize(3 * static_cast<std::size_t>(n));
+  return {storage.data(), 3, n};
+}
+
 /// 10 times the robust standard deviation (1.4826 times the median absolute value) of the
 /// residuals of the least-squares fit: the bound beyond which a point is dropped from the refits.
 template <class Residual>
-double outlier_bound(Eigen::Index n, Residual&& residual) {
-  std::vector<double> abs_r(static_cast<std::size_t>(n));
+double outlier_bound(Eigen::Index n, Residual&& residual, std::vector<double>& abs_r) {
+  abs_r.resize(static_cast<std::size_t>(n));
   for (Eigen::Index i = 0; i < n; ++i) abs_r[static_cast<std::size_t>(i)] = std::fabs(residual(i));
   const auto middle = abs_r.begin() + n / 2;
   std::nth_element(abs_r.begin(), middle, abs_r.end());
@@ -98,12 +115,15 @@ double outlier_bound(Eigen::Index n, Residual&& residual) {
 /// them off round by round), until they no longer change. `active` ends at `all` again. Returns
 /// whether the fit was redone.
 template <class Residual, class Refit>
-bool refit_inliers(int max_refits, const Eigen::Matrix3Xd& all, Eigen::Matrix3Xd& inliers,
-                   const Eigen::Matrix3Xd*& active, Residual&& residual, Refit&& refit) {
+bool refit_inliers(int max_refits, const Matrix3XMap& all, detail::PrimitiveFitBuffers& b,
+                   Points& active, Residual&& residual, Refit&& refit) {
   if (max_refits <= 0) return false;
   const Eigen::Index n = all.cols();
-  const double bound = outlier_bound(n, residual);
-  std::vector<char> keep(static_cast<std::size_t>(n), 1), kept = keep;
+  const double bound = outlier_bound(n, residual, b.abs_residuals);
+  std::vector<char>& keep = b.keep;
+  std::vector<char>& kept = b.kept;
+  keep.assign(static_cast<std::size_t>(n), 1);
+  kept.assign(static_cast<std::size_t>(n), 1);
   bool refitted = false;
   for (int round = 0; round < max_refits; ++round) {
     Eigen::Index count = 0;
@@ -112,13 +132,14 @@ bool refit_inliers(int max_refits, const Eigen::Matrix3Xd& all, Eigen::Matrix3Xd
       count += keep[static_cast<std::size_t>(i)];
     }
     if (keep == kept || count == 0) break;
-    inliers.resize(3, count);
+    b.inliers.resize(3 * static_cast<std::size_t>(count));
+    Matrix3XMap inliers(b.inliers.data(), 3, count);
     for (Eigen::Index i = 0, k = 0; i < n; ++i) {
       if (keep[static_cast<std::size_t>(i)] != 0) inliers.col(k++) = all.col(i);
     }
-    active = &inliers;
+    active = {b.inliers.data(), count};
     const bool ok = refit();
-    active = &all;
+    active = {all.data(), n};
     if (!ok) break;
     kept = keep;
     refitted = true;
@@ -139,10 +160,8 @@ struct CylinderParams {
 
 /// Closest point to the lines x_i + t m_i (m_i unit) in the least-squares sense; false when the
 /// lines are (nearly) parallel.
-template <int D>
-bool closest_to_lines(const Eigen::Matrix<double, D, Eigen::Dynamic>& x,
-                      const Eigen::Matrix<double, D, Eigen::Dynamic>& m,
-                      Eigen::Matrix<double, D, 1>& out) {
+template <int D, class Points>
+bool closest_to_lines(const Points& x, const Points& m, Eigen::Matrix<double, D, 1>& out) {
   using Mat = Eigen::Matrix<double, D, D>;
   Mat a = Mat::Zero();
   Eigen::Matrix<double, D, 1> b = Eigen::Matrix<double, D, 1>::Zero();
@@ -165,14 +184,14 @@ bool closest_to_lines(const Eigen::Matrix<double, D, Eigen::Dynamic>& x,
 
 }  // namespace
 
-SphereFit fit_sphere(std::span<const Point3> points, std::span<const Point3> normals,
-                     const PrimitiveFitSettings& settings) {
+SphereFit detail::fit_sphere(std::span<const Point3> points, std::span<const Point3> normals,
+                             const PrimitiveFitSettings& settings, PrimitiveFitBuffers& buffers) {
   require_same_length("fit_sphere", points.size(), normals.size());
   SphereFit fit;
   const auto n = static_cast<Eigen::Index>(points.size());
   if (n < 4) return fit;
   const Vector3d origin = centroid_of(points);
-  Eigen::Matrix3Xd x(3, n), m(3, n);
+  Matrix3XMap x = map_3xn(buffers.points, n), m = map_3xn(buffers.normals, n);
   for (Eigen::Index i = 0; i < n; ++i) {
     x.col(i) = vec(points[static_cast<std::size_t>(i)]) - origin;
     m.col(i) = vec(normals[static_cast<std::size_t>(i)]);
@@ -195,8 +214,7 @@ SphereFit fit_sphere(std::span<const Point3> points, std::span<const Point3> nor
   for (Eigen::Index i = 0; i < n; ++i) sum += (x.col(i) - params.centre).norm();
   params.radius = sum / static_cast<double>(n);
 
-  Eigen::Matrix3Xd inliers;
-  const Eigen::Matrix3Xd* active = &x;  // the points the fit runs over
+  Points active{x.data(), n};  // the points the fit runs over
   const auto residual = [&](const SphereParams& p, Eigen::Index i) {
     return (x.col(i) - p.centre).norm() - p.radius;
   };
@@ -206,7 +224,7 @@ SphereFit fit_sphere(std::span<const Point3> points, std::span<const Point3> nor
       jtj->setZero();
       jtr->setZero();
     }
-    const Eigen::Matrix3Xd& pts = *active;
+    const auto pts = active.map();
     for (Eigen::Index i = 0; i < pts.cols(); ++i) {
       const Vector3d w = pts.col(i) - p.centre;
       const double dist = w.norm();
@@ -227,7 +245,7 @@ SphereFit fit_sphere(std::span<const Point3> points, std::span<const Point3> nor
   double cost = levenberg_marquardt<4>(params, settings.max_iterations, evaluate, update);
   if (std::isfinite(cost) &&
       refit_inliers(
-          settings.outlier_refits, x, inliers, active,
+          settings.outlier_refits, x, buffers, active,
           [&](Eigen::Index i) { return residual(params, i); },
           [&] {
             SphereParams refit = params;
@@ -247,14 +265,15 @@ SphereFit fit_sphere(std::span<const Point3> points, std::span<const Point3> nor
   return fit;
 }
 
-CylinderFit fit_cylinder(std::span<const Point3> points, std::span<const Point3> normals,
-                         const PrimitiveFitSettings& settings) {
+CylinderFit detail::fit_cylinder(std::span<const Point3> points, std::span<const Point3> normals,
+                                 const PrimitiveFitSettings& settings,
+                                 PrimitiveFitBuffers& buffers) {
   require_same_length("fit_cylinder", points.size(), normals.size());
   CylinderFit fit;
   const auto n = static_cast<Eigen::Index>(points.size());
   if (n < 5) return fit;
   const Vector3d origin = centroid_of(points);
-  Eigen::Matrix3Xd x(3, n);
+  Matrix3XMap x = map_3xn(buffers.points, n);
   Eigen::Matrix3d normal_scatter = Eigen::Matrix3d::Zero();
   for (Eigen::Index i = 0; i < n; ++i) {
     x.col(i) = vec(points[static_cast<std::size_t>(i)]) - origin;
@@ -264,8 +283,7 @@ CylinderFit fit_cylinder(std::span<const Point3> points, std::span<const Point3>
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> normal_solver(normal_scatter);
   const Vector3d& ev = normal_solver.eigenvalues();
 
-  Eigen::Matrix3Xd inliers;
-  const Eigen::Matrix3Xd* active = &x;  // the points the fit runs over
+  Points active{x.data(), n};  // the points the fit runs over
   const auto residual = [&](const CylinderParams& p, Eigen::Index i) {
     const Vector3d w = x.col(i) - p.point;
     return (w - w.dot(p.axis) * p.axis).norm() - p.radius;
@@ -279,7 +297,7 @@ CylinderFit fit_cylinder(std::span<const Point3> points, std::span<const Point3>
       jtj->setZero();
       jtr->setZero();
     }
-    const Eigen::Matrix3Xd& pts = *active;
+    const auto pts = active.map();
     for (Eigen::Index i = 0; i < pts.cols(); ++i) {
       const Vector3d w = pts.col(i) - p.point;
       const double along = w.dot(p.axis);
@@ -345,7 +363,7 @@ CylinderFit fit_cylinder(std::span<const Point3> points, std::span<const Point3>
   }
   if (!std::isfinite(best_cost)) return fit;
   const bool refitted = refit_inliers(
-      settings.outlier_refits, x, inliers, active,
+      settings.outlier_refits, x, buffers, active,
       [&](Eigen::Index i) { return residual(best, i); },
       [&] {
         CylinderParams refit = best;
@@ -376,6 +394,18 @@ CylinderFit fit_cylinder(std::span<const Point3> points, std::span<const Point3>
   fit.rms = std::sqrt(best_cost / static_cast<double>(n));
   fit.ok = true;
   return fit;
+}
+
+SphereFit fit_sphere(std::span<const Point3> points, std::span<const Point3> normals,
+                     const PrimitiveFitSettings& settings) {
+  detail::PrimitiveFitBuffers buffers;
+  return detail::fit_sphere(points, normals, settings, buffers);
+}
+
+CylinderFit fit_cylinder(std::span<const Point3> points, std::span<const Point3> normals,
+                         const PrimitiveFitSettings& settings) {
+  detail::PrimitiveFitBuffers buffers;
+  return detail::fit_cylinder(points, normals, settings, buffers);
 }
 
 }  // namespace rangeseg

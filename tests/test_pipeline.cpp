@@ -182,6 +182,55 @@ TEST(Pipeline, NoAllocationPerFrameAfterTheFirst) {
   }
 }
 
+// The auto model fits hundreds of candidate spheres and cylinders a frame, and unorganized
+// clouds add the k-d tree and the passes over rings: their buffers too are sized by the first
+// frames. (nanoflann takes the tree's nodes from its own pool through malloc, not operator new:
+// 8 KB blocks, freed and taken again at each build.)
+TEST(Pipeline, AutoModelAndUnorganizedFramesAllocateNothingAfterWarmUp) {
+  const auto render = [](std::uint64_t seed, const CameraIntrinsics& camera) {
+    return synth::render(synth::random_scene(seed, true),
+                         {.camera = camera, .noise = synth::Noise::kinect, .seed = seed})
+        .cloud;
+  };
+  // Unorganized frames at 160 x 120 keep the test quick under sanitizers.
+  constexpr CameraIntrinsics kQqvga{
+      .fx = 131.25, .fy = 131.25, .cx = 79.5, .cy = 59.5, .width = 160, .height = 120};
+  std::vector<OrganizedCloud> grids, points;
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    grids.push_back(render(seed, kQvgaCamera));
+    points.push_back(shuffled_valid_points(render(seed, kQqvga), seed));
+  }
+  struct Case {
+    const std::vector<OrganizedCloud>* frames;
+    RegionModel model;
+    int threads;
+    const char* what;
+  };
+  for (const Case& c : {Case{&grids, RegionModel::automatic, 1, "grid, auto, 1 thread"},
+                        Case{&grids, RegionModel::automatic, 2, "grid, auto, 2 threads"},
+                        Case{&points, RegionModel::plane, 1, "unorganized, plane"},
+                        Case{&points, RegionModel::automatic, 1, "unorganized, auto"}}) {
+    PipelineSettings settings = pipeline_preset("kinect");
+    settings.segmentation.model = c.model;
+    settings.threads = c.threads;
+    Pipeline pipeline(settings);
+    for (int warmup = 0; warmup < 6; ++warmup) pipeline.process((*c.frames)[warmup % 3]);
+    int curved = 0;
+    const long before = g_allocations.load();
+    for (int frame = 0; frame < 3; ++frame) {
+      pipeline.process((*c.frames)[static_cast<std::size_t>(frame)]);
+      for (const Segment& g : pipeline.segmentation().segments) {
+        curved += g.kind == SurfaceKind::sphere || g.kind == SurfaceKind::cylinder;
+      }
+    }
+    EXPECT_EQ(g_allocations.load() - before, 0) << c.what;
+    // The fits ran: these scenes have spheres and cylinders.
+    if (c.model == RegionModel::automatic) {
+      EXPECT_GT(curved, 0) << c.what;
+    }
+  }
+}
+
 // A camera loop: depth images (millimetres, and metres as float) in, one pipeline, nothing
 // allocated after the first frame, and the depth-to-points conversion into a reused cloud.
 TEST(Pipeline, DepthImageFramesAllocateNothingAfterTheFirst) {

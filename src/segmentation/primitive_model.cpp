@@ -12,6 +12,7 @@
 #include <numeric>
 #include <vector>
 
+#include "detail/primitive_fit.hpp"
 #include "rangeseg/primitives.hpp"
 #include "segmentation/primitive_internal.hpp"
 
@@ -136,6 +137,7 @@ struct PrimitiveScratch {
   std::vector<std::int32_t> grown;  ///< per group: the last merge pass in which it grew, or -1
   std::vector<std::int32_t> grown_roots;  ///< groups joined after re-assignment, this round
   std::vector<Segment> segments;
+  detail::PrimitiveFitBuffers fits;
 };
 
 void PrimitiveScratchDeleter::operator()(PrimitiveScratch* p) const { delete p; }
@@ -375,10 +377,10 @@ class PrimitivePass {
     const PrimitiveFitSettings fs{.max_iterations = iterations, .outlier_refits = 0};
     Model sphere, cylinder;
     sphere.kind = SurfaceKind::sphere;
-    sphere.sphere = fit_sphere(s_.points, s_.normals, fs);
+    sphere.sphere = detail::fit_sphere(s_.points, s_.normals, fs, s_.fits);
     if (sphere.sphere.ok) score(sphere);
     cylinder.kind = SurfaceKind::cylinder;
-    cylinder.cylinder = fit_cylinder(s_.points, s_.normals, fs);
+    cylinder.cylinder = detail::fit_cylinder(s_.points, s_.normals, fs, s_.fits);
     if (cylinder.cylinder.ok) score(cylinder);
     const bool sphere_ok = sphere.sphere.ok && plausible(sphere, true, noise_aware);
     const bool cylinder_ok = cylinder.cylinder.ok && plausible(cylinder, true, noise_aware);
@@ -563,10 +565,10 @@ class PrimitivePass {
     Model final_model;
     final_model.kind = m.kind;
     if (m.kind == SurfaceKind::sphere) {
-      final_model.sphere = fit_sphere(s_.points, s_.normals);
+      final_model.sphere = detail::fit_sphere(s_.points, s_.normals, {}, s_.fits);
       if (!final_model.sphere.ok) return false;
     } else {
-      final_model.cylinder = fit_cylinder(s_.points, s_.normals);
+      final_model.cylinder = detail::fit_cylinder(s_.points, s_.normals, {}, s_.fits);
       if (!final_model.cylinder.ok) return false;
     }
     score(final_model);

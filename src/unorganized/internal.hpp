@@ -5,8 +5,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <utility>
 #include <vector>
 
+#include "detail/plane_stats.hpp"
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/image.hpp"
 #include "rangeseg/thread_pool.hpp"
@@ -49,6 +51,12 @@ void for_points(std::size_t count, ThreadPool* pool, F&& fn) {
   });
 }
 
+/// build_rings' k-d tree, kept from frame to frame (rings.cpp).
+struct RingTree;
+struct RingTreeDeleter {
+  void operator()(RingTree* tree) const;
+};
+
 /// Per point and pass of the filter: the inverse scales of the distance and normal terms.
 struct Scales {
   float inv_distance = 0;  // 1 / (2 s_d^2)
@@ -69,6 +77,9 @@ struct RingBuffers::Impl {
   // build_rings: the valid points packed, their indices in the cloud, their directions.
   std::vector<float> valid_xyz, directions;
   std::vector<std::int32_t> original;
+  // build_rings: the tree over them, rebuilt in place each call (its index array is reused;
+  // nanoflann takes its nodes from its own malloc pool, emptied and refilled per build).
+  std::unique_ptr<unorganized::RingTree, unorganized::RingTreeDeleter> tree;
   // All stages: the cloud's points packed. smooth: normals packed (this pass and the next),
   // grey values, scales.
   std::vector<float> xyz, n, xyz_next, n_next, grey;
@@ -87,6 +98,13 @@ struct RingBuffers::Impl {
   // noise references.
   std::unique_ptr<Segmenter::Scratch> split;
   std::vector<double> local_sums, references;
+  // segment: per raw label statistics and fits, merge pairs and union-find parents,
+  // re-assignment moves, final order and labels.
+  std::vector<detail::PlaneStats> stats;
+  std::vector<detail::PlaneFit> fits;
+  std::vector<std::uint64_t> pairs;
+  std::vector<std::int32_t> parent, order, final_label;
+  std::vector<std::pair<std::size_t, std::int32_t>> moves;
 };
 
 }  // namespace rangeseg

@@ -274,7 +274,9 @@ struct PolygonExtractor::RingScratch {
         order.push_back(k);
       }
     }
-    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return area(a) > area(b); });
+    // std::sort with ties in loop order: stable_sort takes a temporary buffer per call.
+    std::sort(order.begin(), order.end(),
+              [&](int a, int b) { return area(a) > area(b) || (area(a) == area(b) && a < b); });
     const std::size_t n_outer = order.size();
     parent.assign(n_outer, -1);
     // A hole's parent is the smallest kept outer loop around it.
@@ -291,8 +293,7 @@ struct PolygonExtractor::RingScratch {
       }
       if (best >= 0) holes.emplace_back(best, k);
     }
-    std::stable_sort(holes.begin(), holes.end(),
-                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::sort(holes.begin(), holes.end());  // by parent, then loop: the order they were found
     for (const auto& [rank, k] : holes) {
       order.push_back(k);
       parent.push_back(rank);

@@ -132,10 +132,9 @@ std::int32_t grow(const PointRings& rings, const Points& pts,
   return label;
 }
 
-/// Point statistics per raw label (index 0 unused).
-std::vector<detail::PlaneStats> label_stats(const Points& pts,
-                                            const std::vector<std::int32_t>& labels,
-                                            std::int32_t count);
+/// Point statistics per raw label 0..count into `stats` (index 0 unused).
+void label_stats(const Points& pts, const std::vector<std::int32_t>& labels, std::int32_t count,
+                 std::vector<detail::PlaneStats>& stats);
 
 /// Seeds of the given model in ascending curvature: the unlabelled points with a normal and
 /// curvature at most max_seed_curvature (and, unless for planes, max_curvature).

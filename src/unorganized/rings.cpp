@@ -94,6 +94,20 @@ struct PackedCloud {
 using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, PackedCloud>,
                                                  PackedCloud, 3, std::uint32_t>;
 
+}  // namespace
+
+/// The tree refers to `data` (by reference), so the two live together.
+struct unorganized::RingTree {
+  PackedCloud data;
+  Tree tree{3, data,
+            nanoflann::KDTreeSingleIndexAdaptorParams(
+                16, nanoflann::KDTreeSingleIndexAdaptorFlags::SkipInitialBuildIndex)};
+};
+
+void unorganized::RingTreeDeleter::operator()(RingTree* tree) const { delete tree; }
+
+namespace {
+
 void fail(const char* field, double value, const char* condition) {
   std::ostringstream msg;
   msg << "RingSettings::" << field << " = " << value << " must be " << condition;
@@ -269,8 +283,10 @@ void build(const OrganizedCloud& cloud, const RingSettings& settings, PointRings
     }
   }
   const float* const space = settings.by_direction ? directions.data() : valid_xyz.data();
-  const PackedCloud data{space, original.size()};
-  const Tree tree(3, data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+  if (!b.tree) b.tree.reset(new unorganized::RingTree);
+  b.tree->data = PackedCloud{space, original.size()};
+  b.tree->tree.buildIndex();
+  const Tree& tree = b.tree->tree;
   const float cos_theta = std::cos(settings.eps_theta);
   const EdgeTest test{
       .max_distance2 = settings.max_distance * settings.max_distance,

@@ -15,16 +15,14 @@
 
 namespace rangeseg::unorganized {
 
-std::vector<detail::PlaneStats> label_stats(const Points& pts,
-                                            const std::vector<std::int32_t>& labels,
-                                            std::int32_t count) {
-  std::vector<detail::PlaneStats> stats(static_cast<std::size_t>(count) + 1);
+void label_stats(const Points& pts, const std::vector<std::int32_t>& labels, std::int32_t count,
+                 std::vector<detail::PlaneStats>& stats) {
+  stats.assign(static_cast<std::size_t>(count) + 1, detail::PlaneStats{});
   for (std::size_t i = 0; i < labels.size(); ++i) {
     if (labels[i] <= 0) continue;
     const float* p = pts.point(i);
     stats[static_cast<std::size_t>(labels[i])].add(p[0], p[1], p[2]);
   }
-  return stats;
 }
 
 void collect_seeds(const PointRings& rings, const Points& pts, const SegmentationSettings& s,
@@ -37,8 +35,11 @@ void collect_seeds(const PointRings& rings, const Points& pts, const Segmentatio
     if (!(c <= s.max_seed_curvature) || (!planes && !(c <= s.max_curvature))) continue;
     seeds.push_back(static_cast<std::int32_t>(i));
   }
-  std::stable_sort(seeds.begin(), seeds.end(), [&](std::int32_t a, std::int32_t b) {
-    return pts.curvature[static_cast<std::size_t>(a)] < pts.curvature[static_cast<std::size_t>(b)];
+  // Ties in point order; std::sort, as stable_sort takes a temporary buffer per call.
+  std::sort(seeds.begin(), seeds.end(), [&](std::int32_t a, std::int32_t b) {
+    const float ca = pts.curvature[static_cast<std::size_t>(a)];
+    const float cb = pts.curvature[static_cast<std::size_t>(b)];
+    return ca < cb || (ca == cb && a < b);
   });
 }
 
@@ -120,10 +121,12 @@ double sigma_at(const SensorNoise& noise, const std::array<double, 3>& c) {
 /// Adjacent plane segments whose least-squares planes agree are merged (union-find over the
 /// ring adjacency, refitted after every union, until nothing changes).
 void merge_planes(const PointRings& rings, const SegmentationSettings& s,
-                  std::vector<std::int32_t>& labels, std::vector<detail::PlaneStats>& stats) {
+                  std::vector<std::int32_t>& labels, std::vector<detail::PlaneStats>& stats,
+                  RingBuffers::Impl& b) {
   // Adjacent: joined by a ring edge, or both in the ring of one unlabelled point (a border
   // one point wide, as growth leaves between the terraces of range quantisation).
-  std::vector<std::uint64_t> pairs;
+  std::vector<std::uint64_t>& pairs = b.pairs;
+  pairs.clear();
   const auto add_pair = [&](std::int32_t a, std::int32_t b) {
     if (a <= 0 || b <= 0 || a == b) return;
     const auto lo = static_cast<std::uint64_t>(std::min(a, b));
@@ -146,7 +149,8 @@ void merge_planes(const PointRings& rings, const SegmentationSettings& s,
   }
   std::sort(pairs.begin(), pairs.end());
   pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-  std::vector<std::int32_t> parent(stats.size());
+  std::vector<std::int32_t>& parent = b.parent;
+  parent.resize(stats.size());
   std::iota(parent.begin(), parent.end(), 0);
   const auto find = [&](std::int32_t x) {
     while (parent[static_cast<std::size_t>(x)] != x) {
@@ -252,14 +256,16 @@ constexpr int kReassignRounds = 8;
 /// angle where the ring's normals are noisier; repeated on the points next to those that
 /// joined (the planes are not refitted between rounds).
 void reassign(const PointRings& rings, const Points& pts, const SegmentationSettings& s,
-              std::vector<std::int32_t>& labels, const std::vector<detail::PlaneStats>& stats) {
-  std::vector<detail::PlaneFit> fits(stats.size());
+              std::vector<std::int32_t>& labels, const std::vector<detail::PlaneStats>& stats,
+              RingBuffers::Impl& b) {
+  std::vector<detail::PlaneFit>& fits = b.fits;
+  fits.assign(stats.size(), detail::PlaneFit{});
   for (std::size_t l = 1; l < stats.size(); ++l) {
     if (stats[l].count > 0) fits[l] = stats[l].fit();
   }
   const double cos_normal = std::cos(s.reassign_max_normal_angle);
   const std::vector<float>& cos_noise = pts.cos_angle;
-  std::vector<std::pair<std::size_t, std::int32_t>> moves;
+  std::vector<std::pair<std::size_t, std::int32_t>>& moves = b.moves;
   for (int round = 0; round < kReassignRounds; ++round) {
     moves.clear();
     for (std::size_t i = 0; i < labels.size(); ++i) {
@@ -343,29 +349,33 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
     SmoothRegion model(pts, settings);
     raw = grow(rings, pts, seeds, model, labels, b.queue);
   }
-  std::vector<detail::PlaneStats> stats = label_stats(pts, labels, raw);
+  std::vector<detail::PlaneStats>& stats = b.stats;
+  label_stats(pts, labels, raw, stats);
   drop_small(labels, stats, settings.min_region_size);
   if (planes) {
     for (std::size_t l = 1; l < stats.size(); ++l) {
       if (stats[l].count < settings.min_region_size) stats[l].clear();
     }
     if (settings.merge_planes) {
-      merge_planes(rings, settings, labels, stats);
+      merge_planes(rings, settings, labels, stats, b);
       split_planes(rings, pts, settings, labels, stats, b);
       raw = static_cast<std::int32_t>(stats.size()) - 1;
     }
     if (settings.reassign_boundary) {
-      reassign(rings, pts, settings, labels, stats);
-      stats = label_stats(pts, labels, raw);
+      reassign(rings, pts, settings, labels, stats, b);
+      label_stats(pts, labels, raw, stats);
     }
   }
   // Final labels 1..N by point count, descending (ties: the earlier raw label first).
-  std::vector<std::int32_t> order;
+  std::vector<std::int32_t>& order = b.order;
+  order.clear();
   for (std::int32_t l = 1; l <= raw; ++l) {
     if (stats[static_cast<std::size_t>(l)].count >= settings.min_region_size) order.push_back(l);
   }
-  std::stable_sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
-    return stats[static_cast<std::size_t>(a)].count > stats[static_cast<std::size_t>(b)].count;
+  std::sort(order.begin(), order.end(), [&](std::int32_t x, std::int32_t y) {
+    const std::int64_t cx = stats[static_cast<std::size_t>(x)].count;
+    const std::int64_t cy = stats[static_cast<std::size_t>(y)].count;
+    return cx > cy || (cx == cy && x < y);
   });
   std::int32_t tentative_from = 0;
   if (automatic) {
@@ -373,7 +383,7 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
     // leftovers, each in the order grown.
     const std::int32_t first = raw + 1;
     tentative_from = grow_leftovers(rings, pts, settings, labels, b, raw);
-    stats = label_stats(pts, labels, raw);
+    label_stats(pts, labels, raw, stats);
     drop_small(labels, stats, settings.min_region_size);
     std::int32_t kept = static_cast<std::int32_t>(order.size());
     for (std::int32_t l = first; l <= raw; ++l) {
@@ -383,7 +393,8 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
     }
     tentative_from = kept;
   }
-  std::vector<std::int32_t> final_label(static_cast<std::size_t>(raw) + 1, 0);
+  std::vector<std::int32_t>& final_label = b.final_label;
+  final_label.assign(static_cast<std::size_t>(raw) + 1, 0);
   for (std::size_t j = 0; j < order.size(); ++j) {
     final_label[static_cast<std::size_t>(order[j])] = static_cast<std::int32_t>(j) + 1;
   }
