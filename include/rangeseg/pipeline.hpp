@@ -69,8 +69,9 @@ class Pipeline {
   /// 1) runs the stages over k-nearest-neighbour rings (unorganized.hpp): `rings()` instead of
   /// `mesh()` (which is left empty; StageTimes::mesh is the time of the rings), polygons from
   /// the points' footprints, and the plane, smooth and auto models (std::invalid_argument for
-  /// incremental_plane). The rings' k-d tree is built per frame, so that path allocates per
-  /// frame.
+  /// incremental_plane). Its buffers, the k-d tree's included, are kept too: once they fit
+  /// the largest cloud seen, nothing is allocated with `new`; the tree, rebuilt in place per
+  /// frame, takes its nodes from nanoflann's pool of 8 KB malloc blocks.
   void process(const OrganizedCloud& cloud);
 
   /// Processes a depth image (raw units, 0 = no measurement, `depth_scale` metres per unit, e.g.
