@@ -36,12 +36,14 @@ fuzz-smoke: asan-build
 	./scripts/fuzz-smoke.sh $(BUILD_ASAN)
 
 # clang-tidy (checks in .clang-tidy, every finding an error) over LINT_DIRS (default: the library,
-# CLI, tests, benchmarks and examples; CI lints the library, CLI and examples only, to stay within
-# its time budget on 2 cores), and clang-format (.clang-format) over every source file.
+# CLI, tests, benchmarks and examples; CI lints the library, CLI and examples only, and with
+# LINT_BASE only the units that may have changed since that commit, to stay within its time
+# budget on 2 cores; see scripts/lint.sh), and clang-format (.clang-format) over every source file.
 LINT_DIRS  ?= src|apps|tests|bench|examples
+LINT_BASE  ?=
 lint: build
 	RANGESEG_WITH_LINT=1 ./scripts/install-deps.sh
-	run-clang-tidy -quiet -p $(BUILD) -j $(JOBS) '$(CURDIR)/($(LINT_DIRS))/'
+	JOBS=$(JOBS) ./scripts/lint.sh $(BUILD) '$(LINT_DIRS)' '$(LINT_BASE)'
 	find include src apps tests bench fuzz examples -name '*.[ch]pp' | xargs clang-format --dry-run --Werror
 
 bench: build

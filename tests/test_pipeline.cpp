@@ -214,7 +214,7 @@ TEST(Pipeline, AutoModelAndUnorganizedFramesAllocateNothingAfterWarmUp) {
     settings.segmentation.model = c.model;
     settings.threads = c.threads;
     Pipeline pipeline(settings);
-    for (int warmup = 0; warmup < 6; ++warmup) pipeline.process((*c.frames)[warmup % 3]);
+    for (int warmup = 0; warmup < 3; ++warmup) pipeline.process((*c.frames)[warmup % 3]);
     int curved = 0;
     const long before = g_allocations.load();
     for (int frame = 0; frame < 3; ++frame) {

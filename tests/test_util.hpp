@@ -10,6 +10,25 @@
 
 namespace rangeseg::test {
 
+/// True in the sanitizer build (ASan + UBSan, RANGESEG_SANITIZE), where everything runs 10-30
+/// times slower.
+#if defined(RANGESEG_SANITIZED)
+inline constexpr bool kSanitized = true;
+#else
+inline constexpr bool kSanitized = false;
+#endif
+
+/// For tests that measure accuracy over many full frames: they run in the Release suite; under
+/// the sanitizers they would take minutes each, while their code paths run there in the
+/// smaller tests. Use as the first statement of the test body.
+#define RANGESEG_SKIP_ACCURACY_UNDER_SANITIZERS()                                          \
+  do {                                                                                     \
+    if (::rangeseg::test::kSanitized) {                                                    \
+      GTEST_SKIP() << "accuracy measurement over full frames: runs in the Release suite, " \
+                      "not under ASan + UBSan";                                            \
+    }                                                                                      \
+  } while (false)
+
 /// Directory of the shared sensor data: $RANGESEG_DATA, else ../shared/data beside the repo.
 inline std::filesystem::path shared_data_dir() {
   if (const char* env = std::getenv("RANGESEG_DATA")) return env;

@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# clang-tidy (.clang-tidy; every finding an error) over the translation units of BUILD whose
+# source lies under DIRS (a regex alternation relative to the repository root, e.g.
+# 'src|apps'). With BASE (a commit whose units were all clean), only the units that may have
+# changed since: those whose source or any file they include (from the compiler's dependency
+# files in BUILD) differs from BASE or is untracked. Everything is linted when BASE is empty or
+# not in this clone, or when .clang-tidy differs from it.
+#   usage: scripts/lint.sh BUILD DIRS [BASE]
+set -euo pipefail
+build=$1 dirs=$2 base=${3:-}
+root=$(pwd)
+jobs=${JOBS:-$(nproc)}
+
+mapfile -t units < <(grep -o '"file": "[^"]*"' "$build/compile_commands.json" |
+  sed -e 's/^"file": "//' -e 's/"$//' | grep -E "^$root/($dirs)/" | sort -u)
+if [[ ${#units[@]} -eq 0 ]]; then
+  echo "lint: no translation units under ($dirs) in $build/compile_commands.json" >&2
+  exit 2
+fi
+
+selected=("${units[@]}")
+if [[ -n $base ]]; then
+  if git cat-file -e "$base^{commit}" 2>/dev/null && git diff --quiet "$base" -- .clang-tidy; then
+    changed=$(mktemp)
+    trap 'rm -f "$changed"' EXIT
+    { git diff --name-only "$base" --; git ls-files --others --exclude-standard; } |
+      sed "s|^|$root/|" | sort -u > "$changed"
+    # Units whose dependency file names a changed file (the unit itself is its first entry).
+    mapfile -t selected < <(find "$build" -name '*.o.d' -print0 | xargs -0 awk -v list="$changed" '
+      BEGIN { while ((getline line < list) > 0) changed[line] = 1 }
+      FNR == 1 { unit = "" }
+      {
+        for (i = 1; i <= NF; ++i) {
+          f = $i
+          if (f == "\\" || f ~ /:$/) continue
+          if (unit == "") unit = f
+          if (f in changed) hit[unit] = 1
+        }
+      }
+      END { for (u in hit) print u }' | sort -u | grep -Fx -f <(printf '%s\n' "${units[@]}") || true)
+    echo "lint: ${#selected[@]} of ${#units[@]} translation units changed since $base"
+  else
+    echo "lint: base '$base' is not in this clone or .clang-tidy changed since: linting all"
+  fi
+fi
+if [[ ${#selected[@]} -gt 0 ]]; then
+  # run-clang-tidy takes regexes: match each unit's whole path.
+  patterns=()
+  for unit in "${selected[@]}"; do patterns+=("^$(printf '%s' "$unit" | sed 's/[][\.*^$+?(){}|]/\\&/g')\$"); done
+  run-clang-tidy -quiet -p "$build" -j "$jobs" "${patterns[@]}"
+fi
