@@ -160,8 +160,8 @@ struct CylinderParams {
 
 /// Closest point to the lines x_i + t m_i (m_i unit) in the least-squares sense; false when the
 /// lines are (nearly) parallel.
-template <int D, class Points>
-bool closest_to_lines(const Points& x, const Points& m, Eigen::Matrix<double, D, 1>& out) {
+template <int D, class Matrix>
+bool closest_to_lines(const Matrix& x, const Matrix& m, Eigen::Matrix<double, D, 1>& out) {
   using Mat = Eigen::Matrix<double, D, D>;
   Mat a = Mat::Zero();
   Eigen::Matrix<double, D, 1> b = Eigen::Matrix<double, D, 1>::Zero();
