@@ -122,15 +122,15 @@ double sigma_at(const SensorNoise& noise, const std::array<double, 3>& c) {
 /// ring adjacency, refitted after every union, until nothing changes).
 void merge_planes(const PointRings& rings, const SegmentationSettings& s,
                   std::vector<std::int32_t>& labels, std::vector<detail::PlaneStats>& stats,
-                  RingBuffers::Impl& b) {
+                  RingBuffers::Impl& buffers) {
   // Adjacent: joined by a ring edge, or both in the ring of one unlabelled point (a border
   // one point wide, as growth leaves between the terraces of range quantisation).
-  std::vector<std::uint64_t>& pairs = b.pairs;
+  std::vector<std::uint64_t>& pairs = buffers.pairs;
   pairs.clear();
-  const auto add_pair = [&](std::int32_t a, std::int32_t b) {
-    if (a <= 0 || b <= 0 || a == b) return;
-    const auto lo = static_cast<std::uint64_t>(std::min(a, b));
-    const auto hi = static_cast<std::uint64_t>(std::max(a, b));
+  const auto add_pair = [&](std::int32_t x, std::int32_t y) {
+    if (x <= 0 || y <= 0 || x == y) return;
+    const auto lo = static_cast<std::uint64_t>(std::min(x, y));
+    const auto hi = static_cast<std::uint64_t>(std::max(x, y));
     pairs.push_back(lo << 32 | hi);
   };
   for (std::size_t i = 0; i < labels.size(); ++i) {
@@ -149,7 +149,7 @@ void merge_planes(const PointRings& rings, const SegmentationSettings& s,
   }
   std::sort(pairs.begin(), pairs.end());
   pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-  std::vector<std::int32_t>& parent = b.parent;
+  std::vector<std::int32_t>& parent = buffers.parent;
   parent.resize(stats.size());
   std::iota(parent.begin(), parent.end(), 0);
   const auto find = [&](std::int32_t x) {
