@@ -25,19 +25,26 @@ if [[ -n $base ]]; then
     trap 'rm -f "$changed"' EXIT
     { git diff --name-only "$base" --; git ls-files --others --exclude-standard; } |
       sed "s|^|$root/|" | sort -u > "$changed"
-    # Units whose dependency file names a changed file (the unit itself is its first entry).
+    # Units named in a dependency file that names a changed file: the unit of its object file,
+    # or for a unity object file (the CLI's, see apps/rangeseg/CMakeLists.txt) every source it
+    # includes. Each file's names are kept until the next file starts (no ENDFILE in mawk).
     mapfile -t selected < <(find "$build" -name '*.o.d' -print0 | xargs -0 awk -v list="$changed" '
       BEGIN { while ((getline line < list) > 0) changed[line] = 1 }
-      FNR == 1 { unit = "" }
+      function flush(name) {
+        if (file_hit) for (name in names) hit[name] = 1
+        split("", names)
+        file_hit = 0
+      }
+      FNR == 1 { flush() }
       {
         for (i = 1; i <= NF; ++i) {
           f = $i
           if (f == "\\" || f ~ /:$/) continue
-          if (unit == "") unit = f
-          if (f in changed) hit[unit] = 1
+          names[f] = 1
+          if (f in changed) file_hit = 1
         }
       }
-      END { for (u in hit) print u }' | sort -u | grep -Fx -f <(printf '%s\n' "${units[@]}") || true)
+      END { flush(); for (u in hit) print u }' | sort -u | grep -Fx -f <(printf '%s\n' "${units[@]}") || true)
     echo "lint: ${#selected[@]} of ${#units[@]} translation units changed since $base"
   else
     echo "lint: base '$base' is not in this clone or .clang-tidy changed since: linting all"
