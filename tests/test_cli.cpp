@@ -572,12 +572,18 @@ TEST(CliBatch, BenchSizesJson) {
     EXPECT_EQ(size["width"], widths[i]);
     EXPECT_EQ(size["height"], widths[i] * 3 / 4);
     EXPECT_EQ(size["scale"], scales[i]);
-    for (const char* key : {"mesh", "normals", "smoothing", "segmentation", "polygons", "total",
-                            "frames_per_second", "frames_per_second_threads"}) {
+    for (const char* key :
+         {"mesh", "normals", "smoothing", "segmentation", "polygons", "total", "frames_per_second",
+          "frames_per_second_threads", "in_frame_speedup", "throughput_speedup"}) {
       ASSERT_TRUE(size.contains(key)) << key;
       EXPECT_GE(size[key].get<double>(), 0.0) << key;
     }
     EXPECT_GT(size["frames_per_second"].get<double>(), 0.0);
+    // Ratios of times, whatever the host does: positive and finite.
+    for (const char* key : {"in_frame_speedup", "throughput_speedup"}) {
+      EXPECT_GT(size[key].get<double>(), 0.0) << key;
+      EXPECT_TRUE(std::isfinite(size[key].get<double>())) << key;
+    }
   }
   // --scales gives the same sizes; a size that every-k-th-pixel cannot make is an error.
   const CliResult scales_run =

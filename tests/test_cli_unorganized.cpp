@@ -285,6 +285,8 @@ TEST(CliUnorganized, BenchTimesTheRingsAndRejectsSizes) {
   }
   EXPECT_FALSE(stages.contains("mesh"));
   EXPECT_TRUE(stages["in_frame"].contains("rings"));
+  EXPECT_GT(stages["in_frame_speedup"].get<double>(), 0.0);
+  EXPECT_GT(stages["throughput_speedup"].get<double>(), 0.0);
   for (const char* sizes : {"--sizes 40x30", "--scales 2,1"}) {
     const CliResult r = run("bench " + scan + " --repeat 1 " + sizes);
     EXPECT_EQ(r.code, 2) << r.out;

@@ -1,5 +1,6 @@
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -36,6 +37,8 @@ struct SizeResult {
   double fps_single = 0;             ///< frames/s of the timed single-thread runs
   double fps_threads = 0;  ///< frames/s of `threads` pipelines in parallel (0 if threads == 1)
   std::vector<StageTime> in_frame_ms;  ///< medians with `threads` threads inside each frame
+  double in_frame_speedup = 0;    ///< median over frame pairs of 1-thread / in-frame total time
+  double throughput_speedup = 0;  ///< frames/s of `threads` pipelines over one pipeline's
 
   double total_ms() const { return median_ms.back().ms; }
   double in_frame_total_ms() const { return in_frame_ms.back().ms; }
@@ -47,54 +50,89 @@ double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-/// Per-stage medians over `repeat` frames (after one warm-up frame) into `medians`; returns the
-/// frames per second of the timed runs.
-double time_stages(const OrganizedCloud& cloud, const PipelineSettings& settings, int repeat,
-                   std::vector<StageTime>& medians) {
-  Pipeline pipeline(settings);
-  pipeline.process(cloud);  // warm-up: buffers are allocated here
-  medians = stage_times(pipeline.times(), cloud.is_organized());
-  std::vector<std::vector<double>> times(medians.size());
-  const Clock::time_point start = Clock::now();
-  for (int i = 0; i < repeat; ++i) {
-    pipeline.process(cloud);
-    const std::vector<StageTime> stages = stage_times(pipeline.times(), cloud.is_organized());
-    for (std::size_t s = 0; s < stages.size(); ++s) times[s].push_back(stages[s].ms);
-  }
-  const double fps = repeat / seconds_since(start);
-  for (std::size_t s = 0; s < medians.size(); ++s) medians[s].ms = median(times[s]);
-  return fps;
+/// Appends the stage times of the pipeline's last frame to `samples` (one list per stage).
+void record(const Pipeline& pipeline, bool organized, std::vector<std::vector<double>>& samples) {
+  const std::vector<StageTime> stages = stage_times(pipeline.times(), organized);
+  samples.resize(stages.size());
+  for (std::size_t s = 0; s < stages.size(); ++s) samples[s].push_back(stages[s].ms);
 }
 
+/// `names` with each stage's median of `samples`.
+std::vector<StageTime> medians(std::vector<StageTime> names,
+                               const std::vector<std::vector<double>>& samples) {
+  for (std::size_t s = 0; s < names.size(); ++s) names[s].ms = median(samples[s]);
+  return names;
+}
+
+/// Frames per pipeline in each block of the throughput measurement.
+constexpr int kThroughputBlock = 5;
+
+/// Stage medians over `repeat` frames after one warm-up frame (buffers are allocated there).
+/// With threads > 1 a pipeline with `threads` threads inside the frame runs each frame right
+/// after the single-thread one, and `threads` pipelines in parallel run blocks of frames in turn
+/// with blocks of one pipeline: a host whose speed drifts (a virtual machine; 1.6x within a day
+/// on the project's) slows both sides of each comparison alike.
 SizeResult measure(const OrganizedCloud& cloud, const PipelineSettings& settings, int repeat,
                    int threads) {
   SizeResult r;
   r.width = cloud.width();
   r.height = cloud.height();
-  r.fps_single = time_stages(cloud, settings, repeat, r.median_ms);
-  if (threads <= 1) return r;
-  PipelineSettings in_frame = settings;
-  in_frame.threads = threads;
-  time_stages(cloud, in_frame, repeat, r.in_frame_ms);
+  const bool organized = cloud.is_organized();
+  Pipeline single(settings);
+  std::unique_ptr<Pipeline> in_frame;
+  if (threads > 1) {
+    PipelineSettings s = settings;
+    s.threads = threads;
+    in_frame = std::make_unique<Pipeline>(s);
+    in_frame->process(cloud);
+  }
+  single.process(cloud);
+  std::vector<std::vector<double>> single_ms, in_frame_ms;
+  std::vector<double> ratios;
+  double single_seconds = 0;
+  for (int i = 0; i < repeat; ++i) {
+    const Clock::time_point start = Clock::now();
+    single.process(cloud);
+    single_seconds += seconds_since(start);
+    record(single, organized, single_ms);
+    if (!in_frame) continue;
+    in_frame->process(cloud);
+    record(*in_frame, organized, in_frame_ms);
+    ratios.push_back(single_ms.back().back() / in_frame_ms.back().back());
+  }
+  r.median_ms = medians(stage_times(single.times(), organized), single_ms);
+  r.fps_single = repeat / single_seconds;
+  if (!in_frame) return r;
+  r.in_frame_ms = medians(stage_times(in_frame->times(), organized), in_frame_ms);
+  r.in_frame_speedup = median(ratios);
 
   std::vector<std::unique_ptr<Pipeline>> pipelines;
   for (int t = 0; t < threads; ++t) {
     pipelines.push_back(std::make_unique<Pipeline>(settings));
     pipelines.back()->process(cloud);  // warm-up outside the timed part
   }
-  const int frames = repeat * threads;
-  std::atomic<int> next{0};
-  const Clock::time_point parallel_start = Clock::now();
-  {
-    std::vector<std::jthread> workers;
-    workers.reserve(static_cast<std::size_t>(threads));
-    for (int t = 0; t < threads; ++t) {
-      workers.emplace_back([&, t] {
-        while (next++ < frames) pipelines[static_cast<std::size_t>(t)]->process(cloud);
-      });
+  double one_seconds = 0, parallel_seconds = 0;
+  for (int done = 0; done < repeat; done += kThroughputBlock) {
+    const int block = std::min(kThroughputBlock, repeat - done);
+    Clock::time_point start = Clock::now();
+    for (int i = 0; i < block; ++i) pipelines.front()->process(cloud);
+    one_seconds += seconds_since(start);
+    const int frames = block * threads;
+    std::atomic<int> next{0};
+    start = Clock::now();
+    {
+      std::vector<std::jthread> workers;
+      workers.reserve(static_cast<std::size_t>(threads));
+      for (int t = 0; t < threads; ++t) {
+        workers.emplace_back([&, t] {
+          while (next++ < frames) pipelines[static_cast<std::size_t>(t)]->process(cloud);
+        });
+      }
     }
+    parallel_seconds += seconds_since(start);
   }
-  r.fps_threads = frames / seconds_since(parallel_start);
+  r.fps_threads = repeat * threads / parallel_seconds;
+  r.throughput_speedup = r.fps_threads / (repeat / one_seconds);
   return r;
 }
 
@@ -155,8 +193,10 @@ void add_bench(CLI::App& app) {
       ->check(CLI::Range(1, 1024))
       ->excludes(sizes);
   cmd->add_option("--threads", o->threads,
-                  "Also measure N threads inside each frame (stage medians) and the frame rate of "
-                  "N pipelines in parallel (one per thread)")
+                  "Also measure N threads inside each frame (stage medians; each frame right after "
+                  "the single-thread one, the speed-up is the median ratio of the pairs) and the "
+                  "frame rate of N pipelines in parallel (one per thread; blocks of 5 frames in "
+                  "turn with one pipeline's)")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
   cmd->callback([o] {
@@ -194,7 +234,8 @@ void add_bench(CLI::App& app) {
         nlohmann::json in_frame;
         for (const StageTime& s : r.in_frame_ms) in_frame[s.name] = s.ms;
         result["in_frame"] = in_frame;
-        result["in_frame_speedup"] = r.total_ms() / r.in_frame_total_ms();
+        result["in_frame_speedup"] = r.in_frame_speedup;
+        result["throughput_speedup"] = r.throughput_speedup;
       }
       if (o->json) {
         std::printf("%s\n", result.dump().c_str());
@@ -214,10 +255,10 @@ void add_bench(CLI::App& app) {
         std::printf("\n");
       }
       if (o->threads > 1) {
-        std::printf("  in-frame      x%.2f faster with %d threads\n",
-                    r.total_ms() / r.in_frame_total_ms(), o->threads);
-        std::printf("  throughput    %8.1f frames/s with %d threads (%.1f with one, x%.2f)\n",
-                    r.fps_threads, o->threads, r.fps_single, r.fps_threads / r.fps_single);
+        std::printf("  in-frame      x%.2f faster with %d threads (median over frame pairs)\n",
+                    r.in_frame_speedup, o->threads);
+        std::printf("  throughput    %8.1f frames/s with %d pipelines in parallel, x%.2f one's\n",
+                    r.fps_threads, o->threads, r.throughput_speedup);
       }
       return;
     }
@@ -234,6 +275,8 @@ void add_bench(CLI::App& app) {
         if (o->threads > 1) {
           j["frames_per_second_threads"] = r.fps_threads;
           j["in_frame_total_ms"] = r.in_frame_total_ms();
+          j["in_frame_speedup"] = r.in_frame_speedup;
+          j["throughput_speedup"] = r.throughput_speedup;
         }
         list.push_back(std::move(j));
       }
@@ -253,14 +296,18 @@ void add_bench(CLI::App& app) {
     std::printf(" %10s", "frames/s");
     const std::string n = std::to_string(o->threads);
     if (o->threads > 1) {
-      std::printf(" %14s %18s", ("frames/s x" + n).c_str(), ("total, " + n + " in frame").c_str());
+      std::printf(" %14s %18s %10s %11s", ("frames/s x" + n).c_str(),
+                  ("total, " + n + " in frame").c_str(), "in-frame x", "pipelines x");
     }
     std::printf("\n");
     for (const SizeResult& r : results) {
       std::printf("%-9s", (std::to_string(r.width) + "x" + std::to_string(r.height)).c_str());
       for (const StageTime& s : r.median_ms) std::printf(" %12.3f", s.ms);
       std::printf(" %10.1f", r.fps_single);
-      if (o->threads > 1) std::printf(" %14.1f %18.3f", r.fps_threads, r.in_frame_total_ms());
+      if (o->threads > 1) {
+        std::printf(" %14.1f %18.3f %10.2f %11.2f", r.fps_threads, r.in_frame_total_ms(),
+                    r.in_frame_speedup, r.throughput_speedup);
+      }
       std::printf("\n");
     }
   });
