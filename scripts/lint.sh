@@ -10,6 +10,8 @@ set -euo pipefail
 build=$1 dirs=$2 base=${3:-}
 root=$(pwd)
 jobs=${JOBS:-$(nproc)}
+scratch=$(mktemp -d)  # the list of changed files and the compile commands clang-tidy reads
+trap 'rm -rf "$scratch"' EXIT
 
 mapfile -t units < <(grep -o '"file": "[^"]*"' "$build/compile_commands.json" |
   sed -e 's/^"file": "//' -e 's/"$//' | grep -E "^$root/($dirs)/" | sort -u)
@@ -21,8 +23,7 @@ fi
 selected=("${units[@]}")
 if [[ -n $base ]]; then
   if git cat-file -e "$base^{commit}" 2>/dev/null && git diff --quiet "$base" -- .clang-tidy; then
-    changed=$(mktemp)
-    trap 'rm -f "$changed"' EXIT
+    changed=$scratch/changed
     { git diff --name-only "$base" --; git ls-files --others --exclude-standard; } |
       sed "s|^|$root/|" | sort -u > "$changed"
     # Units named in a dependency file that names a changed file: the unit of its object file,
@@ -56,9 +57,7 @@ if [[ ${#selected[@]} -gt 0 ]]; then
   for unit in "${selected[@]}"; do patterns+=("^$(printf '%s' "$unit" | sed 's/[][\.*^$+?(){}|]/\\&/g')\$"); done
   # The tests' precompiled header is GCC's (tests/CMakeLists.txt), which clang cannot read: the
   # commands lose its forced include (each test includes what it uses itself).
-  database=$(mktemp -d)
-  trap 'rm -rf "$database" ${changed:+"$changed"}' EXIT
   sed -e 's| -Winvalid-pch -include [^ "]*/cmake_pch\.hxx||g' "$build/compile_commands.json" \
-    > "$database/compile_commands.json"
-  run-clang-tidy -quiet -p "$database" -j "$jobs" "${patterns[@]}"
+    > "$scratch/compile_commands.json"
+  run-clang-tidy -quiet -p "$scratch" -j "$jobs" "${patterns[@]}"
 fi

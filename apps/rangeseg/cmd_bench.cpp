@@ -195,8 +195,8 @@ void add_bench(CLI::App& app) {
   cmd->add_option("--threads", o->threads,
                   "Also measure N threads inside each frame (stage medians; each frame right after "
                   "the single-thread one, the speed-up is the median ratio of the pairs) and the "
-                  "frame rate of N pipelines in parallel (one per thread; blocks of 5 frames in "
-                  "turn with one pipeline's)")
+                  "frame rate of N pipelines in parallel (one per thread; blocks of " +
+                      std::to_string(kThroughputBlock) + " frames in turn with one pipeline's)")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
   cmd->callback([o] {
