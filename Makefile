@@ -1,11 +1,11 @@
 # The two commands of the README: `make run` and `make test`.
 BUILD      ?= build
 BUILD_ASAN ?= build-asan
-BUILD_PCL  ?= build-pcl
+BUILD_COMPARE ?= build-compare
 JOBS       ?= $(shell nproc)
 OUT        ?= out
 
-.PHONY: all deps build run test asan-build test-asan fuzz-smoke lint bench compare-pcl format clean
+.PHONY: all deps build run test asan-build test-asan fuzz-smoke lint bench compare format clean
 all: build
 
 deps:
@@ -50,18 +50,21 @@ lint: build
 bench: build
 	$(BUILD)/bench/rangeseg_bench
 
-# rangeseg against PCL 1.13 (installs libpcl-dev, ~500 packages): time per stage on a Kinect frame
-# and SegComp scores of both on the synthetic scenes, OSD and ABW; tables on stdout, files in
-# $(OUT)/compare-pcl. Not part of `make test`: nothing of rangeseg needs PCL.
-compare-pcl: build
-	RANGESEG_WITH_PCL=1 ./scripts/install-deps.sh
-	cmake -S . -B $(BUILD_PCL) -DCMAKE_BUILD_TYPE=Release -DRANGESEG_COMPARE_PCL=ON \
-	  -DRANGESEG_BUILD_APPS=OFF -DRANGESEG_BUILD_TESTS=OFF -DRANGESEG_BUILD_EXAMPLES=OFF -DRANGESEG_BUILD_BENCH=OFF
-	cmake --build $(BUILD_PCL) -j $(JOBS) --target rangeseg_bench_pcl rangeseg_pcl_segment
-	./scripts/compare-pcl.sh $(BUILD_PCL) $(BUILD) $(OUT)/compare-pcl
+# rangeseg against PCL 1.13 and Open3D 0.16 (installs libpcl-dev and libopen3d-dev, ~520 Debian
+# packages): time per stage on a Kinect frame and SegComp scores of each on the synthetic scenes,
+# OSD and ABW; tables on stdout, files in $(OUT)/compare. Not part of `make test`: nothing of
+# rangeseg needs either library.
+compare: build
+	RANGESEG_WITH_COMPARE=1 ./scripts/install-deps.sh
+	cmake -S . -B $(BUILD_COMPARE) -DCMAKE_BUILD_TYPE=Release -DRANGESEG_COMPARE_PCL=ON \
+	  -DRANGESEG_COMPARE_OPEN3D=ON -DRANGESEG_BUILD_APPS=OFF -DRANGESEG_BUILD_TESTS=OFF \
+	  -DRANGESEG_BUILD_EXAMPLES=OFF -DRANGESEG_BUILD_BENCH=OFF
+	cmake --build $(BUILD_COMPARE) -j $(JOBS) --target rangeseg_bench_pcl rangeseg_pcl_segment \
+	  rangeseg_bench_open3d rangeseg_open3d_segment
+	./scripts/compare.sh $(BUILD_COMPARE) $(BUILD) $(OUT)/compare
 
 format:
 	find include src apps tests bench fuzz examples -name '*.[ch]pp' | xargs clang-format -i
 
 clean:
-	rm -rf $(BUILD) $(BUILD_ASAN) $(BUILD_PCL) $(OUT)
+	rm -rf $(BUILD) $(BUILD_ASAN) $(BUILD_COMPARE) $(OUT)

@@ -6,7 +6,7 @@ packages=(build-essential cmake pkg-config libeigen3-dev libpng-dev liblzf-dev n
           libnanoflann-dev libcli11-dev googletest libgtest-dev libgmock-dev libbenchmark-dev)
 if [[ "${RANGESEG_WITH_CLANG:-0}" == 1 ]]; then packages+=(clang libclang-rt-14-dev); fi
 if [[ "${RANGESEG_WITH_LINT:-0}" == 1 ]]; then packages+=(clang-tidy clang-format); fi
-if [[ "${RANGESEG_WITH_PCL:-0}" == 1 ]]; then packages+=(libpcl-dev); fi
+if [[ "${RANGESEG_WITH_COMPARE:-0}" == 1 ]]; then packages+=(libpcl-dev libopen3d-dev); fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -8,7 +8,7 @@
 #include "../bench_data.hpp"
 #include "pcl_pipeline.hpp"
 #include "rangeseg/io/pcd.hpp"
-#include "rangeseg/pipeline.hpp"
+#include "rangeseg_frame.hpp"
 
 namespace {
 
@@ -75,25 +75,7 @@ void BM_PclFrame(benchmark::State& state) {
 void BM_RangesegFrame(benchmark::State& state) {
   if (!rangeseg::bench::have_shared_data(state, kFrame)) return;
   const rangeseg::OrganizedCloud cloud = rangeseg::io::read_pcd(kFrame);
-  rangeseg::PipelineSettings settings = rangeseg::pipeline_preset("kinect");
-  settings.smoothing.iterations = 1;
-  rangeseg::Pipeline pipeline(settings);
-  rangeseg::StageTimes sum;
-  for (auto _ : state) {
-    pipeline.process(cloud);
-    const rangeseg::StageTimes& t = pipeline.times();
-    sum.mesh += t.mesh;
-    sum.normals += t.normals;
-    sum.smoothing += t.smoothing;
-    sum.segmentation += t.segmentation;
-    sum.polygons += t.polygons;
-  }
-  const auto n = static_cast<double>(state.iterations());
-  state.counters["mesh_ms"] = sum.mesh / n;
-  state.counters["normals_ms"] = sum.normals / n;
-  state.counters["smoothing_ms"] = sum.smoothing / n;
-  state.counters["segmentation_ms"] = sum.segmentation / n;
-  state.counters["polygons_ms"] = sum.polygons / n;
+  compare::time_rangeseg_frame(state, cloud, "mesh_ms");
 }
 
 }  // namespace
