@@ -4,6 +4,8 @@
 // rings (normals, one smoothing pass, plane segmentation, polygons) with its stages as counters.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <string>
 #include <vector>
 

@@ -5,8 +5,6 @@
 #include <open3d/utility/Random.h>
 
 #include <algorithm>
-#include <memory>
-#include <utility>
 
 namespace rangeseg::compare {
 
@@ -58,32 +56,30 @@ std::vector<std::int32_t> segment_planes(const open3d::geometry::PointCloud& poi
                                          const Open3dSettings& settings) {
   open3d::utility::random::Seed(static_cast<int>(settings.seed));
   std::vector<std::int32_t> labels(points.points_.size(), 0);
-  // index[j]: the point of `points` that point j of `rest` is.
+  // rest: the points no plane has taken yet, in their order; its point j is point index[j].
   std::vector<std::size_t> index(points.points_.size());
   for (std::size_t j = 0; j < index.size(); ++j) index[j] = j;
-  auto rest = std::make_shared<open3d::geometry::PointCloud>();
-  rest->points_ = points.points_;
+  open3d::geometry::PointCloud rest;
+  rest.points_ = points.points_;
   std::int32_t label = 0;
-  for (int plane = 0; plane < settings.max_planes && rest->points_.size() >= settings.min_points;
-       ++plane) {
-    auto [model, inliers] = rest->SegmentPlane(settings.distance_threshold, 3, settings.iterations);
+  for (int plane = 0; plane < settings.max_planes && index.size() >= settings.min_points; ++plane) {
+    auto [model, inliers] = rest.SegmentPlane(settings.distance_threshold, 3, settings.iterations);
     if (inliers.size() < settings.min_points) break;
     if (settings.cluster_radius > 0) {
-      label_clusters(*rest, inliers, index, settings, label, labels);
+      label_clusters(rest, inliers, index, settings, label, labels);
     } else {
       ++label;
       for (const std::size_t k : inliers) labels[index[k]] = label;
     }
-    // SelectByIndex(..., invert) keeps the other points in their order.
-    std::vector<char> taken(rest->points_.size(), 0);
+    std::vector<char> taken(index.size(), 0);
     for (const std::size_t k : inliers) taken[k] = 1;
-    std::vector<std::size_t> kept;
-    kept.reserve(rest->points_.size() - inliers.size());
-    for (std::size_t j = 0; j < taken.size(); ++j) {
-      if (taken[j] == 0) kept.push_back(index[j]);
+    std::size_t kept = 0;
+    for (std::size_t j = 0; j < index.size(); ++j) {
+      if (taken[j] == 0) index[kept++] = index[j];
     }
-    index = std::move(kept);
-    rest = rest->SelectByIndex(inliers, true);
+    index.resize(kept);
+    rest.points_.resize(kept);
+    for (std::size_t j = 0; j < kept; ++j) rest.points_[j] = points.points_[index[j]];
   }
   return labels;
 }

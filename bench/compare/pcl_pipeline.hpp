@@ -31,7 +31,8 @@ struct PclSettings {
   unsigned min_inliers = 200;
   /// OrganizedMultiPlaneSegmentation: normal angle between neighbours of one plane [rad] (3 deg).
   double angular_threshold = 0.05235987756;
-  /// OrganizedMultiPlaneSegmentation: distance between neighbours' planes [m].
+  /// OrganizedMultiPlaneSegmentation: distance between neighbours' planes [m] at 1 m; PCL's
+  /// segment() hands it to its comparator as depth-dependent, i.e. times the squared depth.
   double distance_threshold = 0.02;
 };
 
