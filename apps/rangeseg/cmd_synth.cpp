@@ -87,13 +87,7 @@ synth::RenderSettings sensor_by_name(const std::string& noise, const std::string
       throw std::invalid_argument("--noise " + noise +
                                   ": constant:SIGMA needs a sigma in metres in (0, 1]");
     }
-    s.kinect = {.sigma_base = sigma,
-                .sigma_quadratic = 0,
-                .subpixel = 1e6,
-                .min_range = 0.1,
-                .max_range = 20,
-                .edge_dropout = 0,
-                .random_dropout = 0};
+    s.kinect = synth::constant_noise(sigma);
     return s;
   }
   throw std::invalid_argument("unknown noise model '" + noise +

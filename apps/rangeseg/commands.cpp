@@ -10,6 +10,7 @@ void set_exit_code(int code) { g_exit_code = code; }
 
 void register_commands(CLI::App& app) {
   add_info(app);
+  add_noise(app);
   add_convert(app);
   add_synth(app);
   add_mesh(app);

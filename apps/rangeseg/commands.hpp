@@ -15,6 +15,7 @@ int exit_code();
 void set_exit_code(int code);
 
 void add_info(CLI::App& app);
+void add_noise(CLI::App& app);
 void add_convert(CLI::App& app);
 void add_synth(CLI::App& app);
 void add_mesh(CLI::App& app);

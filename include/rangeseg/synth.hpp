@@ -131,6 +131,11 @@ struct KinectModel {
 /// Axial noise standard deviation of the model at depth z [m].
 double kinect_sigma(const KinectModel& model, double z);
 
+/// A laser's noise in the terms of the Kinect model: Gaussian along the ray with one `sigma` [m]
+/// at every range (0.1-20 m), no disparity quantisation and no dropouts (`rangeseg synth --noise
+/// constant:SIGMA`). Throws std::invalid_argument unless sigma is finite and > 0.
+KinectModel constant_noise(double sigma);
+
 struct RenderSettings {
   CameraIntrinsics camera{.width = 640, .height = 480};  ///< width, height must be > 0
   Noise noise = Noise::none;

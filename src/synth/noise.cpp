@@ -10,6 +10,20 @@
 
 namespace rangeseg::synth {
 
+KinectModel constant_noise(double sigma) {
+  if (!(sigma > 0 && std::isfinite(sigma))) {
+    throw std::invalid_argument("synth: constant noise needs a finite sigma > 0, got " +
+                                std::to_string(sigma));
+  }
+  return {.sigma_base = sigma,
+          .sigma_quadratic = 0,
+          .subpixel = 1e6,
+          .min_range = 0.1,
+          .max_range = 20,
+          .edge_dropout = 0,
+          .random_dropout = 0};
+}
+
 double kinect_sigma(const KinectModel& model, double z) {
   const double dz = z - model.sigma_offset;
   return model.sigma_base + model.sigma_quadratic * dz * dz;
