@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -83,7 +84,9 @@ NoiseEstimator::NoiseEstimator(const NoiseEstimateSettings& settings) : settings
   const auto fail = [](const std::string& what) {
     throw std::invalid_argument("NoiseEstimateSettings: " + what);
   };
-  if (settings.block < 4) fail("block must be >= 4 pixels, got " + std::to_string(settings.block));
+  if (settings.block < 4 || settings.block > 256) {
+    fail("block must be in [4, 256] pixels, got " + std::to_string(settings.block));
+  }
   if (!(settings.quantile > 0 && settings.quantile < 1)) {
     fail("quantile must be in (0, 1), got " + std::to_string(settings.quantile));
   }
@@ -133,9 +136,11 @@ void NoiseEstimator::add(const OrganizedCloud& cloud) {
       const double rss = sww - c.dot(atw);  // sum of squared residuals of the fit
       const double mean_z = sz / valid;
       // A depth error e changes 1/z by e / z^2.
+      const double sigma = std::sqrt(std::max(rss, 0.0) / (valid - 3)) * mean_z * mean_z;
+      if (!std::isfinite(sigma) || !(mean_z < std::numeric_limits<float>::max())) continue;
       z_.push_back(static_cast<float>(mean_z));
       sigma_.push_back(
-          static_cast<float>(std::sqrt(std::max(rss, 0.0) / (valid - 3)) * mean_z * mean_z));
+          static_cast<float>(std::min<double>(sigma, std::numeric_limits<float>::max())));
     }
   }
 }

@@ -100,6 +100,8 @@ TEST(NoiseEstimate, BlocksWithDropoutsCountUpToMaxMissing) {
 
 TEST(NoiseEstimate, RejectsBadSettingsAndInputs) {
   EXPECT_THROW(NoiseEstimator({.block = 3}), std::invalid_argument);
+  EXPECT_THROW(NoiseEstimator({.block = 257}), std::invalid_argument);
+  EXPECT_THROW(NoiseEstimator({.block = std::numeric_limits<int>::max()}), std::invalid_argument);
   EXPECT_THROW(NoiseEstimator({.quantile = 0}), std::invalid_argument);
   EXPECT_THROW(NoiseEstimator({.quantile = 1}), std::invalid_argument);
   EXPECT_THROW(NoiseEstimator({.bin_ratio = 1}), std::invalid_argument);
@@ -121,6 +123,24 @@ TEST(NoiseEstimate, RejectsBadSettingsAndInputs) {
     }
   }
   test::expect_runtime_error_with([&] { (void)estimate_noise(infinite); }, "no depth bin");
+  // Depths at the ends of float's range, where 1/z and z^2 leave it: the results stay finite.
+  OrganizedCloud extreme(64, 48);
+  for (int v = 0; v < 48; ++v) {
+    for (int u = 0; u < 64; ++u) {
+      extreme.x(u, v) = 0;
+      extreme.y(u, v) = 0;
+      extreme.z(u, v) = u < 32 ? 1e-38f * static_cast<float>(1 + (u + v) % 3) : 3e38f;
+    }
+  }
+  NoiseEstimator extremes({.min_blocks_per_bin = 1});
+  extremes.add(extreme);
+  const NoiseEstimate e = extremes.estimate();
+  ASSERT_EQ(e.bins.size(), 2u);
+  for (const auto& bin : e.bins) {
+    EXPECT_TRUE(std::isfinite(bin.sigma) && std::isfinite(bin.z)) << bin.z << " " << bin.sigma;
+  }
+  EXPECT_TRUE(std::isfinite(e.noise.a) && std::isfinite(e.noise.b) && std::isfinite(e.noise.z0));
+  EXPECT_TRUE(std::isfinite(e.max_relative_misfit));
 }
 
 /// Real sensors, against the models their presets were set from independently (the Kinect's of

@@ -99,12 +99,13 @@ void add_noise(CLI::App& app) {
                   "commands");
   cmd->add_option("--block", o->settings.block, "Side of the pixel blocks fitted with planes")
       ->capture_default_str()
-      ->check(CLI::Range(4, 64));
+      ->check(CLI::Range(4, 256));
   cmd->add_flag("--json", o->json, "Print the model and the per-depth measurements as JSON");
   cmd->footer(
-      "Every block of valid pixels is fitted with a plane; the lower quartile of the blocks' "
-      "residuals per depth bin (creases, steps and curved surfaces fit worse than noise alone), "
-      "converted to depth noise, is fitted with sigma(z) = a + b (z - z0)^2.");
+      "Every block (at most 10 % of its pixels invalid) is fitted with a plane in inverse depth; "
+      "the lower quartile of the blocks' residuals per depth bin (creases, steps and curved "
+      "surfaces fit worse than noise alone), converted to depth noise, is fitted with sigma(z) = "
+      "a + b (z - z0)^2.");
   cmd->callback([o] { run_noise(*o); });
 }
 

@@ -21,7 +21,7 @@ struct SensorNoise {
 
 /// Settings of `NoiseEstimator`.
 struct NoiseEstimateSettings {
-  /// Side of the square pixel blocks that are fitted with a plane each [pixels] (>= 4). A
+  /// Side of the square pixel blocks that are fitted with a plane each [pixels] (4..256). A
   /// block's residual is the noise over its extent: random noise, and also the low-frequency
   /// distortion of a real sensor (a Kinect's 8x8 blocks read ~25 % less than its 16x16 ones at
   /// 1-3 m, which is what a plane segment sees; synthetic noise reads the same at both).
