@@ -36,46 +36,57 @@ double chi_quantile_factor(double p, double m) {
   return std::sqrt(std::max(t * t * t, 1e-6));
 }
 
-/// sigma(z) fitted to the bins by weighted least squares (weights: blocks / sigma^2, as each
-/// bin's relative error is about 1 / sqrt(blocks)).
-SensorNoise fit_model(const std::vector<NoiseEstimate::Bin>& bins) {
-  double sw = 0, sws = 0;
+/// Weighted least squares of the bins' sigma on row(z) (N >= 2 coefficients; weights blocks /
+/// sigma^2, as each bin's relative error is about 1 / sqrt(blocks)).
+template <int N, class Row>
+Eigen::Matrix<double, N, 1> weighted_fit(const std::vector<NoiseEstimate::Bin>& bins, Row row) {
+  Eigen::Matrix<double, N, N> ata = Eigen::Matrix<double, N, N>::Zero();
+  Eigen::Matrix<double, N, 1> atb = Eigen::Matrix<double, N, 1>::Zero();
   for (const auto& b : bins) {
     const double w = b.blocks / (b.sigma * b.sigma);
-    sw += w;
-    sws += w * b.sigma;
+    const Eigen::Matrix<double, N, 1> r = row(b.z);
+    ata += w * r * r.transpose();
+    atb += w * b.sigma * r;
   }
-  const SensorNoise constant{.a = std::max(sws / sw, kMinSigma), .b = 0, .z0 = 0};
+  return ata.ldlt().solve(atb);
+}
+
+/// The one-coefficient case: the c minimising the weighted squares of sigma - c f(z).
+template <class F>
+double weighted_scale(const std::vector<NoiseEstimate::Bin>& bins, F f) {
+  double num = 0, den = 0;
+  for (const auto& b : bins) {
+    const double w = b.blocks / (b.sigma * b.sigma), fz = f(b.z);
+    num += w * b.sigma * fz;
+    den += w * fz * fz;
+  }
+  return num / den;
+}
+
+/// sigma(z) = a + b (z - z0)^2 fitted to the bins: a quadratic in z with its minimum at or before
+/// the nearest bin, else a + b z^2 with a, b >= 0, else a constant.
+SensorNoise fit_model(const std::vector<NoiseEstimate::Bin>& bins) {
+  const double mean = weighted_scale(bins, [](double) { return 1.0; });
+  const SensorNoise constant{.a = std::max(mean, kMinSigma), .b = 0, .z0 = 0};
   const double z_min = bins.front().z, z_max = bins.back().z;
   if (bins.size() < 3 || z_max < 1.5 * z_min) return constant;
 
-  Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d atb = Eigen::Vector3d::Zero();
-  for (const auto& b : bins) {
-    const double w = b.blocks / (b.sigma * b.sigma);
-    const Eigen::Vector3d row(1.0, b.z, b.z * b.z);
-    ata += w * row * row.transpose();
-    atb += w * b.sigma * row;
-  }
-  const Eigen::Vector3d c = ata.ldlt().solve(atb);
+  const Eigen::Vector3d c =
+      weighted_fit<3>(bins, [](double z) { return Eigen::Vector3d(1.0, z, z * z); });
   if (c.allFinite() && c(2) > 0) {
     const double z0 = -c(1) / (2 * c(2));
     const double a = c(0) - c(2) * z0 * z0;
     // A minimum inside the measured range would have the noise fall with depth there.
     if (a > kMinSigma && z0 <= z_min) return {.a = a, .b = c(2), .z0 = z0};
   }
-  // sigma = a + b z^2 with a, b >= 0.
-  Eigen::Matrix2d m = Eigen::Matrix2d::Zero();
-  Eigen::Vector2d v = Eigen::Vector2d::Zero();
-  for (const auto& b : bins) {
-    const double w = b.blocks / (b.sigma * b.sigma);
-    const Eigen::Vector2d row(1.0, b.z * b.z);
-    m += w * row * row.transpose();
-    v += w * b.sigma * row;
-  }
-  const Eigen::Vector2d ab = m.ldlt().solve(v);
-  if (ab.allFinite() && ab(0) > kMinSigma && ab(1) > 0) return {.a = ab(0), .b = ab(1), .z0 = 0};
-  return constant;
+  // a + b z^2 with a, b >= 0: where the free fit's a is negative the constrained one has a = 0
+  // (noise growing from almost nothing), where its b is, b = 0 (the constant).
+  const Eigen::Vector2d ab =
+      weighted_fit<2>(bins, [](double z) { return Eigen::Vector2d(1.0, z * z); });
+  if (!ab.allFinite() || !(ab(1) > 0)) return constant;
+  if (ab(0) > kMinSigma) return {.a = ab(0), .b = ab(1), .z0 = 0};
+  const double b = weighted_scale(bins, [](double z) { return z * z; });
+  return std::isfinite(b) && b > 0 ? SensorNoise{.a = kMinSigma, .b = b, .z0 = 0} : constant;
 }
 
 }  // namespace

@@ -47,13 +47,16 @@ TEST(NoiseEstimate, KinectModelOfSyntheticScenesIsRecovered) {
   ASSERT_GE(e.bins.size(), 4u);
   EXPECT_LT(e.bins.front().z, 2.0);
   EXPECT_GT(e.bins.back().z, 4.0);
+  int checked = 0;
   for (const auto& bin : e.bins) {
     if (bin.blocks < 40) continue;
+    ++checked;
     const double truth = synth::kinect_sigma(kinect, bin.z);
     EXPECT_LT(relative_error(bin.sigma, truth), 0.15)
         << "at " << bin.z << " m: " << bin.sigma << " m for " << truth;
     EXPECT_LT(relative_error(e.noise.sigma(bin.z), truth), 0.15) << "model at " << bin.z << " m";
   }
+  EXPECT_GE(checked, 4);
   EXPECT_LT(e.max_relative_misfit, 0.15);
 }
 
@@ -70,6 +73,19 @@ TEST(NoiseEstimate, ConstantNoiseIsRecoveredAtAnyTilt) {
       EXPECT_LT(relative_error(bin.sigma, 0.004), 0.08) << "tilt " << tilt << " at " << bin.z;
       EXPECT_LT(relative_error(e.noise.sigma(bin.z), 0.004), 0.08) << tilt;
     }
+  }
+}
+
+/// Noise growing from (almost) nothing, sigma = 1.5 mm/m^2 z^2, with no constant term to fit:
+/// the model within 10 % from 2 to 4 m.
+TEST(NoiseEstimate, NoiseGrowingFromZeroIsRecovered) {
+  synth::RenderSettings settings = constant_noise(0.001);
+  settings.kinect.sigma_base = 0;
+  settings.kinect.sigma_quadratic = 0.0015;
+  settings.kinect.sigma_offset = 0;
+  const NoiseEstimate e = estimate_noise(synth::render(synth::random_scene(1), settings).cloud);
+  for (const double z : {2.0, 3.0, 4.0}) {
+    EXPECT_LT(relative_error(e.noise.sigma(z), 0.0015 * z * z), 0.1) << z;
   }
 }
 
