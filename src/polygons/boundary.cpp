@@ -555,6 +555,8 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       sc.keep_first_next.push_back(static_cast<int>(sc.keep_next.size()));
       std::swap(sc.keep, sc.keep_next);
       std::swap(sc.keep_first, sc.keep_first_next);
+      polygons_detail::share_capacity(sc.keep, sc.keep_next);
+      polygons_detail::share_capacity(sc.keep_first, sc.keep_first_next);
       bool any_simplified = false;
       for (std::size_t k = 0; k < nk; ++k) any_simplified |= sc.tolerance[k] > 0;
       if (!any_simplified) break;

@@ -2,6 +2,7 @@
 // closed-loop simplification, simplicity checks and 2D hulls.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cassert>
 #include <cmath>
@@ -15,6 +16,16 @@
 #include "rangeseg/segmentation.hpp"
 
 namespace rangeseg::polygons_detail {
+
+/// Gives two buffers that trade places (std::swap) the larger capacity of the two. Which one
+/// ends a frame in which role depends on how often they traded, which differs from frame to
+/// frame: unless both can take the largest set seen, a later frame allocates.
+template <class T>
+void share_capacity(std::vector<T>& a, std::vector<T>& b) {
+  const std::size_t capacity = std::max(a.capacity(), b.capacity());
+  a.reserve(capacity);
+  b.reserve(capacity);
+}
 
 using Vec = std::array<double, 3>;
 inline double dot(const Vec& a, const Vec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }

@@ -272,6 +272,7 @@ void sort_edges(std::vector<CheckEdge>& edges) {
   sc.sorted.resize(n);
   for (std::size_t i = 0; i < n; ++i) sc.sorted[i] = edges[static_cast<std::size_t>(sc.order[i])];
   edges.swap(sc.sorted);
+  share_capacity(edges, sc.sorted);
 }
 
 /// Whether the pair must be tested: some loop of it changed since the last check (all when
