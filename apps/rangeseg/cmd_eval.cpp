@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -83,17 +84,58 @@ LabelImage load_machine(const std::string& path) {
                            "label field)");
 }
 
-eval::AngleStats angles_for(const eval::EvalResult& r, const GroundTruth& gt,
-                            const LabelImage& ms) {
+/// The labels of the curved surfaces (any type but "plane") in a `synth` surfaces.json.
+std::vector<int> curved_labels(const std::string& path) {
+  const std::vector<std::uint8_t> bytes = io::read_file(path, 64 << 20);
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(bytes.begin(), bytes.end());
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error(path + ": not valid JSON: " + e.what());
+  }
+  if (!j.is_object() || !j.contains("surfaces") || !j["surfaces"].is_array()) {
+    throw std::runtime_error(path +
+                             ": expected an object with a 'surfaces' array (synth's "
+                             "surfaces.json)");
+  }
+  std::vector<int> curved;
+  for (const nlohmann::json& surface : j["surfaces"]) {
+    if (!surface.is_object() || !surface.contains("label") ||
+        !surface["label"].is_number_integer() || surface["label"].get<std::int64_t>() < 1 ||
+        surface["label"].get<std::int64_t>() > 65535 || !surface.contains("type") ||
+        !surface["type"].is_string()) {
+      throw std::runtime_error(path +
+                               ": every surface needs an integer 'label' in 1..65535 and "
+                               "a string 'type'; got " +
+                               surface.dump());
+    }
+    if (surface["type"].get<std::string>() != "plane") {
+      curved.push_back(surface["label"].get<int>());
+    }
+  }
+  return curved;
+}
+
+/// Hoover's angle measure over the planes: ground-truth regions listed in `curved` have no plane
+/// (their least-squares plane depends on which of their points a region holds).
+eval::AngleStats angles_for(const eval::EvalResult& r, const GroundTruth& gt, const LabelImage& ms,
+                            const std::vector<int>& curved) {
   if (!gt.cloud) return {};
-  return eval::angle_error(r, gt.labels, eval::fit_planes(*gt.cloud, gt.labels, gt.min_label),
-                           eval::fit_planes(*gt.cloud, ms, 1));
+  std::vector<std::optional<eval::PlaneParams>> gt_planes =
+      eval::fit_planes(*gt.cloud, gt.labels, gt.min_label);
+  for (const int label : curved) {
+    if (static_cast<std::size_t>(label) < gt_planes.size()) {
+      gt_planes[static_cast<std::size_t>(label)].reset();
+    }
+  }
+  return eval::angle_error(r, gt.labels, gt_planes, eval::fit_planes(*gt.cloud, ms, 1));
 }
 
 struct EvalOptions {
   std::string gt, pred;
   double tolerance = 0.8;
-  std::string cloud;  ///< points for the angle error when the ground truth brings none
+  std::string cloud;     ///< points for the angle error when the ground truth brings none
+  std::string surfaces;  ///< synth's surfaces.json: curved regions left out of the angle error
   std::string json;
   bool regions = false;
 };
@@ -253,7 +295,7 @@ void run_segcomp(const SegcompOptions& o) {
       const LabelImage& ms = pipeline.segmentation().labels;
       const eval::EvalResult r =
           eval::evaluate(gt.labels, ms, {.tolerance = o.tolerance, .min_gt_label = 10});
-      const eval::AngleStats a = angles_for(r, gt, ms);
+      const eval::AngleStats a = angles_for(r, gt, ms, {});
       if (!o.out_dir.empty()) {
         const std::string stem = range.stem().string();
         const auto dir = ensure_dir(o.out_dir);
@@ -304,11 +346,17 @@ void add_eval(CLI::App& app) {
   cmd->add_option("--cloud", o->cloud,
                   "Points of the scene (.pcd or .range) for the angle error, when the ground truth "
                   "brings none (e.g. a label PNG from `synth`)");
+  cmd->add_option("--surfaces", o->surfaces,
+                  "surfaces.json of `synth`: the angle error leaves out the spheres and cylinders "
+                  "(as eval-synth does), whose fitted planes depend on which points a region "
+                  "holds");
   cmd->add_flag("--regions", o->regions,
                 "Also list every region with its size, outcome and partner regions");
   cmd->add_option("--json", o->json, "Write the scores and per-region outcomes to this JSON file");
   cmd->callback([o] {
     GroundTruth gt = load_ground_truth(o->gt);
+    const std::vector<int> curved =
+        o->surfaces.empty() ? std::vector<int>{} : curved_labels(o->surfaces);
     if (!o->cloud.empty()) {
       InputOptions cloud_options;
       cloud_options.path = o->cloud;
@@ -333,7 +381,7 @@ void add_eval(CLI::App& app) {
     eval::AngleStats a;
     try {
       r = eval::evaluate(gt.labels, ms, {.tolerance = o->tolerance, .min_gt_label = gt.min_label});
-      a = angles_for(r, gt, ms);
+      a = angles_for(r, gt, ms, curved);
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(o->gt + " against " + o->pred + ": " + e.what());
     }
