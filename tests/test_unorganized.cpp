@@ -869,10 +869,12 @@ TEST(RingSegmentation, SyntheticBoxScenesThroughThePipeline) {
     for (const auto& [g, m] : e.correct_pairs) {
       const double error = test::angle_deg(r.surfaces[static_cast<std::size_t>(g) - 1].normal,
                                            seg.segments[static_cast<std::size_t>(m) - 1].normal);
-      // Measured: worst 2.14 deg, seed 4's plane of 1583 points at 3.5 m, whose disparity
-      // terraces (4.6 cm apart there) it spans 1-2 of; 1.66 deg before the re-assignment moved
-      // ahead of merging (2026-12-05), when that plane was missed.
-      EXPECT_LE(error, 2.5) << "seed " << seed << ", GT region " << g;
+      // Measured (2026-12-05): worst 2.41 deg, seed 4's plane of 1577 points at 3.5 m, about
+      // 27 cm wide, over which the Kinect's disparity quantisation (3.9 cm steps there) leaves
+      // the fit ~1 cm of systematic error at either side (~2-3 deg); the rest are within 1.82
+      // deg. That plane was missed before the re-assignment moved ahead of merging (worst then
+      // 1.66 deg).
+      EXPECT_LE(error, 3.0) << "seed " << seed << ", GT region " << g;
       worst_normal = std::max(worst_normal, error);
       ++normals;
     }

@@ -137,7 +137,8 @@ struct SegmentationSettings {
   /// region that crept over a crease or a step while growing (dimensionless; 0 = off).
   double split_residual_factor = 2.5;
   /// plane and incremental_plane, with `merge_planes`: after merging and splitting, a point on
-  /// the border of two plane segments (joined by a mesh edge) moves to the other one when it
+  /// the border of two plane segments (joined by a mesh edge; over k-nearest-neighbour rings,
+  /// with the other segment in its ring, sigma of the range) moves to the other one when it
   /// lies closer to that plane by more than this many sigma(z), and within
   /// `max_distance_sigmas` sigma(z) of it; the planes are refitted and the neighbours of the
   /// points that moved tested in turn (up to 8 rounds). Near a crease the points lie within the

@@ -57,6 +57,12 @@ struct RingTreeDeleter {
   void operator()(RingTree* tree) const;
 };
 
+/// A point of a plane segment that lies closer to an adjacent segment's plane (refine_borders).
+struct BorderMove {
+  std::int32_t point = 0, target = 0;
+  double distance = 0;  ///< to the target's plane [m]
+};
+
 /// Per point and pass of the filter: the inverse scales of the distance and normal terms.
 struct Scales {
   float inv_distance = 0;  // 1 / (2 s_d^2)
@@ -105,6 +111,10 @@ struct RingBuffers::Impl {
   std::vector<std::uint64_t> pairs;
   std::vector<std::int32_t> parent, order, final_label;
   std::vector<std::pair<std::size_t, std::int32_t>> moves;
+  // segment, border refinement: the moves of a round, the points moved, planes to refit.
+  std::vector<unorganized::BorderMove> border_moves;
+  std::vector<std::int32_t> moved;
+  std::vector<std::uint8_t> refit;
 };
 
 }  // namespace rangeseg

@@ -291,6 +291,78 @@ void reassign(const PointRings& rings, const Points& pts, const SegmentationSett
   }
 }
 
+/// Rounds of `refine_borders`, as on the grid.
+constexpr int kBorderRounds = 8;
+
+/// The grid's refinement of the borders between plane segments (seg::refine_plane_boundaries)
+/// over the rings: a point of a plane segment with a ring neighbour in another one moves to that
+/// segment when it lies closer to its plane by more than boundary_refine_sigmas sigma(r) and
+/// within max_distance_sigmas sigma(r) of it (to the closest such plane). The planes are
+/// refitted after each round, and a later round tests the points that moved and their rings.
+/// Growth gives the points near a crease to whichever region reaches them first, and with Kinect
+/// noise a region can grow a few points past a shallow crease onto the next face.
+void refine_borders(const PointRings& rings, const Points& pts, const SegmentationSettings& s,
+                    std::vector<std::int32_t>& labels, std::vector<detail::PlaneStats>& stats,
+                    RingBuffers::Impl& b) {
+  std::vector<detail::PlaneFit>& fits = b.fits;
+  fits.assign(stats.size(), detail::PlaneFit{});
+  for (std::size_t l = 1; l < stats.size(); ++l) {
+    if (stats[l].count > 0) fits[l] = stats[l].fit();
+  }
+  std::vector<BorderMove>& moves = b.border_moves;
+  std::vector<std::int32_t>& moved = b.moved;
+  b.refit.assign(stats.size(), 0);
+  const auto consider = [&](std::size_t i) {
+    const std::int32_t from = labels[i];
+    if (from <= 0 || !fits[static_cast<std::size_t>(from)].ok) return;
+    const float* p = pts.point(i);
+    const double sigma = pts.sigma[i];
+    const double own = std::fabs(fits[static_cast<std::size_t>(from)].distance(p[0], p[1], p[2]));
+    for (const std::int32_t j : rings.ring(i)) {
+      const std::int32_t to = labels[static_cast<std::size_t>(j)];
+      if (to <= 0 || to == from || !fits[static_cast<std::size_t>(to)].ok) continue;
+      const double other = std::fabs(fits[static_cast<std::size_t>(to)].distance(p[0], p[1], p[2]));
+      if (own - other > s.boundary_refine_sigmas * sigma &&
+          other <= s.max_distance_sigmas * sigma) {
+        moves.push_back({static_cast<std::int32_t>(i), to, other});
+      }
+    }
+  };
+  moves.clear();
+  for (std::size_t i = 0; i < labels.size(); ++i) consider(i);
+  for (int round = 0; round < kBorderRounds && !moves.empty(); ++round) {
+    std::sort(moves.begin(), moves.end(), [](const BorderMove& m, const BorderMove& n) {
+      return m.point != n.point ? m.point < n.point : m.distance < n.distance;
+    });
+    moved.clear();
+    std::int32_t last = -1;
+    for (const BorderMove& m : moves) {
+      if (m.point == last) continue;
+      last = m.point;
+      const auto i = static_cast<std::size_t>(m.point);
+      const auto from = static_cast<std::size_t>(labels[i]);
+      if (stats[from].count <= 3) continue;  // a segment keeps a plane
+      const float* p = pts.point(i);
+      stats[from].remove(p[0], p[1], p[2]);
+      stats[static_cast<std::size_t>(m.target)].add(p[0], p[1], p[2]);
+      labels[i] = m.target;
+      b.refit[from] = b.refit[static_cast<std::size_t>(m.target)] = 1;
+      moved.push_back(m.point);
+    }
+    for (std::size_t l = 1; l < stats.size(); ++l) {
+      if (b.refit[l] != 0) fits[l] = stats[l].fit();
+      b.refit[l] = 0;
+    }
+    moves.clear();
+    for (const std::int32_t m : moved) {
+      consider(static_cast<std::size_t>(m));
+      for (const std::int32_t j : rings.ring(static_cast<std::size_t>(m))) {
+        consider(static_cast<std::size_t>(j));
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace rangeseg::unorganized
 
@@ -307,6 +379,7 @@ using unorganized::merge_planes;
 using unorganized::PlaneRegion;
 using unorganized::Points;
 using unorganized::reassign;
+using unorganized::refine_borders;
 using unorganized::SmoothRegion;
 using unorganized::split_planes;
 
@@ -364,6 +437,10 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
       merge_planes(rings, settings, labels, stats, b);
       split_planes(rings, pts, settings, labels, stats, b);
       raw = static_cast<std::int32_t>(stats.size()) - 1;
+      // Not for `auto`, whose plane facets may be pieces of one curved surface (as on the grid).
+      if (settings.boundary_refine_sigmas > 0 && !automatic) {
+        refine_borders(rings, pts, settings, labels, stats, b);
+      }
       reassign_and_count();
     }
   }
