@@ -312,6 +312,29 @@ TEST(Cli, EvalSynthHoldsTheReadmeAccuracy) {
   EXPECT_EQ(ideal_mixed["curved"]["within_1pct_1deg"].get<int>(), 21);
 }
 
+// The README's table of unorganized clouds (seeds 1-8, measured 2026-12-05): the valid points
+// of each rendering shuffled into one row, segmented over k-nearest-neighbour rings.
+TEST(Cli, EvalSynthHoldsTheReadmeUnorganizedAccuracy) {
+  RANGESEG_SKIP_ACCURACY_UNDER_SANITIZERS();
+  const fs::path dir = rangeseg::test::scratch_dir("cli_eval_synth_readme_unorganized");
+  const auto total = [&](const std::string& args) {
+    const fs::path json = dir / "scores.json";
+    const CliResult r =
+        run("eval-synth --unorganized --seeds 1-8 " + args + " --json " + json.string());
+    EXPECT_EQ(r.code, 0) << r.out;
+    return read_json(json)["total"];
+  };
+  const nlohmann::json boxes = total("--scene boxes");
+  EXPECT_EQ(boxes["gt_regions"].get<int>(), 99);
+  EXPECT_GE(boxes["correct"].get<int>(), 75);
+  EXPECT_LE(boxes["noise"].get<int>(), 3);
+  EXPECT_GE(total("--scene mixed")["correct"].get<int>(), 82);
+  const nlohmann::json mixed = total("--scene mixed --model auto");
+  EXPECT_GE(mixed["correct"].get<int>(), 93);
+  EXPECT_GE(mixed["curved"]["within_5pct_3deg"].get<int>(), 11);
+  EXPECT_GE(total("--scene boxes --noise none --preset ideal")["correct"].get<int>(), 79);
+}
+
 TEST(Cli, SegcompEvaluationRuns) {
   RANGESEG_REQUIRE_DATA("segcomp_abw/abw.test.3.range");
   const CliResult r = run("eval " + (data_file.parent_path() / "abw.test.3.gt-seg").string() + " " +
