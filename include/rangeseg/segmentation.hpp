@@ -105,7 +105,9 @@ struct SegmentationSettings {
   /// re-assigned to an adjacent plane) [pixels]. Plane models keep a region of at least half as
   /// many pixels when it is, in 3D, at least sqrt(2 min_region_size) pixel footprints wide in
   /// its narrower direction (a face seen obliquely covers fewer pixels than its size warrants;
-  /// slivers along creases are narrow): its frontal area is then twice the minimum's.
+  /// slivers along creases are narrow): its frontal area is then twice the minimum's. Over
+  /// k-nearest-neighbour rings (plane model), a footprint is the median angle between a point
+  /// and its nearest ring neighbour, seen from the origin.
   int min_region_size = 100;
   /// plane: merge adjacent segments whose least-squares planes agree.
   bool merge_planes = true;

@@ -514,8 +514,10 @@ double pixel_footprint(const Frame& frame, Segmenter::Scratch& scratch);
 /// sqrt(2 min_region_size) pixel footprints wide in its narrower in-plane direction (the
 /// square root of 12 times the middle covariance eigenvalue): a face seen obliquely covers
 /// fewer pixels than a frontal one of its size, and this one has at least twice the frontal area
-/// of the smallest segment; crease slivers and specks are narrow.
-bool wide_enough(const detail::PlaneStats& stats, int min_region_size, double footprint);
+/// of the smallest segment; crease slivers and specks are narrow. `by_range`: footprints at the
+/// centroid's distance from the origin, not its z (noise_depth), for a frame of rings.
+bool wide_enough(const detail::PlaneStats& stats, int min_region_size, double footprint,
+                 bool by_range = false);
 
 /// Refit, merge, small-region removal, boundary re-assignment, compaction and the Segment list
 /// (areas 0: see segment_areas).

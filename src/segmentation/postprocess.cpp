@@ -572,12 +572,13 @@ double pixel_footprint(const Frame& f, Segmenter::Scratch& s) {
   return *middle;
 }
 
-bool wide_enough(const PlaneStats& stats, int min_region_size, double footprint) {
+bool wide_enough(const PlaneStats& stats, int min_region_size, double footprint, bool by_range) {
   if (!(footprint > 0) || 2 * stats.count < min_region_size || stats.count < 3) return false;
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
   solver.computeDirect(stats.covariance(), Eigen::EigenvaluesOnly);
   const double narrow = std::sqrt(12.0 * std::max(0.0, solver.eigenvalues()(1)));
-  const double depth = stats.sz / static_cast<double>(stats.count);
+  const double depth =
+      by_range ? noise_depth(stats.mean(), true) : stats.sz / static_cast<double>(stats.count);
   return narrow >= std::sqrt(2.0 * min_region_size) * footprint * depth;
 }
 

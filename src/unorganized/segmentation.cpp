@@ -114,6 +114,24 @@ void drop_small(std::vector<std::int32_t>& labels, const std::vector<detail::Pla
   }
 }
 
+/// The angle between a point and its nearest ring neighbour as seen from the origin [rad]: the
+/// median over every 4th point with a ring of that distance divided by the point's range; 0
+/// for fewer than 16 such points. The rings' counterpart of the grid's pixel footprint.
+double ring_footprint(const PointRings& rings, const Points& pts, std::vector<double>& steps) {
+  steps.clear();
+  for (std::size_t i = 0; i < rings.count.size(); i += 4) {
+    if (rings.count[i] == 0) continue;
+    const float* p = pts.point(i);
+    const float* q = pts.point(static_cast<std::size_t>(rings.ring(i)[0]));
+    const double r = std::sqrt(double{p[0]} * p[0] + double{p[1]} * p[1] + double{p[2]} * p[2]);
+    if (r > 0) steps.push_back(std::sqrt(double{squared_distance(p, q)}) / r);
+  }
+  if (steps.size() < 16) return 0;
+  const auto middle = steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2);
+  std::nth_element(steps.begin(), middle, steps.end());
+  return *middle;
+}
+
 double sigma_at(const SensorNoise& noise, const std::array<double, 3>& c) {
   return noise.sigma(std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]));
 }
@@ -380,6 +398,7 @@ using unorganized::PlaneRegion;
 using unorganized::Points;
 using unorganized::reassign;
 using unorganized::refine_borders;
+using unorganized::ring_footprint;
 using unorganized::SmoothRegion;
 using unorganized::split_planes;
 
@@ -419,10 +438,20 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
   }
   std::vector<detail::PlaneStats>& stats = b.stats;
   label_stats(pts, labels, raw, stats);
-  drop_small(labels, stats, settings.min_region_size);
+  // As on the grid, with the plane model a region below min_region_size is kept when it is wide
+  // enough (a far or oblique face); other regions, and those of `auto`, need min_region_size.
+  const double footprint =
+      settings.model == RegionModel::plane ? ring_footprint(rings, pts, b.noise_samples) : 0;
+  const auto kept = [&](const detail::PlaneStats& st) {
+    return st.count >= settings.min_region_size ||
+           seg::wide_enough(st, settings.min_region_size, footprint, /*by_range=*/true);
+  };
+  for (std::int32_t& l : labels) {
+    if (l > 0 && !kept(stats[static_cast<std::size_t>(l)])) l = 0;
+  }
   if (planes) {
     for (std::size_t l = 1; l < stats.size(); ++l) {
-      if (stats[l].count < settings.min_region_size) stats[l].clear();
+      if (!kept(stats[l])) stats[l].clear();
     }
     // As on the grid, the unlabelled points join adjacent planes before merging: two pieces of
     // one surface that growth left apart (a noisy far surface, a surface seen at grazing
@@ -448,7 +477,9 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
   std::vector<std::int32_t>& order = b.order;
   order.clear();
   for (std::int32_t l = 1; l <= raw; ++l) {
-    if (stats[static_cast<std::size_t>(l)].count >= settings.min_region_size) order.push_back(l);
+    if (stats[static_cast<std::size_t>(l)].count > 0 && kept(stats[static_cast<std::size_t>(l)])) {
+      order.push_back(l);
+    }
   }
   std::sort(order.begin(), order.end(), [&](std::int32_t x, std::int32_t y) {
     const std::int64_t cx = stats[static_cast<std::size_t>(x)].count;
