@@ -284,17 +284,24 @@ TEST(Cli, EvalSynthScoresWhatSynthSegmentAndEvalScore) {
   EXPECT_EQ(run("eval-synth --scene nowhere").code, 2);
 }
 
+namespace {
+
+/// The totals of `eval-synth --seeds 1-8 ARGS` (its JSON written into `dir`).
+nlohmann::json eval_synth_total(const fs::path& dir, const std::string& args) {
+  const fs::path json = dir / "scores.json";
+  const CliResult r = run("eval-synth --seeds 1-8 " + args + " --json " + json.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  return read_json(json)["total"];
+}
+
+}  // namespace
+
 // The synthetic rows of the README's accuracy table (seeds 1-8, the development seeds) as lower
 // bounds: a change that loses a region there fails here, and the README must say what it gained.
 TEST(Cli, EvalSynthHoldsTheReadmeAccuracy) {
   RANGESEG_SKIP_ACCURACY_UNDER_SANITIZERS();
   const fs::path dir = rangeseg::test::scratch_dir("cli_eval_synth_readme");
-  const auto total = [&](const std::string& args) {
-    const fs::path json = dir / "scores.json";
-    const CliResult r = run("eval-synth --seeds 1-8 " + args + " --json " + json.string());
-    EXPECT_EQ(r.code, 0) << r.out;
-    return read_json(json)["total"];
-  };
+  const auto total = [&](const std::string& args) { return eval_synth_total(dir, args); };
   const nlohmann::json boxes = total("--scene boxes");
   EXPECT_EQ(boxes["gt_regions"].get<int>(), 99);
   EXPECT_GE(boxes["correct"].get<int>(), 87);
@@ -318,11 +325,7 @@ TEST(Cli, EvalSynthHoldsTheReadmeUnorganizedAccuracy) {
   RANGESEG_SKIP_ACCURACY_UNDER_SANITIZERS();
   const fs::path dir = rangeseg::test::scratch_dir("cli_eval_synth_readme_unorganized");
   const auto total = [&](const std::string& args) {
-    const fs::path json = dir / "scores.json";
-    const CliResult r =
-        run("eval-synth --unorganized --seeds 1-8 " + args + " --json " + json.string());
-    EXPECT_EQ(r.code, 0) << r.out;
-    return read_json(json)["total"];
+    return eval_synth_total(dir, "--unorganized " + args);
   };
   const nlohmann::json boxes = total("--scene boxes");
   EXPECT_EQ(boxes["gt_regions"].get<int>(), 99);
