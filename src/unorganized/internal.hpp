@@ -94,6 +94,8 @@ struct RingBuffers::Impl {
   // their keys, raw labels, the growth queue.
   std::vector<float> seg_xyz, seg_n, curvature, sigma, cos_angle;
   std::vector<std::int32_t> seeds, labels, queue;
+  // segment: per raw label, whether its region is large or wide enough to keep.
+  std::vector<std::uint8_t> keep;
   // segment, auto model: raw label counts, noise samples, the points and averaged normals as
   // planes, the primitive pass's buffers.
   std::vector<std::int64_t> counts;

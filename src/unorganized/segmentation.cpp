@@ -446,12 +446,15 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
     return st.count >= settings.min_region_size ||
            seg::wide_enough(st, settings.min_region_size, footprint, /*by_range=*/true);
   };
+  std::vector<std::uint8_t>& keep = b.keep;  // per raw label (wide_enough is an eigen-solve)
+  keep.assign(stats.size(), 0);
+  for (std::size_t l = 1; l < stats.size(); ++l) keep[l] = kept(stats[l]) ? 1 : 0;
   for (std::int32_t& l : labels) {
-    if (l > 0 && !kept(stats[static_cast<std::size_t>(l)])) l = 0;
+    if (l > 0 && keep[static_cast<std::size_t>(l)] == 0) l = 0;
   }
   if (planes) {
     for (std::size_t l = 1; l < stats.size(); ++l) {
-      if (!kept(stats[l])) stats[l].clear();
+      if (keep[l] == 0) stats[l].clear();
     }
     // As on the grid, the unlabelled points join adjacent planes before merging: two pieces of
     // one surface that growth left apart (a noisy far surface, a surface seen at grazing
@@ -477,9 +480,7 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
   std::vector<std::int32_t>& order = b.order;
   order.clear();
   for (std::int32_t l = 1; l <= raw; ++l) {
-    if (stats[static_cast<std::size_t>(l)].count > 0 && kept(stats[static_cast<std::size_t>(l)])) {
-      order.push_back(l);
-    }
+    if (kept(stats[static_cast<std::size_t>(l)])) order.push_back(l);
   }
   std::sort(order.begin(), order.end(), [&](std::int32_t x, std::int32_t y) {
     const std::int64_t cx = stats[static_cast<std::size_t>(x)].count;
