@@ -1,4 +1,5 @@
-// Helpers of the polygon tests: the exact properties every PolygonSet must have.
+// Helpers of the polygon tests: the exact properties every PolygonSet must have, and the
+// comparison of two sets field by field.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -6,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -111,6 +113,47 @@ inline void check_properties(const PolygonSet& ps) {
       }
     }
   }
+}
+
+/// Every field of two polygon sets, bit for bit.
+inline void expect_identical_polygons(const PolygonSet& a, const PolygonSet& b,
+                                      const std::string& what) {
+  SCOPED_TRACE(what);
+  ASSERT_EQ(a.segments.size(), b.segments.size());
+  for (std::size_t i = 0; i < a.segments.size(); ++i) {
+    const SegmentPolygons &x = a.segments[i], &y = b.segments[i];
+    EXPECT_EQ(x.label, y.label);
+    EXPECT_EQ(x.first_loop, y.first_loop);
+    EXPECT_EQ(x.loop_count, y.loop_count);
+    EXPECT_EQ(x.hull_first, y.hull_first);
+    EXPECT_EQ(x.hull_count, y.hull_count);
+    EXPECT_EQ(x.area, y.area);
+    EXPECT_EQ(x.raw_area, y.raw_area);
+    EXPECT_EQ(x.perimeter, y.perimeter);
+    EXPECT_EQ(x.hull_area, y.hull_area);
+    EXPECT_EQ(x.hull_perimeter, y.hull_perimeter);
+  }
+  ASSERT_EQ(a.loops.size(), b.loops.size());
+  for (std::size_t i = 0; i < a.loops.size(); ++i) {
+    const PolygonLoop &x = a.loops[i], &y = b.loops[i];
+    EXPECT_EQ(x.segment, y.segment);
+    EXPECT_EQ(x.label, y.label);
+    EXPECT_EQ(x.is_hole, y.is_hole);
+    EXPECT_EQ(x.parent, y.parent);
+    EXPECT_EQ(x.first, y.first);
+    EXPECT_EQ(x.count, y.count);
+    EXPECT_EQ(x.raw_count, y.raw_count);
+    EXPECT_EQ(x.area, y.area);
+    EXPECT_EQ(x.raw_area, y.raw_area);
+    EXPECT_EQ(x.perimeter, y.perimeter);
+    EXPECT_EQ(x.tolerance, y.tolerance);
+  }
+  EXPECT_EQ(a.points3d, b.points3d);
+  EXPECT_EQ(a.points2d, b.points2d);
+  EXPECT_EQ(a.pixels, b.pixels);
+  EXPECT_EQ(a.hull_points3d, b.hull_points3d);
+  EXPECT_EQ(a.hull_points2d, b.hull_points2d);
+  EXPECT_EQ(a.hull_pixels, b.hull_pixels);
 }
 
 }  // namespace rangeseg::test

@@ -22,6 +22,7 @@
 
 #include <unistd.h>
 
+#include "polygon_test_util.hpp"
 #include "rangeseg/pipeline.hpp"
 #include "rangeseg/synth.hpp"
 #include "rangeseg/thread_pool.hpp"
@@ -51,6 +52,7 @@ void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
 void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
 
 using namespace rangeseg;
+using rangeseg::test::expect_identical_polygons;
 
 namespace {
 // Quarter-VGA keeps the test quick (also under sanitizers); the code paths are the same.
@@ -105,8 +107,7 @@ void expect_same_output(const Pipeline& a, const Pipeline& b, const std::string&
     EXPECT_TRUE(fields(x) == fields(y))
         << what << " segment " << x.label << ": radius " << x.radius << " / " << y.radius;
   }
-  EXPECT_EQ(a.polygons().loops.size(), b.polygons().loops.size()) << what;
-  EXPECT_TRUE(a.polygons().points3d == b.polygons().points3d) << what;
+  expect_identical_polygons(a.polygons(), b.polygons(), what);
 }
 
 TEST(Pipeline, ReusedOverFramesOfOtherSizesGivesWhatAFreshOneGives) {
@@ -320,7 +321,7 @@ TEST(Pipeline, ThreadsInsideAFrameGiveIdenticalResults) {
                   std::bit_cast<std::uint64_t>(area))
             << what << " segment " << j;
       }
-      EXPECT_EQ(threaded.polygons().points3d, reference.polygons().points3d) << what;
+      expect_identical_polygons(threaded.polygons(), reference.polygons(), what);
     }
   }
 }

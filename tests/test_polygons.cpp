@@ -25,6 +25,7 @@ namespace {
 
 using V3 = std::array<double, 3>;
 using test::check_properties;
+using test::expect_identical_polygons;
 using test::loop2d;
 using test::orient;
 using test::P2;
@@ -534,43 +535,6 @@ TEST(Polygons, ObjTriangulationOfOutlinesWithManyHoles) {
 // candidates) must give bit-identical polygons to the scalar code. On a CPU without AVX2 both
 // runs take the scalar path and the comparison is trivially true.
 
-void expect_identical(const PolygonSet& a, const PolygonSet& b, const std::string& what) {
-  SCOPED_TRACE(what);
-  ASSERT_EQ(a.segments.size(), b.segments.size());
-  for (std::size_t i = 0; i < a.segments.size(); ++i) {
-    const SegmentPolygons &x = a.segments[i], &y = b.segments[i];
-    EXPECT_EQ(x.label, y.label);
-    EXPECT_EQ(x.first_loop, y.first_loop);
-    EXPECT_EQ(x.loop_count, y.loop_count);
-    EXPECT_EQ(x.hull_first, y.hull_first);
-    EXPECT_EQ(x.hull_count, y.hull_count);
-    EXPECT_EQ(x.area, y.area);
-    EXPECT_EQ(x.raw_area, y.raw_area);
-    EXPECT_EQ(x.perimeter, y.perimeter);
-    EXPECT_EQ(x.hull_area, y.hull_area);
-    EXPECT_EQ(x.hull_perimeter, y.hull_perimeter);
-  }
-  ASSERT_EQ(a.loops.size(), b.loops.size());
-  for (std::size_t i = 0; i < a.loops.size(); ++i) {
-    const PolygonLoop &x = a.loops[i], &y = b.loops[i];
-    EXPECT_EQ(x.segment, y.segment);
-    EXPECT_EQ(x.is_hole, y.is_hole);
-    EXPECT_EQ(x.parent, y.parent);
-    EXPECT_EQ(x.first, y.first);
-    EXPECT_EQ(x.count, y.count);
-    EXPECT_EQ(x.raw_count, y.raw_count);
-    EXPECT_EQ(x.area, y.area);
-    EXPECT_EQ(x.raw_area, y.raw_area);
-    EXPECT_EQ(x.perimeter, y.perimeter);
-    EXPECT_EQ(x.tolerance, y.tolerance);
-  }
-  EXPECT_EQ(a.points3d, b.points3d);
-  EXPECT_EQ(a.points2d, b.points2d);
-  EXPECT_EQ(a.pixels, b.pixels);
-  EXPECT_EQ(a.hull_points2d, b.hull_points2d);
-  EXPECT_EQ(a.hull_pixels, b.hull_pixels);
-}
-
 /// Polygons with the widest instruction set, and with the scalar code only.
 std::pair<PolygonSet, PolygonSet> both_paths(const OrganizedCloud& cloud, const Mesh& mesh,
                                              const Segmentation& seg,
@@ -601,7 +565,7 @@ TEST(Polygons, VectorPathsMatchScalarOnSyntheticScenes) {
                                  std::to_string(stride);
         for (const PolygonSettings& settings : {PolygonSettings{}, kRaw}) {
           const auto [fast, scalar] = both_paths(r.cloud, mesh, seg, settings);
-          expect_identical(fast, scalar, what);
+          expect_identical_polygons(fast, scalar, what);
         }
       }
     }
@@ -652,7 +616,7 @@ TEST(Polygons, VectorPathsMatchScalarOnSpeckledLabels) {
                                  std::to_string(stride);
         for (const PolygonSettings& settings : {PolygonSettings{}, kRaw}) {
           const auto [fast, scalar] = both_paths(cloud, mesh, seg, settings);
-          expect_identical(fast, scalar, what);
+          expect_identical_polygons(fast, scalar, what);
           // The mesh boundary itself is simple (simplified loops of such speckle may touch
           // their parent at pinch vertices, which the midpoint test cannot tell from leaving).
           SCOPED_TRACE(what);
@@ -673,7 +637,7 @@ TEST(Polygons, VectorPathsMatchScalarOnRealFrame) {
   for (const PolygonSettings& ps : {PolygonSettings{}, kRaw}) {
     const auto [fast, scalar] =
         both_paths(pipeline.cloud(), pipeline.mesh(), pipeline.segmentation(), ps);
-    expect_identical(fast, scalar, "real frame");
+    expect_identical_polygons(fast, scalar, "real frame");
     EXPECT_GE(fast.segments.size(), 5u);
     check_properties(fast);
   }
