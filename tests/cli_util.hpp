@@ -1,10 +1,20 @@
-// Running the rangeseg command-line tool from tests (RANGESEG_CLI is its path).
+// Running the rangeseg command-line tool from tests (RANGESEG_CLI is its path), and reading the
+// normals of the PCD files it writes.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
 #include <string>
+
+#include "rangeseg/io/pcd.hpp"
 
 namespace rangeseg::test {
 
@@ -24,6 +34,55 @@ inline CliResult run_cli(const std::string& args) {
   const int status = pclose(pipe);
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
+}
+
+/// The normals of a PCD written with normal_x normal_y normal_z curvature, read with the library's
+/// reader (which keeps only x y z, intensity, rgb and label): the header's field names are
+/// renamed so that the normals are read as x y z and the curvature as intensity. The data
+/// (any encoding) is unchanged.
+inline OrganizedCloud read_normals(const std::filesystem::path& pcd) {
+  std::ifstream in(pcd, std::ios::binary);
+  std::stringstream whole;
+  whole << in.rdbuf();
+  std::string text = whole.str();
+  const std::size_t begin = text.find("\nFIELDS ") + 1;
+  const std::size_t end = text.find('\n', begin);
+  std::istringstream fields(text.substr(begin, end - begin));
+  const std::map<std::string, std::string> renamed = {{"x", "px"},
+                                                      {"y", "py"},
+                                                      {"z", "pz"},
+                                                      {"normal_x", "x"},
+                                                      {"normal_y", "y"},
+                                                      {"normal_z", "z"},
+                                                      {"curvature", "intensity"},
+                                                      {"intensity", "i"}};
+  std::string line, name;
+  fields >> name;  // FIELDS
+  line = name;
+  while (fields >> name) line += " " + (renamed.contains(name) ? renamed.at(name) : name);
+  text.replace(begin, end - begin, line);
+  const auto* data = reinterpret_cast<const std::uint8_t*>(text.data());
+  return io::parse_pcd(data, text.size(), pcd.string());
+}
+
+/// Expects a cloud of `points` points (organized or not) in `pcd`, with unit normals at more than
+/// nine in ten of the `valid` points that have one and at no other.
+inline void expect_unit_normals(const std::filesystem::path& pcd, std::size_t points,
+                                std::size_t valid) {
+  const OrganizedCloud normals = read_normals(pcd);
+  ASSERT_EQ(normals.size(), points);
+  std::size_t finite = 0, off = 0;
+  for (int v = 0; v < normals.height(); ++v) {
+    for (int u = 0; u < normals.width(); ++u) {
+      if (!normals.valid(u, v)) continue;
+      ++finite;
+      const float nx = normals.x(u, v), ny = normals.y(u, v), nz = normals.z(u, v);
+      if (std::abs(std::sqrt(nx * nx + ny * ny + nz * nz) - 1.0f) > 1e-4f) ++off;
+    }
+  }
+  EXPECT_GT(finite, valid * 9 / 10) << "points with a normal";
+  EXPECT_LE(finite, valid) << "normals where there is no point";
+  EXPECT_EQ(off, 0u) << "normals not of unit length";
 }
 
 }  // namespace rangeseg::test

@@ -15,6 +15,7 @@
 
 #include "cli_util.hpp"
 #include "rangeseg/camera.hpp"
+#include "rangeseg/colorize.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/io/png.hpp"
 #include "rangeseg/synth.hpp"
@@ -338,6 +339,52 @@ TEST(Cli, EvalSynthHoldsTheReadmeUnorganizedAccuracy) {
   EXPECT_GE(total("--scene boxes --noise none --preset ideal")["correct"].get<int>(), 80);
 }
 
+/// --cloud: the smoothed points as an organized PCD with normals, curvature, label and the
+/// label's colour, pixel for pixel where the input has its points and labels.png its labels.
+TEST(Cli, CloudOptionWritesTheSmoothedLabelledPoints) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_cloud_option");
+  write_small_pcd(dir / "in.pcd", 7);
+  const rangeseg::OrganizedCloud input = rangeseg::io::read_pcd((dir / "in.pcd").string());
+  const CliResult plain =
+      run("segment " + (dir / "in.pcd").string() + " --no-mesh -o " + (dir / "plain").string());
+  ASSERT_EQ(plain.code, 0) << plain.out;
+  EXPECT_FALSE(fs::exists(dir / "plain" / "cloud.pcd"));
+  const CliResult r = run("segment " + (dir / "in.pcd").string() + " --no-mesh --cloud -o " +
+                          (dir / "out").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const rangeseg::OrganizedCloud cloud =
+      rangeseg::io::read_pcd((dir / "out" / "cloud.pcd").string());
+  ASSERT_EQ(cloud.width(), input.width());
+  ASSERT_EQ(cloud.height(), input.height());
+  ASSERT_TRUE(cloud.has_label() && cloud.has_rgb());
+  const rangeseg::LabelImage labels =
+      rangeseg::io::read_label_png((dir / "out" / "labels.png").string());
+  std::size_t valid = 0, moved = 0, mismatches = 0;
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      if (cloud.valid(u, v) != input.valid(u, v) || cloud.label(u, v) != labels(u, v)) {
+        ++mismatches;
+        continue;
+      }
+      if (!cloud.valid(u, v)) continue;
+      ++valid;
+      const float d = std::hypot(cloud.x(u, v) - input.x(u, v), cloud.y(u, v) - input.y(u, v),
+                                 cloud.z(u, v) - input.z(u, v));
+      if (d > 0) ++moved;
+      if (d > 0.05f) ++mismatches;  // smoothing moves a point by its noise, not centimetres
+      const int label = labels(u, v);
+      const auto colour = label > 0 ? rangeseg::label_colour(label) : rangeseg::kNoLabelColour;
+      if (cloud.r(u, v) != colour[0] || cloud.g(u, v) != colour[1] || cloud.b(u, v) != colour[2]) {
+        ++mismatches;
+      }
+    }
+  }
+  EXPECT_EQ(mismatches, 0u);
+  EXPECT_GT(valid, input.size() / 2);
+  EXPECT_GT(moved, valid / 2) << "the points are the smoothed ones";
+  rangeseg::test::expect_unit_normals(dir / "out" / "cloud.pcd", input.size(), valid);
+}
+
 TEST(Cli, SegcompEvaluationRuns) {
   RANGESEG_REQUIRE_DATA("segcomp_abw/abw.test.3.range");
   const CliResult r = run("eval " + (data_file.parent_path() / "abw.test.3.gt-seg").string() + " " +
@@ -574,8 +621,8 @@ TEST(CliBatch, TwoThreadsWriteTheSameBytesAsOne) {
   write_truncated_pcd(dir / "in" / "9.pcd");
   for (const std::string threads : {"1", "2"}) {
     const fs::path out = dir / ("out" + threads);
-    const CliResult r =
-        run("segment " + (dir / "in").string() + " --threads " + threads + " -o " + out.string());
+    const CliResult r = run("segment " + (dir / "in").string() + " --threads " + threads +
+                            " --cloud -o " + out.string());
     ASSERT_EQ(r.code, 0) << r.out;
   }
   int compared = 0;
@@ -586,7 +633,8 @@ TEST(CliBatch, TwoThreadsWriteTheSameBytesAsOne) {
     EXPECT_EQ(read_text(e.path()), read_text(other)) << other;
     ++compared;
   }
-  EXPECT_GE(compared, 5 * 4);  // labels, segments, overlay, mesh (+ polygons) per good frame
+  // labels, segments, overlay, types, mesh, cloud (+ polygons) per good frame
+  EXPECT_GE(compared, 5 * 6);
   EXPECT_EQ(count_files(dir / "out1"), count_files(dir / "out2"));
   const auto s1 = read_json(dir / "out1" / "summary.json");
   const auto s2 = read_json(dir / "out2" / "summary.json");

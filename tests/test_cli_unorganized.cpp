@@ -64,47 +64,6 @@ OrganizedCloud write_unorganized(const fs::path& path, std::uint64_t seed = 1) {
   return cloud;
 }
 
-/// The normals of a PCD written with normal_x normal_y normal_z curvature, read with the library's
-/// reader (which keeps only x y z, intensity, rgb and label): the header's field names are
-/// renamed so that the normals are read as x y z and the curvature as intensity. The data
-/// (any encoding) is unchanged.
-OrganizedCloud read_normals(const fs::path& pcd) {
-  std::string text = read_text(pcd);
-  const std::size_t begin = text.find("\nFIELDS ") + 1;
-  const std::size_t end = text.find('\n', begin);
-  std::istringstream fields(text.substr(begin, end - begin));
-  const std::map<std::string, std::string> renamed = {{"x", "px"},
-                                                      {"y", "py"},
-                                                      {"z", "pz"},
-                                                      {"normal_x", "x"},
-                                                      {"normal_y", "y"},
-                                                      {"normal_z", "z"},
-                                                      {"curvature", "intensity"},
-                                                      {"intensity", "i"}};
-  std::string line, name;
-  fields >> name;  // FIELDS
-  line = name;
-  while (fields >> name) line += " " + (renamed.contains(name) ? renamed.at(name) : name);
-  text.replace(begin, end - begin, line);
-  const auto* data = reinterpret_cast<const std::uint8_t*>(text.data());
-  return rangeseg::io::parse_pcd(data, text.size(), pcd.string());
-}
-
-/// Expects unit normals at nearly every point of an n-point cloud.
-void expect_unit_normals(const fs::path& pcd, std::size_t n) {
-  const OrganizedCloud normals = read_normals(pcd);
-  ASSERT_EQ(normals.size(), n);
-  std::size_t finite = 0, off = 0;
-  for (int i = 0; i < normals.width(); ++i) {
-    if (!normals.valid(i, 0)) continue;
-    ++finite;
-    const float nx = normals.x(i, 0), ny = normals.y(i, 0), nz = normals.z(i, 0);
-    if (std::abs(std::sqrt(nx * nx + ny * ny + nz * nz) - 1.0f) > 1e-4f) ++off;
-  }
-  EXPECT_GT(finite, n * 9 / 10) << "points with a normal";
-  EXPECT_EQ(off, 0u) << "normals not of unit length";
-}
-
 }  // namespace
 
 TEST(CliUnorganized, SegmentWritesSegmentsAndALabelledCloud) {
@@ -167,7 +126,7 @@ TEST(CliUnorganized, SegmentWritesSegmentsAndALabelledCloud) {
   EXPECT_EQ(objects, outlined);
   counts.erase(0);
   EXPECT_TRUE(counts.empty()) << "labels without a segment: " << counts.size();
-  expect_unit_normals(dir / "out" / "cloud.pcd", input.size());
+  rangeseg::test::expect_unit_normals(dir / "out" / "cloud.pcd", input.size(), input.size());
 
   // The labelled cloud scores against the ground truth as a label image would.
   const CliResult eval =
@@ -263,7 +222,7 @@ TEST(CliUnorganized, SmoothWritesPointsWithNormals) {
   std::size_t moved = 0;
   for (int i = 0; i < input.width(); ++i) moved += smoothed.z(i, 0) != input.z(i, 0) ? 1 : 0;
   EXPECT_GT(moved, input.size() / 2);
-  expect_unit_normals(dir / "smoothed.pcd", input.size());
+  rangeseg::test::expect_unit_normals(dir / "smoothed.pcd", input.size(), input.size());
 }
 
 TEST(CliUnorganized, BenchTimesTheRingsAndRejectsSizes) {

@@ -68,7 +68,7 @@ FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options
     require_model_for(in.cloud, pipeline.settings(), frame.path);
     pipeline.process(in.cloud);
     write_segmentation_folder((std::filesystem::path(options.out_dir) / frame.name).string(),
-                              in.cloud, pipeline, options.write_mesh);
+                              in.cloud, pipeline, options.files);
     r.ok = true;
     r.times = pipeline.times();
     r.segments = pipeline.segmentation().segments.size();

@@ -8,6 +8,7 @@
 
 #include "input.hpp"
 #include "rangeseg/pipeline.hpp"
+#include "segment_output.hpp"
 
 namespace rangeseg::cli {
 
@@ -20,9 +21,9 @@ struct BatchSettings {
 };
 
 struct BatchOptions {
-  std::string out_dir;     ///< one result folder per frame, named FrameSource::name
-  bool write_mesh = true;  ///< mesh.ply in every folder
-  int threads = 1;         ///< Pipelines running in parallel over the frames, >= 1
+  std::string out_dir;  ///< one result folder per frame, named FrameSource::name
+  FolderFiles files;    ///< the optional files of every folder
+  int threads = 1;      ///< Pipelines running in parallel over the frames, >= 1
 };
 
 /// Segments every frame into `out_dir/<name>/`, skipping (and reporting on stderr) frames that

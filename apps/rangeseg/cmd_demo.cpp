@@ -101,7 +101,7 @@ void run_demo(const DemoOptions& o) {
   io::write_rgb_png((dir / "curvature.png").string(),
                     colorize_scalar_auto(pipeline.raw_normals().curvature.view()));
   write_mesh_ply((dir / "mesh.ply").string(), input, pipeline.mesh(), &raw, &normal_colours);
-  write_segmentation_folder((dir / "segmentation").string(), input, pipeline, true);
+  write_segmentation_folder((dir / "segmentation").string(), input, pipeline, {});
   const RgbImage overlay = colorize_labels(pipeline.segmentation().labels, &input);
   const RgbImage types = colorize_surface_types(pipeline.segmentation(), overlay);
   io::write_rgb_png((dir / "summary.png").string(),

@@ -301,7 +301,7 @@ void run_segcomp(const SegcompOptions& o) {
         const auto dir = ensure_dir(o.out_dir);
         write_ms_seg((dir / (stem + ".ms-seg")).string(), ms);
         write_ms_nor((dir / (stem + ".ms-nor")).string(), pipeline.segmentation(), gt.sensor);
-        write_segmentation_folder((dir / stem).string(), *gt.cloud, pipeline, false);
+        write_segmentation_folder((dir / stem).string(), *gt.cloud, pipeline, {.mesh = false});
       }
       print_eval_row(range.filename().string().c_str(), r, a);
       results.push_back(r);

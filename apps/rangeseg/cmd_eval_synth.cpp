@@ -278,7 +278,7 @@ void run_eval_synth(const EvalSynthOptions& o) {
       if (o.unorganized) {
         io::write_label_png((ensure_dir(dir) / "labels.png").string(), segmentation.labels);
       } else {
-        write_segmentation_folder(dir, scene.cloud, pipeline, false);
+        write_segmentation_folder(dir, scene.cloud, pipeline, {.mesh = false});
       }
       io::write_label_png((ensure_dir(dir) / "ground_truth.png").string(), scene.labels);
     }

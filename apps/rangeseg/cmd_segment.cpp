@@ -23,6 +23,7 @@ struct SegmentOptions {
   std::string config;
   bool no_smooth = false;
   bool no_mesh = false;
+  bool cloud = false;
 };
 
 }  // namespace
@@ -90,8 +91,8 @@ void add_segment(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "segment",
       "Mesh, normals, smoothing and region-growing segmentation; writes labels.png, "
-      "segments.json, overlay.png and mesh.ply into a folder (an unorganized cloud: "
-      "segments.json and cloud.pcd)");
+      "segments.json, overlay.png and mesh.ply (and with --cloud cloud.pcd) into a folder (an "
+      "unorganized cloud: segments.json and cloud.pcd)");
   cmd->add_option("input", o->inputs,
                   "Input file (.pcd, 16-bit depth .png, SegComp .range), several files, a "
                   "directory of them, or a TUM RGB-D sequence folder (with depth.txt)")
@@ -109,15 +110,20 @@ void add_segment(CLI::App& app) {
   add_settings_options(*cmd, o->model, o->preset, o->config, o->no_smooth,
                        /*auto_preset=*/true);
   cmd->add_flag("--no-mesh", o->no_mesh, "Do not write mesh.ply");
+  cmd->add_flag("--cloud", o->cloud,
+                "Also write cloud.pcd for an organized input: the smoothed points, organized as "
+                "the input, with normals, curvature, label and rgb (an unorganized cloud's "
+                "results are always in it)");
   cmd->footer(
       "Several inputs, a directory or a TUM sequence run as a batch: a frame that cannot be read "
       "or processed is reported and skipped. Folders are named after the file stem (TUM: the "
       "timestamp). TUM depth PNGs default to 5000 units per metre and fx = fy = 525, cx = 319.5, "
-      "cy = 239.5.\nAn unorganized cloud (a PCD of height 1) is segmented over the k nearest "
-      "neighbours of each point (--config \"rings\") with --model plane, smooth or auto; its "
-      "folder holds segments.json and cloud.pcd (the processed points with normal_x normal_y "
-      "normal_z "
-      "curvature, label and rgb: the label's colour).\nExit codes: 0 = done (a batch with at least "
+      "cy = 239.5.\ncloud.pcd holds the processed (smoothed) points, organized as the input, with "
+      "normal_x normal_y normal_z curvature, label and rgb (the label's colour); it takes ~0.15 "
+      "s and ~20 MB more for a 640x480 frame.\nAn unorganized "
+      "cloud (a PCD of height 1) is segmented over the k nearest neighbours of each point "
+      "(--config \"rings\") with --model plane, smooth or auto; its folder holds segments.json, "
+      "polygons.obj and cloud.pcd.\nExit codes: 0 = done (a batch with at least "
       "one frame written; failed frames are listed), 2 = bad arguments, unreadable single input, "
       "or no frame of a batch succeeded.");
   cmd->callback([o] {
@@ -130,7 +136,9 @@ void add_segment(CLI::App& app) {
       const FrameList frames = gather_frames(o->inputs, o->in);
       const std::size_t ok =
           segment_batch(frames, {.preset = o->preset, .settings_for = settings_for},
-                        {.out_dir = o->out_dir, .write_mesh = !o->no_mesh, .threads = o->threads});
+                        {.out_dir = o->out_dir,
+                         .files = {.mesh = !o->no_mesh, .cloud = o->cloud},
+                         .threads = o->threads});
       if (ok == 0) set_exit_code(kExitInput);
       return;
     }
@@ -142,8 +150,8 @@ void add_segment(CLI::App& app) {
     require_model_for(in.cloud, settings, o->in.path);
     Pipeline pipeline(settings);
     pipeline.process(in.cloud);
-    const std::string files =
-        write_segmentation_folder(o->out_dir, in.cloud, pipeline, !o->no_mesh);
+    const std::string files = write_segmentation_folder(o->out_dir, in.cloud, pipeline,
+                                                        {.mesh = !o->no_mesh, .cloud = o->cloud});
     const StageTimes& t = pipeline.times();
     const std::size_t segments = pipeline.segmentation().segments.size();
     if (!in.cloud.is_organized()) {

@@ -69,8 +69,8 @@ nlohmann::json surface_json(const Segment& s) {
   return j;
 }
 
-/// The processed points of an unorganized frame with normals, curvature, labels and the labels'
-/// colours (colorize_labels without shading; black where there is no point).
+/// The processed points with normals, curvature, labels and the labels' colours
+/// (colorize_labels without shading; black where there is no point).
 void write_labelled_cloud(const std::string& path, const Pipeline& pipeline) {
   OrganizedCloud cloud = pipeline.cloud();
   cloud.label = pipeline.segmentation().labels;
@@ -152,12 +152,12 @@ nlohmann::json segments_json(const Segmentation& seg, const PolygonSet* polygons
 }
 
 std::string write_segmentation_folder(const std::string& dir_name, const OrganizedCloud& input,
-                                      const Pipeline& pipeline, bool write_mesh) {
+                                      const Pipeline& pipeline, FolderFiles files) {
   const auto dir = ensure_dir(dir_name);
-  std::string files;  // the paths written, joined by ", "
+  std::string written;  // the paths, joined by ", "
   const auto file = [&](const char* name) {
     std::string path = (dir / name).string();
-    files += (files.empty() ? "" : ", ") + path;
+    written += (written.empty() ? "" : ", ") + path;
     return path;
   };
   const Segmentation& seg = pipeline.segmentation();
@@ -167,7 +167,7 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
       write_polygons_obj(file("polygons.obj"), pipeline.polygons());
     }
     write_labelled_cloud(file("cloud.pcd"), pipeline);
-    return files;
+    return written;
   }
   io::write_label_png(file("labels.png"), seg.labels);
   write_json(file("segments.json"), segments_json(seg, &pipeline.polygons()));
@@ -178,11 +178,12 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
   io::write_rgb_png(file("types.png"), colorize_surface_types(seg, overlay));
   draw_polygons(overlay, pipeline.polygons());
   io::write_rgb_png(file("overlay.png"), overlay);
-  if (write_mesh) {
+  if (files.mesh) {
     const RgbImage flat = colorize_labels(seg.labels);
     write_mesh_ply(file("mesh.ply"), pipeline.cloud(), pipeline.mesh(), &pipeline.normals(), &flat);
   }
-  return files;
+  if (files.cloud) write_labelled_cloud(file("cloud.pcd"), pipeline);
+  return written;
 }
 
 }  // namespace rangeseg::cli

@@ -1,5 +1,5 @@
-// Writing a segmentation result folder (labels.png, segments.json, overlay.png, mesh.ply; for an
-// unorganized cloud segments.json and cloud.pcd).
+// Writing a segmentation result folder (labels.png, segments.json, overlay.png, mesh.ply,
+// cloud.pcd; for an unorganized cloud segments.json and cloud.pcd).
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -19,14 +19,20 @@ nlohmann::json segments_json(const Segmentation& segmentation, const PolygonSet*
 /// Throws std::invalid_argument if its size is not the labels'.
 RgbImage colorize_surface_types(const Segmentation& segmentation, RgbImage shaded);
 
+/// The optional files of a result folder.
+struct FolderFiles {
+  bool mesh = true;    ///< mesh.ply (an organized frame)
+  bool cloud = false;  ///< cloud.pcd of an organized frame (an unorganized one always has it)
+};
+
 /// Writes the results of the pipeline's last frame into `dir` (each file atomically) and returns
-/// their paths, joined by ", ". An organized frame: labels.png, segments.json, polygons.obj,
-/// overlay.png with the polygons drawn, types.png and optionally mesh.ply; `input` is the cloud
-/// the pipeline processed (for the overlay's shading). An unorganized frame (nothing to draw):
-/// segments.json, polygons.obj and cloud.pcd, the processed points (Pipeline::cloud())
-/// with their normals, curvature, label and rgb, the label's colour (label 0: dark grey; no
-/// point: black).
+/// their paths, joined by ", ". cloud.pcd: the processed points (Pipeline::cloud(); organized
+/// as the input, NaN where there is no point) with their normals, curvature, label and rgb, the
+/// label's colour (label 0: dark grey; no point: black). An organized frame: labels.png,
+/// segments.json, polygons.obj, overlay.png with the polygons drawn, types.png and, as `files`
+/// says, mesh.ply and cloud.pcd; `input` is the cloud the pipeline processed (for the overlay's
+/// shading). An unorganized frame (nothing to draw): segments.json, polygons.obj and cloud.pcd.
 std::string write_segmentation_folder(const std::string& dir, const OrganizedCloud& input,
-                                      const Pipeline& pipeline, bool write_mesh);
+                                      const Pipeline& pipeline, FolderFiles files);
 
 }  // namespace rangeseg::cli
