@@ -336,7 +336,9 @@ TEST(Cli, EvalSynthHoldsTheReadmeUnorganizedAccuracy) {
   const nlohmann::json mixed = total("--scene mixed --model auto");
   EXPECT_GE(mixed["correct"].get<int>(), 93);
   EXPECT_GE(mixed["curved"]["within_5pct_3deg"].get<int>(), 11);
-  EXPECT_GE(total("--scene boxes --noise none --preset ideal")["correct"].get<int>(), 80);
+  EXPECT_GE(total("--scene boxes --noise none --preset ideal")["correct"].get<int>(), 92);
+  EXPECT_GE(total("--scene mixed --model auto --noise none --preset ideal")["correct"].get<int>(),
+            116);
 }
 
 /// --cloud: the smoothed points as an organized PCD with normals, curvature, label and the

@@ -164,7 +164,10 @@ struct SegmentationSettings {
   /// residual of at most sigma(z) sin(grazing_max_angle) and `min_region_size` pixels (or half as
   /// many when wide in 3D, as for any region), becomes a segment, merged with its neighbours as
   /// any other. The lower bound keeps out the points that a depth step leaves between its two
-  /// sides (a laser scanner's veil), which lie in a plane through the sensor. 0 = off.
+  /// sides (a laser scanner's veil), which lie in a plane through the sensor. Over the
+  /// k-nearest-neighbour rings of an unorganized cloud the same, with each unlabelled point's 8
+  /// nearest unlabelled points by viewing direction within 2.5 footprints as its neighbours (its
+  /// range, not z). 0 = off.
   double grazing_min_angle = 0.0349;
   /// ... [rad] (25 deg: twice the mesh's default eps_theta, below which the 1-ring normals of
   /// Kinect data at a few metres are unreliable).
@@ -226,7 +229,8 @@ struct Segment {
   /// Holds points of a plane found seen at grazing incidence
   /// (SegmentationSettings::grazing_min_angle), where the mesh has few faces: `area_m2` counts
   /// the segment's cells as `close_grazing_cells` closes them, and Pipeline closes them in its
-  /// mesh before it traces the polygons.
+  /// mesh before it traces the polygons (an unorganized cloud has no mesh: the flag only says
+  /// how the plane was found).
   bool grazing = false;
 };
 

@@ -48,6 +48,131 @@ double ray_sine(const PlaneFit& fit, double x, double y, double z) {
   return std::abs(fit.normal[0] * x + fit.normal[1] * y + fit.normal[2] * z) / length;
 }
 
+/// The parameters of the robust grazing-plane fit (fit_grazing_plane).
+struct GrazingFit {
+  const SegmentationSettings& settings;
+  double footprint, sin_min, sin_max;
+  bool by_range;
+  const double* points;  // kGrazingPointSize per point
+  std::size_t n;
+
+  const double* point(std::size_t k) const { return points + kGrazingPointSize * k; }
+
+  /// The noise of a point perpendicular to a grazing plane is sigma along the ray times the
+  /// sine of the ray's angle to the plane, floored at that of grazing_max_angle (a sensor also
+  /// places a depth at a neighbouring pixel, which moves it across the plane).
+  bool within(const PlaneFit& fit, const double* p, double sigmas) const {
+    return within_grazing_plane(fit, p, sigmas, sin_max);
+  }
+
+  /// The first plane of the robust fit (see kSamples): of the candidates whose angle to the
+  /// ray at their reference point is in [grazing_min_angle, grazing_max_angle], the one with
+  /// the most scored points within the first round's bound. A set that mixes a grazing surface
+  /// with the rims or strips of others (whose least-squares plane is neither) starts from the
+  /// grazing surface; one without any grazing candidate gets a plane that is not ok.
+  PlaneFit first_plane(const PlaneStats& all) const {
+    const std::size_t step = std::max<std::size_t>(1, n / kScoredPoints);
+    const double sigmas = kRounds[0] * settings.max_distance_sigmas;
+    PlaneFit best;
+    std::size_t best_count = 0;
+    const auto consider = [&](const PlaneFit& fit, const double* ref) {
+      const double sine = ray_sine(fit, ref[0], ref[1], ref[2]);
+      if (!(sine >= sin_min && sine <= sin_max)) return;
+      std::size_t count = 0;
+      for (std::size_t k = 0; k < n; k += step) count += within(fit, point(k), sigmas);
+      if (count > best_count) best = fit, best_count = count;
+    };
+    const PlaneFit least_squares = all.fit();
+    if (least_squares.ok) consider(least_squares, least_squares.centroid.data());
+    // A fixed xorshift sequence per set: the result depends only on the input.
+    std::uint32_t state = 0x9e3779b9u ^ static_cast<std::uint32_t>(n);
+    const auto next = [&](std::size_t below) {
+      state ^= state << 13, state ^= state >> 17, state ^= state << 5;
+      return static_cast<std::size_t>(state % below);
+    };
+    const std::size_t reach = std::min(n - 1, kSampleReach);
+    for (int t = 0; t < kSamples && n >= 3; ++t) {
+      std::size_t i0 = 0, i1 = 0, i2 = 0;
+      if (t % 2 == 0) {  // close together
+        i0 = next(n - reach), i1 = i0 + 1 + next(reach), i2 = i0 + 1 + next(reach);
+      } else {  // anywhere
+        i0 = next(n), i1 = next(n), i2 = next(n);
+      }
+      if (i0 == i1 || i0 == i2 || i1 == i2) continue;
+      const double* a = point(i0);
+      const double* b = point(i1);
+      const double* c = point(i2);
+      const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+      const double v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+      PlaneFit fit;
+      fit.normal = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                    u[0] * v[1] - u[1] * v[0]};
+      const double length = std::hypot(fit.normal[0], fit.normal[1], fit.normal[2]);
+      if (!(length > 0)) continue;
+      for (double& e : fit.normal) e /= length;
+      fit.offset = -(fit.normal[0] * a[0] + fit.normal[1] * a[1] + fit.normal[2] * a[2]);
+      fit.ok = true;
+      consider(fit, a);
+    }
+    return best;
+  }
+
+  PlaneFit run() const {
+    PlaneStats stats;
+    for (std::size_t k = 0; k < n; ++k) stats.add(point(k)[0], point(k)[1], point(k)[2]);
+    PlaneFit fit = first_plane(stats);
+    for (const double round : kRounds) {
+      const double sigmas = round * settings.max_distance_sigmas;
+      if (!fit.ok) return {};
+      PlaneStats inliers;
+      for (std::size_t k = 0; k < n; ++k) {
+        const double* const p = point(k);
+        if (within(fit, p, sigmas)) inliers.add(p[0], p[1], p[2]);
+      }
+      if (2 * inliers.count < settings.min_region_size) return {};
+      const bool same = inliers.count == stats.count && round == kRounds.back();
+      stats = inliers;
+      fit = stats.fit();
+      if (same) break;
+    }
+    if (!fit.ok) return {};
+    const auto& c = fit.centroid;
+    const double sine = ray_sine(fit, c[0], c[1], c[2]);
+    // Written to reject NaN too (a point at infinite depth).
+    if (!(sine >= sin_min && sine <= sin_max)) return {};
+    const double noise_depth = by_range ? std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) : c[2];
+    if (!(fit.rms <= settings.noise.sigma(noise_depth) * sin_max)) return {};
+    if (stats.count < settings.min_region_size &&
+        !wide_enough(stats, settings.min_region_size, footprint, by_range)) {
+      return {};
+    }
+    return fit;
+  }
+};
+
+}  // namespace
+
+bool within_grazing_plane(const PlaneFit& fit, const double* p, double sigmas, double sin_max) {
+  const double d = fit.normal[0] * p[0] + fit.normal[1] * p[1] + fit.normal[2] * p[2];
+  const double sine = std::max(std::abs(d) * p[4], sin_max);
+  return std::abs(d + fit.offset) <= sigmas * p[3] * sine;
+}
+
+PlaneFit fit_grazing_plane(const double* points, std::size_t n,
+                           const SegmentationSettings& settings, double footprint, bool by_range) {
+  if (n == 0) return {};
+  return GrazingFit{.settings = settings,
+                    .footprint = footprint,
+                    .sin_min = std::sin(settings.grazing_min_angle),
+                    .sin_max = std::sin(settings.grazing_max_angle),
+                    .by_range = by_range,
+                    .points = points,
+                    .n = n}
+      .run();
+}
+
+namespace {
+
 class GrazingFinder {
  public:
   GrazingFinder(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s,
@@ -56,7 +181,6 @@ class GrazingFinder {
         settings_(settings),
         s_(s),
         footprint_(footprint),
-        sin_min_(std::sin(settings.grazing_min_angle)),
         sin_max_(std::sin(settings.grazing_max_angle)),
         inv_tan_min_(1.0 / std::tan(settings.grazing_min_angle)) {}
 
@@ -162,64 +286,33 @@ class GrazingFinder {
     }
   }
 
-  /// Fits a plane to the component grazing_pixels[begin, end) robustly; a grazing plane that
-  /// explains enough of it becomes a new region (returns whether one did). The noise of a point
-  /// perpendicular to a grazing plane is sigma(z) along the ray times the sine of the ray's angle
-  /// to the plane, floored at that of grazing_max_angle (a sensor also places a depth at a
-  /// neighbouring pixel, which moves it across the plane).
+  /// Fits a plane to the component grazing_pixels[begin, end) robustly (fit_grazing_plane); a
+  /// grazing plane that explains enough of it becomes a new region (returns whether one did).
   bool try_plane(std::size_t begin) {
     const std::span<const std::int32_t> pixels(s_.grazing_pixels.data() + begin,
                                                s_.grazing_pixels.size() - begin);
-    // Per point: x, y, z, sigma(z), 1 / |p|, contiguous for the rounds.
     auto& points = s_.grazing_points;
-    if (points.size() < 5 * pixels.size()) points.resize(5 * pixels.size());  // never shrinks
-    PlaneStats stats;
+    if (points.size() < kGrazingPointSize * pixels.size()) {
+      points.resize(kGrazingPointSize * pixels.size());  // never shrinks
+    }
     for (std::size_t k = 0; k < pixels.size(); ++k) {
       const std::int32_t i = pixels[k];
       const double x = f_.x[i], y = f_.y[i], z = f_.z[i];
-      double* const p = points.data() + 5 * k;
+      double* const p = points.data() + kGrazingPointSize * k;
       p[0] = x;
       p[1] = y;
       p[2] = z;
       p[3] = settings_.noise.sigma(z);
       p[4] = 1.0 / std::sqrt(x * x + y * y + z * z);
-      stats.add(x, y, z);
     }
-    const auto within = [&](const PlaneFit& fit, const double* p, double sigmas) {
-      const double d = fit.normal[0] * p[0] + fit.normal[1] * p[1] + fit.normal[2] * p[2];
-      const double sine = std::max(std::abs(d) * p[4], sin_max_);
-      return std::abs(d + fit.offset) <= sigmas * p[3] * sine;
-    };
-    PlaneFit fit = first_plane(stats, pixels.size(), within);
-    for (const double round : kRounds) {
-      const double sigmas = round * settings_.max_distance_sigmas;
-      if (!fit.ok) return false;
-      PlaneStats inliers;
-      for (std::size_t k = 0; k < pixels.size(); ++k) {
-        const double* const p = points.data() + 5 * k;
-        if (within(fit, p, sigmas)) inliers.add(p[0], p[1], p[2]);
-      }
-      if (2 * inliers.count < settings_.min_region_size) return false;
-      const bool same = inliers.count == stats.count && round == kRounds.back();
-      stats = inliers;
-      fit = stats.fit();
-      if (same) break;
-    }
+    const PlaneFit fit =
+        fit_grazing_plane(points.data(), pixels.size(), settings_, footprint_, false);
     if (!fit.ok) return false;
-    const auto& c = fit.centroid;
-    const double sine = ray_sine(fit, c[0], c[1], c[2]);
-    // Written to reject NaN too (a point at infinite depth).
-    if (!(sine >= sin_min_ && sine <= sin_max_)) return false;
-    if (!(fit.rms <= settings_.noise.sigma(c[2]) * sin_max_)) return false;
-    if (stats.count < settings_.min_region_size &&
-        !wide_enough(stats, settings_.min_region_size, footprint_)) {
-      return false;
-    }
     const auto label = static_cast<std::int32_t>(s_.regions.size());
     PlaneStats kept;
     for (std::size_t k = 0; k < pixels.size(); ++k) {
-      const double* const p = points.data() + 5 * k;
-      if (within(fit, p, settings_.max_distance_sigmas)) {
+      const double* const p = points.data() + kGrazingPointSize * k;
+      if (within_grazing_plane(fit, p, settings_.max_distance_sigmas, sin_max_)) {
         f_.labels[pixels[k]] = label;
         kept.add(p[0], p[1], p[2]);
       }
@@ -238,65 +331,11 @@ class GrazingFinder {
     return true;
   }
 
-  /// The first plane of the robust fit (see kSamples): of the candidates whose angle to the ray
-  /// at their reference point is in [grazing_min_angle, grazing_max_angle], the one with the most
-  /// scored points within the first round's bound. A component that mixes a grazing surface with
-  /// the rims or strips of others (whose least-squares plane is neither) starts from the
-  /// grazing surface; one without any grazing candidate gets a plane that is not ok.
-  template <class Within>
-  PlaneFit first_plane(const PlaneStats& all, std::size_t n, const Within& within) const {
-    const std::span<const double> points(s_.grazing_points);
-    const std::size_t step = std::max<std::size_t>(1, n / kScoredPoints);
-    const double sigmas = kRounds[0] * settings_.max_distance_sigmas;
-    PlaneFit best;
-    std::size_t best_count = 0;
-    const auto consider = [&](const PlaneFit& fit, const double* ref) {
-      const double sine = ray_sine(fit, ref[0], ref[1], ref[2]);
-      if (!(sine >= sin_min_ && sine <= sin_max_)) return;
-      std::size_t count = 0;
-      for (std::size_t k = 0; k < n; k += step) count += within(fit, &points[5 * k], sigmas);
-      if (count > best_count) best = fit, best_count = count;
-    };
-    const PlaneFit least_squares = all.fit();
-    if (least_squares.ok) consider(least_squares, least_squares.centroid.data());
-    // A fixed xorshift sequence per component: the result depends only on the input.
-    std::uint32_t state = 0x9e3779b9u ^ static_cast<std::uint32_t>(n);
-    const auto next = [&](std::size_t below) {
-      state ^= state << 13, state ^= state >> 17, state ^= state << 5;
-      return static_cast<std::size_t>(state % below);
-    };
-    const std::size_t reach = std::min(n - 1, kSampleReach);
-    for (int t = 0; t < kSamples && n >= 3; ++t) {
-      std::size_t i0 = 0, i1 = 0, i2 = 0;
-      if (t % 2 == 0) {  // close together
-        i0 = next(n - reach), i1 = i0 + 1 + next(reach), i2 = i0 + 1 + next(reach);
-      } else {  // anywhere
-        i0 = next(n), i1 = next(n), i2 = next(n);
-      }
-      if (i0 == i1 || i0 == i2 || i1 == i2) continue;
-      const double* a = &points[5 * i0];
-      const double* b = &points[5 * i1];
-      const double* c = &points[5 * i2];
-      const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-      const double v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-      PlaneFit fit;
-      fit.normal = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
-                    u[0] * v[1] - u[1] * v[0]};
-      const double length = std::hypot(fit.normal[0], fit.normal[1], fit.normal[2]);
-      if (!(length > 0)) continue;
-      for (double& e : fit.normal) e /= length;
-      fit.offset = -(fit.normal[0] * a[0] + fit.normal[1] * a[1] + fit.normal[2] * a[2]);
-      fit.ok = true;
-      consider(fit, a);
-    }
-    return best;
-  }
-
   const Frame& f_;
   const SegmentationSettings& settings_;
   Segmenter::Scratch& s_;
   double footprint_;
-  double sin_min_, sin_max_, inv_tan_min_;
+  double sin_max_, inv_tan_min_;
 };
 
 }  // namespace

@@ -494,6 +494,26 @@ void split_unexplained_planes(const Frame& frame, const SegmentationSettings& se
 void find_grazing_planes(const Frame& frame, const SegmentationSettings& settings,
                          Segmenter::Scratch& scratch, double footprint);
 
+/// A point of a grazing-plane fit: x, y, z [m], sigma along its ray [m], 1 / |p| [1/m].
+inline constexpr std::size_t kGrazingPointSize = 5;
+
+/// The robust plane fit of find_grazing_planes over `n` points (kGrazingPointSize doubles
+/// each): from the grazing plane with most support among the least-squares plane and sampled
+/// triples, refitted to its inliers over shrinking bounds. Returns the plane when it is
+/// grazing_min_angle..grazing_max_angle off the viewing ray at its centroid, with an RMS
+/// residual of at most sigma sin(grazing_max_angle) and min_region_size inliers (or half as many
+/// and wide_enough with `footprint`); otherwise a fit that is not ok. `by_range`: sigma and the
+/// footprints at the centroid's range, not its z (rings).
+detail::PlaneFit fit_grazing_plane(const double* points, std::size_t n,
+                                   const SegmentationSettings& settings, double footprint,
+                                   bool by_range);
+
+/// Whether point `p` of a grazing-plane fit lies within `sigmas` of its noise perpendicular to
+/// the plane `fit`: sigma along the ray times the sine of the ray's angle to the plane, floored
+/// at `sin_max` = sin(grazing_max_angle).
+bool within_grazing_plane(const detail::PlaneFit& fit, const double* p, double sigmas,
+                          double sin_max);
+
 /// Throws std::invalid_argument, naming `caller`, the label and its row, unless every label of
 /// `segmentation.labels` is 0 or names one of its segments (1..segments.size()).
 void require_labels_name_segments(const Segmentation& segmentation, const char* caller);

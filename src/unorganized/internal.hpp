@@ -57,6 +57,9 @@ struct RingTreeDeleter {
   void operator()(RingTree* tree) const;
 };
 
+/// A candidate of the grazing-plane search (grazing.cpp): not yet in a component, or in one.
+enum class GrazingState : std::uint8_t { free, visited };
+
 /// A point of a plane segment that lies closer to an adjacent segment's plane (refine_borders).
 struct BorderMove {
   std::int32_t point = 0, target = 0;
@@ -117,6 +120,17 @@ struct RingBuffers::Impl {
   std::vector<unorganized::BorderMove> border_moves;
   std::vector<std::int32_t> moved;
   std::vector<std::uint8_t> refit;
+  // segment, grazing planes: per raw label whether the search found it; the unlabelled points
+  // (candidates), their directions, ranges and links, the tree over the directions, the search's
+  // state, starts, component and packed points.
+  std::vector<std::uint8_t> grazing;
+  std::vector<std::int32_t> grazing_candidates, grazing_link_first, grazing_links, grazing_cursor,
+      grazing_starts, grazing_component;
+  std::vector<float> grazing_directions;
+  std::vector<double> grazing_range, grazing_points;
+  std::vector<std::uint64_t> grazing_pairs;
+  std::unique_ptr<unorganized::RingTree, unorganized::RingTreeDeleter> grazing_tree;
+  std::vector<unorganized::GrazingState> grazing_state;
 };
 
 }  // namespace rangeseg

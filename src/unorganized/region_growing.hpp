@@ -142,6 +142,14 @@ void collect_seeds(const PointRings& rings, const Points& pts, const Segmentatio
                    bool planes, const std::vector<std::int32_t>& labels,
                    std::vector<std::int32_t>& seeds);
 
+/// The grid's search for planes seen at grazing incidence (seg::find_grazing_planes) among the
+/// points no segment took, over their nearest neighbours by viewing direction (`footprint`: the
+/// rings' angular point spacing, ring_footprint): each plane found becomes a raw label appended
+/// to `stats`, flagged in b.grazing (sized to `stats`).
+void find_grazing_planes(const PointRings& rings, const Points& pts, const SegmentationSettings& s,
+                         double footprint, std::vector<std::int32_t>& labels,
+                         std::vector<detail::PlaneStats>& stats, RingBuffers::Impl& b);
+
 /// A frame of the grid's segmentation passes over the rings (seg::Frame::ring_neighbours): one
 /// row of the points and the given packed normals, copied to planes in `planar`, and `labels`
 /// (one per point).

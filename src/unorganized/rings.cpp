@@ -1,5 +1,4 @@
 // k-nearest-neighbour rings (the stand-in for the mesh 1-ring of an unorganized cloud).
-#include <nanoflann.hpp>
 
 #include <Eigen/Eigenvalues>
 
@@ -16,6 +15,7 @@
 
 #include "rangeseg/unorganized.hpp"
 #include "unorganized/internal.hpp"
+#include "unorganized/kd_tree.hpp"
 
 namespace rangeseg {
 namespace unorganized {
@@ -77,32 +77,6 @@ void require_rings_match(const OrganizedCloud& cloud, const PointRings& rings,
 }
 
 }  // namespace unorganized
-
-namespace {
-
-/// nanoflann's dataset interface over the packed valid points.
-struct PackedCloud {
-  const float* xyz = nullptr;
-  std::size_t n = 0;
-  std::size_t kdtree_get_point_count() const { return n; }
-  float kdtree_get_pt(std::size_t i, std::size_t dim) const { return xyz[3 * i + dim]; }
-  template <class Box>
-  bool kdtree_get_bbox(Box& /*box*/) const {
-    return false;
-  }
-};
-using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, PackedCloud>,
-                                                 PackedCloud, 3, std::uint32_t>;
-
-}  // namespace
-
-/// The tree refers to `data` (by reference), so the two live together.
-struct unorganized::RingTree {
-  PackedCloud data;
-  Tree tree{3, data,
-            nanoflann::KDTreeSingleIndexAdaptorParams(
-                16, nanoflann::KDTreeSingleIndexAdaptorFlags::SkipInitialBuildIndex)};
-};
 
 void unorganized::RingTreeDeleter::operator()(RingTree* tree) const { delete tree; }
 
@@ -284,9 +258,9 @@ void build(const OrganizedCloud& cloud, const RingSettings& settings, PointRings
   }
   const float* const space = settings.by_direction ? directions.data() : valid_xyz.data();
   if (!b.tree) b.tree.reset(new unorganized::RingTree);
-  b.tree->data = PackedCloud{space, original.size()};
+  b.tree->data = unorganized::PackedCloud{space, original.size()};
   b.tree->tree.buildIndex();
-  const Tree& tree = b.tree->tree;
+  const unorganized::Tree& tree = b.tree->tree;
   const float cos_theta = std::cos(settings.eps_theta);
   const EdgeTest test{
       .max_distance2 = settings.max_distance * settings.max_distance,

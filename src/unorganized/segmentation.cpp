@@ -170,6 +170,7 @@ void merge_planes(const PointRings& rings, const SegmentationSettings& s,
   pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
   std::vector<std::int32_t>& parent = buffers.parent;
   parent.resize(stats.size());
+  buffers.grazing.resize(stats.size(), 0);
   std::iota(parent.begin(), parent.end(), 0);
   const auto find = [&](std::int32_t x) {
     while (parent[static_cast<std::size_t>(x)] != x) {
@@ -196,6 +197,8 @@ void merge_planes(const PointRings& rings, const SegmentationSettings& s,
       }
       const std::int32_t keep = std::min(a, b), gone = std::max(a, b);
       parent[static_cast<std::size_t>(gone)] = keep;
+      buffers.grazing[static_cast<std::size_t>(keep)] |=
+          buffers.grazing[static_cast<std::size_t>(gone)];
       stats[static_cast<std::size_t>(keep)] = merged;
       stats[static_cast<std::size_t>(gone)].clear();
       changed = true;
@@ -245,7 +248,8 @@ void split_planes(const PointRings& rings, const Points& pts, const Segmentation
   scratch.parent.resize(n);
   std::iota(scratch.parent.begin(), scratch.parent.end(), 0);
   scratch.remap.assign(n, 0);
-  scratch.grazing_region.assign(n, 0);
+  scratch.grazing_region.assign(b.grazing.begin(), b.grazing.end());
+  scratch.grazing_region.resize(n, 0);
   std::vector<double>& references = b.references;
   references.assign(n, 0.0);
   for (std::size_t r = 1; r < n; ++r) {
@@ -258,6 +262,7 @@ void split_planes(const PointRings& rings, const Points& pts, const Segmentation
   const seg::Frame f = ring_frame(rings, pts, pts.n, labels.data(), b.planar);
   seg::split_unexplained_planes(f, s, scratch, references);
   stats = scratch.regions;
+  b.grazing.assign(scratch.grazing_region.begin(), scratch.grazing_region.end());
 }
 
 /// Rounds of `reassign`: a hole that growth left in a noisy far surface fills from its border
@@ -330,15 +335,19 @@ void refine_borders(const PointRings& rings, const Points& pts, const Segmentati
   std::vector<BorderMove>& moves = b.border_moves;
   std::vector<std::int32_t>& moved = b.moved;
   b.refit.assign(stats.size(), 0);
+  b.grazing.resize(stats.size(), 0);
+  // As on the grid, not across the border of a plane found seen at grazing incidence: the
+  // distances there are along its noisy rays.
+  const auto grazing = [&](std::int32_t l) { return b.grazing[static_cast<std::size_t>(l)] != 0; };
   const auto consider = [&](std::size_t i) {
     const std::int32_t from = labels[i];
-    if (from <= 0 || !fits[static_cast<std::size_t>(from)].ok) return;
+    if (from <= 0 || !fits[static_cast<std::size_t>(from)].ok || grazing(from)) return;
     const float* p = pts.point(i);
     const double sigma = pts.sigma[i];
     const double own = std::fabs(fits[static_cast<std::size_t>(from)].distance(p[0], p[1], p[2]));
     for (const std::int32_t j : rings.ring(i)) {
       const std::int32_t to = labels[static_cast<std::size_t>(j)];
-      if (to <= 0 || to == from || !fits[static_cast<std::size_t>(to)].ok) continue;
+      if (to <= 0 || to == from || !fits[static_cast<std::size_t>(to)].ok || grazing(to)) continue;
       const double other = std::fabs(fits[static_cast<std::size_t>(to)].distance(p[0], p[1], p[2]));
       if (own - other > s.boundary_refine_sigmas * sigma &&
           other <= s.max_distance_sigmas * sigma) {
@@ -389,6 +398,7 @@ namespace rangeseg {
 using unorganized::at;
 using unorganized::collect_seeds;
 using unorganized::drop_small;
+using unorganized::find_grazing_planes;
 using unorganized::fit_ring_primitives;
 using unorganized::grow;
 using unorganized::grow_leftovers;
@@ -426,6 +436,7 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
   const std::size_t count = cloud.size();
   std::vector<std::int32_t>& labels = b.labels;
   labels.assign(count, 0);
+  b.grazing.clear();
   std::vector<std::int32_t>& seeds = b.seeds;
   collect_seeds(rings, pts, settings, planes, labels, seeds);
   std::int32_t raw = 0;
@@ -465,6 +476,11 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
       label_stats(pts, labels, raw, stats);
     };
     reassign_and_count();
+    // As on the grid, planes seen at grazing incidence among the points still unlabelled.
+    find_grazing_planes(rings, pts, settings,
+                        footprint > 0 ? footprint : ring_footprint(rings, pts, b.noise_samples),
+                        labels, stats, b);
+    raw = static_cast<std::int32_t>(stats.size()) - 1;
     if (settings.merge_planes) {
       merge_planes(rings, settings, labels, stats, b);
       split_planes(rings, pts, settings, labels, stats, b);
@@ -524,6 +540,8 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
     sgm.model = automatic ? RegionModel::plane : settings.model;
     sgm.kind = planes ? SurfaceKind::plane : SurfaceKind::smooth;
     sgm.surface_rms = sgm.rms_residual;
+    const auto raw_label = static_cast<std::size_t>(order[j]);
+    sgm.grazing = raw_label < b.grazing.size() && b.grazing[raw_label] != 0;
   }
   if (automatic) fit_ring_primitives(cloud, rings, pts, settings, tentative_from, b, out);
 }
