@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -119,34 +120,21 @@ inline void check_properties(const PolygonSet& ps) {
 inline void expect_identical_polygons(const PolygonSet& a, const PolygonSet& b,
                                       const std::string& what) {
   SCOPED_TRACE(what);
+  const auto segment_fields = [](const SegmentPolygons& x) {
+    return std::tuple(x.label, x.first_loop, x.loop_count, x.hull_first, x.hull_count, x.area,
+                      x.raw_area, x.perimeter, x.hull_area, x.hull_perimeter);
+  };
+  const auto loop_fields = [](const PolygonLoop& x) {
+    return std::tuple(x.segment, x.label, x.is_hole, x.parent, x.first, x.count, x.raw_count,
+                      x.area, x.raw_area, x.perimeter, x.tolerance);
+  };
   ASSERT_EQ(a.segments.size(), b.segments.size());
   for (std::size_t i = 0; i < a.segments.size(); ++i) {
-    const SegmentPolygons &x = a.segments[i], &y = b.segments[i];
-    EXPECT_EQ(x.label, y.label);
-    EXPECT_EQ(x.first_loop, y.first_loop);
-    EXPECT_EQ(x.loop_count, y.loop_count);
-    EXPECT_EQ(x.hull_first, y.hull_first);
-    EXPECT_EQ(x.hull_count, y.hull_count);
-    EXPECT_EQ(x.area, y.area);
-    EXPECT_EQ(x.raw_area, y.raw_area);
-    EXPECT_EQ(x.perimeter, y.perimeter);
-    EXPECT_EQ(x.hull_area, y.hull_area);
-    EXPECT_EQ(x.hull_perimeter, y.hull_perimeter);
+    EXPECT_EQ(segment_fields(a.segments[i]), segment_fields(b.segments[i])) << "segment " << i;
   }
   ASSERT_EQ(a.loops.size(), b.loops.size());
   for (std::size_t i = 0; i < a.loops.size(); ++i) {
-    const PolygonLoop &x = a.loops[i], &y = b.loops[i];
-    EXPECT_EQ(x.segment, y.segment);
-    EXPECT_EQ(x.label, y.label);
-    EXPECT_EQ(x.is_hole, y.is_hole);
-    EXPECT_EQ(x.parent, y.parent);
-    EXPECT_EQ(x.first, y.first);
-    EXPECT_EQ(x.count, y.count);
-    EXPECT_EQ(x.raw_count, y.raw_count);
-    EXPECT_EQ(x.area, y.area);
-    EXPECT_EQ(x.raw_area, y.raw_area);
-    EXPECT_EQ(x.perimeter, y.perimeter);
-    EXPECT_EQ(x.tolerance, y.tolerance);
+    EXPECT_EQ(loop_fields(a.loops[i]), loop_fields(b.loops[i])) << "loop " << i;
   }
   EXPECT_EQ(a.points3d, b.points3d);
   EXPECT_EQ(a.points2d, b.points2d);
