@@ -41,9 +41,16 @@ class GrazingSearch {
 
   void run(const PointRings& rings) {
     std::vector<std::int32_t>& candidates = b_.grazing_candidates;
+    std::vector<double>& range = b_.grazing_range;
     candidates.clear();
+    range.clear();
     for (std::size_t i = 0; i < labels_.size(); ++i) {
-      if (labels_[i] == 0 && rings.count[i] > 0) candidates.push_back(static_cast<std::int32_t>(i));
+      if (labels_[i] != 0 || rings.count[i] == 0) continue;
+      const float* p = pts_.point(i);
+      const double r = std::sqrt(double{p[0]} * p[0] + double{p[1]} * p[1] + double{p[2]} * p[2]);
+      if (!(r > 0)) continue;  // no viewing direction
+      candidates.push_back(static_cast<std::int32_t>(i));
+      range.push_back(r);
     }
     if (2 * static_cast<std::int64_t>(candidates.size()) < s_.min_region_size) return;
     link_candidates();
@@ -55,22 +62,19 @@ class GrazingSearch {
   }
 
  private:
-  /// The directions from the origin of the candidates and their ranges; the undirected links
-  /// between candidates among each one's kLinks nearest by direction (as CSR: link_first,
+  /// The directions from the origin of the candidates (ranges in grazing_range); the undirected
+  /// links between candidates among each one's kLinks nearest by direction (as CSR: link_first,
   /// links) whose ranges differ by no more than a surface at grazing_min_angle to the rays,
   /// plus the noise of both, explains.
   void link_candidates() {
     const std::vector<std::int32_t>& candidates = b_.grazing_candidates;
     const std::size_t m = candidates.size();
+    const std::vector<double>& range = b_.grazing_range;
     std::vector<float>& directions = b_.grazing_directions;
-    std::vector<double>& range = b_.grazing_range;
     directions.resize(3 * m);
-    range.resize(m);
     for (std::size_t c = 0; c < m; ++c) {
       const float* p = pts_.point(static_cast<std::size_t>(candidates[c]));
-      const double r = std::sqrt(double{p[0]} * p[0] + double{p[1]} * p[1] + double{p[2]} * p[2]);
-      range[c] = r;
-      for (int d = 0; d < 3; ++d) directions[3 * c + d] = static_cast<float>(p[d] / r);
+      for (int d = 0; d < 3; ++d) directions[3 * c + d] = static_cast<float>(p[d] / range[c]);
     }
     if (!b_.grazing_tree) b_.grazing_tree.reset(new RingTree);
     b_.grazing_tree->data = PackedCloud{directions.data(), m};
