@@ -172,15 +172,22 @@ void smooth(const OrganizedCloud& cloud, const PointRings& rings, const NormalMa
 /// one plane explains split_residual_factor times worse than their own rings (the RMS distance
 /// of ring neighbours from each point's tangent plane) are split as on the grid, and unlabelled
 /// points next to a plane join the closest one within max_distance_sigmas sigma(r) and
-/// reassign_max_normal_angle (widened like the growth's angle). Smooth segments below
+/// reassign_max_normal_angle (widened like the growth's angle); before merging, the points
+/// left are searched for planes seen at grazing incidence as on the grid (grazing_min_angle,
+/// grazing_max_angle; each point's neighbours there are its nearest unlabelled points by
+/// viewing direction, as the rings' veil test cuts such a surface into scan lines), and the
+/// borders between plane segments are refined as on the grid. Smooth segments below
 /// min_region_size are dropped. automatic: the plane model's segments, then, as on the grid,
 /// the points left are grown as smooth regions and tentative patches, adjacent segments that
 /// one sphere or cylinder explains are joined and every segment is labelled with its surface
 /// kind and parameters (Segment::kind, centre, axis, radius, extent); the ring is the
 /// neighbourhood, sigma is sigma(r), and the normals compared with the models' are averaged
 /// over the ring twice first (ring normals of depth-camera data scatter more than the grid's).
-/// Segment::area_m2 is the sum of `point_area`. The grid-only settings (cells, bands, seed
-/// clearance, refinement, grazing planes) are not used. `out.labels` has the
+/// Segment::area_m2 is the sum of `point_area`, or on a plane found seen at grazing incidence
+/// (Segment::grazing; its points' rings are lines) of (h r)^2 / sin(angle between the ray and
+/// the plane) per point, h being the scan's angular spacing (the median angle between a point
+/// and its nearest ring neighbour). The grid-only settings (cells, bands, seed clearance) are
+/// not used. `out.labels` has the
 /// cloud's size. Throws std::invalid_argument for RegionModel::incremental_plane, invalid
 /// settings or size mismatches.
 void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalMap& normals,

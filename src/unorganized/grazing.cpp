@@ -2,6 +2,7 @@
 // search (segmentation/grazing.cpp) with neighbours by viewing direction among the unlabelled
 // points instead of lattice neighbours. On such a surface the rings' veil test cuts the edges
 // between consecutive scan lines (they lie nearly along the ray), so growth leaves it in strips.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -217,8 +218,18 @@ void find_grazing_planes(const PointRings& rings, const Points& pts, const Segme
                          double footprint, std::vector<std::int32_t>& labels,
                          std::vector<detail::PlaneStats>& stats, RingBuffers::Impl& b) {
   b.grazing.assign(stats.size(), 0);
+  b.grazing_spacing = footprint;
   if (!(s.grazing_min_angle > 0) || !(footprint > 0)) return;
   GrazingSearch(pts, s, footprint, labels, stats, b).run(rings);
+}
+
+double sample_area(const OrganizedCloud& cloud, const PointRings& rings, std::size_t i,
+                   const Segment& s, double spacing) {
+  if (!s.grazing || !(spacing > 0)) return point_area(cloud, rings, i);
+  const double x = at(cloud.x, i), y = at(cloud.y, i), z = at(cloud.z, i);
+  const double r2 = x * x + y * y + z * z;
+  const double sine = std::abs(s.normal[0] * x + s.normal[1] * y + s.normal[2] * z) / std::sqrt(r2);
+  return spacing * spacing * r2 / std::max(sine, std::sin(2.0 * std::numbers::pi / 180.0));
 }
 
 }  // namespace rangeseg::unorganized

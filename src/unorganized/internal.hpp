@@ -124,6 +124,7 @@ struct RingBuffers::Impl {
   // (candidates), their directions, ranges and links, the tree over the directions, the search's
   // state, starts, component and packed points.
   std::vector<std::uint8_t> grazing;
+  double grazing_spacing = 0;  // the scan's angular spacing the search used [rad]
   std::vector<std::int32_t> grazing_candidates, grazing_link_first, grazing_links, grazing_cursor,
       grazing_starts, grazing_component;
   std::vector<float> grazing_directions;

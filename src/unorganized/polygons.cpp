@@ -103,6 +103,79 @@ void footprints(const std::vector<float>& xyz, const PointRings& rings,
   for (double& h : f.half) h = std::isfinite(h) ? std::min(h, cap) : fallback;
 }
 
+/// The footprints of the points of a plane seen at grazing incidence (Segment::grazing), where
+/// the rings hold only each point's neighbours along its scan line (the veil test cut the
+/// others), so the ring's covariance is degenerate: the patch of the plane that one sample of
+/// the scan covers, an ellipse of semi-axes 0.6 h r / s along the ray's trace on the plane and
+/// 0.6 h r across it (as `footprints` on a square grid), with r the range, s the sine of the
+/// ray's angle to the plane (at least sin 2 deg) and h the angular spacing of the scan: the
+/// median over the segment of the angle to the nearest ring neighbour in it.
+void grazing_footprints(const std::vector<float>& xyz, const PointRings& rings,
+                        const std::vector<std::int32_t>& points,
+                        const std::vector<std::int32_t>& local, const Projection& pr,
+                        Footprints& f) {
+  const std::size_t m = points.size();
+  f.xy.resize(2 * m);
+  f.half.resize(2 * m);
+  f.spread.clear();
+  const Vec& vp = pr.vp;
+  const Vec& n = pr.fr.normal;
+  const auto ray = [&](std::size_t a, double& r) {
+    const float* p = &xyz[3 * static_cast<std::size_t>(points[a])];
+    Vec d{p[0] - vp[0], p[1] - vp[1], p[2] - vp[2]};
+    r = std::sqrt(polygons_detail::dot(d, d));
+    for (double& c : d) c /= r;
+    return d;
+  };
+  for (std::size_t a = 0; a < m; ++a) {
+    const float* p = &xyz[3 * static_cast<std::size_t>(points[a])];
+    polygons_detail::project_point(pr, Vec{p[0], p[1], p[2]}, &f.xy[2 * a]);
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const std::int32_t j : rings.ring(static_cast<std::size_t>(points[a]))) {
+      if (local[static_cast<std::size_t>(j)] < 0) continue;
+      const float* q = &xyz[3 * static_cast<std::size_t>(j)];
+      nearest = std::min(nearest, double{unorganized::squared_distance(p, q)});
+    }
+    double r = 0;
+    ray(a, r);
+    if (std::isfinite(nearest) && r > 0) f.spread.push_back(std::sqrt(nearest) / r);
+  }
+  double spacing = 0;
+  if (!f.spread.empty()) {
+    auto mid = f.spread.begin() + static_cast<std::ptrdiff_t>(f.spread.size() / 2);
+    std::nth_element(f.spread.begin(), mid, f.spread.end());
+    spacing = *mid;
+  }
+  const double min_sine = std::sin(2.0 * std::numbers::pi / 180.0);
+  f.spread.clear();
+  for (std::size_t a = 0; a < m; ++a) {
+    double r = 0;
+    const Vec d = ray(a, r);
+    const double along = polygons_detail::dot(n, d);
+    Vec u{d[0] - along * n[0], d[1] - along * n[1], d[2] - along * n[2]};  // the ray's trace
+    const double length = std::sqrt(polygons_detail::dot(u, u));
+    if (!(r > 0) || !(length > 0)) {
+      f.half[2 * a] = f.half[2 * a + 1] = 0;
+      continue;
+    }
+    for (double& c : u) c /= length;
+    const Vec w{n[1] * u[2] - n[2] * u[1], n[2] * u[0] - n[0] * u[2], n[0] * u[1] - n[1] * u[0]};
+    const double across = 0.5 * spacing * r;
+    const double lengthwise = across / std::max(std::abs(along), min_sine);
+    const double u1 = polygons_detail::dot(u, pr.fr.e1), u2 = polygons_detail::dot(u, pr.fr.e2);
+    const double w1 = polygons_detail::dot(w, pr.fr.e1), w2 = polygons_detail::dot(w, pr.fr.e2);
+    f.half[2 * a] = std::hypot(lengthwise * u1, across * w1);
+    f.half[2 * a + 1] = std::hypot(lengthwise * u2, across * w2);
+    f.spread.push_back(std::sqrt(std::numbers::pi * lengthwise * across));
+  }
+  f.median_side = 0;
+  if (!f.spread.empty()) {
+    auto mid = f.spread.begin() + static_cast<std::ptrdiff_t>(f.spread.size() / 2);
+    std::nth_element(f.spread.begin(), mid, f.spread.end());
+    f.median_side = *mid;
+  }
+}
+
 /// Morphological closing of the cols x rows raster with a (2r + 1)^2 square: a dilation, then
 /// an erosion, each as a sliding-window count along the rows and then the columns. Cells within
 /// r of the raster's edge must be empty.
@@ -453,7 +526,11 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const PointRings& ri
     for (std::size_t a = 0; a < sc.members.size(); ++a) {
       sc.local[static_cast<std::size_t>(sc.members[a])] = static_cast<std::int32_t>(a);
     }
-    footprints(sc.xyz, rings, sc.members, sc.local, pr, sc.f);
+    if (seg->grazing) {
+      grazing_footprints(sc.xyz, rings, sc.members, sc.local, pr, sc.f);
+    } else {
+      footprints(sc.xyz, rings, sc.members, sc.local, pr, sc.f);
+    }
     for (const std::int32_t i : sc.members) sc.local[static_cast<std::size_t>(i)] = -1;
     const double side = sc.f.median_side;
     const double tolerance =

@@ -151,7 +151,8 @@ void fit_ring_primitives(const OrganizedCloud& cloud, const PointRings& rings, c
     const std::int32_t l = labels[i];
     at(out.labels, i) = l;
     if (l > 0 && settings.compute_area) {
-      out.segments[static_cast<std::size_t>(l - 1)].area_m2 += point_area(cloud, rings, i);
+      Segment& sgm = out.segments[static_cast<std::size_t>(l - 1)];
+      sgm.area_m2 += sample_area(cloud, rings, i, sgm, b.grazing_spacing);
     }
   }
 }

@@ -150,6 +150,13 @@ void find_grazing_planes(const PointRings& rings, const Points& pts, const Segme
                          double footprint, std::vector<std::int32_t>& labels,
                          std::vector<detail::PlaneStats>& stats, RingBuffers::Impl& b);
 
+/// The area of segment `s` that point i stands for [m^2]: point_area, or on a plane found seen
+/// at grazing incidence (Segment::grazing), whose rings hold only each point's scan line,
+/// (h r)^2 / sin(angle between the ray and the plane), with h = `spacing` the scan's angular
+/// spacing [rad] and r the range (the angle at least 2 deg).
+double sample_area(const OrganizedCloud& cloud, const PointRings& rings, std::size_t i,
+                   const Segment& s, double spacing);
+
 /// A frame of the grid's segmentation passes over the rings (seg::Frame::ring_neighbours): one
 /// row of the points and the given packed normals, copied to planes in `planar`, and `labels`
 /// (one per point).

@@ -409,6 +409,7 @@ using unorganized::Points;
 using unorganized::reassign;
 using unorganized::refine_borders;
 using unorganized::ring_footprint;
+using unorganized::sample_area;
 using unorganized::SmoothRegion;
 using unorganized::split_planes;
 
@@ -527,11 +528,7 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
   out.labels.resize(cloud.width(), cloud.height(), 0);
   out.segments.assign(order.size(), Segment{});
   for (std::size_t i = 0; i < count; ++i) {
-    const std::int32_t l = labels[i] > 0 ? final_label[static_cast<std::size_t>(labels[i])] : 0;
-    at(out.labels, i) = l;
-    if (l > 0 && settings.compute_area) {
-      out.segments[static_cast<std::size_t>(l - 1)].area_m2 += point_area(cloud, rings, i);
-    }
+    at(out.labels, i) = labels[i] > 0 ? final_label[static_cast<std::size_t>(labels[i])] : 0;
   }
   for (std::size_t j = 0; j < order.size(); ++j) {
     Segment& sgm = out.segments[j];
@@ -542,6 +539,14 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
     sgm.surface_rms = sgm.rms_residual;
     const auto raw_label = static_cast<std::size_t>(order[j]);
     sgm.grazing = raw_label < b.grazing.size() && b.grazing[raw_label] != 0;
+  }
+  if (settings.compute_area) {
+    for (std::size_t i = 0; i < count; ++i) {
+      const std::int32_t l = at(out.labels, i);
+      if (l <= 0) continue;
+      Segment& sgm = out.segments[static_cast<std::size_t>(l - 1)];
+      sgm.area_m2 += sample_area(cloud, rings, i, sgm, b.grazing_spacing);
+    }
   }
   if (automatic) fit_ring_primitives(cloud, rings, pts, settings, tentative_from, b, out);
 }
