@@ -229,7 +229,7 @@ double sample_area(const OrganizedCloud& cloud, const PointRings& rings, std::si
   const double x = at(cloud.x, i), y = at(cloud.y, i), z = at(cloud.z, i);
   const double r2 = x * x + y * y + z * z;
   const double sine = std::abs(s.normal[0] * x + s.normal[1] * y + s.normal[2] * z) / std::sqrt(r2);
-  return spacing * spacing * r2 / std::max(sine, std::sin(2.0 * std::numbers::pi / 180.0));
+  return spacing * spacing * r2 / std::max(sine, kMinGrazingSine);
 }
 
 }  // namespace rangeseg::unorganized

@@ -57,6 +57,11 @@ struct RingTreeDeleter {
   void operator()(RingTree* tree) const;
 };
 
+/// sin(2 deg), the floor of the sine of a ray's angle to a plane seen at grazing incidence in
+/// the patch a sample covers (sample_area, the grazing footprints of the polygons): the search
+/// takes no plane closer to the rays (SegmentationSettings::grazing_min_angle, 2 deg).
+inline constexpr double kMinGrazingSine = 0.03489949670250097;
+
 /// A candidate of the grazing-plane search (grazing.cpp): not yet in a component, or in one.
 enum class GrazingState : std::uint8_t { free, visited };
 

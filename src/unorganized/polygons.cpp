@@ -28,6 +28,14 @@ using unorganized::at;
 constexpr double kMaxCells = 1 << 21;
 constexpr double kMaxSide = 1 << 16;
 
+/// The upper median of `values` (reordered; 0 when empty).
+double median_of(std::vector<double>& values) {
+  if (values.empty()) return 0;
+  const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  return *mid;
+}
+
 /// A segment's points on its plane: coordinates, and the half-widths in x and y of each point's
 /// footprint.
 struct Footprints {
@@ -91,12 +99,7 @@ void footprints(const std::vector<float>& xyz, const PointRings& rings,
     const double det = std::max(0.0, sxx * syy - sxy * sxy);
     f.spread.push_back(std::sqrt(std::numbers::pi * c2 * std::sqrt(det)));
   }
-  f.median_side = 0;
-  if (!f.spread.empty()) {
-    auto mid = f.spread.begin() + static_cast<std::ptrdiff_t>(f.spread.size() / 2);
-    std::nth_element(f.spread.begin(), mid, f.spread.end());
-    f.median_side = *mid;
-  }
+  f.median_side = median_of(f.spread);
   // A point with fewer than two ring neighbours in its segment, or one whose ring reaches far (an
   // outlier), gets a footprint of the segment's typical size instead.
   const double fallback = 0.5 * f.median_side, cap = 4 * f.median_side;
@@ -106,10 +109,11 @@ void footprints(const std::vector<float>& xyz, const PointRings& rings,
 /// The footprints of the points of a plane seen at grazing incidence (Segment::grazing), where
 /// the rings hold only each point's neighbours along its scan line (the veil test cut the
 /// others), so the ring's covariance is degenerate: the patch of the plane that one sample of
-/// the scan covers, an ellipse of semi-axes 0.6 h r / s along the ray's trace on the plane and
-/// 0.6 h r across it (as `footprints` on a square grid), with r the range, s the sine of the
-/// ray's angle to the plane (at least sin 2 deg) and h the angular spacing of the scan: the
-/// median over the segment of the angle to the nearest ring neighbour in it.
+/// the scan covers, half-widths h r / (2 s) along the ray's trace on the plane and h r / 2
+/// across it (the patches of neighbouring samples meet; the raster's closing bridges what
+/// rounding leaves between them), with r the range, s the sine of the ray's angle to the plane
+/// (at least kMinGrazingSine) and h the angular spacing of the scan: the median over the
+/// segment of the angle to the nearest ring neighbour in it.
 void grazing_footprints(const std::vector<float>& xyz, const PointRings& rings,
                         const std::vector<std::int32_t>& points,
                         const std::vector<std::int32_t>& local, const Projection& pr,
@@ -120,13 +124,6 @@ void grazing_footprints(const std::vector<float>& xyz, const PointRings& rings,
   f.spread.clear();
   const Vec& vp = pr.vp;
   const Vec& n = pr.fr.normal;
-  const auto ray = [&](std::size_t a, double& r) {
-    const float* p = &xyz[3 * static_cast<std::size_t>(points[a])];
-    Vec d{p[0] - vp[0], p[1] - vp[1], p[2] - vp[2]};
-    r = std::sqrt(polygons_detail::dot(d, d));
-    for (double& c : d) c /= r;
-    return d;
-  };
   for (std::size_t a = 0; a < m; ++a) {
     const float* p = &xyz[3 * static_cast<std::size_t>(points[a])];
     polygons_detail::project_point(pr, Vec{p[0], p[1], p[2]}, &f.xy[2 * a]);
@@ -136,21 +133,17 @@ void grazing_footprints(const std::vector<float>& xyz, const PointRings& rings,
       const float* q = &xyz[3 * static_cast<std::size_t>(j)];
       nearest = std::min(nearest, double{unorganized::squared_distance(p, q)});
     }
-    double r = 0;
-    ray(a, r);
+    const Vec rel{p[0] - vp[0], p[1] - vp[1], p[2] - vp[2]};
+    const double r = std::sqrt(polygons_detail::dot(rel, rel));
     if (std::isfinite(nearest) && r > 0) f.spread.push_back(std::sqrt(nearest) / r);
   }
-  double spacing = 0;
-  if (!f.spread.empty()) {
-    auto mid = f.spread.begin() + static_cast<std::ptrdiff_t>(f.spread.size() / 2);
-    std::nth_element(f.spread.begin(), mid, f.spread.end());
-    spacing = *mid;
-  }
-  const double min_sine = std::sin(2.0 * std::numbers::pi / 180.0);
+  const double spacing = median_of(f.spread);
   f.spread.clear();
   for (std::size_t a = 0; a < m; ++a) {
-    double r = 0;
-    const Vec d = ray(a, r);
+    const float* p = &xyz[3 * static_cast<std::size_t>(points[a])];
+    Vec d{p[0] - vp[0], p[1] - vp[1], p[2] - vp[2]};  // the ray, unit below
+    const double r = std::sqrt(polygons_detail::dot(d, d));
+    for (double& c : d) c /= r;
     const double along = polygons_detail::dot(n, d);
     Vec u{d[0] - along * n[0], d[1] - along * n[1], d[2] - along * n[2]};  // the ray's trace
     const double length = std::sqrt(polygons_detail::dot(u, u));
@@ -161,19 +154,14 @@ void grazing_footprints(const std::vector<float>& xyz, const PointRings& rings,
     for (double& c : u) c /= length;
     const Vec w{n[1] * u[2] - n[2] * u[1], n[2] * u[0] - n[0] * u[2], n[0] * u[1] - n[1] * u[0]};
     const double across = 0.5 * spacing * r;
-    const double lengthwise = across / std::max(std::abs(along), min_sine);
+    const double lengthwise = across / std::max(std::abs(along), unorganized::kMinGrazingSine);
     const double u1 = polygons_detail::dot(u, pr.fr.e1), u2 = polygons_detail::dot(u, pr.fr.e2);
     const double w1 = polygons_detail::dot(w, pr.fr.e1), w2 = polygons_detail::dot(w, pr.fr.e2);
     f.half[2 * a] = std::hypot(lengthwise * u1, across * w1);
     f.half[2 * a + 1] = std::hypot(lengthwise * u2, across * w2);
     f.spread.push_back(std::sqrt(std::numbers::pi * lengthwise * across));
   }
-  f.median_side = 0;
-  if (!f.spread.empty()) {
-    auto mid = f.spread.begin() + static_cast<std::ptrdiff_t>(f.spread.size() / 2);
-    std::nth_element(f.spread.begin(), mid, f.spread.end());
-    f.median_side = *mid;
-  }
+  f.median_side = median_of(f.spread);
 }
 
 /// Morphological closing of the cols x rows raster with a (2r + 1)^2 square: a dilation, then
@@ -291,9 +279,7 @@ struct PolygonExtractor::RingScratch {
     // each axis. (Where the points are denser, several share a cell; the outline's detail there
     // is below the simplification tolerance, 1.5 median footprints.) At most kMaxCells cells,
     // and at most kMaxSide along either axis (a long, thin segment).
-    auto mid = f.spread.begin() + static_cast<std::ptrdiff_t>(f.spread.size() / 2);
-    std::nth_element(f.spread.begin(), mid, f.spread.end());
-    double h = 1.5 * *mid;
+    double h = 1.5 * median_of(f.spread);
     h = std::max({h, std::sqrt((maxx - minx) * (maxy - miny) / kMaxCells), (maxx - minx) / kMaxSide,
                   (maxy - miny) / kMaxSide});
     if (!(h > 0)) return false;
