@@ -83,6 +83,10 @@ struct PointRings {
   /// first, the rest of its slots -1.
   std::vector<std::int32_t> neighbours;
   std::vector<std::uint8_t> count;  ///< per point: ring size, 0 for an invalid point
+  /// The rings are nearest by viewing direction from `viewpoint` (RingSettings::by_direction;
+  /// build_rings sets both): `compute_normals` then orders each ring about the viewing ray.
+  bool by_direction = false;
+  std::array<float, 3> viewpoint{0.0f, 0.0f, 0.0f};  ///< sensor origin of the directions [m]
 
   std::size_t size() const { return count.size(); }
   std::span<const std::int32_t> ring(std::size_t i) const {
@@ -107,12 +111,16 @@ inline PointRings build_rings(const OrganizedCloud& cloud, const RingSettings& s
   return out;
 }
 
-/// Stage 2 over the rings. The ring of p_i, ordered by angle about the least-squares (PCA)
-/// normal of p_i and its ring, is a fan of triangles (p_i, q_j, q_j+1); a gap wider than 120
-/// degrees between consecutive neighbours is a border and gets no triangle. The normal is the
-/// normalised sum of the fan's unnormalised (area-weighted) face normals (paper, eq. 2), facing
-/// `settings.viewpoint`; the curvature [1/m] is NormalMap's, 2 |(c - p) . n| / r^2 over the
-/// ring. NaN for a point without a triangle. `out` gets the cloud's width and height.
+/// Stage 2 over the rings. The ring of p_i, ordered by angle about an axis, is a fan of
+/// triangles (p_i, q_j, q_j+1); a gap wider than 120 degrees between consecutive neighbours is a
+/// border and gets no triangle. The axis is the viewing ray through p_i for rings by direction
+/// (`rings.by_direction`): the neighbours then go round p_i as the pixels of a range image go
+/// round a pixel, and the fan is the mesh's 1-ring. Otherwise it is the least-squares (PCA)
+/// normal of p_i and its ring. The normal is the normalised sum of the fan's unnormalised
+/// (area-weighted) face normals (paper, eq. 2), facing `settings.viewpoint`; the curvature
+/// [1/m] is NormalMap's, 2 |(c - p) . n| / r^2 over the ring. NaN for a point without a
+/// triangle, or whose fan spans no plane (its ring lies along a line: the fan's area is below
+/// 1e-3 of the ring's mean squared edge length). `out` gets the cloud's width and height.
 /// Throws std::invalid_argument when the rings were built for a cloud of another size.
 void compute_normals(const OrganizedCloud& cloud, const PointRings& rings,
                      const NormalSettings& settings, NormalMap& out);

@@ -58,25 +58,47 @@ struct RingNormal {
   float curvature = NAN;
 };
 
+/// The unit vector from p to the viewpoint, or false at the viewpoint.
+bool towards(const std::array<float, 3>& viewpoint, const float* p, Eigen::Vector3d& axis) {
+  axis = Eigen::Vector3d(double{viewpoint[0]} - p[0], double{viewpoint[1]} - p[1],
+                         double{viewpoint[2]} - p[2]);
+  const double length = axis.norm();
+  if (!(length > 0)) return false;
+  axis /= length;
+  return true;
+}
+
+/// A fan whose summed face normals are shorter than this times the ring's summed squared edge
+/// lengths spans no plane: its ring lies along a line (a grid ring gives ~0.3; the PCA test
+/// below asks for a spread across the line of 1e-3 of the spread along it).
+constexpr double kMinFanRatio = 1e-3;
+
+/// The fan normal of point i over its ring (see compute_normals), facing `viewpoint`.
 RingNormal ring_normal(const float* xyz, std::size_t i, std::span<const std::int32_t> ring,
-                       const std::array<float, 3>& viewpoint) {
+                       const PointRings& rings, const std::array<float, 3>& viewpoint) {
   RingNormal out;
   const std::size_t m = ring.size();
   if (m < 2) return out;
   const float* p = xyz + 3 * i;
+  // n0: the axis, pointing to the sensor for rings by direction (so that the fan runs
+  // counter-clockwise as seen from it), of either sign for PCA.
   Eigen::Vector3d n0;
-  if (!pca_normal(xyz, p, ring, n0)) return out;
+  if (rings.by_direction ? !towards(rings.viewpoint, p, n0) : !pca_normal(xyz, p, ring, n0)) {
+    return out;
+  }
   // A right-handed basis (a, b, n0) of the tangent plane; the fan runs counter-clockwise.
   const Eigen::Vector3d a = n0.unitOrthogonal();
   const Eigen::Vector3d b = n0.cross(a);
   std::array<Eigen::Vector3d, 64> d;
   std::array<float, 64> key{};
   std::array<std::uint8_t, 64> order{};
+  double squared_lengths = 0;
   for (std::size_t j = 0; j < m; ++j) {
     const float* q = xyz + 3 * static_cast<std::size_t>(ring[j]);
     d[j] = Eigen::Vector3d(double{q[0]} - p[0], double{q[1]} - p[1], double{q[2]} - p[2]);
     key[j] = pseudo_angle(static_cast<float>(d[j].dot(a)), static_cast<float>(d[j].dot(b)));
     order[j] = static_cast<std::uint8_t>(j);
+    squared_lengths += d[j].squaredNorm();
   }
   std::sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(m),
             [&](std::uint8_t l, std::uint8_t r) { return key[l] < key[r]; });
@@ -95,19 +117,15 @@ RingNormal ring_normal(const float* xyz, std::size_t i, std::span<const std::int
     sum += face;
   }
   const double norm = sum.norm();
-  if (!(norm > 0)) return out;
+  if (!(norm > 0) || (rings.by_direction && !(norm > kMinFanRatio * squared_lengths))) return out;
   Eigen::Vector3d n = sum / norm;
   const Eigen::Vector3d ray(double{p[0]} - viewpoint[0], double{p[1]} - viewpoint[1],
                             double{p[2]} - viewpoint[2]);
   if (n.dot(ray) > 0) n = -n;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  double r2 = 0;
-  for (std::size_t j = 0; j < m; ++j) {
-    centroid += d[j];
-    r2 += d[j].squaredNorm();
-  }
+  for (std::size_t j = 0; j < m; ++j) centroid += d[j];
   centroid /= static_cast<double>(m);
-  r2 /= static_cast<double>(m);
+  const double r2 = squared_lengths / static_cast<double>(m);
   out.n = {static_cast<float>(n(0)), static_cast<float>(n(1)), static_cast<float>(n(2))};
   out.curvature = r2 > 0 ? static_cast<float>(2.0 * std::fabs(centroid.dot(n)) / r2) : NAN;
   return out;
@@ -130,7 +148,7 @@ void normals_over_rings(const OrganizedCloud& cloud, const PointRings& rings,
   unorganized::for_points(rings.size(), pool, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       if (rings.count[i] == 0) continue;
-      const RingNormal r = ring_normal(xyz.data(), i, rings.ring(i), settings.viewpoint);
+      const RingNormal r = ring_normal(xyz.data(), i, rings.ring(i), rings, settings.viewpoint);
       unorganized::at(out.nx, i) = r.n[0];
       unorganized::at(out.ny, i) = r.n[1];
       unorganized::at(out.nz, i) = r.n[2];

@@ -238,6 +238,8 @@ void build(const OrganizedCloud& cloud, const RingSettings& settings, PointRings
   }
   const int k = settings.k;
   out.k = k;
+  out.by_direction = settings.by_direction;
+  out.viewpoint = settings.viewpoint;
   out.neighbours.assign(n * static_cast<std::size_t>(k), -1);
   out.count.assign(n, 0);
   if (original.empty()) return;
