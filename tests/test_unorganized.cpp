@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <functional>
 #include <limits>
+#include <numbers>
 #include <numeric>
 #include <random>
 #include <stdexcept>
@@ -755,6 +756,57 @@ double slanted_area_ratio(double incidence, const RingSettings& settings) {
   const Vec3 half_u = {0.5 * std::cos(incidence), 0, 0.5 * std::sin(incidence)};
   return total_area(row_cloud(random_rectangle({0, 0, 2}, half_u, {0, 0.5, 0}, 5000, rng)),
                     settings);
+}
+
+/// point_area by the definition: 4 pi sqrt(lambda_1 lambda_2) / (count + 1), with Eigen's
+/// iterative eigen-solver (the library finds lambda_1 lambda_2 without one).
+double reference_point_area(const OrganizedCloud& cloud, const PointRings& rings, std::size_t i) {
+  const Vec3 p = point_of(cloud, i);
+  Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
+  for (const std::int32_t j : rings.ring(i)) {
+    const Vec3 q = point_of(cloud, static_cast<std::size_t>(j));
+    const Eigen::Vector3d d(q[0] - p[0], q[1] - p[1], q[2] - p[2]);
+    second += d * d.transpose();
+  }
+  const double m = rings.count[i];
+  const Eigen::Vector3d ev =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(second / m, Eigen::EigenvaluesOnly)
+          .eigenvalues();
+  return 4.0 * std::numbers::pi * std::sqrt(std::max(0.0, ev(1) * ev(2))) / (m + 1.0);
+}
+
+// Rings of a plane, a noisy plane, a box's corner (three planes), a ball of random points and a
+// line with a little spread across it: lambda_0 far below, near and equal to lambda_1.
+TEST(PointArea, EqualsTheEigenvalueDefinitionOnEveryKindOfRing) {
+  std::mt19937 rng(21);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  Points points;
+  for (int row = 0; row < 20; ++row) {
+    for (int column = 0; column < 20; ++column) {
+      points.push_back({0.01 * column, 0.01 * row, 2.0});
+      points.push_back({1 + 0.01 * column, 0.01 * row, 2.0 + 0.002 * gauss(rng)});
+    }
+  }
+  for (int j = 0; j < 300; ++j) {
+    const double a = uniform(rng, 0, 0.2), b = uniform(rng, 0, 0.2);
+    points.push_back(j % 3 == 0   ? Vec3{2 + a, b, 2.0}
+                     : j % 3 == 1 ? Vec3{2 + a, 0, 2 + b}
+                                  : Vec3{2, a, 2 + b});
+  }
+  for (int j = 0; j < 300; ++j) {
+    points.push_back({-1 + 0.05 * gauss(rng), 0.05 * gauss(rng), 2.0 + 0.05 * gauss(rng)});
+  }
+  for (int j = 0; j < 100; ++j) points.push_back({-2 + 0.01 * j, 1e-4 * gauss(rng), 2.0});
+  const OrganizedCloud cloud = row_cloud(points);
+  const PointRings rings = build_rings(cloud, {.by_direction = false});
+  double worst = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const double expected = reference_point_area(cloud, rings, i);
+    const double area = point_area(cloud, rings, i);
+    worst = std::max(worst, std::fabs(area - expected) / std::max(expected, 1e-12));
+  }
+  std::printf("  point_area against the eigenvalues: largest relative difference %.2e\n", worst);
+  EXPECT_LT(worst, 1e-9);
 }
 
 TEST(PointArea, SlantedPlaneWithDirectionRings) {

@@ -101,7 +101,8 @@ struct RingBuffers::Impl {
   // segment: packed points, normals, curvature, sigma(r), cosine of the angle bound; seeds,
   // their keys, raw labels, the growth queue.
   std::vector<float> seg_xyz, seg_n, curvature, sigma, cos_angle;
-  std::vector<std::int32_t> seeds, labels, queue;
+  std::vector<std::int32_t> seeds, seeds_tmp, labels, queue;
+  std::vector<std::uint32_t> seed_keys, seed_keys_tmp;
   // segment: per raw label, whether its region is large or wide enough to keep.
   std::vector<std::uint8_t> keep;
   // segment, auto model: raw label counts, noise samples, the points and averaged normals as

@@ -53,6 +53,31 @@ bool pca_normal(const float* xyz, const float* p, std::span<const std::int32_t> 
   return normal.allFinite();
 }
 
+/// lambda_1 lambda_2, the product of the two larger eigenvalues of a symmetric positive
+/// semi-definite 3x3 matrix, without an eigen-solve (which spends its time in atan2 and sincos):
+/// the smallest eigenvalue lambda_0 is the smallest root of the characteristic polynomial
+/// p(l) = l^3 - c1 l^2 + c2 l - c3, which is increasing and concave on [0, lambda_0], so
+/// Newton's steps from 0 approach it from below; then lambda_1 lambda_2 = c2 - lambda_0 (c1 -
+/// lambda_0).
+double larger_eigenvalue_product(const Eigen::Matrix3d& a) {
+  const double c1 = a.trace();
+  const double c2 = a(0, 0) * a(1, 1) - a(0, 1) * a(1, 0) + a(0, 0) * a(2, 2) - a(0, 2) * a(2, 0) +
+                    a(1, 1) * a(2, 2) - a(1, 2) * a(2, 1);
+  const double c3 = a.determinant();
+  double l = 0;
+  // Quadratic convergence for a plane's ring (lambda_0 far below lambda_1); linear where
+  // lambda_0 and lambda_1 are close, hence the cap.
+  for (int step = 0; step < 100; ++step) {
+    const double p = ((l - c1) * l + c2) * l - c3;
+    const double slope = (3.0 * l - 2.0 * c1) * l + c2;
+    if (!(p < 0) || !(slope > 0)) break;
+    const double next = l - p / slope;
+    if (!(next > l)) break;
+    l = next;
+  }
+  return std::max(0.0, c2 - l * (c1 - l));
+}
+
 struct RingNormal {
   std::array<float, 3> n{NAN, NAN, NAN};
   float curvature = NAN;
@@ -189,10 +214,7 @@ double point_area(const OrganizedCloud& cloud, const PointRings& rings, std::siz
     second += d * d.transpose();
   }
   const double m = rings.count[i];
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
-  solver.computeDirect(second / m, Eigen::EigenvaluesOnly);
-  const Eigen::Vector3d& ev = solver.eigenvalues();  // ascending; ev(0) ~ across the surface
-  return 4.0 * std::numbers::pi * std::sqrt(std::max(0.0, ev(1) * ev(2))) / (m + 1.0);
+  return 4.0 * std::numbers::pi * std::sqrt(larger_eigenvalue_product(second / m)) / (m + 1.0);
 }
 
 }  // namespace rangeseg

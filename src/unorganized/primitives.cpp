@@ -109,7 +109,7 @@ const std::vector<float>& average_ring_normals(const PointRings& rings, const Po
 std::int32_t grow_leftovers(const PointRings& rings, const Points& pts,
                             const SegmentationSettings& s, std::vector<std::int32_t>& labels,
                             RingBuffers::Impl& b, std::int32_t& raw) {
-  collect_seeds(rings, pts, s, false, labels, b.seeds);
+  collect_seeds(rings, pts, s, false, labels, b);
   SmoothRegion smooth(pts, s);
   const std::int32_t first = raw + 1;
   raw = grow(rings, pts, b.seeds, smooth, labels, b.queue, raw);

@@ -136,11 +136,11 @@ std::int32_t grow(const PointRings& rings, const Points& pts,
 void label_stats(const Points& pts, const std::vector<std::int32_t>& labels, std::int32_t count,
                  std::vector<detail::PlaneStats>& stats);
 
-/// Seeds of the given model in ascending curvature: the unlabelled points with a normal and
-/// curvature at most max_seed_curvature (and, unless for planes, max_curvature).
+/// Seeds of the given model in ascending curvature (ties in point order), into b.seeds: the
+/// unlabelled points with a normal and curvature at most max_seed_curvature (and, unless for
+/// planes, max_curvature).
 void collect_seeds(const PointRings& rings, const Points& pts, const SegmentationSettings& s,
-                   bool planes, const std::vector<std::int32_t>& labels,
-                   std::vector<std::int32_t>& seeds);
+                   bool planes, const std::vector<std::int32_t>& labels, RingBuffers::Impl& b);
 
 /// The grid's search for planes seen at grazing incidence (seg::find_grazing_planes) among the
 /// points no segment took, over their nearest neighbours by viewing direction (`footprint`: the

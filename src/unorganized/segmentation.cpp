@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "detail/plane_stats.hpp"
+#include "detail/radix_sort.hpp"
 #include "rangeseg/unorganized.hpp"
 #include "segmentation/internal.hpp"
 #include "unorganized/internal.hpp"
@@ -26,21 +27,20 @@ void label_stats(const Points& pts, const std::vector<std::int32_t>& labels, std
 }
 
 void collect_seeds(const PointRings& rings, const Points& pts, const SegmentationSettings& s,
-                   bool planes, const std::vector<std::int32_t>& labels,
-                   std::vector<std::int32_t>& seeds) {
+                   bool planes, const std::vector<std::int32_t>& labels, RingBuffers::Impl& b) {
+  std::vector<std::int32_t>& seeds = b.seeds;
+  std::vector<std::uint32_t>& keys = b.seed_keys;
   seeds.clear();
+  keys.clear();
   for (std::size_t i = 0; i < labels.size(); ++i) {
     const float c = pts.curvature[i];
     if (labels[i] != 0 || rings.count[i] == 0 || !pts.has_normal(i)) continue;
     if (!(c <= s.max_seed_curvature) || (!planes && !(c <= s.max_curvature))) continue;
     seeds.push_back(static_cast<std::int32_t>(i));
+    keys.push_back(detail::float_order_key(c));
   }
-  // Ties in point order; std::sort, as stable_sort takes a temporary buffer per call.
-  std::sort(seeds.begin(), seeds.end(), [&](std::int32_t a, std::int32_t b) {
-    const float ca = pts.curvature[static_cast<std::size_t>(a)];
-    const float cb = pts.curvature[static_cast<std::size_t>(b)];
-    return ca < cb || (ca == cb && a < b);
-  });
+  // Stable, and the seeds were collected in point order: ties stay in point order.
+  detail::radix_sort_by_key(seeds, keys, b.seeds_tmp, b.seed_keys_tmp);
 }
 
 namespace {
@@ -439,7 +439,7 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
   labels.assign(count, 0);
   b.grazing.clear();
   std::vector<std::int32_t>& seeds = b.seeds;
-  collect_seeds(rings, pts, settings, planes, labels, seeds);
+  collect_seeds(rings, pts, settings, planes, labels, b);
   std::int32_t raw = 0;
   if (planes) {
     PlaneRegion model(pts, settings);
