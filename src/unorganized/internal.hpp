@@ -91,6 +91,9 @@ struct RingBuffers::Impl {
   // build_rings: the valid points packed, their indices in the cloud, their directions.
   std::vector<float> valid_xyz, directions;
   std::vector<std::int32_t> original;
+  // build_rings: the same in the tree's leaf order (see `build`).
+  std::vector<float> leaf_xyz, leaf_directions;
+  std::vector<std::int32_t> leaf_original;
   // build_rings: the tree over them, rebuilt in place each call (its index array is reused;
   // nanoflann takes its nodes from its own malloc pool, emptied and refilled per build).
   std::unique_ptr<unorganized::RingTree, unorganized::RingTreeDeleter> tree;
