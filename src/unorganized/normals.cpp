@@ -94,7 +94,7 @@ bool towards(const std::array<float, 3>& viewpoint, const float* p, Eigen::Vecto
 }
 
 /// A fan whose summed face normals are shorter than this times the ring's summed squared edge
-/// lengths spans no plane: its ring lies along a line (a grid ring gives ~0.3; the PCA test
+/// lengths spans no plane: its ring lies along a line (a grid ring of 12 gives 0.43; the PCA test
 /// below asks for a spread across the line of 1e-3 of the spread along it).
 constexpr double kMinFanRatio = 1e-3;
 
