@@ -540,7 +540,8 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
     const auto raw_label = static_cast<std::size_t>(order[j]);
     sgm.grazing = raw_label < b.grazing.size() && b.grazing[raw_label] != 0;
   }
-  if (settings.compute_area) {
+  // `auto` sums them after its primitive pass, which joins and relabels segments.
+  if (settings.compute_area && !automatic) {
     for (std::size_t i = 0; i < count; ++i) {
       const std::int32_t l = at(out.labels, i);
       if (l <= 0) continue;
