@@ -1,5 +1,7 @@
 // Stages 2-4 over k-nearest-neighbour rings (unorganized.hpp) on a real Kinect frame taken as an
-// unorganized cloud: its valid points in shuffled order as one row, one thread.
+// unorganized cloud: its valid points in shuffled order as one row, one thread. The stages run
+// on the points in the spatial order Pipeline puts them in (unorganized/order.hpp), which
+// BM_RingOrder times; BM_RingPipeline is the whole frame.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -12,6 +14,7 @@
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/pipeline.hpp"
 #include "rangeseg/unorganized.hpp"
+#include "unorganized/order.hpp"
 
 namespace {
 
@@ -37,7 +40,10 @@ enum class Stage { rings, normals, smoothing, segmentation, polygons };
 /// Loads the frame and runs the stages before `stage`; false (benchmark skipped) without data.
 bool prepare(benchmark::State& state, Stage stage, Frame& f) {
   if (!bench::have_shared_data(state, kFrame)) return false;
-  f.cloud = shuffled_valid_points(io::read_pcd(kFrame), 1);
+  const OrganizedCloud shuffled = shuffled_valid_points(io::read_pcd(kFrame), 1);
+  unorganized::SpatialOrder order;
+  unorganized::spatial_order(shuffled, f.settings.rings, order);
+  unorganized::gather(shuffled, order.order, f.cloud);
   if (stage > Stage::rings) build_rings(f.cloud, f.settings.rings, f.rings);
   if (stage > Stage::normals) compute_normals(f.cloud, f.rings, f.settings.normals, f.normals);
   if (stage > Stage::smoothing) {
@@ -54,6 +60,46 @@ void report_points(benchmark::State& state, const Frame& f) {
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(f.cloud.size()));
   state.SetLabel(std::to_string(f.cloud.size()) + " points");
 }
+
+/// Pipeline's moves of a shuffled frame into the spatial order and of the results back: the
+/// order, the points, and back the rings, two normal maps, the smoothed points and the labels.
+void BM_RingOrder(benchmark::State& state) {
+  Frame f;
+  if (!prepare(state, Stage::polygons, f)) return;
+  const OrganizedCloud shuffled = shuffled_valid_points(io::read_pcd(kFrame), 1);
+  unorganized::SpatialOrder order;
+  OrganizedCloud ordered;
+  PointRings back;
+  for (auto _ : state) {
+    unorganized::spatial_order(shuffled, f.settings.rings, order);
+    unorganized::gather(shuffled, order.order, ordered);
+    unorganized::rings_to_input_order(f.rings, order.order, back);
+    unorganized::to_input_order(f.normals, order);
+    unorganized::to_input_order(f.smoothed_normals, order);
+    for (FloatPlane* p : {&f.smoothed.x, &f.smoothed.y, &f.smoothed.z}) {
+      unorganized::to_input_order(*p, order.order, order.floats);
+    }
+    unorganized::to_input_order(f.segmentation.labels, order.order, order.ints);
+    benchmark::DoNotOptimize(back.neighbours.data());
+  }
+  report_points(state, f);
+}
+BENCHMARK(BM_RingOrder)->Unit(benchmark::kMillisecond);
+
+/// The whole frame through Pipeline (the preset's settings, plane model), one thread.
+void BM_RingPipeline(benchmark::State& state) {
+  Frame f;
+  if (!prepare(state, Stage::rings, f)) return;
+  const OrganizedCloud shuffled = shuffled_valid_points(io::read_pcd(kFrame), 1);
+  Pipeline pipeline(f.settings);
+  pipeline.process(shuffled);  // buffers
+  for (auto _ : state) {
+    pipeline.process(shuffled);
+    benchmark::DoNotOptimize(pipeline.segmentation().labels.row(0));
+  }
+  report_points(state, f);
+}
+BENCHMARK(BM_RingPipeline)->Unit(benchmark::kMillisecond);
 
 void BM_RingsBuild(benchmark::State& state) {
   Frame f;

@@ -3,11 +3,13 @@
 #include <cstdint>
 #include <limits>
 #include <random>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "detail/gather_points.hpp"
 #include "rangeseg/cloud.hpp"
 
 namespace rangeseg {
@@ -24,31 +26,13 @@ void take_every(const Plane<T>& in, int factor, int out_width, int out_height, P
   }
 }
 
-template <class T>
-void gather(const Plane<T>& in, const std::vector<std::size_t>& pixels, Plane<T>& out) {
-  if (in.empty()) return;
-  out.resize(static_cast<int>(pixels.size()), 1);
-  const auto width = static_cast<std::size_t>(in.width());
-  T* dst = out.row(0);
-  for (std::size_t i = 0; i < pixels.size(); ++i) {
-    dst[i] = in.row(static_cast<int>(pixels[i] / width))[pixels[i] % width];
-  }
-}
-
 OrganizedCloud points_at(const OrganizedCloud& cloud, const std::vector<std::size_t>& pixels) {
   if (pixels.size() > static_cast<std::size_t>(std::numeric_limits<int>::max())) {
     throw std::invalid_argument("valid_points: " + std::to_string(pixels.size()) +
                                 " points do not fit in one row");
   }
   OrganizedCloud out;
-  gather(cloud.x, pixels, out.x);
-  gather(cloud.y, pixels, out.y);
-  gather(cloud.z, pixels, out.z);
-  gather(cloud.intensity, pixels, out.intensity);
-  gather(cloud.r, pixels, out.r);
-  gather(cloud.g, pixels, out.g);
-  gather(cloud.b, pixels, out.b);
-  gather(cloud.label, pixels, out.label);
+  detail::gather_points(cloud, std::span<const std::size_t>(pixels), out);
   return out;
 }
 

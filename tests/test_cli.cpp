@@ -321,7 +321,8 @@ TEST(Cli, EvalSynthHoldsTheReadmeAccuracy) {
 }
 
 // The README's table of unorganized clouds (seeds 1-8, measured 2026-12-05): the valid points
-// of each rendering shuffled into one row, segmented over k-nearest-neighbour rings.
+// of each rendering shuffled into one row, segmented over k-nearest-neighbour rings (in the
+// pipeline's spatial order, so any shuffle gives these counts).
 TEST(Cli, EvalSynthHoldsTheReadmeUnorganizedAccuracy) {
   RANGESEG_SKIP_ACCURACY_UNDER_SANITIZERS();
   const fs::path dir = rangeseg::test::scratch_dir("cli_eval_synth_readme_unorganized");
@@ -331,11 +332,11 @@ TEST(Cli, EvalSynthHoldsTheReadmeUnorganizedAccuracy) {
   const nlohmann::json boxes = total("--scene boxes");
   EXPECT_EQ(boxes["gt_regions"].get<int>(), 99);
   EXPECT_GE(boxes["correct"].get<int>(), 83);
-  EXPECT_LE(boxes["noise"].get<int>(), 3);
-  EXPECT_GE(total("--scene mixed")["correct"].get<int>(), 93);
+  EXPECT_LE(boxes["noise"].get<int>(), 4);
+  EXPECT_GE(total("--scene mixed")["correct"].get<int>(), 94);
   const nlohmann::json mixed = total("--scene mixed --model auto");
-  EXPECT_GE(mixed["correct"].get<int>(), 107);
-  EXPECT_LE(mixed["noise"].get<int>(), 5);
+  EXPECT_GE(mixed["correct"].get<int>(), 108);
+  EXPECT_LE(mixed["noise"].get<int>(), 6);
   EXPECT_GE(mixed["curved"]["within_5pct_3deg"].get<int>(), 18);
   EXPECT_GE(total("--scene boxes --noise none --preset ideal")["correct"].get<int>(), 92);
   EXPECT_GE(total("--scene mixed --model auto --noise none --preset ideal")["correct"].get<int>(),

@@ -102,6 +102,7 @@ std::vector<StageTime> stage_times(const StageTimes& t, bool organized) {
   std::vector<StageTime> stages{
       {organized ? "mesh" : "rings", t.mesh}, {"normals", t.normals},   {"smoothing", t.smoothing},
       {"segmentation", t.segmentation},       {"polygons", t.polygons}, {"total", t.total}};
+  if (!organized) stages.insert(stages.begin(), {"order", t.input});
   return stages;
 }
 

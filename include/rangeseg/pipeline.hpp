@@ -53,7 +53,9 @@ PipelineSettings pipeline_preset(std::string_view sensor);
 /// Wall-clock time of each stage of the last frame [ms].
 struct StageTimes {
   double mesh = 0, normals = 0, smoothing = 0, segmentation = 0, polygons = 0, total = 0;
-  double input = 0;  ///< depth image to points (the depth-image `process`), part of total
+  /// Depth image to points (the depth-image `process`); for an unorganized cloud, the moves
+  /// into spatial order and back. Part of total.
+  double input = 0;
 };
 
 /// Runs the stages on frame after frame. It owns every intermediate buffer, so after the first
@@ -69,7 +71,12 @@ class Pipeline {
   /// 1) runs the stages over k-nearest-neighbour rings (unorganized.hpp): `rings()` instead of
   /// `mesh()` (which is left empty; StageTimes::mesh is the time of the rings), polygons from
   /// the points' footprints, and the plane, smooth and auto models (std::invalid_argument for
-  /// incremental_plane). Its buffers, the k-d tree's included, are kept too: once they fit
+  /// incremental_plane). The stages run on the points put in spatial order (by the Morton code
+  /// of their direction from RingSettings::viewpoint, or of their position for rings by 3D
+  /// distance), so that neighbours lie close in memory, and every result is put back into the
+  /// input order: the same points in any order give the same rings, normals, points, labels,
+  /// segments and polygons (StageTimes::input is the time of both moves). Its buffers, the
+  /// k-d tree's included, are kept too: once they fit
   /// the largest cloud seen, nothing is allocated with `new`; the tree, rebuilt in place per
   /// frame, takes its nodes from nanoflann's pool of 8 KB malloc blocks.
   void process(const OrganizedCloud& cloud);
@@ -116,6 +123,9 @@ class Pipeline {
   PolygonSet polygons_;
   StageTimes times_;
   std::unique_ptr<ThreadPool> pool_;  ///< when settings.threads > 1
+  /// Unorganized clouds: the points in the spatial order the stages run in, and their rings.
+  OrganizedCloud ordered_input_;
+  PointRings ordered_rings_;
 };
 
 }  // namespace rangeseg

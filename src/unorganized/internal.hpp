@@ -14,6 +14,7 @@
 #include "rangeseg/thread_pool.hpp"
 #include "rangeseg/unorganized.hpp"
 #include "segmentation/internal.hpp"
+#include "unorganized/order.hpp"
 
 namespace rangeseg::unorganized {
 
@@ -88,6 +89,8 @@ namespace rangeseg {
 
 /// The buffers of one RingBuffers (their capacity only grows).
 struct RingBuffers::Impl {
+  // Pipeline: the spatial order of the points (order.hpp).
+  unorganized::SpatialOrder spatial;
   // build_rings: the valid points packed, their indices in the cloud, their directions.
   std::vector<float> valid_xyz, directions;
   std::vector<std::int32_t> original;

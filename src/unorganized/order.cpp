@@ -1,0 +1,157 @@
+// The spatial order of an unorganized cloud's points (Morton codes), and the moves into it and
+// back.
+
+#include "unorganized/order.hpp"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <span>
+
+#include "detail/gather_points.hpp"
+#include "detail/radix_sort.hpp"
+#include "unorganized/internal.hpp"
+
+namespace rangeseg::unorganized {
+namespace {
+
+constexpr int kBitsPerAxis = 21;  // 3 x 21 = 63 bits of a 64-bit key
+constexpr float kCells = static_cast<float>((1u << kBitsPerAxis) - 1);
+
+/// The low 21 bits of v spread to every third bit (bit j to bit 3 j).
+std::uint64_t spread_bits(std::uint32_t v) {
+  std::uint64_t x = v & ((1u << kBitsPerAxis) - 1);
+  x = (x | x << 32) & 0x001F00000000FFFFull;
+  x = (x | x << 16) & 0x001F0000FF0000FFull;
+  x = (x | x << 8) & 0x100F00F00F00F00Full;
+  x = (x | x << 4) & 0x10C30C30C30C30C3ull;
+  x = (x | x << 2) & 0x1249249249249249ull;
+  return x;
+}
+
+std::uint32_t cell(float value, float low, float scale) {
+  const float c = (value - low) * scale;
+  return static_cast<std::uint32_t>(std::clamp(c, 0.0f, kCells));
+}
+
+template <class T>
+void plane_to_input_order(Plane<T>& plane, const std::vector<std::int32_t>& order,
+                          std::vector<T>& scratch) {
+  const std::size_t n = order.size();
+  if (n == 0) return;
+  assert(plane.height() == 1 && static_cast<std::size_t>(plane.width()) == n);
+  if (scratch.size() < n) scratch.resize(n);
+  T* row = plane.row(0);
+  std::copy(row, row + n, scratch.data());
+  for (std::size_t t = 0; t < n; ++t) row[order[t]] = scratch[t];
+}
+
+}  // namespace
+
+void spatial_order(const OrganizedCloud& cloud, const RingSettings& settings, SpatialOrder& o) {
+  const std::size_t n = cloud.size();
+  const int w = cloud.width();
+  o.order.clear();
+  o.coords.clear();
+  o.order.reserve(n);
+  o.coords.reserve(3 * n);
+  float low[3] = {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),
+                  std::numeric_limits<float>::max()};
+  float high[3] = {-low[0], -low[1], -low[2]};
+  for (int v = 0; v < cloud.height(); ++v) {
+    const float* x = cloud.x.row(v);
+    const float* y = cloud.y.row(v);
+    const float* z = cloud.z.row(v);
+    for (int u = 0; u < w; ++u) {
+      if (!std::isfinite(x[u]) || !std::isfinite(y[u]) || !std::isfinite(z[u])) continue;
+      float c[3] = {x[u], y[u], z[u]};
+      if (settings.by_direction) {
+        // As build_rings computes the directions.
+        const float dx = c[0] - settings.viewpoint[0], dy = c[1] - settings.viewpoint[1],
+                    dz = c[2] - settings.viewpoint[2];
+        const float r = std::sqrt(dx * dx + dy * dy + dz * dz);
+        const float inv = r > 0 ? 1.0f / r : 0.0f;
+        c[0] = dx * inv;
+        c[1] = dy * inv;
+        c[2] = dz * inv;
+      }
+      for (int a = 0; a < 3; ++a) {
+        low[a] = std::min(low[a], c[a]);
+        high[a] = std::max(high[a], c[a]);
+        o.coords.push_back(c[a]);
+      }
+      o.order.push_back(static_cast<std::int32_t>(static_cast<std::size_t>(v) * w + u));
+    }
+  }
+  const std::size_t valid = o.order.size();
+  float scale[3];
+  for (int a = 0; a < 3; ++a) {
+    const float extent = high[a] - low[a];
+    scale[a] = extent > 0 ? kCells / extent : 0.0f;
+  }
+  o.keys.resize(valid);
+  for (std::size_t t = 0; t < valid; ++t) {
+    const float* c = o.coords.data() + 3 * t;
+    o.keys[t] = spread_bits(cell(c[0], low[0], scale[0])) |
+                spread_bits(cell(c[1], low[1], scale[1])) << 1 |
+                spread_bits(cell(c[2], low[2], scale[2])) << 2;
+  }
+  detail::radix_sort_by_key(o.order, o.keys, o.order_tmp, o.keys_tmp);
+  for (int v = 0; v < cloud.height(); ++v) {
+    const float* x = cloud.x.row(v);
+    const float* y = cloud.y.row(v);
+    const float* z = cloud.z.row(v);
+    for (int u = 0; u < w; ++u) {
+      if (!std::isfinite(x[u]) || !std::isfinite(y[u]) || !std::isfinite(z[u])) {
+        o.order.push_back(static_cast<std::int32_t>(static_cast<std::size_t>(v) * w + u));
+      }
+    }
+  }
+}
+
+void gather(const OrganizedCloud& cloud, const std::vector<std::int32_t>& order,
+            OrganizedCloud& out) {
+  detail::gather_points(cloud, std::span<const std::int32_t>(order), out);
+}
+
+void rings_to_input_order(const PointRings& ordered, const std::vector<std::int32_t>& order,
+                          PointRings& out) {
+  const std::size_t n = ordered.size();
+  assert(order.size() == n);
+  const auto k = static_cast<std::size_t>(ordered.k);
+  out.k = ordered.k;
+  out.by_direction = ordered.by_direction;
+  out.viewpoint = ordered.viewpoint;
+  out.neighbours.resize(n * k);
+  out.count.resize(n);
+  for (std::size_t t = 0; t < n; ++t) {
+    const auto i = static_cast<std::size_t>(order[t]);
+    const std::uint8_t count = ordered.count[t];
+    out.count[i] = count;
+    const std::int32_t* from = ordered.neighbours.data() + t * k;
+    std::int32_t* to = out.neighbours.data() + i * k;
+    std::size_t j = 0;
+    for (; j < count; ++j) to[j] = order[static_cast<std::size_t>(from[j])];
+    for (; j < k; ++j) to[j] = -1;
+  }
+}
+
+void to_input_order(FloatPlane& plane, const std::vector<std::int32_t>& order,
+                    std::vector<float>& scratch) {
+  plane_to_input_order(plane, order, scratch);
+}
+
+void to_input_order(LabelImage& plane, const std::vector<std::int32_t>& order,
+                    std::vector<std::int32_t>& scratch) {
+  plane_to_input_order(plane, order, scratch);
+}
+
+void to_input_order(NormalMap& normals, SpatialOrder& o) {
+  for (FloatPlane* p : {&normals.nx, &normals.ny, &normals.nz, &normals.curvature}) {
+    if (!p->empty()) to_input_order(*p, o.order, o.floats);
+  }
+}
+
+}  // namespace rangeseg::unorganized
