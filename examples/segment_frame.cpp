@@ -67,8 +67,9 @@ int main(int argc, char** argv) try {
         t.total, t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons);
   } else {
     std::printf(
-        "%.1f ms (rings %.2f, normals %.2f, smoothing %.2f, segmentation %.2f, polygons %.2f)\n",
-        t.total, t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons);
+        "%.1f ms (points into spatial order and results back %.2f, rings %.2f, normals %.2f, "
+        "smoothing %.2f, segmentation %.2f, polygons %.2f)\n",
+        t.total, t.input, t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons);
   }
   return segmentation.segments.empty() ? 1 : 0;
 } catch (const std::exception& e) {

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <iterator>
+#include <limits>
 #include <numeric>
 #include <stdexcept>
 #include <vector>
@@ -159,6 +161,30 @@ TEST(SpatialOrder, GatherAndBackRestoreEveryPlane) {
 // The stages run in the spatial order, which depends on the points alone: two shuffles of a
 // rendering give the same rings, normals, smoothed points and labels point for point, and the
 // same segments and polygons.
+// Finite coordinates of any size: the extent of the box can exceed the float range (found by
+// fuzz_pipeline: the cell index was NaN, converted to an integer).
+TEST(SpatialOrder, ExtremeCoordinatesGiveAPermutation) {
+  const float big = std::numeric_limits<float>::max();
+  const float values[] = {-big, big, 0.0f, 1.0f, -1e-30f, 3e38f, -3e38f, 1e20f};
+  OrganizedCloud cloud(static_cast<int>(std::size(values)), 1);
+  for (int i = 0; i < cloud.width(); ++i) {
+    cloud.x(i, 0) = values[static_cast<std::size_t>(i)];
+    cloud.y(i, 0) = values[static_cast<std::size_t>(cloud.width() - 1 - i)];
+    cloud.z(i, 0) = 1.0f;
+  }
+  for (const bool by_direction : {true, false}) {
+    unorganized::SpatialOrder o;
+    unorganized::spatial_order(cloud, RingSettings{.by_direction = by_direction}, o);
+    std::vector<std::int32_t> sorted = o.order;
+    std::sort(sorted.begin(), sorted.end());
+    std::vector<std::int32_t> all(cloud.size());
+    std::iota(all.begin(), all.end(), 0);
+    EXPECT_EQ(sorted, all) << by_direction;
+  }
+  Pipeline pipeline(pipeline_preset("kinect"));
+  EXPECT_NO_THROW(pipeline.process(cloud));
+}
+
 TEST(RingPipeline, AnyOrderOfThePointsGivesTheSameResults) {
   const synth::Rendering r = qvga_scene(1);
   PipelineSettings settings = pipeline_preset("kinect");

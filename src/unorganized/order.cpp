@@ -18,7 +18,7 @@ namespace rangeseg::unorganized {
 namespace {
 
 constexpr int kBitsPerAxis = 21;  // 3 x 21 = 63 bits of a 64-bit key
-constexpr float kCells = static_cast<float>((1u << kBitsPerAxis) - 1);
+constexpr double kCells = (1u << kBitsPerAxis) - 1;
 
 /// The low 21 bits of v spread to every third bit (bit j to bit 3 j).
 std::uint64_t spread_bits(std::uint32_t v) {
@@ -31,9 +31,11 @@ std::uint64_t spread_bits(std::uint32_t v) {
   return x;
 }
 
-std::uint32_t cell(float value, float low, float scale) {
-  const float c = (value - low) * scale;
-  return static_cast<std::uint32_t>(std::clamp(c, 0.0f, kCells));
+/// The cell of `value` on an axis from `low` with `scale` cells per unit. In double: the extent
+/// of finite floats can exceed the float range (-3e38 to 3e38), and NaN would not convert.
+std::uint32_t cell(float value, double low, double scale) {
+  const double c = (double{value} - low) * scale;
+  return c > 0 ? static_cast<std::uint32_t>(std::min(c, kCells)) : 0u;
 }
 
 template <class T>
@@ -86,10 +88,10 @@ void spatial_order(const OrganizedCloud& cloud, const RingSettings& settings, Sp
     }
   }
   const std::size_t valid = o.order.size();
-  float scale[3];
+  double scale[3];
   for (int a = 0; a < 3; ++a) {
-    const float extent = high[a] - low[a];
-    scale[a] = extent > 0 ? kCells / extent : 0.0f;
+    const double extent = double{high[a]} - low[a];
+    scale[a] = extent > 0 ? kCells / extent : 0.0;
   }
   o.keys.resize(valid);
   for (std::size_t t = 0; t < valid; ++t) {
