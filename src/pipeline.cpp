@@ -95,21 +95,23 @@ void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
   unorganized::gather(cloud, order.order, ordered_input_);
   times_.input = ms_since(t);
   const OrganizedCloud& in = ordered_input_;
-  build_rings(in, settings_.rings, rings_, pool, ring_buffers_);
+  build_rings(in, settings_.rings, ordered_rings_, pool, ring_buffers_);
   times_.mesh = ms_since(t);
-  compute_normals(in, rings_, settings_.normals, raw_normals_, pool, ring_buffers_);
+  compute_normals(in, ordered_rings_, settings_.normals, raw_normals_, pool, ring_buffers_);
   times_.normals = ms_since(t);
   if (settings_.smooth) {
-    smooth(in, rings_, raw_normals_, settings_.smoothing, smoothed_cloud_, smoothed_normals_, pool,
-           ring_buffers_);
+    smooth(in, ordered_rings_, raw_normals_, settings_.smoothing, smoothed_cloud_,
+           smoothed_normals_, pool, ring_buffers_);
     times_.smoothing = ms_since(t);
   }
   const OrganizedCloud& points = settings_.smooth ? smoothed_cloud_ : in;
   if (settings_.segment) {
-    segment(points, rings_, normals(), settings_.segmentation, segmentation_, ring_buffers_);
+    segment(points, ordered_rings_, normals(), settings_.segmentation, segmentation_,
+            ring_buffers_);
     times_.segmentation = ms_since(t);
     if (settings_.polygons) {
-      polygon_extractor_.extract(points, rings_, segmentation_, settings_.polygon, polygons_);
+      polygon_extractor_.extract(points, ordered_rings_, segmentation_, settings_.polygon,
+                                 polygons_);
       times_.polygons = ms_since(t);
     } else {
       polygons_ = PolygonSet{};
@@ -118,7 +120,7 @@ void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
     segmentation_ = Segmentation{};
     polygons_ = PolygonSet{};
   }
-  unorganized::rings_to_input_order(rings_, order.order, order.bytes);
+  unorganized::rings_to_input_order(ordered_rings_, order.order, rings_);
   unorganized::to_input_order(raw_normals_, order);
   if (settings_.smooth) {
     unorganized::to_input_order(smoothed_normals_, order);

@@ -141,8 +141,9 @@ TEST(SpatialOrder, GatherAndBackRestoreEveryPlane) {
     ASSERT_EQ(ordered.intensity(i, 0), static_cast<float>(i));
   }
   // Rings in the order point at the same points once back in input order.
-  PointRings back = build_rings(ordered);
-  unorganized::rings_to_input_order(back, o.order, o.bytes);
+  const PointRings rings = build_rings(ordered);
+  PointRings back;
+  unorganized::rings_to_input_order(rings, o.order, back);
   const PointRings direct = build_rings(cloud);
   ASSERT_EQ(back.size(), direct.size());
   std::size_t differing = 0;

@@ -123,8 +123,9 @@ class Pipeline {
   PolygonSet polygons_;
   StageTimes times_;
   std::unique_ptr<ThreadPool> pool_;  ///< when settings.threads > 1
-  /// Unorganized clouds: the points in the spatial order the stages run in.
+  /// Unorganized clouds: the points in the spatial order the stages run in, and their rings.
   OrganizedCloud ordered_input_;
+  PointRings ordered_rings_;
 };
 
 }  // namespace rangeseg

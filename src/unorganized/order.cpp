@@ -4,7 +4,6 @@
 #include "unorganized/order.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cassert>
 #include <cmath>
 #include <cstddef>
@@ -54,54 +53,53 @@ void plane_to_input_order(Plane<T>& plane, const std::vector<std::int32_t>& orde
 }  // namespace
 
 void spatial_order(const OrganizedCloud& cloud, const RingSettings& settings, SpatialOrder& o) {
+  const std::size_t n = cloud.size();
   const int w = cloud.width();
-  // fn(i, c) for each valid point i in input order, c its coordinates in the search space.
-  const auto for_valid = [&](auto&& fn) {
-    for (int v = 0; v < cloud.height(); ++v) {
-      const float* x = cloud.x.row(v);
-      const float* y = cloud.y.row(v);
-      const float* z = cloud.z.row(v);
-      for (int u = 0; u < w; ++u) {
-        if (!std::isfinite(x[u]) || !std::isfinite(y[u]) || !std::isfinite(z[u])) continue;
-        float c[3] = {x[u], y[u], z[u]};
-        if (settings.by_direction) {
-          // As build_rings computes the directions.
-          const float dx = c[0] - settings.viewpoint[0], dy = c[1] - settings.viewpoint[1],
-                      dz = c[2] - settings.viewpoint[2];
-          const float r = std::sqrt(dx * dx + dy * dy + dz * dz);
-          const float inv = r > 0 ? 1.0f / r : 0.0f;
-          c[0] = dx * inv;
-          c[1] = dy * inv;
-          c[2] = dz * inv;
-        }
-        fn(static_cast<std::int32_t>(static_cast<std::size_t>(v) * w + u), c);
-      }
-    }
-  };
   o.order.clear();
-  o.order.reserve(cloud.size());
+  o.coords.clear();
+  o.order.reserve(n);
+  o.coords.reserve(3 * n);
   float low[3] = {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),
                   std::numeric_limits<float>::max()};
   float high[3] = {-low[0], -low[1], -low[2]};
-  for_valid([&](std::int32_t i, const float* c) {
-    for (int a = 0; a < 3; ++a) {
-      low[a] = std::min(low[a], c[a]);
-      high[a] = std::max(high[a], c[a]);
+  for (int v = 0; v < cloud.height(); ++v) {
+    const float* x = cloud.x.row(v);
+    const float* y = cloud.y.row(v);
+    const float* z = cloud.z.row(v);
+    for (int u = 0; u < w; ++u) {
+      if (!std::isfinite(x[u]) || !std::isfinite(y[u]) || !std::isfinite(z[u])) continue;
+      float c[3] = {x[u], y[u], z[u]};
+      if (settings.by_direction) {
+        // As build_rings computes the directions.
+        const float dx = c[0] - settings.viewpoint[0], dy = c[1] - settings.viewpoint[1],
+                    dz = c[2] - settings.viewpoint[2];
+        const float r = std::sqrt(dx * dx + dy * dy + dz * dz);
+        const float inv = r > 0 ? 1.0f / r : 0.0f;
+        c[0] = dx * inv;
+        c[1] = dy * inv;
+        c[2] = dz * inv;
+      }
+      for (int a = 0; a < 3; ++a) {
+        low[a] = std::min(low[a], c[a]);
+        high[a] = std::max(high[a], c[a]);
+        o.coords.push_back(c[a]);
+      }
+      o.order.push_back(static_cast<std::int32_t>(static_cast<std::size_t>(v) * w + u));
     }
-    o.order.push_back(i);
-  });
+  }
+  const std::size_t valid = o.order.size();
   double scale[3];
   for (int a = 0; a < 3; ++a) {
     const double extent = double{high[a]} - low[a];
     scale[a] = extent > 0 ? kCells / extent : 0.0;
   }
-  o.keys.clear();
-  o.keys.reserve(o.order.size());
-  for_valid([&](std::int32_t /*i*/, const float* c) {
-    o.keys.push_back(spread_bits(cell(c[0], low[0], scale[0])) |
-                     spread_bits(cell(c[1], low[1], scale[1])) << 1 |
-                     spread_bits(cell(c[2], low[2], scale[2])) << 2);
-  });
+  o.keys.resize(valid);
+  for (std::size_t t = 0; t < valid; ++t) {
+    const float* c = o.coords.data() + 3 * t;
+    o.keys[t] = spread_bits(cell(c[0], low[0], scale[0])) |
+                spread_bits(cell(c[1], low[1], scale[1])) << 1 |
+                spread_bits(cell(c[2], low[2], scale[2])) << 2;
+  }
   detail::radix_sort_by_key(o.order, o.keys, o.order_tmp, o.keys_tmp);
   for (int v = 0; v < cloud.height(); ++v) {
     const float* x = cloud.x.row(v);
@@ -120,39 +118,25 @@ void gather(const OrganizedCloud& cloud, const std::vector<std::int32_t>& order,
   detail::gather_points(cloud, std::span<const std::int32_t>(order), out);
 }
 
-void rings_to_input_order(PointRings& rings, const std::vector<std::int32_t>& order,
-                          std::vector<std::uint8_t>& placed) {
-  const std::size_t n = rings.size();
+void rings_to_input_order(const PointRings& ordered, const std::vector<std::int32_t>& order,
+                          PointRings& out) {
+  const std::size_t n = ordered.size();
   assert(order.size() == n);
-  const auto k = static_cast<std::size_t>(rings.k);
-  assert(k <= 64);
-  // The neighbours named by input index (a pass in memory order: order[j] is read near j).
-  for (std::int32_t& j : rings.neighbours) {
-    if (j >= 0) j = order[static_cast<std::size_t>(j)];
-  }
-  // Ring t moves to slot order[t], cycle by cycle: each carries the ring it displaces on.
-  placed.assign(n, 0);
-  std::array<std::int32_t, 64> carried{}, displaced{};
-  for (std::size_t start = 0; start < n; ++start) {
-    if (placed[start] != 0) continue;
-    std::int32_t* const block = rings.neighbours.data();
-    std::copy_n(block + start * k, k, carried.data());
-    std::uint8_t carried_count = rings.count[start];
-    std::size_t t = start;
-    while (true) {
-      const auto dest = static_cast<std::size_t>(order[t]);
-      placed[dest] = 1;
-      if (dest == start) {
-        std::copy_n(carried.data(), k, block + start * k);
-        rings.count[start] = carried_count;
-        break;
-      }
-      std::copy_n(block + dest * k, k, displaced.data());
-      std::copy_n(carried.data(), k, block + dest * k);
-      std::swap(carried, displaced);
-      std::swap(carried_count, rings.count[dest]);
-      t = dest;
-    }
+  const auto k = static_cast<std::size_t>(ordered.k);
+  out.k = ordered.k;
+  out.by_direction = ordered.by_direction;
+  out.viewpoint = ordered.viewpoint;
+  out.neighbours.resize(n * k);
+  out.count.resize(n);
+  for (std::size_t t = 0; t < n; ++t) {
+    const auto i = static_cast<std::size_t>(order[t]);
+    const std::uint8_t count = ordered.count[t];
+    out.count[i] = count;
+    const std::int32_t* from = ordered.neighbours.data() + t * k;
+    std::int32_t* to = out.neighbours.data() + i * k;
+    std::size_t j = 0;
+    for (; j < count; ++j) to[j] = order[static_cast<std::size_t>(from[j])];
+    for (; j < k; ++j) to[j] = -1;
   }
 }
 

@@ -18,9 +18,9 @@ struct SpatialOrder {
   std::vector<std::int32_t> order;
   std::vector<std::int32_t> order_tmp;
   std::vector<std::uint64_t> keys, keys_tmp;
+  std::vector<float> coords;  ///< per valid point its 3 coordinates in the search space
   std::vector<float> floats;  ///< scratch of one float plane
   std::vector<std::int32_t> ints;
-  std::vector<std::uint8_t> bytes;
 };
 
 /// The valid points of `cloud` (i = v * width + u) by the Morton code of their position in the
@@ -37,10 +37,9 @@ void spatial_order(const OrganizedCloud& cloud, const RingSettings& settings, Sp
 void gather(const OrganizedCloud& cloud, const std::vector<std::int32_t>& order,
             OrganizedCloud& out);
 
-/// Rings of the points in `order` made rings of the points in input order, in place (without a
-/// second copy of the rings: 13 MB for a 640 x 480 frame); `placed` is scratch.
-void rings_to_input_order(PointRings& rings, const std::vector<std::int32_t>& order,
-                          std::vector<std::uint8_t>& placed);
+/// Rings of the points in `order` as rings of the points in input order (`out` is resized).
+void rings_to_input_order(const PointRings& ordered, const std::vector<std::int32_t>& order,
+                          PointRings& out);
 
 /// Puts a plane of values of the points in `order` (height 1) into input order, in place;
 /// `scratch` holds a copy meanwhile.
