@@ -184,8 +184,10 @@ TEST(CliUnorganized, BatchMixesOrganizedAndUnorganizedFrames) {
   EXPECT_FALSE(scan["organized"].get<bool>());
   EXPECT_TRUE(grid["ms"].contains("mesh") && !grid["ms"].contains("rings")) << grid.dump();
   EXPECT_TRUE(scan["ms"].contains("rings") && !scan["ms"].contains("mesh")) << scan.dump();
+  EXPECT_TRUE(scan["ms"].contains("order") && !grid["ms"].contains("order")) << scan.dump();
   EXPECT_GT(scan["ms"]["polygons"].get<double>(), 0.0) << scan.dump();
-  for (const char* stage : {"mesh", "rings", "normals", "segmentation", "polygons", "total"}) {
+  for (const char* stage :
+       {"mesh", "order", "rings", "normals", "segmentation", "polygons", "total"}) {
     ASSERT_TRUE(summary["median_ms"].contains(stage)) << stage;
     EXPECT_GT(summary["median_ms"][stage].get<double>(), 0.0) << stage;
   }

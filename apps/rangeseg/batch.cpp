@@ -49,9 +49,9 @@ class WorkerPipelines {
 };
 
 /// Every stage name in the order of summary.json: an organized frame has no rings, an
-/// unorganized one no mesh.
-constexpr const char* kStages[] = {"mesh",         "rings",    "normals", "smoothing",
-                                   "segmentation", "polygons", "total"};
+/// unorganized one no mesh (its "order" is the pipeline's move into spatial order and back).
+constexpr const char* kStages[] = {"mesh",      "order",        "rings",    "normals",
+                                   "smoothing", "segmentation", "polygons", "total"};
 
 /// Loads, segments and writes one frame; every failure is caught and returned as the reason.
 FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options,
