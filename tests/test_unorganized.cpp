@@ -927,6 +927,7 @@ TEST(RingSmoothing, IterationsZeroCopiesAndOutputMustNotBeInput) {
 
 // --- Segmentation --------------------------------------------------------------------------------
 
+using test::qvga_boxes_scene;
 using test::shuffled;
 using test::to_grid;
 using test::Unorganized;
@@ -934,16 +935,6 @@ using test::Unorganized;
 synth::Rendering boxes_scene(std::uint64_t seed) {
   return synth::render(synth::random_scene(seed),
                        {.noise = synth::Noise::kinect, .seed = seed, .min_surface_pixels = 1000});
-}
-
-/// The same scene seen at 320 x 240 (about 72,000 points): for the tests of properties that do
-/// not depend on the size, a quarter of the work (they also run under the sanitizers).
-synth::Rendering qvga_boxes_scene(std::uint64_t seed) {
-  constexpr CameraIntrinsics kQvga{
-      .fx = 262.5, .fy = 262.5, .cx = 159.5, .cy = 119.5, .width = 320, .height = 240};
-  return synth::render(
-      synth::random_scene(seed),
-      {.camera = kQvga, .noise = synth::Noise::kinect, .seed = seed, .min_surface_pixels = 250});
 }
 
 TEST(RingSegmentation, SyntheticBoxScenesThroughThePipeline) {

@@ -22,16 +22,9 @@
 namespace rangeseg {
 namespace {
 
+using test::qvga_boxes_scene;
 using test::shuffled;
 using test::Unorganized;
-
-synth::Rendering qvga_scene(std::uint64_t seed) {
-  constexpr CameraIntrinsics kQvga{
-      .fx = 262.5, .fy = 262.5, .cx = 159.5, .cy = 119.5, .width = 320, .height = 240};
-  return synth::render(
-      synth::random_scene(seed),
-      {.camera = kQvga, .noise = synth::Noise::kinect, .seed = seed, .min_surface_pixels = 250});
-}
 
 bool same_float(float a, float b) { return (std::isnan(a) && std::isnan(b)) || a == b; }
 
@@ -74,7 +67,7 @@ double mean_step(const OrganizedCloud& cloud, const std::vector<std::int32_t>& o
 }
 
 TEST(SpatialOrder, ValidPointsFirstNeighboursCloseInvalidOnesLastInInputOrder) {
-  const synth::Rendering r = qvga_scene(5);
+  const synth::Rendering r = qvga_boxes_scene(5);
   const OrganizedCloud cloud = with_invalid_points(shuffled(r.cloud, 5).cloud, 7);
   unorganized::SpatialOrder o;
   unorganized::spatial_order(cloud, RingSettings{}, o);
@@ -115,7 +108,7 @@ TEST(SpatialOrder, ValidPointsFirstNeighboursCloseInvalidOnesLastInInputOrder) {
 }
 
 TEST(SpatialOrder, GatherAndBackRestoreEveryPlane) {
-  const synth::Rendering r = qvga_scene(6);
+  const synth::Rendering r = qvga_boxes_scene(6);
   OrganizedCloud cloud = with_invalid_points(shuffled(r.cloud, 6).cloud, 5);
   cloud.add_intensity();
   cloud.add_label();
@@ -186,7 +179,7 @@ TEST(SpatialOrder, ExtremeCoordinatesGiveAPermutation) {
 }
 
 TEST(RingPipeline, AnyOrderOfThePointsGivesTheSameResults) {
-  const synth::Rendering r = qvga_scene(1);
+  const synth::Rendering r = qvga_boxes_scene(1);
   PipelineSettings settings = pipeline_preset("kinect");
   settings.segmentation.model = RegionModel::automatic;
   Pipeline a(settings), b(settings);
