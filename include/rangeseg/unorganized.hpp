@@ -3,7 +3,7 @@
 // k-nearest-neighbour rings instead of the mesh 1-ring, and stage 5 (plane polygons) without a
 // mesh. These functions take the points in the order given: ties (seeds of equal curvature,
 // neighbours at equal distance) follow it, and points scattered in memory (a shuffled cloud)
-// take 1.3x longer. Pipeline::process first puts the points in spatial order and its results
+// take 1.3-2.3x longer. Pipeline::process first puts the points in spatial order and its results
 // back, which makes them independent of the input order.
 #pragma once
 

@@ -1,6 +1,7 @@
 // Internal: shared helpers of the stages over k-nearest-neighbour rings.
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -80,6 +81,17 @@ struct Scales {
   float inv_distance = 0;  // 1 / (2 s_d^2)
   float inv_normal = 0;    // 1 / s_n
 };
+
+/// The unit vector from `viewpoint` to p into out (0, 0, 0 at the viewpoint): the search space
+/// of rings by viewing direction.
+inline void direction_from(const std::array<float, 3>& viewpoint, const float* p, float* out) {
+  const float dx = p[0] - viewpoint[0], dy = p[1] - viewpoint[1], dz = p[2] - viewpoint[2];
+  const float r = std::sqrt(dx * dx + dy * dy + dz * dz);
+  const float inv = r > 0 ? 1.0f / r : 0.0f;
+  out[0] = dx * inv;
+  out[1] = dy * inv;
+  out[2] = dz * inv;
+}
 
 inline float squared_distance(const float* a, const float* b) {
   const float dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];

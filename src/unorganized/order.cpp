@@ -69,16 +69,7 @@ void spatial_order(const OrganizedCloud& cloud, const RingSettings& settings, Sp
     for (int u = 0; u < w; ++u) {
       if (!std::isfinite(x[u]) || !std::isfinite(y[u]) || !std::isfinite(z[u])) continue;
       float c[3] = {x[u], y[u], z[u]};
-      if (settings.by_direction) {
-        // As build_rings computes the directions.
-        const float dx = c[0] - settings.viewpoint[0], dy = c[1] - settings.viewpoint[1],
-                    dz = c[2] - settings.viewpoint[2];
-        const float r = std::sqrt(dx * dx + dy * dy + dz * dz);
-        const float inv = r > 0 ? 1.0f / r : 0.0f;
-        c[0] = dx * inv;
-        c[1] = dy * inv;
-        c[2] = dz * inv;
-      }
+      if (settings.by_direction) direction_from(settings.viewpoint, c, c);
       for (int a = 0; a < 3; ++a) {
         low[a] = std::min(low[a], c[a]);
         high[a] = std::max(high[a], c[a]);

@@ -248,14 +248,8 @@ void build(const OrganizedCloud& cloud, const RingSettings& settings, PointRings
   if (settings.by_direction) {
     directions.resize(valid_xyz.size());
     for (std::size_t c = 0; c < original.size(); ++c) {
-      const float* p = valid_xyz.data() + 3 * c;
-      const float dx = p[0] - settings.viewpoint[0], dy = p[1] - settings.viewpoint[1],
-                  dz = p[2] - settings.viewpoint[2];
-      const float r = std::sqrt(dx * dx + dy * dy + dz * dz);
-      const float inv = r > 0 ? 1.0f / r : 0.0f;
-      directions[3 * c] = dx * inv;
-      directions[3 * c + 1] = dy * inv;
-      directions[3 * c + 2] = dz * inv;
+      unorganized::direction_from(settings.viewpoint, valid_xyz.data() + 3 * c,
+                                  directions.data() + 3 * c);
     }
   }
   if (!b.tree) b.tree.reset(new unorganized::RingTree);
