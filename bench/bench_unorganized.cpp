@@ -1,7 +1,8 @@
 // Stages 2-4 over k-nearest-neighbour rings (unorganized.hpp) on a real Kinect frame taken as an
 // unorganized cloud: its valid points in shuffled order as one row, one thread. The stages run
 // on the points in the spatial order Pipeline puts them in (unorganized/order.hpp), which
-// BM_RingOrder times; BM_RingPipeline is the whole frame.
+// BM_RingOrder times; BM_RingPipeline is the whole frame. The frame's points lie on its pixel
+// grid: BM_PixelGridFind finds it, BM_PixelGridPipeline is the whole frame on it.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -13,6 +14,7 @@
 #include "bench_data.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/pipeline.hpp"
+#include "rangeseg/pixel_grid.hpp"
 #include "rangeseg/unorganized.hpp"
 #include "unorganized/order.hpp"
 
@@ -22,10 +24,18 @@ using namespace rangeseg;
 
 const std::string kFrame = RANGESEG_SOURCE_DIR "/../shared/data/kinect/grabber_frame0.pcd";
 
-/// The frame's points and the stages before the measured one, with the settings of
-/// pipeline_preset("kinect") (whose smoothing is the default, 3 passes).
+/// pipeline_preset("kinect") over rings: the frame's points lie on its pixel grid, which
+/// Pipeline would otherwise restore (BM_PixelGrid*).
+PipelineSettings ring_settings() {
+  PipelineSettings s = pipeline_preset("kinect");
+  s.restore_grid = false;
+  return s;
+}
+
+/// The frame's points and the stages before the measured one, with ring_settings() (whose
+/// smoothing is the default, 3 passes).
 struct Frame {
-  PipelineSettings settings = pipeline_preset("kinect");
+  PipelineSettings settings = ring_settings();
   OrganizedCloud cloud;
   PointRings rings;
   NormalMap normals;
@@ -169,5 +179,44 @@ void BM_RingPolygons(benchmark::State& state) {
   state.counters["loops"] = static_cast<double>(f.polygons.loops.size());
 }
 BENCHMARK(BM_RingPolygons)->Unit(benchmark::kMillisecond);
+
+/// Finding the pixel grid of the frame's shuffled points and putting them on it.
+void BM_PixelGridFind(benchmark::State& state) {
+  if (!bench::have_shared_data(state, kFrame)) return;
+  const OrganizedCloud shuffled = shuffled_valid_points(io::read_pcd(kFrame), 1);
+  RingBuffers buffers;
+  PixelGrid grid;
+  OrganizedCloud on_grid;
+  for (auto _ : state) {
+    if (!find_pixel_grid(shuffled, grid, buffers)) {
+      state.SkipWithError("no pixel grid found");
+      return;
+    }
+    scatter_to_grid(shuffled, grid, on_grid);
+    benchmark::DoNotOptimize(on_grid.z.row(0));
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(shuffled.size()));
+  state.SetLabel(std::to_string(grid.width) + " x " + std::to_string(grid.height) + " grid");
+}
+BENCHMARK(BM_PixelGridFind)->Unit(benchmark::kMillisecond);
+
+/// The whole frame through Pipeline with its pixel grid restored (PipelineSettings::
+/// restore_grid, the default; plane model), one thread: against BM_RingPipeline.
+void BM_PixelGridPipeline(benchmark::State& state) {
+  if (!bench::have_shared_data(state, kFrame)) return;
+  const OrganizedCloud shuffled = shuffled_valid_points(io::read_pcd(kFrame), 1);
+  Pipeline pipeline(pipeline_preset("kinect"));
+  pipeline.process(shuffled);  // buffers
+  if (!pipeline.pixel_grid().found()) {
+    state.SkipWithError("no pixel grid found");
+    return;
+  }
+  for (auto _ : state) {
+    pipeline.process(shuffled);
+    benchmark::DoNotOptimize(pipeline.segmentation().labels.row(0));
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(shuffled.size()));
+}
+BENCHMARK(BM_PixelGridPipeline)->Unit(benchmark::kMillisecond);
 
 }  // namespace

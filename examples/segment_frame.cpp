@@ -1,6 +1,7 @@
 // Segments one point cloud and prints the segments: an organized cloud into planes, cylinders
-// and spheres, an unorganized one (height 1) into planes over k-nearest-neighbour rings; both
-// with the outline of every plane.
+// and spheres, an unorganized one (height 1) into planes, on the pixel grid its points lie on
+// when they are a depth camera's (e.g. after pcl::removeNaNFromPointCloud), else over
+// k-nearest-neighbour rings; all with the outline of every plane.
 //
 //   rangeseg_example_segment_frame [frame.pcd]
 //
@@ -42,8 +43,8 @@ int main(int argc, char** argv) try {
                      .cloud;
 
   rangeseg::PipelineSettings settings = rangeseg::pipeline_preset("kinect");
-  // Planes, cylinders and spheres on a pixel grid; an unorganized cloud (height 1) is segmented
-  // over k-nearest-neighbour rings, into planes.
+  // Planes, cylinders and spheres on a pixel grid; an unorganized cloud (height 1) into planes
+  // (which the rings support as well as the grid).
   settings.segmentation.model =
       cloud.is_organized() ? rangeseg::RegionModel::automatic : rangeseg::RegionModel::plane;
   rangeseg::Pipeline pipeline(settings);
@@ -65,10 +66,18 @@ int main(int argc, char** argv) try {
         "first frame %.1f ms (mesh %.2f, normals %.2f, smoothing %.2f, segmentation %.2f, "
         "polygons %.2f); later frames of this size allocate nothing\n",
         t.total, t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons);
+  } else if (pipeline.pixel_grid().found()) {
+    const rangeseg::PixelGrid& grid = pipeline.pixel_grid();
+    std::printf(
+        "on its %d x %d pixel grid (fx %.1f, fy %.1f px): %.1f ms (grid found, points onto it "
+        "and results back %.2f, mesh %.2f, normals %.2f, smoothing %.2f, segmentation %.2f, "
+        "polygons %.2f)\n",
+        grid.width, grid.height, grid.fx, grid.fy, t.total, t.input, t.mesh, t.normals, t.smoothing,
+        t.segmentation, t.polygons);
   } else {
     std::printf(
-        "%.1f ms (points into spatial order and results back %.2f, rings %.2f, normals %.2f, "
-        "smoothing %.2f, segmentation %.2f, polygons %.2f)\n",
+        "over rings: %.1f ms (points into spatial order and results back %.2f, rings %.2f, "
+        "normals %.2f, smoothing %.2f, segmentation %.2f, polygons %.2f)\n",
         t.total, t.input, t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons);
   }
   return segmentation.segments.empty() ? 1 : 0;

@@ -1,8 +1,9 @@
 // libFuzzer target: any cloud that parses runs through the whole pipeline without a crash, and
 // its labels and segments agree. Byte 0 picks the sensor preset, region model, mesh type (for an
-// unorganized cloud: rings by direction or by distance), thread count and smoothing; the rest is
-// a PCD file (small clouds only, to keep runs fast; organized ones run on the grid, unorganized
-// ones over k-nearest-neighbour rings).
+// unorganized cloud: rings by direction or by distance, and whether a pixel grid its points lie
+// on is restored), thread count and smoothing; the rest is a PCD file (small clouds only, to keep
+// runs fast; organized ones run on the grid, unorganized ones on their pixel grid or over
+// k-nearest-neighbour rings).
 #include <cstddef>
 #include <cstdint>
 #include <exception>
@@ -32,6 +33,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   settings.segmentation.model = static_cast<rangeseg::RegionModel>(pick >> 2 & 3u);
   settings.mesh.type = static_cast<rangeseg::MeshType>(pick >> 4 & 3u);
   settings.rings.by_direction = (pick & 16u) != 0;
+  settings.restore_grid = (pick & 32u) != 0;
   settings.threads = (pick & 64u) != 0 ? 2 : 1;
   settings.smooth = (pick & 128u) == 0;
   try {

@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
 
+#include "detail/gather_points.hpp"
 #include "detail/row_bands.hpp"
 #include "segmentation/internal.hpp"
 #include "unorganized/internal.hpp"
@@ -30,6 +32,13 @@ double ms_since(Clock::time_point& start) {
   const double ms = std::chrono::duration<double, std::milli>(now - start).count();
   start = now;
   return ms;
+}
+
+/// Not found, keeping the buffer.
+void forget(PixelGrid& grid) {
+  grid.width = grid.height = 0;
+  grid.fx = grid.fy = grid.cx = grid.cy = 0;
+  grid.pixel.clear();
 }
 
 }  // namespace
@@ -80,11 +89,18 @@ void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
                                 " model is not available for unorganized clouds (plane, smooth "
                                 "or auto)");
   }
+  Clock::time_point t = Clock::now();
+  const Clock::time_point start = t;
+  const auto& viewpoint = settings_.rings.viewpoint;
+  if (settings_.restore_grid && viewpoint[0] == 0 && viewpoint[1] == 0 && viewpoint[2] == 0 &&
+      find_pixel_grid(cloud, grid_, ring_buffers_)) {
+    process_restored(cloud, ms_since(t));
+    return;
+  }
+  forget(grid_);
   input_ = &cloud;
   times_ = {};
   mesh_ = Mesh{};
-  Clock::time_point t = Clock::now();
-  const Clock::time_point start = t;
   ThreadPool* const pool =
       cloud.size() >= static_cast<std::size_t>(kMinPixelsForThreads) ? pool_.get() : nullptr;
   // The stages run on the points in spatial order: their neighbours then lie close in memory
@@ -127,18 +143,95 @@ void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
     for (FloatPlane* p : {&smoothed_cloud_.x, &smoothed_cloud_.y, &smoothed_cloud_.z}) {
       unorganized::to_input_order(*p, order.order, order.floats);
     }
-    // The filter copies the optional planes unchanged.
-    smoothed_cloud_.intensity = cloud.intensity;
-    smoothed_cloud_.r = cloud.r;
-    smoothed_cloud_.g = cloud.g;
-    smoothed_cloud_.b = cloud.b;
-    smoothed_cloud_.label = cloud.label;
+    detail::copy_optional_planes(cloud, smoothed_cloud_);
   }
   if (settings_.segment) {
     unorganized::to_input_order(segmentation_.labels, order.order, order.ints);
   }
   times_.input += ms_since(t);
   times_.total = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+namespace {
+
+/// out[i] = grid[offset[i]] (offsets into the plane's buffer, row stride included) for the
+/// points of an unorganized cloud, `missing` where offset[i] < 0.
+template <class T>
+void gather_from_grid(const Plane<T>& grid, const std::vector<std::ptrdiff_t>& offset, T missing,
+                      Plane<T>& out) {
+  const auto n = static_cast<int>(offset.size());
+  if (out.width() != n || out.height() != 1) out.resize(n, 1);
+  const T* src = grid.row(0);
+  T* dst = out.row(0);
+  for (std::size_t i = 0; i < offset.size(); ++i) dst[i] = offset[i] < 0 ? missing : src[offset[i]];
+}
+
+void gather_from_grid(const NormalMap& grid, const std::vector<std::ptrdiff_t>& offset,
+                      NormalMap& out) {
+  constexpr float nan = std::numeric_limits<float>::quiet_NaN();
+  gather_from_grid(grid.nx, offset, nan, out.nx);
+  gather_from_grid(grid.ny, offset, nan, out.ny);
+  gather_from_grid(grid.nz, offset, nan, out.nz);
+  gather_from_grid(grid.curvature, offset, nan, out.curvature);
+}
+
+}  // namespace
+
+// The grid stages write into the pipeline's result members; those of the last restored frame
+// (per point) are swapped out meanwhile and the grid's results swapped in afterwards, so that
+// both sets of buffers are kept and a stream of such frames allocates nothing.
+void Pipeline::process_restored(const OrganizedCloud& cloud, double find_ms) {
+  Clock::time_point t = Clock::now();
+  scatter_to_grid(cloud, grid_, grid_cloud_);
+  const double scatter_ms = ms_since(t);
+  const auto swap_results = [&] {
+    std::swap(raw_normals_, grid_raw_normals_);
+    std::swap(smoothed_cloud_, grid_smoothed_cloud_);
+    std::swap(smoothed_normals_, grid_smoothed_normals_);
+    std::swap(segmentation_.labels, grid_labels_);
+  };
+  swap_results();
+  process_grid(grid_cloud_);
+  swap_results();
+  t = Clock::now();
+  constexpr float nan = std::numeric_limits<float>::quiet_NaN();
+  const std::vector<std::int32_t>& pixel = grid_.pixel;
+  // Every plane of the grid's width has the row stride of its cloud's.
+  const std::ptrdiff_t stride = grid_cloud_.z.stride();
+  const auto grid_width = static_cast<std::uint32_t>(grid_.width);
+  std::vector<std::ptrdiff_t>& offset = grid_offsets_;
+  offset.resize(pixel.size());
+  for (std::size_t i = 0; i < pixel.size(); ++i) {
+    const auto p = static_cast<std::uint32_t>(pixel[i]);
+    const std::uint32_t v = p / grid_width;
+    offset[i] = pixel[i] < 0 ? -1 : static_cast<std::ptrdiff_t>(v) * stride + (p - v * grid_width);
+  }
+  gather_from_grid(grid_raw_normals_, offset, raw_normals_);
+  if (settings_.smooth) {
+    gather_from_grid(grid_smoothed_normals_, offset, smoothed_normals_);
+    gather_from_grid(grid_smoothed_cloud_.x, offset, nan, smoothed_cloud_.x);
+    gather_from_grid(grid_smoothed_cloud_.y, offset, nan, smoothed_cloud_.y);
+    gather_from_grid(grid_smoothed_cloud_.z, offset, nan, smoothed_cloud_.z);
+    // The filter moves x, y and z only; invalid points keep their coordinates (NaN or inf).
+    const auto width = static_cast<std::size_t>(cloud.width());
+    for (std::size_t i = 0; i < pixel.size(); ++i) {
+      if (pixel[i] >= 0) continue;
+      const int row = static_cast<int>(i / width);
+      smoothed_cloud_.x.row(0)[i] = cloud.x.row(row)[i % width];
+      smoothed_cloud_.y.row(0)[i] = cloud.y.row(row)[i % width];
+      smoothed_cloud_.z.row(0)[i] = cloud.z.row(row)[i % width];
+    }
+    detail::copy_optional_planes(cloud, smoothed_cloud_);
+  }
+  if (settings_.segment) {
+    gather_from_grid(grid_labels_, offset, std::int32_t{0}, segmentation_.labels);
+  } else {
+    segmentation_.labels.clear();
+  }
+  input_ = &cloud;
+  const double extra = find_ms + scatter_ms + ms_since(t);
+  times_.input += extra;
+  times_.total += extra;
 }
 
 void Pipeline::process(const OrganizedCloud& cloud) {
@@ -148,6 +241,11 @@ void Pipeline::process(const OrganizedCloud& cloud) {
     return;
   }
   require_organized(cloud, "Pipeline::process");
+  forget(grid_);
+  process_grid(cloud);
+}
+
+void Pipeline::process_grid(const OrganizedCloud& cloud) {
   rings_ = PointRings{};
   input_ = &cloud;
   times_ = {};

@@ -12,11 +12,13 @@
 #include <functional>
 #include <random>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/normals.hpp"
+#include "rangeseg/pipeline.hpp"
 #include "rangeseg/segmentation.hpp"
 #include "rangeseg/synth.hpp"
 
@@ -25,6 +27,14 @@ namespace rangeseg::test {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 constexpr double kF = 525.0, kCx = 319.5, kCy = 239.5;
+
+/// A sensor's pipeline settings for the tests of the rings: unorganized clouds run over rings
+/// even where their points lie on a pixel grid, as the shuffled points of a rendering do.
+inline PipelineSettings ring_preset(std::string_view sensor) {
+  PipelineSettings settings = pipeline_preset(sensor);
+  settings.restore_grid = false;
+  return settings;
+}
 
 /// A 1-row (unorganized) cloud of the points, in their order.
 inline OrganizedCloud row_cloud(const std::vector<std::array<double, 3>>& points) {

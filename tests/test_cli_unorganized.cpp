@@ -4,11 +4,13 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <random>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -50,8 +52,20 @@ OrganizedCloud organized_frame(std::uint64_t seed) {
 }
 
 /// The valid points of organized_frame(seed) as one row (an unorganized cloud, as PCL writes a
-/// filtered cloud), labels kept.
+/// filtered cloud), labels kept, each moved sideways by up to 0.3 pixel (as a stereo camera's
+/// sub-pixel matches lie): not on a pixel grid, so they run over rings.
 OrganizedCloud unorganized_frame(std::uint64_t seed) {
+  OrganizedCloud cloud = rangeseg::valid_points(organized_frame(seed));
+  std::mt19937 random(static_cast<unsigned>(seed));
+  std::uniform_real_distribution<float> offset(-0.3f, 0.3f);
+  for (int i = 0; i < cloud.width(); ++i) {
+    cloud.x(i, 0) += offset(random) * cloud.z(i, 0) / static_cast<float>(kQuarterKinect.fx);
+  }
+  return cloud;
+}
+
+/// The valid points of organized_frame(seed) as they are: on the frame's pixel grid.
+OrganizedCloud grid_points(std::uint64_t seed) {
   return rangeseg::valid_points(organized_frame(seed));
 }
 
@@ -233,7 +247,7 @@ TEST(CliUnorganized, BenchTimesTheRingsAndRejectsSizes) {
   const std::string scan = (dir / "scan.pcd").string();
   const CliResult text = run("bench " + scan + " --repeat 1");
   ASSERT_EQ(text.code, 0) << text.out;
-  EXPECT_NE(text.out.find("(unorganized)"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("(unorganized, over rings)"), std::string::npos) << text.out;
   EXPECT_NE(text.out.find("  rings "), std::string::npos) << text.out;
   EXPECT_NE(text.out.find("  polygons "), std::string::npos) << text.out;
   EXPECT_EQ(text.out.find("  mesh "), std::string::npos) << text.out;
@@ -326,6 +340,79 @@ TEST(CliUnorganized, ConvertKeepsTheValidPointsInOrderOrShuffled) {
   EXPECT_NE(png.out.find("d.png"), std::string::npos) << png.out;
   EXPECT_FALSE(fs::exists(dir / "d.png"));
   EXPECT_EQ(run("convert " + in + " " + (dir / "e.pcd").string() + " --shuffle x").code, 2);
+}
+
+// A depth camera's valid points (PCL's removeNaNFromPointCloud, in any order) lie on its pixel
+// grid: segment and bench find it and run the grid stages; "restore_grid": false keeps the rings.
+TEST(CliUnorganized, PointsOnAPixelGridRunTheGridStages) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_unorganized_pixel_grid");
+  fs::create_directories(dir);
+  const OrganizedCloud points = grid_points(2);
+  const std::string rows = (dir / "rows.pcd").string(), shuffled = (dir / "shuffled.pcd").string();
+  rangeseg::io::write_pcd(rows, points, {});
+  ASSERT_EQ(run("convert " + rows + " " + shuffled + " --shuffle 5").code, 0);
+  for (const std::string& in : {rows, shuffled}) {
+    const std::string name = fs::path(in).stem().string();
+    const CliResult r = run("segment " + in + " -o " + (dir / name).string());
+    ASSERT_EQ(r.code, 0) << r.out;
+    EXPECT_NE(
+        r.out.find("points (unorganized, " + std::to_string(points.size()) + " valid, on its "),
+        std::string::npos)
+        << r.out;
+    EXPECT_NE(r.out.find("fx 131."), std::string::npos) << r.out;  // 525 / 4
+    EXPECT_NE(r.out.find(" mesh "), std::string::npos) << r.out;
+  }
+  // The same grid in either order: the same segments.
+  const std::string segments = read_text(dir / "rows" / "segments.json");
+  EXPECT_EQ(segments, read_text(dir / "shuffled" / "segments.json"));
+  EXPECT_GE(read_json(dir / "rows" / "segments.json")["segments"].size(), 3u);
+  // Labels per point: equal for points at equal coordinates.
+  const OrganizedCloud a = rangeseg::io::read_pcd((dir / "rows" / "cloud.pcd").string());
+  const OrganizedCloud b = rangeseg::io::read_pcd((dir / "shuffled" / "cloud.pcd").string());
+  ASSERT_TRUE(a.has_label() && b.has_label());
+  std::map<std::array<float, 3>, int> label_at;
+  const OrganizedCloud in_a = rangeseg::io::read_pcd(rows);
+  const OrganizedCloud in_b = rangeseg::io::read_pcd(shuffled);
+  for (int i = 0; i < in_a.width(); ++i) {
+    label_at[{in_a.x(i, 0), in_a.y(i, 0), in_a.z(i, 0)}] = a.label(i, 0);
+  }
+  int labelled = 0;
+  for (int i = 0; i < in_b.width(); ++i) {
+    const auto found = label_at.find({in_b.x(i, 0), in_b.y(i, 0), in_b.z(i, 0)});
+    ASSERT_NE(found, label_at.end()) << i;
+    EXPECT_EQ(found->second, b.label(i, 0)) << i;
+    labelled += b.label(i, 0) > 0 ? 1 : 0;
+  }
+  EXPECT_GT(labelled, in_b.width() / 2);
+
+  const CliResult bench = run("bench " + shuffled + " --repeat 1");
+  ASSERT_EQ(bench.code, 0) << bench.out;
+  EXPECT_NE(bench.out.find("pixel grid)"), std::string::npos) << bench.out;
+  EXPECT_NE(bench.out.find("  mesh "), std::string::npos) << bench.out;
+  EXPECT_NE(bench.out.find("  order "), std::string::npos) << bench.out;
+  EXPECT_EQ(bench.out.find("  rings "), std::string::npos) << bench.out;
+
+  std::ofstream(dir / "rings.json") << R"({"restore_grid": false})";
+  const CliResult rings = run("segment " + shuffled + " -o " + (dir / "rings").string() +
+                              " --config " + (dir / "rings.json").string());
+  ASSERT_EQ(rings.code, 0) << rings.out;
+  EXPECT_NE(rings.out.find("over rings"), std::string::npos) << rings.out;
+  EXPECT_NE(rings.out.find(" rings "), std::string::npos) << rings.out;
+
+  std::ofstream(dir / "bad.json") << R"({"restore_grid": "yes"})";
+  const CliResult bad = run("segment " + shuffled + " -o " + (dir / "bad").string() + " --config " +
+                            (dir / "bad.json").string());
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_NE(bad.out.find("restore_grid"), std::string::npos) << bad.out;
+
+  // A batch records which frames ran on their grid.
+  const CliResult batch = run("segment " + rows + " " + (dir / "rings" / "cloud.pcd").string() +
+                              " -o " + (dir / "batch").string());
+  ASSERT_EQ(batch.code, 0) << batch.out;
+  const auto summary = read_json(dir / "batch" / "summary.json");
+  ASSERT_EQ(summary["per_frame"].size(), 2u);
+  EXPECT_TRUE(summary["per_frame"][0]["pixel_grid"].get<bool>());
+  EXPECT_TRUE(summary["median_ms"].contains("mesh"));
 }
 
 TEST(CliUnorganized, ConfigRingsAreAppliedAndChecked) {

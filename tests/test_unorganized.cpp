@@ -420,7 +420,7 @@ struct LidarRoom {
 TEST(Rings, BalancedRingsSurroundLidarPointsWhoseNearestLieOnTheirScanLine) {
   const LidarRoom room;
   for (const bool balanced : {true, false}) {
-    PipelineSettings settings = pipeline_preset("laser");
+    PipelineSettings settings = test::ring_preset("laser");
     settings.rings.balanced = balanced;
     Pipeline pipeline(settings);
     pipeline.process(room.cloud);
@@ -939,7 +939,7 @@ synth::Rendering boxes_scene(std::uint64_t seed) {
 
 TEST(RingSegmentation, SyntheticBoxScenesThroughThePipeline) {
   RANGESEG_SKIP_ACCURACY_UNDER_SANITIZERS();
-  Pipeline pipeline(pipeline_preset("kinect"));
+  Pipeline pipeline(test::ring_preset("kinect"));
   int gt = 0, correct = 0, normals = 0;
   double worst_normal = 0;
   for (std::uint64_t seed = 1; seed <= 4; ++seed) {
@@ -981,7 +981,7 @@ TEST(RingSegmentation, SyntheticBoxScenesThroughThePipeline) {
 /// them as one plane each, flagged `grazing`, as the grid does.
 TEST(RingSegmentation, BoxTopsSeenAtGrazingIncidenceAreOnePlaneEach) {
   RANGESEG_SKIP_ACCURACY_UNDER_SANITIZERS();
-  Pipeline pipeline(pipeline_preset("ideal"));
+  Pipeline pipeline(test::ring_preset("ideal"));
   int tops = 0, found = 0, flagged = 0;
   for (const std::uint64_t seed : {1u, 6u, 15u}) {
     const synth::Rendering r = synth::render(
@@ -1147,7 +1147,7 @@ TEST(RingSegmentation, RegionThatCreptOverACreaseIsSplit) {
     }
     const Unorganized u = shuffled(grid, 7);
     const auto segment_fronts = [&](double split_factor) {
-      PipelineSettings settings = pipeline_preset("kinect");
+      PipelineSettings settings = test::ring_preset("kinect");
       settings.segmentation.split_residual_factor = split_factor;
       Pipeline pipeline(settings);
       pipeline.process(u.cloud);
@@ -1156,7 +1156,7 @@ TEST(RingSegmentation, RegionThatCreptOverACreaseIsSplit) {
       return std::pair{to_grid(seg.labels, u, grid.width(), grid.height()), seg.segments};
     };
     const auto [labels, segments] =
-        segment_fronts(pipeline_preset("kinect").segmentation.split_residual_factor);
+        segment_fronts(test::ring_preset("kinect").segmentation.split_residual_factor);
     const int left = labels(296, 240), right = labels(343, 240);
     ASSERT_NE(left, 0) << degrees;
     ASSERT_NE(right, 0) << degrees;
@@ -1190,7 +1190,7 @@ TEST(RingSegmentation, IncrementalPlaneModelThrows) {
 TEST(RingSegmentation, SortedSegmentsAndLabelsOnAScene) {
   const synth::Rendering r = qvga_boxes_scene(2);
   const Unorganized u = shuffled(r.cloud, 2);
-  const PipelineSettings p = pipeline_preset("kinect");
+  const PipelineSettings p = test::ring_preset("kinect");
   for (const RegionModel model : {RegionModel::plane, RegionModel::smooth}) {
     SegmentationSettings s = p.segmentation;
     s.model = model;
@@ -1210,7 +1210,7 @@ TEST(RingSegmentation, SortedSegmentsAndLabelsOnAScene) {
 TEST(RingPipeline, RepeatableWithoutAMesh) {
   const synth::Rendering r = qvga_boxes_scene(3);
   const Unorganized u = shuffled(r.cloud, 3);
-  Pipeline pipeline(pipeline_preset("kinect"));
+  Pipeline pipeline(test::ring_preset("kinect"));
   pipeline.process(r.cloud);  // an organized frame first: mesh, polygons, no rings
   EXPECT_EQ(pipeline.rings().size(), 0u);
   EXPECT_GT(pipeline.mesh().width(), 0);
@@ -1243,7 +1243,7 @@ TEST(RingPipeline, ThreadsGiveIdenticalResults) {
   const Unorganized u = shuffled(r.cloud, 4);
   ASSERT_GE(u.cloud.size(), std::size_t{1} << 16)
       << "the pipeline splits clouds of 65536 points on";
-  PipelineSettings settings = pipeline_preset("kinect");
+  PipelineSettings settings = test::ring_preset("kinect");
   Pipeline one(settings);
   settings.threads = 2;
   Pipeline two(settings);

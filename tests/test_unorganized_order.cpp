@@ -174,13 +174,13 @@ TEST(SpatialOrder, ExtremeCoordinatesGiveAPermutation) {
     std::iota(all.begin(), all.end(), 0);
     EXPECT_EQ(sorted, all) << by_direction;
   }
-  Pipeline pipeline(pipeline_preset("kinect"));
+  Pipeline pipeline(test::ring_preset("kinect"));
   EXPECT_NO_THROW(pipeline.process(cloud));
 }
 
 TEST(RingPipeline, AnyOrderOfThePointsGivesTheSameResults) {
   const synth::Rendering r = qvga_boxes_scene(1);
-  PipelineSettings settings = pipeline_preset("kinect");
+  PipelineSettings settings = test::ring_preset("kinect");
   settings.segmentation.model = RegionModel::automatic;
   Pipeline a(settings), b(settings);
   const Unorganized ua = shuffled(r.cloud, 100), ub = shuffled(r.cloud, 101);
@@ -225,7 +225,7 @@ TEST(RingPipeline, AnyOrderOfThePointsGivesTheSameResults) {
 }
 
 TEST(RingPipeline, CloudsWithoutEnoughValidPointsGiveEmptyResultsInInputOrder) {
-  Pipeline pipeline(pipeline_preset("kinect"));
+  Pipeline pipeline(test::ring_preset("kinect"));
   OrganizedCloud nan_only(5, 1);
   pipeline.process(nan_only);
   EXPECT_EQ(pipeline.segmentation().labels.width(), 5);

@@ -447,7 +447,7 @@ TEST(RingPolygons, AreasOfSyntheticPlanesAgainstTheirVisibleArea) {
   // over the rings of the same smoothed points, shuffled; (2) the whole ring pipeline on the
   // shuffled input points. The mesh boundary runs through the outermost pixel centres, half a
   // pixel inside the pixels' border, so the grid's polygons come out smaller.
-  const PipelineSettings settings = pipeline_preset("kinect");
+  const PipelineSettings settings = test::ring_preset("kinect");
   Pipeline pipeline(settings), ring_pipeline(settings);
   const synth::RenderSettings render{.noise = synth::Noise::kinect};
   AreaErrors grid, rings_same, rings_own;
@@ -517,7 +517,7 @@ TEST(RingPolygons, PipelineOutlinesUnorganizedPlanesRepeatably) {
        .noise = synth::Noise::kinect,
        .seed = 4});
   const Shuffled input = shuffle_grid(r.cloud, r.labels, 4);
-  Pipeline pipeline(pipeline_preset("kinect"));
+  Pipeline pipeline(test::ring_preset("kinect"));
   pipeline.process(input.cloud);
   const PolygonSet first = pipeline.polygons();
   int planes = 0;
@@ -547,7 +547,7 @@ TEST(RingPolygons, PipelineOutlinesUnorganizedPlanesRepeatably) {
   triangulate_polygons(first, triangles);
   EXPECT_GT(triangles.size(), first.loops.size());
   // Without the polygon stage there are none.
-  PipelineSettings off = pipeline_preset("kinect");
+  PipelineSettings off = test::ring_preset("kinect");
   off.polygons = false;
   Pipeline no_polygons(off);
   no_polygons.process(input.cloud);

@@ -35,7 +35,7 @@ RingRun run(const synth::Scene& scene, synth::Noise noise, const char* preset, R
   RingRun out;
   out.r = synth::render(scene, {.noise = noise, .seed = seed});
   out.u = test::shuffled(out.r.cloud, static_cast<unsigned>(seed));
-  PipelineSettings settings = pipeline_preset(preset);
+  PipelineSettings settings = test::ring_preset(preset);
   settings.segmentation.model = model;
   Pipeline pipeline(settings);
   pipeline.process(out.u.cloud);

@@ -30,6 +30,7 @@ struct FrameResult {
   StageTimes times;
   std::size_t segments = 0;
   bool organized = true;
+  bool pixel_grid = false;  ///< unorganized, run on its restored pixel grid
 };
 
 /// A worker's pipelines, one per preset its frames need (with --preset auto a folder may mix
@@ -48,8 +49,9 @@ class WorkerPipelines {
   std::map<std::string, std::unique_ptr<Pipeline>> by_preset_;
 };
 
-/// Every stage name in the order of summary.json: an organized frame has no rings, an
-/// unorganized one no mesh (its "order" is the pipeline's move into spatial order and back).
+/// Every stage name in the order of summary.json: a frame on a grid has no rings, one over rings
+/// no mesh; "order" is an unorganized frame's move into spatial order or onto its pixel grid
+/// and back.
 constexpr const char* kStages[] = {"mesh",      "order",        "rings",    "normals",
                                    "smoothing", "segmentation", "polygons", "total"};
 
@@ -73,6 +75,7 @@ FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options
     r.times = pipeline.times();
     r.segments = pipeline.segmentation().segments.size();
     r.organized = in.cloud.is_organized();
+    r.pixel_grid = pipeline.pixel_grid().found();
   } catch (const std::exception& e) {
     r.error = e.what();
   } catch (...) {
@@ -98,10 +101,10 @@ void keep_freed_memory_for_reuse() {
 
 }  // namespace
 
-std::vector<StageTime> stage_times(const StageTimes& t, bool organized) {
+std::vector<StageTime> stage_times(const StageTimes& t, bool organized, bool rings) {
   std::vector<StageTime> stages{
-      {organized ? "mesh" : "rings", t.mesh}, {"normals", t.normals},   {"smoothing", t.smoothing},
-      {"segmentation", t.segmentation},       {"polygons", t.polygons}, {"total", t.total}};
+      {rings ? "rings" : "mesh", t.mesh}, {"normals", t.normals},   {"smoothing", t.smoothing},
+      {"segmentation", t.segmentation},   {"polygons", t.polygons}, {"total", t.total}};
   if (!organized) stages.insert(stages.begin(), {"order", t.input});
   return stages;
 }
@@ -162,7 +165,7 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
     if (r.ok) {
       ++ok;
       nlohmann::json ms;
-      for (const StageTime& s : stage_times(r.times, r.organized)) {
+      for (const StageTime& s : stage_times(r.times, r.organized, !r.organized && !r.pixel_grid)) {
         per_stage[s.name].push_back(s.ms);
         ms[s.name] = s.ms;
       }
@@ -170,6 +173,7 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
                         {"input", f.path},
                         {"ok", true},
                         {"organized", r.organized},
+                        {"pixel_grid", r.pixel_grid},
                         {"preset", r.preset},
                         {"segments", r.segments},
                         {"ms", ms}});
@@ -178,7 +182,7 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
       failures.push_back({{"name", f.name}, {"input", f.path}, {"error", r.error}});
     }
   }
-  // Medians of the stages the frames ran (mesh over the organized ones, rings over the others).
+  // Medians of the stages the frames ran (mesh over those on a grid, rings over the others).
   nlohmann::json medians = nlohmann::json::object();
   for (const char* stage : kStages) {
     if (per_stage.contains(stage)) medians[stage] = median(per_stage[stage]);

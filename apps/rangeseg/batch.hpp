@@ -28,9 +28,10 @@ struct BatchOptions {
 
 /// Segments every frame into `out_dir/<name>/`, skipping (and reporting on stderr) frames that
 /// cannot be read or processed; shows progress on stderr, prints a summary on stdout and writes
-/// it to `out_dir/summary.json` (with each frame's preset and whether it was organized; the
-/// stage medians are over the frames that ran the stage: `mesh` over the organized ones, `rings`
-/// over the unorganized ones). Results do not depend on `threads`.
+/// it to `out_dir/summary.json` (with each frame's preset, whether it was organized and whether
+/// an unorganized one ran on its restored pixel grid; the stage medians are over the frames that
+/// ran the stage: `mesh` over those on a grid, `rings` over the others). Results do not depend
+/// on `threads`.
 /// Returns the number of frames that succeeded. Throws std::runtime_error only if `out_dir`
 /// cannot be created or the summary cannot be written, and std::invalid_argument for invalid
 /// settings (before any frame is read).
@@ -43,10 +44,10 @@ struct StageTime {
   double ms;
 };
 
-/// The stages a frame ran, with their times: mesh (organized) or rings (unorganized: the
-/// k-nearest-neighbour rings, StageTimes::mesh), normals, smoothing, segmentation, polygons
-/// and total.
-std::vector<StageTime> stage_times(const StageTimes& times, bool organized);
+/// The stages a frame ran, with their times: for unorganized input "order" (StageTimes::input),
+/// then mesh (a grid: organized, or the pixel grid restored) or rings (the k-nearest-neighbour
+/// rings, StageTimes::mesh), normals, smoothing, segmentation, polygons and total.
+std::vector<StageTime> stage_times(const StageTimes& times, bool organized, bool rings);
 
 /// Median of `values` (0 for none); the mean of the two middle values for an even count.
 double median(std::vector<double> values);

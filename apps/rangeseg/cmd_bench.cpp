@@ -33,6 +33,7 @@ struct BenchOptions {
 
 struct SizeResult {
   int scale = 1, width = 0, height = 0;
+  PixelGrid grid;                    ///< an unorganized cloud's restored pixel grid, if found
   std::vector<StageTime> median_ms;  ///< per stage (stage_times: rings for unorganized input)
   double fps_single = 0;             ///< frames/s of the timed single-thread runs
   double fps_threads = 0;  ///< frames/s of `threads` pipelines in parallel (0 if threads == 1)
@@ -50,9 +51,14 @@ double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
+/// The stages `pipeline` ran on its last frame (`organized`: whether that was organized).
+std::vector<StageTime> stages_of(const Pipeline& pipeline, bool organized) {
+  return stage_times(pipeline.times(), organized, !organized && !pipeline.pixel_grid().found());
+}
+
 /// Appends the stage times of the pipeline's last frame to `samples` (one list per stage).
 void record(const Pipeline& pipeline, bool organized, std::vector<std::vector<double>>& samples) {
-  const std::vector<StageTime> stages = stage_times(pipeline.times(), organized);
+  const std::vector<StageTime> stages = stages_of(pipeline, organized);
   samples.resize(stages.size());
   for (std::size_t s = 0; s < stages.size(); ++s) samples[s].push_back(stages[s].ms);
 }
@@ -100,10 +106,14 @@ SizeResult measure(const OrganizedCloud& cloud, const PipelineSettings& settings
     record(*in_frame, organized, in_frame_ms);
     ratios.push_back(single_ms.back().back() / in_frame_ms.back().back());
   }
-  r.median_ms = medians(stage_times(single.times(), organized), single_ms);
+  r.median_ms = medians(stages_of(single, organized), single_ms);
+  r.grid.width = single.pixel_grid().width;
+  r.grid.height = single.pixel_grid().height;
+  r.grid.fx = single.pixel_grid().fx;
+  r.grid.fy = single.pixel_grid().fy;
   r.fps_single = repeat / single_seconds;
   if (!in_frame) return r;
-  r.in_frame_ms = medians(stage_times(in_frame->times(), organized), in_frame_ms);
+  r.in_frame_ms = medians(stages_of(*in_frame, organized), in_frame_ms);
   r.in_frame_speedup = median(ratios);
 
   std::vector<std::unique_ptr<Pipeline>> pipelines;
@@ -244,7 +254,11 @@ void add_bench(CLI::App& app) {
       const std::string size =
           in.cloud.is_organized()
               ? std::to_string(in.cloud.width()) + " x " + std::to_string(in.cloud.height())
-              : std::to_string(in.cloud.size()) + " points (unorganized)";
+              : std::to_string(in.cloud.size()) + " points (unorganized" +
+                    (r.grid.found() ? ", on its " + std::to_string(r.grid.width) + " x " +
+                                          std::to_string(r.grid.height) + " pixel grid"
+                                    : std::string(", over rings")) +
+                    ")";
       std::printf("%s: %s, median of %d runs, single thread\n", o->in.path.c_str(), size.c_str(),
                   o->repeat);
       for (std::size_t s = 0; s < r.median_ms.size(); ++s) {

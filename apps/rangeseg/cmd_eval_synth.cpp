@@ -39,6 +39,7 @@ struct EvalSynthOptions {
   bool no_smooth = false;
   bool per_surface = false;
   bool unorganized = false;
+  bool restore_grid = false;
 };
 
 constexpr std::uint64_t kMaxSeeds = 10000;
@@ -222,7 +223,11 @@ void run_eval_synth(const EvalSynthOptions& o) {
   const std::vector<std::uint64_t> seeds = parse_seeds(o.seeds);
   const synth::RenderSettings sensor = sensor_by_name(o.noise, o.camera);
   scene_by_name(o.scene, seeds.front());  // rejects an unknown scene before any work
-  Pipeline pipeline(settings_from(o.preset, o.model, o.config, o.no_smooth));
+  PipelineSettings settings = settings_from(o.preset, o.model, o.config, o.no_smooth);
+  // The shuffled points of a rendering lie on its pixel grid: --unorganized measures the rings
+  // unless asked to restore it.
+  if (o.unorganized) settings.restore_grid = o.restore_grid;
+  Pipeline pipeline(settings);
   eval::EvalResult total;
   std::vector<eval::EvalResult> results;
   std::vector<eval::AngleStats> angles;
@@ -306,6 +311,7 @@ void run_eval_synth(const EvalSynthOptions& o) {
                         {"T", o.tolerance},
                         {"per_surface", o.per_surface},
                         {"unorganized", o.unorganized},
+                        {"restore_grid", o.unorganized && o.restore_grid},
                         {"seeds", per_seed},
                         {"total", totals}});
   }
@@ -334,6 +340,10 @@ void add_eval_synth(CLI::App& app) {
       "Segment each rendering's valid points shuffled (seeded) into an unorganized cloud, "
       "over k-nearest-neighbour rings; the labels are put back on the grid to be scored "
       "(models plane, smooth and auto)");
+  cmd->add_flag(
+      "--restore-grid", o->restore_grid,
+      "With --unorganized: let the pipeline find the points' pixel grid and run the grid "
+      "stages on it, as `segment` does for such a cloud (PipelineSettings::restore_grid)");
   cmd->add_option("-o,--output", o->out_dir,
                   "Also write each seed's results and ground_truth.png into DIR/<scene><seed>/ "
                   "(with --unorganized: labels.png only)");

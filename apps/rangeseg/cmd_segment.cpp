@@ -155,12 +155,19 @@ void add_segment(CLI::App& app) {
     const StageTimes& t = pipeline.times();
     const std::size_t segments = pipeline.segmentation().segments.size();
     if (!in.cloud.is_organized()) {
+      const PixelGrid& grid = pipeline.pixel_grid();
+      char where[128] = "over rings";
+      if (grid.found()) {
+        std::snprintf(where, sizeof where, "on its %d x %d pixel grid, fx %.1f fy %.1f px",
+                      grid.width, grid.height, grid.fx, grid.fy);
+      }
       std::printf(
-          "%s: %zu segments of %zu points (unorganized, %zu valid) in %.2f ms (preset %s; rings "
-          "%.2f, normals %.2f, smoothing %.2f, segmentation %.2f, polygons %.2f); wrote %s\n",
-          o->in.path.c_str(), segments, in.cloud.size(), in.cloud.count_valid(), t.total,
-          preset.c_str(), t.mesh, t.normals, t.smoothing, t.segmentation, t.polygons,
-          files.c_str());
+          "%s: %zu segments of %zu points (unorganized, %zu valid, %s) in %.2f ms (preset %s; "
+          "order %.2f, %s %.2f, normals %.2f, smoothing %.2f, segmentation %.2f, polygons %.2f); "
+          "wrote %s\n",
+          o->in.path.c_str(), segments, in.cloud.size(), in.cloud.count_valid(), where, t.total,
+          preset.c_str(), t.input, grid.found() ? "mesh" : "rings", t.mesh, t.normals, t.smoothing,
+          t.segmentation, t.polygons, files.c_str());
       return;
     }
     std::printf(

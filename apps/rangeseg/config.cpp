@@ -62,8 +62,10 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
   } catch (const json::exception& e) {
     throw std::runtime_error(path + ": not valid JSON: " + e.what());
   }
-  reject_unknown(j, {"noise", "mesh", "smoothing", "segmentation", "rings", "smooth"}, path);
+  reject_unknown(
+      j, {"noise", "mesh", "smoothing", "segmentation", "rings", "smooth", "restore_grid"}, path);
   take(j, "smooth", s.smooth, path);
+  take(j, "restore_grid", s.restore_grid, path);
   if (j.contains("noise")) {
     const json& m = j["noise"];
     const std::string where = path + " [noise]";

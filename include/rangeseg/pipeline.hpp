@@ -1,13 +1,16 @@
 // The whole frame: mesh, normals, smoothing and segmentation with buffers reused across frames.
 #pragma once
 
+#include <cstddef>
 #include <memory>
 #include <string_view>
+#include <vector>
 
 #include "rangeseg/camera.hpp"
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/normals.hpp"
+#include "rangeseg/pixel_grid.hpp"
 #include "rangeseg/polygons.hpp"
 #include "rangeseg/segmentation.hpp"
 #include "rangeseg/smoothing.hpp"
@@ -38,6 +41,12 @@ struct PipelineSettings {
   /// mesh (see unorganized.hpp); `mesh`, `polygon` and the grid-only segmentation settings are
   /// not used for them.
   RingSettings rings{};
+  /// Unorganized clouds only: when the points lie on a pinhole camera's pixel grid (a depth
+  /// camera's valid points, in any order: `find_pixel_grid`), and RingSettings::viewpoint is
+  /// the origin, they are put back on that grid and run the grid stages, which are faster (a
+  /// 640 x 480 frame: ~12 ms against ~560 ms) and more accurate than the rings. false: always
+  /// rings (e.g. to measure them).
+  bool restore_grid = true;
 };
 
 /// Sets the sensor noise model of every stage.
@@ -75,7 +84,11 @@ class Pipeline {
   /// of their direction from RingSettings::viewpoint, or of their position for rings by 3D
   /// distance), so that neighbours lie close in memory, and every result is put back into the
   /// input order: the same points in any order give the same rings, normals, points, labels,
-  /// segments and polygons (StageTimes::input is the time of both moves). Its buffers, the
+  /// segments and polygons (StageTimes::input is the time of both moves). Where its points lie
+  /// on a camera's pixel grid (PipelineSettings::restore_grid, `pixel_grid()`), the grid stages
+  /// run on them instead: `mesh()` is then the grid's, `rings()` is empty, and the points,
+  /// normals and labels come back per point in input order as well (StageTimes::input: finding
+  /// the grid and both moves). Its buffers, the
   /// k-d tree's included, are kept too: once they fit
   /// the largest cloud seen, nothing is allocated with `new`; the tree, rebuilt in place per
   /// frame, takes its nodes from nanoflann's pool of 8 KB malloc blocks.
@@ -92,8 +105,11 @@ class Pipeline {
 
   const PipelineSettings& settings() const { return settings_; }
   const Mesh& mesh() const { return mesh_; }
-  /// The rings of the last frame when it was unorganized, else empty.
+  /// The rings of the last frame when it was unorganized and run over rings, else empty.
   const PointRings& rings() const { return rings_; }
+  /// The pixel grid of the last frame when it was unorganized and run on the grid it was found
+  /// to lie on, else not found (PixelGrid::found()).
+  const PixelGrid& pixel_grid() const { return grid_; }
   const NormalMap& raw_normals() const { return raw_normals_; }
   /// Smoothed points and normals, or the input and raw normals when smoothing is off.
   const OrganizedCloud& cloud() const { return settings_.smooth ? smoothed_cloud_ : *input_; }
@@ -104,6 +120,8 @@ class Pipeline {
 
  private:
   void process_unorganized(const OrganizedCloud& cloud);
+  void process_grid(const OrganizedCloud& cloud);
+  void process_restored(const OrganizedCloud& cloud, double find_ms);
   template <class Convert>
   void process_depth(int width, int height, Convert&& convert_rows);
 
@@ -126,6 +144,13 @@ class Pipeline {
   /// Unorganized clouds: the points in the spatial order the stages run in, and their rings.
   OrganizedCloud ordered_input_;
   PointRings ordered_rings_;
+  /// Unorganized clouds on a pixel grid: the grid, the points on it, and the grid stages'
+  /// per-pixel results (the members above hold them per point).
+  PixelGrid grid_;
+  OrganizedCloud grid_cloud_, grid_smoothed_cloud_;
+  NormalMap grid_raw_normals_, grid_smoothed_normals_;
+  LabelImage grid_labels_;
+  std::vector<std::ptrdiff_t> grid_offsets_;  ///< per point: its pixel's offset in a grid plane
 };
 
 }  // namespace rangeseg

@@ -1,5 +1,6 @@
 // Internal: points of a cloud picked by index into one row, every plane the cloud has (the
-// valid or shuffled points of cloud_ops.cpp, the spatial order of unorganized clouds).
+// valid or shuffled points of cloud_ops.cpp, the spatial order of unorganized clouds), and the
+// optional planes copied from cloud to cloud.
 #pragma once
 
 #include <cstddef>
@@ -46,6 +47,16 @@ void gather_points(const OrganizedCloud& cloud, std::span<const Index> points,
   gather_plane(cloud.g, points, out.g);
   gather_plane(cloud.b, points, out.b);
   gather_plane(cloud.label, points, out.label);
+}
+
+/// The planes a stage passes through unchanged (intensity, colour, label) from `from` to `to`
+/// (the filter's output, the pipeline's per-point results).
+inline void copy_optional_planes(const OrganizedCloud& from, OrganizedCloud& to) {
+  to.intensity = from.intensity;
+  to.r = from.r;
+  to.g = from.g;
+  to.b = from.b;
+  to.label = from.label;
 }
 
 }  // namespace rangeseg::detail

@@ -159,6 +159,13 @@ struct RingBuffers::Impl {
   std::vector<std::uint64_t> grazing_pairs;
   std::unique_ptr<unorganized::RingTree, unorganized::RingTreeDeleter> grazing_tree;
   std::vector<unorganized::GrazingState> grazing_state;
+  // find_pixel_grid: the valid points, their x / z and y / z, a sample of one axis sorted, the
+  // columns of an axis, the grid's taken pixels.
+  std::vector<std::int32_t> grid_items, grid_sorted, grid_items_tmp;
+  std::vector<float> grid_tu, grid_tv;
+  std::vector<std::uint32_t> grid_sorted_keys, grid_keys_tmp;
+  std::vector<double> grid_columns;
+  std::vector<std::uint8_t> grid_taken;
 };
 
 }  // namespace rangeseg
