@@ -405,6 +405,23 @@ TEST(CliUnorganized, PointsOnAPixelGridRunTheGridStages) {
   EXPECT_EQ(bad.code, 2) << bad.out;
   EXPECT_NE(bad.out.find("restore_grid"), std::string::npos) << bad.out;
 
+  // The commands that need a grid take it; info names it.
+  const CliResult info = run("info " + shuffled);
+  ASSERT_EQ(info.code, 0) << info.out;
+  EXPECT_NE(info.out.find("grid:     160 x 120 pixels, fx 131.25 fy 131.25"), std::string::npos)
+      << info.out;
+  const CliResult mesh = run("mesh " + shuffled + " -o " + (dir / "mesh.ply").string());
+  ASSERT_EQ(mesh.code, 0) << mesh.out;
+  EXPECT_NE(mesh.out.find("on a 160 x 120 pixel grid"), std::string::npos) << mesh.out;
+  EXPECT_TRUE(fs::exists(dir / "mesh.ply"));
+  ASSERT_EQ(run("convert " + shuffled + " " + (dir / "depth.png").string()).code, 0);
+  const CliResult back = run("info " + (dir / "depth.png").string() + " --fx 131.25 --fy 131.25 " +
+                             "--cx 79.5 --cy 59.5");
+  EXPECT_NE(back.out.find("160 x 120 (organized)"), std::string::npos) << back.out;
+  EXPECT_NE(back.out.find("valid:    " + std::to_string(points.size()) + " of"),
+            std::string::npos)
+      << back.out;
+
   // A batch records which frames ran on their grid.
   const CliResult batch = run("segment " + rows + " " + (dir / "rings" / "cloud.pcd").string() +
                               " -o " + (dir / "batch").string());

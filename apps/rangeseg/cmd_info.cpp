@@ -5,6 +5,7 @@
 #include "commands.hpp"
 #include "input.hpp"
 #include "rangeseg/cloud.hpp"
+#include "rangeseg/pixel_grid.hpp"
 
 namespace rangeseg::cli {
 
@@ -25,6 +26,17 @@ void add_info(CLI::App& app) {
                     : 100.0 * static_cast<double>(s.valid) / static_cast<double>(in.cloud.size()));
     if (s.valid > 0) std::printf("depth:    %.4f .. %.4f %s\n", s.min_z, s.max_z, in.units.c_str());
     if (in.cloud.has_label()) std::printf("labels:   yes\n");
+    if (!in.cloud.is_organized()) {
+      PixelGrid grid;
+      if (find_pixel_grid(in.cloud, grid)) {
+        std::printf(
+            "grid:     %d x %d pixels, fx %.2f fy %.2f cx %.2f cy %.2f (a camera's "
+            "points: segmented on this grid)\n",
+            grid.width, grid.height, grid.fx, grid.fy, grid.cx, grid.cy);
+      } else {
+        std::printf("grid:     none (segmented over k-nearest-neighbour rings)\n");
+      }
+    }
   });
 }
 

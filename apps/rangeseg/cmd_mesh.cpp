@@ -63,7 +63,7 @@ void add_mesh(CLI::App& app) {
       return s;
     };
     mesh_settings("");  // bad options fail before the input is read
-    const LoadedInput in = load_input(o->in);
+    LoadedInput in = load_input(o->in);
     require_grid(in.cloud, o->in.path, "a mesh",
                  "`rangeseg smooth` writes the normals of its points");
     const Mesh mesh = build_mesh(in.cloud, mesh_settings(in.sensor_preset));

@@ -32,7 +32,7 @@ void run_noise(const NoiseOptions& o) {
     if (!frame.error.empty()) throw std::runtime_error(frame.path + ": " + frame.error);
     InputOptions in = list.options;
     in.path = frame.path;
-    const LoadedInput loaded = load_input(in);
+    LoadedInput loaded = load_input(in);
     require_grid(loaded.cloud, frame.path, "a pixel grid to fit blocks on",
                  "estimate the noise from the organized frames of the same sensor");
     estimator.add(loaded.cloud);

@@ -1,6 +1,7 @@
 #include "input.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -14,6 +15,7 @@
 #include "rangeseg/io/perceptron.hpp"
 #include "rangeseg/io/png.hpp"
 #include "rangeseg/io/rasterfile.hpp"
+#include "rangeseg/pixel_grid.hpp"
 
 namespace rangeseg::cli {
 
@@ -83,12 +85,24 @@ LoadedInput load_input(const InputOptions& o) {
   return in;
 }
 
-void require_grid(const OrganizedCloud& cloud, const std::string& path, const std::string& what,
+void require_grid(OrganizedCloud& cloud, const std::string& path, const std::string& what,
                   const std::string& instead) {
   if (cloud.is_organized()) return;
-  throw std::runtime_error(path + ": an unorganized cloud (" + std::to_string(cloud.size()) +
-                           " points, height 1): " + what +
-                           " needs the pixel grid of an organized cloud; " + instead);
+  PixelGrid grid;
+  if (!find_pixel_grid(cloud, grid)) {
+    throw std::runtime_error(path + ": an unorganized cloud (" + std::to_string(cloud.size()) +
+                             " points, height 1) whose points do not lie on a camera's pixel "
+                             "grid: " +
+                             what + " needs the pixel grid of an organized cloud; " + instead);
+  }
+  OrganizedCloud on_grid;
+  scatter_to_grid(cloud, grid, on_grid);
+  cloud = std::move(on_grid);
+  std::fprintf(stderr,
+               "rangeseg: %s: unorganized, its points on a %d x %d pixel grid (fx %.2f, fy %.2f, "
+               "cx %.2f, cy %.2f px), which %s uses\n",
+               path.c_str(), grid.width, grid.height, grid.fx, grid.fy, grid.cx, grid.cy,
+               what.c_str());
 }
 
 namespace {

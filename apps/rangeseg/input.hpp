@@ -34,10 +34,11 @@ struct LoadedInput {
 void add_input_options(CLI::App& cmd, InputOptions& opts, bool positional = true);
 LoadedInput load_input(const InputOptions& opts);
 
-/// Throws std::runtime_error naming `path` when `cloud` is unorganized (height 1): `what` needs
-/// the pixel grid of an organized cloud (e.g. "a mesh"); `instead` suggests what works for an
-/// unorganized one.
-void require_grid(const OrganizedCloud& cloud, const std::string& path, const std::string& what,
+/// For the commands that need a pixel grid (`what`, e.g. "a mesh"): an organized cloud stays as
+/// it is; an unorganized one (height 1) whose points lie on a camera's pixel grid (a depth
+/// camera's valid points, find_pixel_grid) is put on it, with a note on stderr naming the grid;
+/// any other throws std::runtime_error naming `path`, with `instead` suggesting what works.
+void require_grid(OrganizedCloud& cloud, const std::string& path, const std::string& what,
                   const std::string& instead);
 
 /// One frame of a batch: the file to read and the name of its result folder.
