@@ -83,12 +83,6 @@ Pipeline::Pipeline(const PipelineSettings& settings)
 }
 
 void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
-  const RegionModel model = settings_.segmentation.model;
-  if (settings_.segment && model == RegionModel::incremental_plane) {
-    throw std::invalid_argument(std::string("Pipeline::process: the ") + to_string(model) +
-                                " model is not available for unorganized clouds (plane, smooth "
-                                "or auto)");
-  }
   Clock::time_point t = Clock::now();
   const Clock::time_point start = t;
   const auto& viewpoint = settings_.rings.viewpoint;
@@ -98,6 +92,12 @@ void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
     return;
   }
   forget(grid_);
+  const RegionModel model = settings_.segmentation.model;
+  if (settings_.segment && model == RegionModel::incremental_plane) {
+    throw std::invalid_argument(std::string("Pipeline::process: the ") + to_string(model) +
+                                " model is not available for unorganized clouds over rings "
+                                "(plane, smooth or auto)");
+  }
   input_ = &cloud;
   times_ = {};
   mesh_ = Mesh{};

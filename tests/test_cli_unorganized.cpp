@@ -405,6 +405,11 @@ TEST(CliUnorganized, PointsOnAPixelGridRunTheGridStages) {
   EXPECT_EQ(bad.code, 2) << bad.out;
   EXPECT_NE(bad.out.find("restore_grid"), std::string::npos) << bad.out;
 
+  // incremental_plane, which the rings do not support, runs on the grid.
+  const CliResult incremental =
+      run("segment " + shuffled + " -o " + (dir / "inc").string() + " --model incremental_plane");
+  EXPECT_EQ(incremental.code, 0) << incremental.out;
+
   // The commands that need a grid take it; info names it.
   const CliResult info = run("info " + shuffled);
   ASSERT_EQ(info.code, 0) << info.out;
@@ -418,8 +423,7 @@ TEST(CliUnorganized, PointsOnAPixelGridRunTheGridStages) {
   const CliResult back = run("info " + (dir / "depth.png").string() + " --fx 131.25 --fy 131.25 " +
                              "--cx 79.5 --cy 59.5");
   EXPECT_NE(back.out.find("160 x 120 (organized)"), std::string::npos) << back.out;
-  EXPECT_NE(back.out.find("valid:    " + std::to_string(points.size()) + " of"),
-            std::string::npos)
+  EXPECT_NE(back.out.find("valid:    " + std::to_string(points.size()) + " of"), std::string::npos)
       << back.out;
 
   // A batch records which frames ran on their grid.

@@ -272,6 +272,15 @@ TEST(RestoredGrid, PipelineGivesTheGridStagesResultsPerPoint) {
   EXPECT_FALSE(points.pixel_grid().found());
   points.process(input);
   EXPECT_TRUE(points.pixel_grid().found());
+  // Every grid model runs on the restored grid; over rings incremental_plane is rejected.
+  PipelineSettings incremental = pipeline_preset("kinect");
+  incremental.segmentation.model = RegionModel::incremental_plane;
+  Pipeline on_grid(incremental);
+  on_grid.process(input);
+  EXPECT_GE(on_grid.segmentation().segments.size(), 5u);
+  incremental.restore_grid = false;
+  Pipeline over_rings_incremental(incremental);
+  EXPECT_THROW(over_rings_incremental.process(input), std::invalid_argument);
   // Rings when asked for, or when the viewpoint is not the camera's origin.
   PipelineSettings rings = settings;
   rings.restore_grid = false;

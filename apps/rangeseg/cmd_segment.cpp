@@ -52,9 +52,12 @@ void require_model_for(const OrganizedCloud& cloud, const PipelineSettings& sett
   if (cloud.is_organized() || !settings.segment || model != RegionModel::incremental_plane) {
     return;
   }
-  throw std::invalid_argument(path + ": an unorganized cloud (height 1) is segmented over " +
-                              "nearest-neighbour rings, with --model plane, smooth or auto (not " +
-                              to_string(model) + ")");
+  PixelGrid grid;
+  if (settings.restore_grid && find_pixel_grid(cloud, grid)) return;  // run on the grid
+  throw std::invalid_argument(path + ": an unorganized cloud (height 1) whose points do not lie " +
+                              "on a camera's pixel grid is segmented over nearest-neighbour " +
+                              "rings, with --model plane, smooth or auto (not " + to_string(model) +
+                              ")");
 }
 
 std::string resolve_preset(const std::string& preset, const std::string& sensor_preset) {

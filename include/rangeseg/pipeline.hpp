@@ -80,18 +80,17 @@ class Pipeline {
   /// 1) runs the stages over k-nearest-neighbour rings (unorganized.hpp): `rings()` instead of
   /// `mesh()` (which is left empty; StageTimes::mesh is the time of the rings), polygons from
   /// the points' footprints, and the plane, smooth and auto models (std::invalid_argument for
-  /// incremental_plane). The stages run on the points put in spatial order (by the Morton code
-  /// of their direction from RingSettings::viewpoint, or of their position for rings by 3D
-  /// distance), so that neighbours lie close in memory, and every result is put back into the
-  /// input order: the same points in any order give the same rings, normals, points, labels,
-  /// segments and polygons (StageTimes::input is the time of both moves). Where its points lie
-  /// on a camera's pixel grid (PipelineSettings::restore_grid, `pixel_grid()`), the grid stages
-  /// run on them instead: `mesh()` is then the grid's, `rings()` is empty, and the points,
-  /// normals and labels come back per point in input order as well (StageTimes::input: finding
-  /// the grid and both moves). Its buffers, the
-  /// k-d tree's included, are kept too: once they fit
-  /// the largest cloud seen, nothing is allocated with `new`; the tree, rebuilt in place per
-  /// frame, takes its nodes from nanoflann's pool of 8 KB malloc blocks.
+  /// incremental_plane, which only a restored grid, below, supports). The stages run on the points
+  /// put in spatial order (by the Morton code of their direction from RingSettings::viewpoint, or
+  /// of their position for rings by 3D distance), so that neighbours lie close in memory, and every
+  /// result is put back into the input order: the same points in any order give the same rings,
+  /// normals, points, labels, segments and polygons (StageTimes::input is the time of both moves).
+  /// Where its points lie on a camera's pixel grid (PipelineSettings::restore_grid,
+  /// `pixel_grid()`), the grid stages run on them instead: `mesh()` is then the grid's, `rings()`
+  /// is empty, and the points, normals and labels come back per point in input order as well
+  /// (StageTimes::input: finding the grid and both moves). Its buffers, the k-d tree's included,
+  /// are kept too: once they fit the largest cloud seen, nothing is allocated with `new`; the tree,
+  /// rebuilt in place per frame, takes its nodes from nanoflann's pool of 8 KB malloc blocks.
   void process(const OrganizedCloud& cloud);
 
   /// Processes a depth image (raw units, 0 = no measurement, `depth_scale` metres per unit, e.g.
