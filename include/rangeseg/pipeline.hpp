@@ -86,11 +86,12 @@ class Pipeline {
   /// result is put back into the input order: the same points in any order give the same rings,
   /// normals, points, labels, segments and polygons (StageTimes::input is the time of both moves).
   /// Where its points lie on a camera's pixel grid (PipelineSettings::restore_grid,
-  /// `pixel_grid()`), the grid stages run on them instead: `mesh()` is then the grid's, `rings()`
-  /// is empty, and the points, normals and labels come back per point in input order as well
-  /// (StageTimes::input: finding the grid and both moves). Its buffers, the k-d tree's included,
-  /// are kept too: once they fit the largest cloud seen, nothing is allocated with `new`; the tree,
-  /// rebuilt in place per frame, takes its nodes from nanoflann's pool of 8 KB malloc blocks.
+  /// `pixel_grid()`), the grid stages run on them instead: `mesh()` is then the grid's, as are
+  /// the polygons' `pixels`, `rings()` is empty, and the points, normals and labels come back per
+  /// point in input order as well (StageTimes::input: finding the grid and both moves). Its
+  /// buffers, the k-d tree's included, are kept too: once they fit the largest cloud seen, nothing
+  /// is allocated with `new`; the tree, rebuilt in place per frame, takes its nodes from
+  /// nanoflann's pool of 8 KB malloc blocks.
   void process(const OrganizedCloud& cloud);
 
   /// Processes a depth image (raw units, 0 = no measurement, `depth_scale` metres per unit, e.g.
