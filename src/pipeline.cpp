@@ -34,13 +34,6 @@ double ms_since(Clock::time_point& start) {
   return ms;
 }
 
-/// Not found, keeping the buffer.
-void forget(PixelGrid& grid) {
-  grid.width = grid.height = 0;
-  grid.fx = grid.fy = grid.cx = grid.cy = 0;
-  grid.pixel.clear();
-}
-
 }  // namespace
 
 void set_noise(PipelineSettings& settings, const SensorNoise& noise) {
@@ -91,7 +84,7 @@ void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
     process_restored(cloud, ms_since(t));
     return;
   }
-  forget(grid_);
+  grid_.clear();
   const RegionModel model = settings_.segmentation.model;
   if (settings_.segment && model == RegionModel::incremental_plane) {
     throw std::invalid_argument(std::string("Pipeline::process: the ") + to_string(model) +
@@ -241,7 +234,7 @@ void Pipeline::process(const OrganizedCloud& cloud) {
     return;
   }
   require_organized(cloud, "Pipeline::process");
-  forget(grid_);
+  grid_.clear();
   process_grid(cloud);
 }
 

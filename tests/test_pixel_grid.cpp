@@ -92,7 +92,7 @@ TEST(PixelGrid, EveryOtherPixelIsAGridOfHalfTheFocalLength) {
   ASSERT_TRUE(find_pixel_grid(shuffled(half, 5).cloud, grid));
   EXPECT_NEAR(grid.fx, 131.25, 1e-3);
   EXPECT_NEAR(grid.fy, 131.25, 1e-3);
-  EXPECT_EQ(grid.width, half.width() - (kLeft + 1) / 2 - (half.width() - kRight / 2));
+  EXPECT_EQ(grid.width, kRight / 2 - (kLeft + 1) / 2);  // the even columns 8..298
 }
 
 /// Whether find_pixel_grid finds a grid, checking that a failure leaves it empty.

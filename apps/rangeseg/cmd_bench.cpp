@@ -33,9 +33,9 @@ struct BenchOptions {
 
 struct SizeResult {
   int scale = 1, width = 0, height = 0;
-  PixelGrid grid;                    ///< an unorganized cloud's restored pixel grid, if found
-  std::vector<StageTime> median_ms;  ///< per stage (stage_times: rings for unorganized input)
-  double fps_single = 0;             ///< frames/s of the timed single-thread runs
+  int grid_width = 0, grid_height = 0;  ///< an unorganized cloud's restored pixel grid, if any
+  std::vector<StageTime> median_ms;     ///< per stage (stage_times: rings for unorganized input)
+  double fps_single = 0;                ///< frames/s of the timed single-thread runs
   double fps_threads = 0;  ///< frames/s of `threads` pipelines in parallel (0 if threads == 1)
   std::vector<StageTime> in_frame_ms;  ///< medians with `threads` threads inside each frame
   double in_frame_speedup = 0;    ///< median over frame pairs of 1-thread / in-frame total time
@@ -107,10 +107,8 @@ SizeResult measure(const OrganizedCloud& cloud, const PipelineSettings& settings
     ratios.push_back(single_ms.back().back() / in_frame_ms.back().back());
   }
   r.median_ms = medians(stages_of(single, organized), single_ms);
-  r.grid.width = single.pixel_grid().width;
-  r.grid.height = single.pixel_grid().height;
-  r.grid.fx = single.pixel_grid().fx;
-  r.grid.fy = single.pixel_grid().fy;
+  r.grid_width = single.pixel_grid().width;
+  r.grid_height = single.pixel_grid().height;
   r.fps_single = repeat / single_seconds;
   if (!in_frame) return r;
   r.in_frame_ms = medians(stages_of(*in_frame, organized), in_frame_ms);
@@ -255,9 +253,9 @@ void add_bench(CLI::App& app) {
           in.cloud.is_organized()
               ? std::to_string(in.cloud.width()) + " x " + std::to_string(in.cloud.height())
               : std::to_string(in.cloud.size()) + " points (unorganized" +
-                    (r.grid.found() ? ", on its " + std::to_string(r.grid.width) + " x " +
-                                          std::to_string(r.grid.height) + " pixel grid"
-                                    : std::string(", over rings")) +
+                    (r.grid_width > 0 ? ", on its " + std::to_string(r.grid_width) + " x " +
+                                            std::to_string(r.grid_height) + " pixel grid"
+                                      : std::string(", over rings")) +
                     ")";
       std::printf("%s: %s, median of %d runs, single thread\n", o->in.path.c_str(), size.c_str(),
                   o->repeat);

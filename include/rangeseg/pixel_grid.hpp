@@ -23,6 +23,12 @@ struct PixelGrid {
   std::vector<std::int32_t> pixel;
 
   bool found() const { return width > 0; }
+  /// Not found; keeps the buffer of `pixel`.
+  void clear() {
+    width = height = 0;
+    fx = fy = cx = cy = 0;
+    pixel.clear();
+  }
 };
 
 /// Finds the pixel grid of a cloud whose valid points are the pixels of one pinhole camera in

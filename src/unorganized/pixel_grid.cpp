@@ -191,9 +191,7 @@ bool find_pixel_grid(const OrganizedCloud& cloud, PixelGrid& grid) {
 
 bool find_pixel_grid(const OrganizedCloud& cloud, PixelGrid& grid, RingBuffers& buffers) {
   if (find(cloud, grid, buffers.impl())) return true;
-  grid.width = grid.height = 0;
-  grid.fx = grid.fy = grid.cx = grid.cy = 0;
-  grid.pixel.clear();
+  grid.clear();
   return false;
 }
 
