@@ -22,6 +22,7 @@
 #include "rangeseg/smoothing.hpp"
 #include "rangeseg/synth.hpp"
 #include "segmentation/internal.hpp"
+#include "segmentation_frame_util.hpp"
 #include "segmentation_test_util.hpp"
 
 namespace rangeseg {
@@ -30,22 +31,6 @@ namespace {
 using namespace test;  // the segmentation test helpers
 
 // --- coarse level (cells) ---
-
-/// A cloud with its mesh, normals, an empty label image and the segmentation's flat view of them.
-struct FrameOf {
-  explicit FrameOf(OrganizedCloud c)
-      : cloud(std::move(c)), mesh(build_mesh(cloud)), normals(compute_normals(cloud, mesh)) {
-    out.labels.resize(cloud.width(), cloud.height(), 0);
-    f = seg::make_frame(cloud, mesh, normals, out.labels);
-  }
-  std::int32_t at(int u, int v) const { return static_cast<std::int32_t>(v * f.stride + u); }
-
-  OrganizedCloud cloud;
-  Mesh mesh;
-  NormalMap normals;
-  Segmentation out;
-  seg::Frame f;
-};
 
 TEST(Segmentation, CellStatisticsEqualDirectSums) {
   // A tilted plane at 2-3 m with dropped points: a cell missing 1 or 4 of its 64 vertices is

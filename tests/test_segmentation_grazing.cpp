@@ -13,6 +13,7 @@
 #include "rangeseg/normals.hpp"
 #include "rangeseg/segmentation.hpp"
 #include "rangeseg/smoothing.hpp"
+#include "segmentation_frame_util.hpp"
 #include "segmentation_test_util.hpp"
 
 namespace rangeseg {
@@ -215,6 +216,65 @@ TEST(Segmentation, VeilAlongADepthStepIsNoGrazingPlane) {
   const Stages q = run(cloud, settings);
   EXPECT_EQ(q.seg.segments.size(), 3u);
   EXPECT_NE(q.seg.labels(305, 240), 0);
+}
+
+/// A patch of the plane 0.7 m below the sensor, 2.2-3.4 m away (12-18 deg to the rays),
+/// noise-free, the Kinect preset's sigma(z), left unlabelled in a frame whose other points are
+/// one region, and the grazing-plane search run on it (the segmentation's internals). Returns
+/// the share of the patch's points in the one grazing plane found (0 for none), and its normal.
+struct PatchResult {
+  int pixels = 0;
+  double share = 0;
+  std::array<double, 3> normal{};
+};
+
+PatchResult grazing_patch(int columns, double z_near, double z_far) {
+  FrameOf t(cast(640, 480, [](double, double b) {
+    const double on_plane = b > 0 ? 0.7 / b : 0.0;
+    return on_plane >= 2.2 && on_plane <= 3.4 ? on_plane : 5.0;
+  }));
+  const SegmentationSettings settings = preset("kinect");
+  Segmenter::Scratch s;
+  s.regions.assign(2, {});
+  PatchResult out;
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      const double z = t.cloud.z(u, v);
+      const std::int32_t i = t.at(u, v);
+      if (u >= 316 && u < 316 + columns && z >= z_near && z <= z_far) {
+        ++out.pixels;
+        continue;
+      }
+      t.f.labels[i] = 1;
+      s.regions[1].add(t.cloud.x(u, v), t.cloud.y(u, v), z);
+    }
+  }
+  s.fits = {{}, s.regions[1].fit()};
+  s.parent = s.remap = {0, 1};
+  s.grazing_region = {0, 0};
+  seg::find_grazing_planes(t.f, settings, s, seg::pixel_footprint(t.f, s));
+  EXPECT_LT(out.pixels, settings.min_region_size);
+  if (s.regions.size() == 2) return out;
+  EXPECT_EQ(s.regions.size(), 3u);
+  EXPECT_EQ(s.grazing_region[2], 1);
+  out.share = static_cast<double>(s.regions[2].count) / out.pixels;
+  out.normal = s.fits[2].normal;
+  return out;
+}
+
+/// A patch of 8 columns and 15 rows (120 points: below min_region_size, and 5 cm across, too
+/// narrow for wide_enough) covers what ~550 points facing the sensor would: a grazing plane. A
+/// strip of 2 columns and ~60 rows (~120 points, 1 cm across) does not become one: a plane
+/// through it edge-on would fit its points within sigma(z) sin(grazing_max_angle) (1.8 cm
+/// across at most) as well.
+TEST(Segmentation, SmallGrazingPatchCountsItsFrontalAreaUnlessItIsAStrip) {
+  const PatchResult patch = grazing_patch(8, 2.9, 3.3);
+  EXPECT_GT(patch.pixels, 100);
+  EXPECT_GT(patch.share, 0.95);
+  EXPECT_LT(angle_deg(patch.normal, {0.0, -1.0, 0.0}), 0.5);
+  const PatchResult strip = grazing_patch(2, 2.2, 3.4);
+  EXPECT_GT(strip.pixels, 100);
+  EXPECT_EQ(strip.share, 0.0);
 }
 
 }  // namespace

@@ -161,13 +161,16 @@ struct SegmentationSettings {
   /// sin(grazing_max_angle); when a plane is taken, the rest of the set is searched again, so a
   /// box's top and side that meet there both count); a plane at least this angle [rad]
   /// (2 deg) and at most `grazing_max_angle` off the viewing ray at its centroid, with an RMS
-  /// residual of at most sigma(z) sin(grazing_max_angle) and `min_region_size` pixels (or half as
-  /// many when wide in 3D, as for any region), becomes a segment, merged with its neighbours as
-  /// any other. The lower bound keeps out the points that a depth step leaves between its two
-  /// sides (a laser scanner's veil), which lie in a plane through the sensor. Over the
-  /// k-nearest-neighbour rings of an unorganized cloud the same, with each unlabelled point's 8
-  /// nearest unlabelled points by viewing direction within 2.5 footprints as its neighbours (its
-  /// range, not z). 0 = off.
+  /// residual of at most sigma(z) sin(grazing_max_angle), becomes a segment, merged with its
+  /// neighbours as any other, when its points cover the area of `min_region_size` pixels facing
+  /// the sensor (at least min_region_size times the sine of its angle to the rays, and half
+  /// min_region_size, as for any region); one below min_region_size points and not wide in 3D
+  /// must be wider, across the image, than sqrt(12) sigma(z) sin(grazing_max_angle), the width
+  /// a plane through its points edge-on would fit as well. The lower bound keeps out the points
+  /// that a depth step leaves between its two sides (a laser scanner's veil), which lie in a plane
+  /// through the sensor. Over the k-nearest-neighbour rings of an unorganized cloud the same (but
+  /// the width test), with each unlabelled point's 8 nearest unlabelled points by viewing
+  /// direction within 2.5 footprints as its neighbours (its range, not z). 0 = off.
   double grazing_min_angle = 0.0349;
   /// ... [rad] (25 deg: twice the mesh's default eps_theta, below which the 1-ring normals of
   /// Kinect data at a few metres are unreliable).

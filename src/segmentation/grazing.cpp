@@ -42,6 +42,26 @@ constexpr std::size_t kSampleReach = 48;
 /// component's points, evenly spaced in its order.
 constexpr std::size_t kScoredPoints = 128;
 
+/// The width [lattice steps] of the points of `pixels` labelled `label` across their longer
+/// axis in the image: sqrt(12 lambda) of the smaller eigenvalue of their positions' covariance.
+double image_width(const Frame& f, std::span<const std::int32_t> pixels, std::int32_t label) {
+  double n = 0, su = 0, sv = 0, suu = 0, svv = 0, suv = 0;
+  for (const std::int32_t i : pixels) {
+    if (f.labels[i] != label) continue;
+    // Lattice row and column (integers: the lattice steps are whole pixels).
+    const std::ptrdiff_t row = i / f.stride / f.pixel_stride;
+    const std::ptrdiff_t column = i % f.stride / f.pixel_stride;
+    const auto v = static_cast<double>(row), u = static_cast<double>(column);
+    n += 1;
+    su += u, sv += v, suu += u * u, svv += v * v, suv += u * v;
+  }
+  if (n == 0) return 0;
+  const double cuu = suu / n - (su / n) * (su / n), cvv = svv / n - (sv / n) * (sv / n);
+  const double cuv = suv / n - (su / n) * (sv / n);
+  const double smaller = 0.5 * (cuu + cvv) - std::hypot(0.5 * (cuu - cvv), cuv);
+  return std::sqrt(12.0 * std::max(0.0, smaller));
+}
+
 /// |n . p| / |p|: the sine of the angle between the viewing ray through p and the plane.
 double ray_sine(const PlaneFit& fit, double x, double y, double z) {
   const double length = std::sqrt(x * x + y * y + z * z);
@@ -142,7 +162,10 @@ struct GrazingFit {
     if (!(sine >= sin_min && sine <= sin_max)) return {};
     const double noise_depth = by_range ? std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) : c[2];
     if (!(fit.rms <= settings.noise.sigma(noise_depth) * sin_max)) return {};
-    if (stats.count < settings.min_region_size &&
+    // A plane whose angle to the rays has sine `sine` is covered by 1 / sine times fewer points
+    // than if it faced the sensor: min_region_size counts that frontal area (and the rounds
+    // above ask for at least half as many points, as for any region).
+    if (static_cast<double>(stats.count) < settings.min_region_size * sine &&
         !wide_enough(stats, settings.min_region_size, footprint, by_range)) {
       return {};
     }
@@ -317,7 +340,8 @@ class GrazingFinder {
         kept.add(p[0], p[1], p[2]);
       }
     }
-    if (2 * kept.count < settings_.min_region_size) {  // the last refit moved the plane
+    // 2 kept < min_region_size: the last refit moved the plane.
+    if (2 * kept.count < settings_.min_region_size || narrow_strip(pixels, label, kept)) {
       for (const std::int32_t i : pixels) {
         if (f_.labels[i] == label) f_.labels[i] = kVisited;
       }
@@ -329,6 +353,22 @@ class GrazingFinder {
     s_.parent.push_back(label);
     s_.remap.push_back(label);
     return true;
+  }
+
+  /// A plane that only its frontal area keeps (below min_region_size points and not
+  /// wide_enough) is a strip of points (a wall's points left along an occluding edge, say)
+  /// that a plane through it edge-on, its depth noise lying in that plane, would fit as well,
+  /// unless such a plane's residual, at least the strip's width over sqrt(12), exceeds the fit's
+  /// bound sigma(z) sin(grazing_max_angle).
+  bool narrow_strip(std::span<const std::int32_t> pixels, std::int32_t label,
+                    const PlaneStats& kept) const {
+    if (kept.count >= settings_.min_region_size ||
+        wide_enough(kept, settings_.min_region_size, footprint_)) {
+      return false;
+    }
+    const double z = kept.sz / static_cast<double>(kept.count);
+    const double width = image_width(f_, pixels, label) * footprint_ * z;  // [m]
+    return width <= std::sqrt(12.0) * settings_.noise.sigma(z) * sin_max_;
   }
 
   const Frame& f_;

@@ -501,9 +501,11 @@ inline constexpr std::size_t kGrazingPointSize = 5;
 /// each): from the grazing plane with most support among the least-squares plane and sampled
 /// triples, refitted to its inliers over shrinking bounds. Returns the plane when it is
 /// grazing_min_angle..grazing_max_angle off the viewing ray at its centroid, with an RMS
-/// residual of at most sigma sin(grazing_max_angle) and min_region_size inliers (or half as many
-/// and wide_enough with `footprint`); otherwise a fit that is not ok. `by_range`: sigma and the
-/// footprints at the centroid's range, not its z (rings).
+/// residual of at most sigma sin(grazing_max_angle) and inliers covering the area of
+/// min_region_size points facing the sensor (min_region_size times the sine of its angle to the
+/// rays; at least half min_region_size), or half as many and wide_enough with `footprint`;
+/// otherwise a fit that is not ok. `by_range`: sigma and the footprints at the centroid's
+/// range, not its z (rings).
 detail::PlaneFit fit_grazing_plane(const double* points, std::size_t n,
                                    const SegmentationSettings& settings, double footprint,
                                    bool by_range);
