@@ -355,11 +355,11 @@ class GrazingFinder {
     return true;
   }
 
-  /// A plane that only its frontal area keeps (below min_region_size points and not
-  /// wide_enough) is a strip of points (a wall's points left along an occluding edge, say)
-  /// that a plane through it edge-on, its depth noise lying in that plane, would fit as well,
-  /// unless such a plane's residual, at least the strip's width over sqrt(12), exceeds the fit's
-  /// bound sigma(z) sin(grazing_max_angle).
+  /// Whether a plane that only its frontal area keeps (below min_region_size points and not
+  /// wide_enough) is too narrow to tell from a plane through its points edge-on, their depth
+  /// noise lying in it (a wall's points left along an occluding edge fit one): across a strip w
+  /// wide that plane leaves a residual of about w / sqrt(12), within the fit's bound sigma(z)
+  /// sin(grazing_max_angle) unless w exceeds sqrt(12) sigma(z) sin(grazing_max_angle).
   bool narrow_strip(std::span<const std::int32_t> pixels, std::int32_t label,
                     const PlaneStats& kept) const {
     if (kept.count >= settings_.min_region_size ||
