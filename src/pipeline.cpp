@@ -195,9 +195,7 @@ void Pipeline::process_restored(const OrganizedCloud& cloud, double find_ms) {
   std::vector<std::ptrdiff_t>& offset = grid_offsets_;
   offset.resize(pixel.size());
   for (std::size_t i = 0; i < pixel.size(); ++i) {
-    const auto p = static_cast<std::uint32_t>(pixel[i]);
-    const std::uint32_t v = p / grid_width;
-    offset[i] = pixel[i] < 0 ? -1 : static_cast<std::ptrdiff_t>(v) * stride + (p - v * grid_width);
+    offset[i] = pixel[i] < 0 ? -1 : unorganized::grid_offset(pixel[i], grid_width, stride);
   }
   gather_from_grid(grid_raw_normals_, offset, raw_normals_);
   if (settings_.smooth) {
@@ -206,13 +204,12 @@ void Pipeline::process_restored(const OrganizedCloud& cloud, double find_ms) {
     gather_from_grid(grid_smoothed_cloud_.y, offset, nan, smoothed_cloud_.y);
     gather_from_grid(grid_smoothed_cloud_.z, offset, nan, smoothed_cloud_.z);
     // The filter moves x, y and z only; invalid points keep their coordinates (NaN or inf).
-    const auto width = static_cast<std::size_t>(cloud.width());
+    // An unorganized cloud is one row.
     for (std::size_t i = 0; i < pixel.size(); ++i) {
       if (pixel[i] >= 0) continue;
-      const int row = static_cast<int>(i / width);
-      smoothed_cloud_.x.row(0)[i] = cloud.x.row(row)[i % width];
-      smoothed_cloud_.y.row(0)[i] = cloud.y.row(row)[i % width];
-      smoothed_cloud_.z.row(0)[i] = cloud.z.row(row)[i % width];
+      smoothed_cloud_.x.row(0)[i] = cloud.x.row(0)[i];
+      smoothed_cloud_.y.row(0)[i] = cloud.y.row(0)[i];
+      smoothed_cloud_.z.row(0)[i] = cloud.z.row(0)[i];
     }
     detail::copy_optional_planes(cloud, smoothed_cloud_);
   }

@@ -98,6 +98,14 @@ inline float squared_distance(const float* a, const float* b) {
   return dx * dx + dy * dy + dz * dz;
 }
 
+/// The offset in a plane of row stride `stride` of pixel `pixel` (v * width + u, as
+/// PixelGrid::pixel holds it) of a grid `width` wide.
+inline std::ptrdiff_t grid_offset(std::int32_t pixel, std::uint32_t width, std::ptrdiff_t stride) {
+  const auto p = static_cast<std::uint32_t>(pixel);
+  const std::uint32_t v = p / width;  // 32-bit: the grid is at most 16384 a side
+  return static_cast<std::ptrdiff_t>(v) * stride + (p - v * width);
+}
+
 }  // namespace rangeseg::unorganized
 
 namespace rangeseg {

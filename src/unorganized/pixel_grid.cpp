@@ -227,9 +227,7 @@ void scatter_to_grid(const OrganizedCloud& cloud, const PixelGrid& grid, Organiz
   const bool one_row = cloud.height() == 1;
   for (std::size_t i = 0; i < grid.pixel.size(); ++i) {
     if (grid.pixel[i] < 0) continue;
-    const auto p = static_cast<std::uint32_t>(grid.pixel[i]);
-    const std::uint32_t v = p / width;
-    const std::ptrdiff_t to = static_cast<std::ptrdiff_t>(v) * stride + (p - v * width);
+    const std::ptrdiff_t to = unorganized::grid_offset(grid.pixel[i], width, stride);
     const std::ptrdiff_t from = one_row
                                     ? static_cast<std::ptrdiff_t>(i)
                                     : static_cast<std::ptrdiff_t>(i / cloud_width) * cloud_stride +
