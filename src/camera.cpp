@@ -1,5 +1,6 @@
 #include "rangeseg/camera.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -134,6 +135,64 @@ OrganizedCloud depth_to_cloud(View<const std::uint16_t> depth, const CameraIntri
   OrganizedCloud cloud;
   depth_to_cloud(depth, camera, depth_scale, cloud);
   return cloud;
+}
+
+bool fit_intrinsics(const OrganizedCloud& cloud, CameraIntrinsics& camera, double tolerance,
+                    double* max_error) {
+  require_consistent(cloud, "fit_intrinsics");
+  if (max_error != nullptr) *max_error = std::numeric_limits<double>::infinity();
+  // Per axis, t = x / z (or y / z) against the pixel coordinate s: t = a s + b, so that
+  // f = 1 / a and c = -b / a. Sums in double, about the first sample to keep them well scaled.
+  struct Line {
+    double n = 0, s0 = 0, ss = 0, st = 0, t = 0, s = 0;
+    bool two = false;
+    void add(double s_, double t_) {
+      if (n == 0) s0 = s_;
+      two = two || s_ != s0;
+      s_ -= s0;
+      n += 1;
+      s += s_;
+      t += t_;
+      ss += s_ * s_;
+      st += s_ * t_;
+    }
+    bool fit(double& f, double& c) const {
+      const double det = n * ss - s * s;
+      if (!two || !(det > 0)) return false;
+      const double a = (n * st - s * t) / det;
+      const double b = (t - a * s) / n;
+      if (!(a > 0) || !std::isfinite(a) || !std::isfinite(b)) return false;
+      f = 1 / a;
+      c = s0 - b / a;
+      return std::isfinite(f) && std::isfinite(c);
+    }
+  } along_u, along_v;
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      if (!cloud.valid(u, v) || !(cloud.z(u, v) > 0)) continue;
+      const double z = cloud.z(u, v);
+      along_u.add(u, cloud.x(u, v) / z);
+      along_v.add(v, cloud.y(u, v) / z);
+    }
+  }
+  CameraIntrinsics fitted;
+  if (!along_u.fit(fitted.fx, fitted.cx) || !along_v.fit(fitted.fy, fitted.cy)) return false;
+  fitted.width = cloud.width();
+  fitted.height = cloud.height();
+  double worst = 0;
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      if (!cloud.valid(u, v) || !(cloud.z(u, v) > 0)) continue;
+      const double z = cloud.z(u, v);
+      const double du = fitted.fx * cloud.x(u, v) / z + fitted.cx - u;
+      const double dv = fitted.fy * cloud.y(u, v) / z + fitted.cy - v;
+      worst = std::max({worst, std::fabs(du), std::fabs(dv)});
+    }
+  }
+  if (max_error != nullptr) *max_error = worst;
+  if (!(worst <= tolerance)) return false;
+  camera = fitted;
+  return true;
 }
 
 DepthImage cloud_to_depth(const OrganizedCloud& cloud, double depth_scale) {

@@ -1,4 +1,7 @@
+#include <Eigen/Geometry>
+
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -83,6 +86,31 @@ OrganizedCloud downsample(const OrganizedCloud& cloud, int factor) {
   take_every(cloud.b, factor, w, h, out.b);
   take_every(cloud.label, factor, w, h, out.label);
   return out;
+}
+
+void to_sensor_frame(OrganizedCloud& cloud, const std::array<double, 7>& pose) {
+  require_consistent(cloud, "to_sensor_frame");
+  const bool finite =
+      std::all_of(pose.begin(), pose.end(), [](double v) { return std::isfinite(v); });
+  Eigen::Quaterniond q(pose[3], pose[4], pose[5], pose[6]);
+  if (!finite || !(q.norm() >= 1e-6)) {
+    std::string values;
+    for (const double v : pose) values += (values.empty() ? "" : " ") + std::to_string(v);
+    throw std::invalid_argument("to_sensor_frame: pose (tx ty tz qw qx qy qz) = " + values +
+                                " needs finite values and a quaternion of norm >= 1e-6");
+  }
+  const Eigen::Matrix3d to_sensor = q.normalized().toRotationMatrix().transpose();
+  const Eigen::Vector3d origin(pose[0], pose[1], pose[2]);
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      if (!cloud.valid(u, v)) continue;
+      const Eigen::Vector3d p =
+          to_sensor * (Eigen::Vector3d(cloud.x(u, v), cloud.y(u, v), cloud.z(u, v)) - origin);
+      cloud.x(u, v) = static_cast<float>(p.x());
+      cloud.y(u, v) = static_cast<float>(p.y());
+      cloud.z(u, v) = static_cast<float>(p.z());
+    }
+  }
 }
 
 }  // namespace rangeseg

@@ -99,14 +99,9 @@ struct Kernels {
 const Kernels& kernels() { RANGESEG_SIMD_PICK(Kernels, RANGESEG_MESH_KERNELS); }
 #undef RANGESEG_MESH_KERNELS
 
-void validate(const OrganizedCloud& cloud, const MeshSettings& s) {
-  require_organized(cloud, "build_mesh");  // also the planes' sizes
-  if (static_cast<long long>(cloud.width()) * cloud.height() >
-      std::numeric_limits<std::int32_t>::max()) {
-    throw std::invalid_argument(
-        "build_mesh: cloud too large for int32 pixel indices: " + std::to_string(cloud.width()) +
-        "x" + std::to_string(cloud.height()));
-  }
+}  // namespace
+
+void validate(const MeshSettings& s) {
   const int t = static_cast<int>(s.type);
   if (t < 0 || t > 3) {
     throw std::invalid_argument("build_mesh: unknown MeshType " + std::to_string(t));
@@ -141,6 +136,19 @@ void validate(const OrganizedCloud& cloud, const MeshSettings& s) {
     throw std::invalid_argument("build_mesh: pixel_stride must be >= 1, got " +
                                 std::to_string(s.pixel_stride));
   }
+}
+
+namespace {
+
+void validate(const OrganizedCloud& cloud, const MeshSettings& s) {
+  require_organized(cloud, "build_mesh");  // also the planes' sizes
+  if (static_cast<long long>(cloud.width()) * cloud.height() >
+      std::numeric_limits<std::int32_t>::max()) {
+    throw std::invalid_argument(
+        "build_mesh: cloud too large for int32 pixel indices: " + std::to_string(cloud.width()) +
+        "x" + std::to_string(cloud.height()));
+  }
+  rangeseg::validate(s);
 }
 
 }  // namespace

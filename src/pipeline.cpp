@@ -65,13 +65,20 @@ PipelineSettings pipeline_preset(std::string_view sensor) {
   return s;
 }
 
-Pipeline::Pipeline(const PipelineSettings& settings)
-    : settings_(settings), smoother_(settings.smoothing) {
+void validate(const PipelineSettings& settings) {
   if (settings.threads < 1 || settings.threads > 256) {
     throw std::invalid_argument("PipelineSettings::threads = " + std::to_string(settings.threads) +
                                 " must be in [1, 256]");
   }
+  validate(settings.mesh);
+  validate(settings.smoothing);
+  validate(settings.segmentation);
   validate(settings.rings);
+}
+
+Pipeline::Pipeline(const PipelineSettings& settings)
+    : settings_(settings), smoother_(settings.smoothing) {
+  validate(settings);
   if (settings.threads > 1) pool_ = std::make_unique<ThreadPool>(settings.threads);
 }
 

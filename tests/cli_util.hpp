@@ -23,6 +23,11 @@ struct CliResult {
   std::string out;  ///< stdout and stderr together
 };
 
+/// Whether `text` contains `part` (a CLI's output, a message).
+inline bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
 /// Runs `rangeseg ARGS` through the shell and returns its exit code and output.
 inline CliResult run_cli(const std::string& args) {
   const std::string cmd = std::string(RANGESEG_CLI) + " " + args + " 2>&1";

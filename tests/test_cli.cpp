@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -203,6 +204,137 @@ TEST(Cli, FailedWriteLeavesNoFile) {
   const auto a = rangeseg::io::read_pcd((dir / "cloud.pcd").string());
   const auto b = rangeseg::io::read_pcd((dir / "ascii.pcd").string());
   EXPECT_EQ(a.count_valid(), b.count_valid());
+}
+
+// A depth PNG keeps z only: `convert` writes the camera it fitted beside it, so that the points
+// come back with --intrinsics; a cloud that is no depth camera's image is refused.
+TEST(Cli, ConvertToDepthPngWritesItsIntrinsics) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_convert_png");
+  ASSERT_EQ(run("synth -o " + dir.string() + " --noise none --seed 3").code, 0);
+  const std::string png = (dir / "depth16.png").string(), json = (dir / "depth16.json").string();
+  const CliResult r = run("convert " + (dir / "cloud.pcd").string() + " " + png);
+  ASSERT_EQ(r.code, 0) << r.out;
+  ASSERT_TRUE(fs::exists(json)) << r.out;
+  const CliResult back =
+      run("convert " + png + " --intrinsics " + json + " " + (dir / "back.pcd").string());
+  ASSERT_EQ(back.code, 0) << back.out;
+  const auto a = rangeseg::io::read_pcd((dir / "cloud.pcd").string());
+  const auto b = rangeseg::io::read_pcd((dir / "back.pcd").string());
+  ASSERT_EQ(a.width(), b.width());
+  ASSERT_EQ(a.height(), b.height());
+  double worst = 0;
+  for (int v = 0; v < a.height(); ++v) {
+    for (int u = 0; u < a.width(); ++u) {
+      ASSERT_EQ(a.valid(u, v), b.valid(u, v));
+      if (!a.valid(u, v)) continue;
+      // Millimetre depth units: z within 0.5 mm, x and y within that times the ray's slope.
+      for (const float d : {a.x(u, v) - b.x(u, v), a.y(u, v) - b.y(u, v), a.z(u, v) - b.z(u, v)}) {
+        worst = std::max(worst, static_cast<double>(std::abs(d)));
+      }
+    }
+  }
+  EXPECT_LT(worst, 6e-4);
+
+  // x / z falling along the rows (a scanner's grid): no camera's image.
+  const fs::path scan = dir / "scan.pcd";
+  std::ofstream(scan) << "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                         "WIDTH 3\nHEIGHT 2\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 6\nDATA ascii\n"
+                         "0.2 0 1\n0.1 0 1\n0 0 1\n0.2 0.1 1\n0.1 0.1 1\n0 0.1 1\n";
+  const CliResult refused = run("convert " + scan.string() + " " + (dir / "scan.png").string());
+  EXPECT_EQ(refused.code, 2) << refused.out;
+  EXPECT_NE(refused.out.find("scan.pcd: not a depth camera's image"), std::string::npos)
+      << refused.out;
+  EXPECT_FALSE(fs::exists(dir / "scan.png"));
+  EXPECT_FALSE(fs::exists(dir / "scan.json"));
+}
+
+// A cloud moved out of its sensor's frame, with the sensor's pose as VIEWPOINT (as PCL keeps
+// it), is segmented with --apply-viewpoint in the sensor's frame like the cloud as it was seen;
+// without it the points are taken as stored, and `convert` keeps them and the VIEWPOINT.
+TEST(Cli, ViewpointMovesTheCloudBackIntoItsSensorsFrame) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_viewpoint");
+  ASSERT_EQ(run("synth -o " + dir.string() + " --noise none --seed 2").code, 0);
+  rangeseg::OrganizedCloud cloud = rangeseg::io::read_pcd((dir / "cloud.pcd").string());
+  // The sensor 1.2 m up and turned 30 deg about x: p_world = R p + t.
+  const double half = 0.5 * 30 * 3.14159265358979323846 / 180;
+  const std::array<double, 7> pose{0.3, -1.2, 0.5, std::cos(half), std::sin(half), 0, 0};
+  const double c = std::cos(2 * half), s = std::sin(2 * half);
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      if (!cloud.valid(u, v)) continue;
+      const double y = cloud.y(u, v), z = cloud.z(u, v);
+      cloud.x(u, v) = static_cast<float>(cloud.x(u, v) + pose[0]);
+      cloud.y(u, v) = static_cast<float>(c * y - s * z + pose[1]);
+      cloud.z(u, v) = static_cast<float>(s * y + c * z + pose[2]);
+    }
+  }
+  const std::string moved = (dir / "moved.pcd").string();
+  rangeseg::io::write_pcd(moved, cloud, {.viewpoint = pose});
+  const CliResult original = run("segment " + (dir / "cloud.pcd").string() + " -o " +
+                                 (dir / "a").string() + " --preset ideal --no-mesh");
+  ASSERT_EQ(original.code, 0) << original.out;
+  const CliResult r = run("segment " + moved + " -o " + (dir / "b").string() +
+                          " --preset ideal --no-mesh --apply-viewpoint");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("VIEWPOINT"), std::string::npos) << r.out;
+  const auto a = rangeseg::io::read_label_png((dir / "a" / "labels.png").string());
+  const auto b = rangeseg::io::read_label_png((dir / "b" / "labels.png").string());
+  ASSERT_EQ(a.width(), b.width());
+  // Each segment of the original against the one that shares most of its pixels (float
+  // rounding of the move may flip a few border points, and equal segments may swap numbers).
+  std::map<std::pair<int, int>, std::size_t> pairs;
+  std::size_t labelled = 0;
+  for (int v = 0; v < a.height(); ++v) {
+    for (int u = 0; u < a.width(); ++u) {
+      if (a(u, v) == 0) continue;
+      ++labelled;
+      ++pairs[{a(u, v), b(u, v)}];
+    }
+  }
+  std::map<int, std::size_t> best;
+  for (const auto& [key, n] : pairs) best[key.first] = std::max(best[key.first], n);
+  std::size_t same = 0;
+  for (const auto& [label, n] : best) same += n;
+  ASSERT_GT(labelled, 100000u);
+  EXPECT_GT(static_cast<double>(same), 0.995 * static_cast<double>(labelled));
+
+  const CliResult stored = run("info " + moved);
+  EXPECT_NE(stored.out.find("not applied"), std::string::npos) << stored.out;
+  const CliResult applied = run("info " + moved + " --apply-viewpoint");
+  EXPECT_NE(applied.out.find("moved into this sensor's frame"), std::string::npos) << applied.out;
+  // Back in the sensor's frame: the depth range of the cloud as it was seen.
+  const CliResult seen = run("info " + (dir / "cloud.pcd").string());
+  const auto depth_line = [](const std::string& out) {
+    const std::size_t at = out.find("depth:");
+    return at == std::string::npos ? std::string() : out.substr(at, out.find('\n', at) - at);
+  };
+  EXPECT_FALSE(depth_line(seen.out).empty()) << seen.out;
+  EXPECT_EQ(depth_line(applied.out), depth_line(seen.out));
+  EXPECT_NE(depth_line(stored.out), depth_line(seen.out));
+
+  const std::string copy = (dir / "copy.pcd").string();
+  ASSERT_EQ(run("convert " + moved + " " + copy).code, 0);
+  rangeseg::io::PcdInfo info;
+  const rangeseg::OrganizedCloud kept = rangeseg::io::read_pcd(copy, &info);
+  EXPECT_EQ(info.viewpoint, pose);
+  EXPECT_EQ(kept.z(320, 240), cloud.z(320, 240));
+}
+
+// A result folder written again holds that run's files only.
+TEST(Cli, SegmentIntoAnOldFolderRemovesItsEarlierResults) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_segment_again");
+  ASSERT_EQ(run("synth -o " + dir.string() + " --noise none").code, 0);
+  const std::string out = (dir / "out").string(), cloud = (dir / "cloud.pcd").string();
+  ASSERT_EQ(run("segment " + cloud + " -o " + out + " --cloud").code, 0);
+  ASSERT_TRUE(fs::exists(dir / "out" / "mesh.ply"));
+  ASSERT_TRUE(fs::exists(dir / "out" / "cloud.pcd"));
+  std::ofstream(dir / "out" / "notes.txt") << "the user's own file\n";
+  const CliResult again = run("segment " + cloud + " -o " + out + " --no-mesh");
+  ASSERT_EQ(again.code, 0) << again.out;
+  EXPECT_FALSE(fs::exists(dir / "out" / "mesh.ply"));
+  EXPECT_FALSE(fs::exists(dir / "out" / "cloud.pcd"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "labels.png"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "notes.txt"));
 }
 
 // `eval-synth` scores what `synth`, `segment` and `eval` score seed by seed, and counts the
@@ -546,6 +678,8 @@ TEST(CliBatch, AutoPresetFollowsEachInputsSensor) {
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.out.find("lidar"), std::string::npos) << bad.out;
   EXPECT_EQ(bad.out.find("missing.range"), std::string::npos) << bad.out;
+  // The commands that resolve auto list it among the valid presets.
+  EXPECT_NE(bad.out.find("valid presets: auto, kinect"), std::string::npos) << bad.out;
 }
 
 TEST(CliBatch, ListOfFilesGetsUniqueFolderNames) {

@@ -1,6 +1,7 @@
 // downsample: every k-th pixel, with the optional planes, against an index formula.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <functional>
 #include <stdexcept>
@@ -130,4 +131,54 @@ TEST(Cloud, PlanesOfOtherSizesAreRejected) {
     change(c);
     expect_rejected(c, message);
   }
+}
+
+// Points seen by a sensor at a known pose come back into its frame; invalid points stay.
+TEST(SensorFrame, UndoesTheSensorPose) {
+  using rangeseg::OrganizedCloud;
+  using rangeseg::to_sensor_frame;
+  const double c = std::cos(0.3), s = std::sin(0.3);  // half of a 0.6 rad turn about y
+  const std::array<double, 7> pose{1.0, -2.0, 0.5, c, 0.0, s, 0.0};
+  const double angle = 0.6;
+  // p_world = R p_sensor + t, R about y by `angle`.
+  const auto to_world = [&](double x, double y, double z) {
+    return std::array<double, 3>{std::cos(angle) * x + std::sin(angle) * z + pose[0], y + pose[1],
+                                 -std::sin(angle) * x + std::cos(angle) * z + pose[2]};
+  };
+  OrganizedCloud cloud(3, 2);
+  const std::array<std::array<double, 3>, 6> sensor{{{0.1, 0.2, 1.5},
+                                                     {-0.3, 0.0, 2.0},
+                                                     {0.0, 0.0, 0.7},
+                                                     {0.4, -0.1, 3.0},
+                                                     {0, 0, 0},
+                                                     {1.0, 1.0, 4.0}}};
+  for (int i = 0; i < 6; ++i) {
+    const auto w = to_world(sensor[i][0], sensor[i][1], sensor[i][2]);
+    cloud.x(i % 3, i / 3) = static_cast<float>(w[0]);
+    cloud.y(i % 3, i / 3) = static_cast<float>(w[1]);
+    cloud.z(i % 3, i / 3) = static_cast<float>(w[2]);
+  }
+  cloud.x(1, 1) = NAN;  // invalid: stays as it is
+  const float kept_z = cloud.z(1, 1);
+  to_sensor_frame(cloud, pose);
+  for (int i = 0; i < 6; ++i) {
+    if (i == 4) continue;
+    EXPECT_NEAR(cloud.x(i % 3, i / 3), sensor[i][0], 1e-6) << i;
+    EXPECT_NEAR(cloud.y(i % 3, i / 3), sensor[i][1], 1e-6) << i;
+    EXPECT_NEAR(cloud.z(i % 3, i / 3), sensor[i][2], 1e-6) << i;
+  }
+  EXPECT_TRUE(std::isnan(cloud.x(1, 1)));
+  EXPECT_EQ(cloud.z(1, 1), kept_z);
+
+  // An unnormalised quaternion is the same rotation.
+  OrganizedCloud twice(1, 1);
+  twice.x(0, 0) = 1;
+  twice.y(0, 0) = 0;
+  twice.z(0, 0) = 0;
+  to_sensor_frame(twice, {0, 0, 0, 2 * c, 0, 2 * s, 0});
+  EXPECT_NEAR(twice.x(0, 0), std::cos(angle), 1e-6);
+  EXPECT_NEAR(twice.z(0, 0), std::sin(angle), 1e-6);
+
+  EXPECT_THROW(to_sensor_frame(cloud, {0, 0, 0, 0, 0, 0, 0}), std::invalid_argument);
+  EXPECT_THROW(to_sensor_frame(cloud, {NAN, 0, 0, 1, 0, 0, 0}), std::invalid_argument);
 }

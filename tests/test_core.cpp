@@ -91,6 +91,55 @@ TEST(Camera, DepthToCloudAndBackIsExact) {
   EXPECT_THROW(depth_to_cloud(depth.view(), cam, -1.0), std::invalid_argument);
 }
 
+// The intrinsics of a cloud made from a depth image are found again; a cloud whose points are
+// not on a pinhole camera's pixels, or with too few columns, has none.
+TEST(Camera, FitIntrinsicsRecoversTheCameraOfADepthImage) {
+  DepthImage depth(40, 30, 0);
+  for (int v = 0; v < 30; ++v) {
+    for (int u = 0; u < 40; ++u) {
+      depth(u, v) = static_cast<std::uint16_t>((u * 7 + v * 3) % 11 == 0 ? 0 : 800 + 13 * u + v);
+    }
+  }
+  const CameraIntrinsics truth{.fx = 57.5, .fy = 61.25, .cx = 18.3, .cy = 16.7};
+  OrganizedCloud cloud = depth_to_cloud(depth.view(), truth, 0.001);
+  CameraIntrinsics fitted;
+  double off = -1;
+  ASSERT_TRUE(fit_intrinsics(cloud, fitted, 0.05, &off));
+  EXPECT_NEAR(fitted.fx, truth.fx, 1e-3);
+  EXPECT_NEAR(fitted.fy, truth.fy, 1e-3);
+  EXPECT_NEAR(fitted.cx, truth.cx, 1e-4);
+  EXPECT_NEAR(fitted.cy, truth.cy, 1e-4);
+  EXPECT_EQ(fitted.width, 40);
+  EXPECT_EQ(fitted.height, 30);
+  EXPECT_LT(off, 1e-3);
+
+  // One point moved sideways by 0.2 px of its depth: off the camera's pixels.
+  OrganizedCloud moved = cloud;
+  moved.x(5, 5) += static_cast<float>(0.2 * moved.z(5, 5) / truth.fx);
+  CameraIntrinsics untouched{.fx = 1};
+  EXPECT_FALSE(fit_intrinsics(moved, untouched, 0.05, &off));
+  EXPECT_GT(off, 0.15);
+  EXPECT_EQ(untouched.fx, 1);
+  EXPECT_TRUE(fit_intrinsics(moved, untouched, 0.5));
+
+  // A scanner's grid, x / z falling along a row: no pinhole camera.
+  OrganizedCloud mirrored = cloud;
+  for (int v = 0; v < 30; ++v) {
+    for (int u = 0; u < 40; ++u) mirrored.x(u, v) = -cloud.x(u, v);
+  }
+  EXPECT_FALSE(fit_intrinsics(mirrored, fitted, 0.05, &off));
+  EXPECT_TRUE(std::isinf(off));
+
+  // One column of points: its focal length along x is undetermined.
+  OrganizedCloud column(1, 30);
+  for (int v = 0; v < 30; ++v) {
+    column.x(0, v) = 0.1f;
+    column.y(0, v) = 0.01f * static_cast<float>(v);
+    column.z(0, v) = 1.0f;
+  }
+  EXPECT_FALSE(fit_intrinsics(column, fitted));
+}
+
 TEST(Cloud, StatsCountOnlyFinitePoints) {
   OrganizedCloud c(3, 2);
   EXPECT_EQ(c.count_valid(), 0u);

@@ -536,6 +536,33 @@ TEST(PcdHandWritten, AsciiNanSpellingsAndOldHeader) {
   EXPECT_EQ(d.y(0, 0), 2.0f);
 }
 
+// The sensor's pose is reported as stored; the points are not moved.
+TEST(PcdHandWritten, ViewpointIsReportedAndThePointsKept) {
+  const std::string body = "FIELDS x y z\nWIDTH 1\nPOINTS 1\nDATA ascii\n1 2 3\n";
+  PcdInfo info;
+  const OrganizedCloud c = parse(to_bytes("VIEWPOINT 0.5 -1 +2 0.7071 0 0.7071 0\n" + body), &info);
+  EXPECT_EQ(info.viewpoint, (std::array<double, 7>{0.5, -1, 2, 0.7071, 0, 0.7071, 0}));
+  EXPECT_TRUE(info.moved_from_sensor());
+  EXPECT_EQ(c.x(0, 0), 1.0f);
+  PcdInfo identity;
+  parse(to_bytes("VIEWPOINT 0 0 0 1 0 0 0\n" + body), &identity);
+  EXPECT_FALSE(identity.moved_from_sensor());
+  PcdInfo none;
+  parse(to_bytes(body), &none);
+  EXPECT_FALSE(none.moved_from_sensor());
+  PcdInfo negated;
+  parse(to_bytes("VIEWPOINT 0 0 0 -1 0 0 0\n" + body), &negated);
+  EXPECT_FALSE(negated.moved_from_sensor());
+
+  // Written and read back to the bit.
+  const std::array<double, 7> pose{0.1, -2.5e-7, 3, 0.9238795325112867, 0, 0.3826834323650898, 0};
+  const Bytes written = encode_pcd(c, {.encoding = PcdEncoding::ascii, .viewpoint = pose});
+  PcdInfo back;
+  parse(written, &back);
+  EXPECT_EQ(back.viewpoint, pose);
+  EXPECT_THROW(encode_pcd(c, {.viewpoint = {0, 0, 0, NAN, 0, 0, 0}}), std::invalid_argument);
+}
+
 TEST(PcdHandWritten, TrailingBytesAfterBinaryDataAreIgnored) {
   // PCL pads binary files to a page size.
   Bytes file = to_bytes(std::string(kXyzHeader) + "DATA binary\n");
@@ -594,6 +621,10 @@ TEST(PcdBadInput, HeaderProblems) {
                "fields x, y and z are required");
   expect_error("FIELDS x y z rgb\nSIZE 4 4 4 2\nTYPE F F F U\nWIDTH 1\nDATA ascii\n1 2 3 4\n",
                "field rgb has SIZE 2");
+  expect_error("VIEWPOINT 0 0 0 1 0 0\nFIELDS x y z\nWIDTH 1\nDATA ascii\n1 2 3\n",
+               "VIEWPOINT needs 7 values (tx ty tz qw qx qy qz), got 6");
+  expect_error("VIEWPOINT 0 0 0 1 0 nan 0\nFIELDS x y z\nWIDTH 1\nDATA ascii\n1 2 3\n",
+               "VIEWPOINT: expected a finite number, got 'nan'");
 }
 
 TEST(PcdBadInput, BinaryDataProblems) {

@@ -391,6 +391,31 @@ TEST(Pipeline, RejectsInvalidThreadCounts) {
   EXPECT_THROW(ThreadPool(0), std::invalid_argument);
 }
 
+// Settings of every stage are checked when the pipeline is made, before any frame.
+TEST(Pipeline, RejectsInvalidStageSettingsBeforeAnyFrame) {
+  EXPECT_NO_THROW(validate(PipelineSettings{}));
+  PipelineSettings mesh;
+  mesh.mesh.pixel_stride = 0;
+  PipelineSettings smoothing;
+  smoothing.smoothing.iterations = -1;
+  PipelineSettings segmentation;
+  segmentation.segmentation.min_region_size = 0;
+  PipelineSettings rings;
+  rings.rings.k = 0;
+  for (const PipelineSettings& s : {mesh, smoothing, segmentation, rings}) {
+    EXPECT_THROW(validate(s), std::invalid_argument);
+    EXPECT_THROW(Pipeline{s}, std::invalid_argument);
+  }
+  try {
+    validate(segmentation);
+    ADD_FAILURE() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("min_region_size"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(validate(MeshSettings{.eps_theta = 2.0f}), std::invalid_argument);
+  EXPECT_THROW(validate(SegmentationSettings{.max_normal_angle = -1}), std::invalid_argument);
+}
+
 /// Bands cover the rows exactly once, start at multiples of the alignment, run on distinct
 /// threads, and an exception in any band reaches the caller after all bands finished.
 TEST(ThreadPoolTest, BandsCoverRowsAndPropagateExceptions) {

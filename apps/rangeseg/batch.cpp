@@ -193,15 +193,17 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
       {"failed", n - ok},
       {"threads", threads},
       {"wall_seconds", wall_s},
-      {"frames_per_second", wall_s > 0 ? static_cast<double>(n) / wall_s : 0.0},
+      // Of the frames segmented: failures are often cut short by a bad header.
+      {"frames_per_second", wall_s > 0 ? static_cast<double>(ok) / wall_s : 0.0},
       {"median_ms", medians},
       {"failures", failures},
       {"per_frame", frames}};
   write_json((out_dir / "summary.json").string(), summary);
 
-  std::printf("%zu frames: %zu ok, %zu failed; %.2f s with %zu thread%s (%.1f frames/s)\n", n, ok,
-              n - ok, wall_s, threads, threads == 1 ? "" : "s",
-              summary["frames_per_second"].get<double>());
+  std::printf("%zu frames: %zu ok, %zu failed; %.2f s with %zu thread%s", n, ok, n - ok, wall_s,
+              threads, threads == 1 ? "" : "s");
+  if (ok > 0) std::printf(" (%.1f frames/s)", summary["frames_per_second"].get<double>());
+  std::printf("\n");
   if (ok > 0) {
     std::printf("median per frame:");
     const char* separator = " ";
@@ -213,7 +215,7 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
     std::printf("\n");
   }
   for (const auto& f : failures) std::printf("failed: %s\n", f["error"].get<std::string>().c_str());
-  std::printf("results in %s/<frame>/, summary in %s\n", out_dir.string().c_str(),
+  std::printf("results in %s, summary in %s\n", (out_dir / "<frame>" / "").string().c_str(),
               (out_dir / "summary.json").string().c_str());
   return ok;
 }

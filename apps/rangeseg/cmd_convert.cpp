@@ -1,4 +1,7 @@
+#include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -15,6 +18,12 @@
 
 namespace rangeseg::cli {
 namespace {
+
+namespace fs = std::filesystem;
+
+/// Largest distance [pixel] of a point from its pixel under the fitted camera for a cloud to
+/// count as a depth image: points computed from a depth image in float are exact to ~1e-4 px.
+constexpr double kPinholeTolerance = 0.05;
 
 struct ConvertOptions {
   InputOptions in;
@@ -33,6 +42,7 @@ io::PcdEncoding parse_encoding(const std::string& name) {
 }
 
 void convert(const ConvertOptions& o) {
+  require_output_extension(o.out, {".pcd", ".png", ".ply"}, "convert");
   const std::string ext = io::extension(o.out);
   if ((o.unorganized || o.shuffle) && ext == ".png") {
     throw std::invalid_argument(o.out +
@@ -45,11 +55,40 @@ void convert(const ConvertOptions& o) {
   } else if (o.unorganized) {
     in.cloud = valid_points(in.cloud);
   }
+  std::string note;
   if (ext == ".pcd") {
-    io::write_pcd(o.out, in.cloud, {.encoding = parse_encoding(o.encoding)});
+    io::write_pcd(o.out, in.cloud, {.encoding = parse_encoding(o.encoding), .viewpoint = in.pose});
   } else if (ext == ".png") {
     require_grid(in.cloud, o.in.path, "a depth PNG", "convert it to .pcd or .ply");
+    // A depth PNG keeps z only: x and y come back from its intrinsics, written beside it.
+    CameraIntrinsics camera;
+    double off = 0;
+    if (!fit_intrinsics(in.cloud, camera, kPinholeTolerance, &off)) {
+      char how[128] = "its points fit no pinhole camera";
+      if (std::isfinite(off)) {
+        std::snprintf(how, sizeof how,
+                      "its points lie up to %.3g px off the pixels of the best-fitting pinhole "
+                      "camera (at most %.2g)",
+                      off, kPinholeTolerance);
+      }
+      throw std::runtime_error(o.in.path + ": not a depth camera's image, " + how +
+                               ": a depth PNG keeps only z, from which x and y could not be "
+                               "computed again; convert it to .pcd or .ply");
+    }
+    const std::string json_path = (fs::path(o.out).replace_extension(".json")).string();
     io::write_depth_png(o.out, cloud_to_depth(in.cloud, o.in.depth_scale).view());
+    write_json(json_path,
+               {{"width", camera.width},
+                {"height", camera.height},
+                {"intrinsic_matrix", {camera.fx, 0, 0, 0, camera.fy, 0, camera.cx, camera.cy, 1}}});
+    char numbers[160];
+    std::snprintf(numbers, sizeof numbers, "fx %.3f, fy %.3f, cx %.3f, cy %.3f px", camera.fx,
+                  camera.fy, camera.cx, camera.cy);
+    char scale[32];
+    std::snprintf(scale, sizeof scale, "%g", o.in.depth_scale);
+    note = std::string(" (depth in units of ") + scale + " m) and " + json_path +
+           " (its intrinsics: " + numbers + "; read the PNG back with --intrinsics " + json_path +
+           ")";
   } else if (ext == ".ply") {
     io::PlyMesh ply;  // points only; `rangeseg mesh` writes faces
     for (int v = 0; v < in.cloud.height(); ++v) {
@@ -66,7 +105,7 @@ void convert(const ConvertOptions& o) {
     throw std::runtime_error(o.out + ": unsupported output type '" + ext +
                              "' (expected .pcd, .png (16-bit depth) or .ply (points))");
   }
-  progress("wrote " + o.out);
+  progress("wrote " + o.out + note);
 }
 
 }  // namespace

@@ -110,11 +110,15 @@ void run_demo(const DemoOptions& o) {
   std::printf("demo: %d x %d, %zu valid points, %zu mesh faces, %zu segments\n", input.width(),
               input.height(), input.count_valid(), count_faces(pipeline.mesh()),
               pipeline.segmentation().segments.size());
+  char smoothing[64] = "smoothing off";
+  if (settings.smooth) {
+    std::snprintf(smoothing, sizeof smoothing, "smoothing %.2f ms (%d iterations)", t.smoothing,
+                  settings.smoothing.iterations);
+  }
   std::printf(
-      "time (buffers reused): mesh %.2f ms, normals %.2f ms, smoothing %.2f ms (%d iterations), "
-      "segmentation %.2f ms, polygons %.2f ms, total %.2f ms\n",
-      t.mesh, t.normals, t.smoothing, settings.smoothing.iterations, t.segmentation, t.polygons,
-      t.total);
+      "time (buffers reused): mesh %.2f ms, normals %.2f ms, %s, segmentation %.2f ms, polygons "
+      "%.2f ms, total %.2f ms\n",
+      t.mesh, t.normals, smoothing, t.segmentation, t.polygons, t.total);
   print_surface_types(pipeline.segmentation());
   if (!in.ground_truth.empty()) {
     const eval::EvalResult r =

@@ -8,7 +8,9 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
+#include <system_error>
 #include <utility>
 #include <vector>
 
@@ -195,6 +197,7 @@ struct SegcompOptions {
   std::string dir;
   std::string out_dir;
   std::string preset = "auto";  ///< auto: abw or perceptron, by each image's scanner
+  std::string model = "plane";
   std::string config;
   double tolerance = 0.8;
   bool no_smooth = false;
@@ -233,7 +236,10 @@ void write_ms_nor(const std::string& path, const Segmentation& seg, io::SegcompS
 std::vector<fs::path> segcomp_images(const std::string& dir) {
   std::vector<fs::path> images;
   std::vector<std::string> without_truth;
-  for (const auto& e : fs::directory_iterator(dir)) {
+  std::error_code error;
+  fs::directory_iterator entries(dir, error);
+  if (error) throw std::runtime_error(dir + ": cannot open the folder: " + error.message());
+  for (const auto& e : entries) {
     if (e.path().extension() != ".range") continue;
     fs::path gt = e.path();
     gt.replace_extension(".gt-seg");
@@ -266,12 +272,13 @@ std::vector<fs::path> segcomp_images(const std::string& dir) {
 }
 
 void run_segcomp(const SegcompOptions& o) {
+  require_tolerance(o.tolerance);
   const std::vector<fs::path> images = segcomp_images(o.dir);
   // One pipeline per scanner: --preset, or (auto) the scanner's own preset.
   const auto pipeline_for = [&](io::SegcompSensor sensor) {
     const bool abw = sensor == io::SegcompSensor::abw;
     const std::string preset = o.preset != "auto" ? o.preset : abw ? "abw" : "perceptron";
-    return std::make_unique<Pipeline>(settings_from(preset, "plane", o.config, o.no_smooth));
+    return std::make_unique<Pipeline>(settings_from(preset, o.model, o.config, o.no_smooth));
   };
   // Bad options stop here, before any image; a bad image is reported and skipped below.
   for (const io::SegcompSensor sensor : {io::SegcompSensor::abw, io::SegcompSensor::perceptron}) {
@@ -320,13 +327,12 @@ void run_segcomp(const SegcompOptions& o) {
                 failures.size(), images.size(), results.size());
   }
   const eval::EvalSummary s = eval::summarize(results, angles);
-  std::printf("%-22s %5.1f %5s %7.1f %5.1f %6.1f %6.1f %6.1f %9.2f\n", "average", s.mean_gt, "",
+  std::printf("%-22s %5.1f %5s %7.1f %5.1f %6.1f %6.1f %6.1f %9s\n", "average", s.mean_gt, "",
               s.mean_correct, s.mean_over, s.mean_under, s.mean_missed, s.mean_noise,
-              s.mean_angle_deg);
-  std::printf(
-      "correctly detected: %.1f%% of ground-truth regions (T = %.2f), angle error %.2f +- %.2f "
-      "deg\n",
-      100.0 * s.mean_correct / s.mean_gt, o.tolerance, s.mean_angle_deg, s.std_angle_deg);
+              angle_text(s.mean_angle_deg).c_str());
+  std::printf("correctly detected: %.1f%% of ground-truth regions (T = %.2f), angle error %s\n",
+              100.0 * s.mean_correct / s.mean_gt, o.tolerance,
+              angle_summary(s.mean_angle_deg, s.std_angle_deg).c_str());
 }
 
 }  // namespace
@@ -342,7 +348,7 @@ void add_eval(CLI::App& app) {
                   "16-bit label .png (e.g. labels.png), SegComp .ms-seg, or .pcd with a label "
                   "field (segment's cloud.pcd of an unorganized cloud)")
       ->required();
-  cmd->add_option("--T", o->tolerance, "Overlap tolerance T, 0.5 < T <= 1")->capture_default_str();
+  add_tolerance_option(*cmd, o->tolerance);
   cmd->add_option("--cloud", o->cloud,
                   "Points of the scene (.pcd or .range) for the angle error, when the ground truth "
                   "brings none (e.g. a label PNG from `synth`)");
@@ -354,6 +360,7 @@ void add_eval(CLI::App& app) {
                 "Also list every region with its size, outcome and partner regions");
   cmd->add_option("--json", o->json, "Write the scores and per-region outcomes to this JSON file");
   cmd->callback([o] {
+    require_tolerance(o->tolerance);
     GroundTruth gt = load_ground_truth(o->gt);
     const std::vector<int> curved =
         o->surfaces.empty() ? std::vector<int>{} : curved_labels(o->surfaces);
@@ -404,12 +411,8 @@ void add_eval(CLI::App& app) {
                   "abw.test.N.gt-seg")
       ->required();
   seg->add_option("-o,--output", s->out_dir, "Also write .ms-seg files and result folders here");
-  seg->add_option("--preset", s->preset,
-                  "Sensor preset; auto: abw for ABW images, perceptron for Perceptron images")
-      ->capture_default_str();
-  seg->add_option("--config", s->config, "JSON settings overriding the preset");
-  seg->add_option("--T", s->tolerance, "Overlap tolerance T")->capture_default_str();
-  seg->add_flag("--no-smooth", s->no_smooth, "Skip the bilateral filter");
+  add_settings_options(*seg, s->model, s->preset, s->config, s->no_smooth, /*auto_preset=*/true);
+  add_tolerance_option(*seg, s->tolerance);
   seg->callback([s] { run_segcomp(*s); });
 }
 

@@ -220,6 +220,7 @@ Segmentation on_grid(const Segmentation& points, const std::vector<std::size_t>&
 }
 
 void run_eval_synth(const EvalSynthOptions& o) {
+  require_tolerance(o.tolerance);
   const std::vector<std::uint64_t> seeds = parse_seeds(o.seeds);
   const synth::RenderSettings sensor = sensor_by_name(o.noise, o.camera);
   scene_by_name(o.scene, seeds.front());  // rejects an unknown scene before any work
@@ -291,11 +292,10 @@ void run_eval_synth(const EvalSynthOptions& o) {
   const eval::EvalSummary s = eval::summarize(results, angles);
   print_eval_row("total", total, {.pairs = s.angle_pairs, .mean_deg = s.mean_angle_deg});
   std::printf(
-      "correctly detected: %d of %d ground-truth regions (%.1f%%) at T = %.2f; angle error "
-      "%.2f +- %.2f deg\n",
+      "correctly detected: %d of %d ground-truth regions (%.1f%%) at T = %.2f; angle error %s\n",
       total.correct, total.gt_regions,
       total.gt_regions > 0 ? 100.0 * total.correct / total.gt_regions : 0.0, o.tolerance,
-      s.mean_angle_deg, s.std_angle_deg);
+      angle_summary(s.mean_angle_deg, s.std_angle_deg).c_str());
   // The other models label no segment a sphere or cylinder.
   if (region_model_by_name(o.model) == RegionModel::automatic) print_curved(curved);
   if (!o.json.empty()) {
@@ -331,7 +331,7 @@ void add_eval_synth(CLI::App& app) {
       ->capture_default_str();
   add_sensor_options(*cmd, o->noise, o->camera);
   add_settings_options(*cmd, o->model, o->preset, o->config, o->no_smooth);
-  cmd->add_option("--T", o->tolerance, "Overlap tolerance T, 0.5 < T <= 1")->capture_default_str();
+  add_tolerance_option(*cmd, o->tolerance);
   cmd->add_flag("--per-surface", o->per_surface,
                 "One ground-truth label per surface (default: one per connected part of a surface, "
                 "as `synth` writes)");

@@ -26,6 +26,12 @@ void add_info(CLI::App& app) {
                     : 100.0 * static_cast<double>(s.valid) / static_cast<double>(in.cloud.size()));
     if (s.valid > 0) std::printf("depth:    %.4f .. %.4f %s\n", s.min_z, s.max_z, in.units.c_str());
     if (in.cloud.has_label()) std::printf("labels:   yes\n");
+    if (!in.viewpoint.empty()) {
+      std::printf("viewpoint: %s (tx ty tz qw qx qy qz; %s)\n", in.viewpoint.c_str(),
+                  opts->apply_viewpoint ? "the points moved into this sensor's frame"
+                                        : "not applied: --apply-viewpoint moves the points into "
+                                          "this sensor's frame");
+    }
     if (!in.cloud.is_organized()) {
       PixelGrid grid;
       if (find_pixel_grid(in.cloud, grid)) {

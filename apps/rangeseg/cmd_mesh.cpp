@@ -62,6 +62,10 @@ void add_mesh(CLI::App& app) {
       s.pixel_stride = o->stride;
       return s;
     };
+    require_output_extension(o->out, {".ply"}, "mesh");
+    for (const std::string* png : {&o->normal_png, &o->curvature_png}) {
+      if (!png->empty()) require_output_extension(*png, {".png"}, "mesh");
+    }
     mesh_settings("");  // bad options fail before the input is read
     LoadedInput in = load_input(o->in);
     require_grid(in.cloud, o->in.path, "a mesh",

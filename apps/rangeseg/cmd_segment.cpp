@@ -1,5 +1,6 @@
 #include <cstdio>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -61,7 +62,14 @@ void require_model_for(const OrganizedCloud& cloud, const PipelineSettings& sett
 }
 
 std::string resolve_preset(const std::string& preset, const std::string& sensor_preset) {
-  if (preset != "auto") return preset;
+  if (preset != "auto") {
+    for (const char* known : {"kinect", "abw", "laser", "perceptron", "ideal"}) {
+      if (preset == known) return preset;
+    }
+    throw std::invalid_argument("--preset '" + preset +
+                                "' is unknown; valid presets: auto, kinect, abw, laser, "
+                                "perceptron, ideal");
+  }
   return sensor_preset.empty() ? "kinect" : sensor_preset;
 }
 
@@ -85,7 +93,9 @@ void add_settings_options(CLI::App& cmd, std::string& model, std::string& preset
       "--config", config,
       "JSON file with settings overriding the preset: objects noise, mesh, smoothing, "
       "segmentation, rings (k-nearest-neighbour rings of unorganized clouds: k, "
-      "max_distance, eps_theta, jump_sigmas, by_direction, balanced), and smooth (true/false)");
+      "max_distance, eps_theta, jump_sigmas, by_direction, balanced), smooth (true/false) "
+      "and restore_grid (true/false: an unorganized cloud on a camera's pixel grid runs on "
+      "that grid)");
   cmd.add_flag("--no-smooth", no_smooth, "Skip the bilateral filter");
 }
 
@@ -93,9 +103,10 @@ void add_segment(CLI::App& app) {
   auto o = std::make_shared<SegmentOptions>();
   auto* cmd = app.add_subcommand(
       "segment",
-      "Mesh, normals, smoothing and region-growing segmentation; writes labels.png, "
-      "segments.json, overlay.png and mesh.ply (and with --cloud cloud.pcd) into a folder (an "
-      "unorganized cloud: segments.json and cloud.pcd)");
+      "Mesh, normals, smoothing, region-growing segmentation and plane polygons; writes "
+      "labels.png, segments.json, polygons.obj, overlay.png, types.png and mesh.ply (and with "
+      "--cloud cloud.pcd) into a folder (an unorganized cloud: segments.json, polygons.obj and "
+      "cloud.pcd)");
   cmd->add_option("input", o->inputs,
                   "Input file (.pcd, 16-bit depth .png, SegComp .range), several files, a "
                   "directory of them, or a TUM RGB-D sequence folder (with depth.txt)")
@@ -107,7 +118,7 @@ void add_segment(CLI::App& app) {
       ->required();
   cmd->add_option("--threads", o->threads,
                   "A batch: frames processed in parallel (one pipeline each); one input: threads "
-                  "inside the frame (mesh, normals, smoothing)")
+                  "inside the frame (every stage's passes over row bands)")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
   add_settings_options(*cmd, o->model, o->preset, o->config, o->no_smooth,
@@ -126,7 +137,8 @@ void add_segment(CLI::App& app) {
       "s and ~20 MB more for a 640x480 frame.\nAn unorganized "
       "cloud (a PCD of height 1) is segmented over the k nearest neighbours of each point "
       "(--config \"rings\") with --model plane, smooth or auto; its folder holds segments.json, "
-      "polygons.obj and cloud.pcd.\nExit codes: 0 = done (a batch with at least "
+      "polygons.obj and cloud.pcd.\nFiles of an earlier run in the output folder that this run "
+      "does not write are removed.\nExit codes: 0 = done (a batch with at least "
       "one frame written; failed frames are listed), 2 = bad arguments, unreadable single input, "
       "or no frame of a batch succeeded.");
   cmd->callback([o] {

@@ -1,4 +1,6 @@
+#include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "commands.hpp"
@@ -14,7 +16,7 @@ struct SmoothOptions {
   std::string out;
   std::string preset = "auto";
   std::string config;
-  int iterations = -1;
+  std::optional<int> iterations;
 };
 
 }  // namespace
@@ -31,18 +33,28 @@ void add_smooth(CLI::App& app) {
       ->required();
   cmd->add_option("--preset", o->preset, kAutoPresetHelp)->capture_default_str();
   cmd->add_option("--config", o->config, "JSON settings overriding the preset");
-  cmd->add_option("--iterations", o->iterations, "Filter passes (default: the preset's)");
+  cmd->add_option("--iterations", o->iterations,
+                  "Filter passes, 0 = none (default: the preset's; abw and ideal do not filter)")
+      ->check(CLI::Range(0, std::numeric_limits<int>::max()));
   cmd->callback([o] {
+    require_output_extension(o->out, {".pcd"}, "smooth");
     settings_from(resolve_preset(o->preset, ""), "plane", o->config, false);  // bad options first
     const LoadedInput in = load_input(o->in);
     PipelineSettings s =
         settings_from(resolve_preset(o->preset, in.sensor_preset), "plane", o->config, false);
-    if (o->iterations >= 0) s.smoothing.iterations = o->iterations;
+    if (o->iterations) {
+      // The abw and ideal presets turn the filter off; passes asked for by number must run.
+      s.smoothing.iterations = *o->iterations;
+      s.smooth = *o->iterations > 0;
+    }
     s.segment = false;
     Pipeline pipeline(s);
     pipeline.process(in.cloud);
     write_pcd_with_normals(o->out, pipeline.cloud(), pipeline.normals());
-    progress("wrote " + o->out);
+    progress("wrote " + o->out +
+             (s.smooth ? ""
+                       : " (not filtered: the input's points with their raw normals; --iterations "
+                         "N > 0 filters)"));
   });
 }
 

@@ -6,7 +6,7 @@
 
 #include "names.hpp"
 #include "rangeseg/io/file.hpp"
-#include "rangeseg/unorganized.hpp"
+#include "rangeseg/pipeline.hpp"
 
 namespace rangeseg::cli {
 namespace {
@@ -42,6 +42,21 @@ void take(const json& obj, const char* key, T& field, const std::string& where) 
   }
 }
 
+/// A key whose value is a name: `by_name` maps it, and throws std::invalid_argument naming the
+/// valid names.
+template <class T, class ByName>
+void take_name(const json& obj, const char* key, T& field, ByName by_name,
+               const std::string& where) {
+  if (!obj.contains(key)) return;
+  std::string name;
+  take(obj, key, name, where);
+  try {
+    field = by_name(name);
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(where + ": key '" + key + "': " + e.what());
+  }
+}
+
 void reject_unknown(const json& obj, std::initializer_list<const char*> known,
                     const std::string& where) {
   if (!obj.is_object()) throw std::runtime_error(where + ": expected a JSON object");
@@ -52,16 +67,7 @@ void reject_unknown(const json& obj, std::initializer_list<const char*> known,
   }
 }
 
-}  // namespace
-
-void apply_config_file(const std::string& path, PipelineSettings& s) {
-  const std::vector<std::uint8_t> bytes = io::read_file(path, 1 << 20);
-  json j;
-  try {
-    j = json::parse(bytes.begin(), bytes.end());
-  } catch (const json::exception& e) {
-    throw std::runtime_error(path + ": not valid JSON: " + e.what());
-  }
+void read_settings(const json& j, const std::string& path, PipelineSettings& s) {
   reject_unknown(
       j, {"noise", "mesh", "smoothing", "segmentation", "rings", "smooth", "restore_grid"}, path);
   take(j, "smooth", s.smooth, path);
@@ -83,7 +89,7 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
                    {"type", "eps_theta", "jump_sigmas", "max_edge_a", "max_edge_b", "max_edge_c",
                     "pixel_stride"},
                    where);
-    if (m.contains("type")) s.mesh.type = mesh_type_by_name(m["type"].get<std::string>());
+    take_name(m, "type", s.mesh.type, mesh_type_by_name, where);
     take(m, "eps_theta", s.mesh.eps_theta, where);
     take(m, "jump_sigmas", s.mesh.jump_sigmas, where);
     take(m, "max_edge_a", s.mesh.max_edge_a, where);
@@ -141,13 +147,7 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
                     "reassign_across_mesh_cuts"},
                    where);
     auto& t = s.segmentation;
-    if (m.contains("model")) {
-      try {
-        t.model = region_model_by_name(m["model"].get<std::string>());
-      } catch (const std::invalid_argument& e) {
-        throw std::runtime_error(where + ": " + e.what());
-      }
-    }
+    take_name(m, "model", t.model, region_model_by_name, where);
     take(m, "max_normal_angle", t.max_normal_angle, where);
     take(m, "max_distance_sigmas", t.max_distance_sigmas, where);
     take(m, "normal_noise_sigmas", t.normal_noise_sigmas, where);
@@ -183,11 +183,53 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
     take(m, "by_direction", s.rings.by_direction, where);
     take(m, "balanced", s.rings.balanced, where);
   }
-  validate(s.smoothing);
+}
+
+/// Throws std::invalid_argument when the library rejects `s`, before any input is read.
+void check_settings(const PipelineSettings& s) { validate(s); }
+
+}  // namespace
+
+void apply_config_file(const std::string& path, PipelineSettings& s) {
+  const std::vector<std::uint8_t> bytes = io::read_file(path, 1 << 20);
+  json j;
   try {
-    validate(s.rings);  // named by the file, before any input is read
+    j = json::parse(bytes.begin(), bytes.end());
+  } catch (const json::exception& e) {
+    throw std::runtime_error(path + ": not valid JSON: " + e.what());
+  }
+  const PipelineSettings before = s;
+  read_settings(j, path, s);
+  try {
+    check_settings(s);
   } catch (const std::invalid_argument& e) {
-    throw std::runtime_error(path + ": " + e.what());
+    // The library names the field as its struct spells it (e.g. SmoothingSettings::noise_a for
+    // noise.a): name the key of the file that the error is about, the one without which the
+    // settings pass or, when another key is invalid too, the error changes.
+    const auto error_without = [&](const std::string& section, const std::string& key) {
+      json rest = j;
+      rest[section].erase(key);
+      PipelineSettings t = before;
+      read_settings(rest, path, t);
+      try {
+        check_settings(t);
+      } catch (const std::invalid_argument& other) {
+        return std::string(other.what());
+      }
+      return std::string();
+    };
+    for (const bool pass : {true, false}) {
+      for (const auto& section : j.items()) {
+        if (!section.value().is_object()) continue;
+        for (const auto& item : section.value().items()) {
+          const std::string other = error_without(section.key(), item.key());
+          if (pass ? !other.empty() : other == e.what()) continue;
+          throw std::runtime_error(path + " [" + section.key() + "]: key '" + item.key() +
+                                   "' = " + item.value().dump() + " is invalid (" + e.what() + ")");
+        }
+      }
+    }
+    throw std::runtime_error(path + ": invalid settings (" + e.what() + ")");
   }
 }
 

@@ -1,6 +1,7 @@
 #include "input.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -24,15 +25,27 @@ void add_input_options(CLI::App& cmd, InputOptions& o, bool positional) {
     cmd.add_option("input", o.path, "Input file: .pcd, 16-bit depth .png, SegComp .range")
         ->required();
   }
-  cmd.add_option("--intrinsics", o.intrinsics,
-                 "Camera intrinsics JSON for depth PNGs (Open3D camera_*.json layout, or "
-                 "{fx, fy, cx, cy})");
-  cmd.add_option("--fx", o.fx, "Focal length x [pixel] for depth PNGs")->capture_default_str();
-  cmd.add_option("--fy", o.fy, "Focal length y [pixel] for depth PNGs")->capture_default_str();
-  cmd.add_option("--cx", o.cx, "Principal point x [pixel] for depth PNGs (default (width-1)/2)")
-      ->each([&o](const std::string&) { o.cx_given = true; });
-  cmd.add_option("--cy", o.cy, "Principal point y [pixel] for depth PNGs (default (height-1)/2)")
-      ->each([&o](const std::string&) { o.cy_given = true; });
+  CLI::Option* intrinsics =
+      cmd.add_option("--intrinsics", o.intrinsics,
+                     "Camera intrinsics JSON for depth PNGs (Open3D camera_*.json layout, or "
+                     "{fx, fy, cx, cy}); its width and height, when given, must be the PNG's");
+  CLI::Option* fx =
+      cmd.add_option("--fx", o.fx, "Focal length x [pixel] for depth PNGs")->capture_default_str();
+  CLI::Option* fy =
+      cmd.add_option("--fy", o.fy, "Focal length y [pixel] for depth PNGs")->capture_default_str();
+  CLI::Option* cx =
+      cmd.add_option("--cx", o.cx, "Principal point x [pixel] for depth PNGs (default (width-1)/2)")
+          ->each([&o](const std::string&) { o.cx_given = true; });
+  CLI::Option* cy =
+      cmd.add_option("--cy", o.cy,
+                     "Principal point y [pixel] for depth PNGs (default (height-1)/2)")
+          ->each([&o](const std::string&) { o.cy_given = true; });
+  // The JSON sets all four, so a number given beside it would be dropped without a word.
+  intrinsics->excludes(fx)->excludes(fy)->excludes(cx)->excludes(cy);
+  cmd.add_flag("--apply-viewpoint", o.apply_viewpoint,
+               "Move a PCD's points into the frame of the sensor its VIEWPOINT names (a cloud "
+               "saved in another frame); by default points are taken as stored, in the sensor's "
+               "frame (PCL's OpenNI grabber writes VIEWPOINT 0 0 0 0 1 0 0 for such points)");
   cmd.add_option("--depth-scale", o.depth_scale,
                  "Metres per depth PNG unit (0.001 = millimetres; TUM sequences: 0.0002)")
       ->capture_default_str()
@@ -40,7 +53,20 @@ void add_input_options(CLI::App& cmd, InputOptions& o, bool positional) {
 }
 
 CameraIntrinsics intrinsics_for(const InputOptions& o, int width, int height) {
-  if (!o.intrinsics.empty()) return io::read_camera_json(o.intrinsics);
+  if (!o.intrinsics.empty()) {
+    const CameraIntrinsics cam = io::read_camera_json(o.intrinsics);
+    // Intrinsics of another resolution are in other pixels: the points would come out scaled
+    // and shifted without any sign of it.
+    if ((cam.width != 0 && cam.width != width) || (cam.height != 0 && cam.height != height)) {
+      const auto size = [](int w, int h) {
+        return (w != 0 ? std::to_string(w) : "?") + " x " + (h != 0 ? std::to_string(h) : "?");
+      };
+      throw std::runtime_error(o.intrinsics + ": intrinsics of a " + size(cam.width, cam.height) +
+                               " image, but the depth image " + o.path + " is " +
+                               size(width, height));
+    }
+    return cam;
+  }
   CameraIntrinsics cam{.fx = o.fx,
                        .fy = o.fy,
                        .cx = o.cx_given ? o.cx : (width - 1) / 2.0,
@@ -61,6 +87,26 @@ LoadedInput load_input(const InputOptions& o) {
     in.format = std::string("PCD ") + names[static_cast<int>(info.encoding)];
     in.fields = info.fields_summary;
     if (in.cloud.has_label()) in.ground_truth = in.cloud.label;
+    if (info.moved_from_sensor()) {
+      const auto& p = info.viewpoint;
+      char pose[160];
+      std::snprintf(pose, sizeof pose, "%g %g %g %g %g %g %g", p[0], p[1], p[2], p[3], p[4], p[5],
+                    p[6]);
+      in.viewpoint = pose;
+      in.pose = p;
+      if (o.apply_viewpoint) {
+        try {
+          to_sensor_frame(in.cloud, p);
+        } catch (const std::invalid_argument& e) {
+          throw std::runtime_error(o.path + ": VIEWPOINT " + pose + ": " + e.what());
+        }
+        in.pose = {0, 0, 0, 1, 0, 0, 0};
+        std::fprintf(stderr,
+                     "rangeseg: %s: VIEWPOINT %s: its points are moved into that sensor's "
+                     "frame, in which the results are given\n",
+                     o.path.c_str(), pose);
+      }
+    }
   } else if (ext == ".png") {
     const DepthImage depth = io::read_depth_png(o.path);
     const CameraIntrinsics cam = intrinsics_for(o, depth.width(), depth.height());
@@ -83,6 +129,17 @@ LoadedInput load_input(const InputOptions& o) {
   }
   if (in.cloud.empty()) throw std::runtime_error(o.path + ": the cloud has no points");
   return in;
+}
+
+void require_output_extension(const std::string& path, const std::vector<std::string>& extensions,
+                              const std::string& command) {
+  const std::string ext = io::extension(path);
+  if (std::find(extensions.begin(), extensions.end(), ext) != extensions.end()) return;
+  std::string expected;
+  for (const std::string& e : extensions) expected += (expected.empty() ? "" : " or ") + e;
+  throw std::invalid_argument(path + ": " + command + " cannot write " +
+                              (ext.empty() ? "a file without extension" : "'" + ext + "' files") +
+                              " (expected " + expected + ")");
 }
 
 void require_grid(OrganizedCloud& cloud, const std::string& path, const std::string& what,

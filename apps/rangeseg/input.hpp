@@ -3,6 +3,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,9 @@ struct InputOptions {
   bool cx_given = false, cy_given = false;
   double depth_scale = 0.001;  ///< metres per raw depth unit
   bool depth_scale_given = false;
+  /// Move a PCD's points into the frame of the sensor its VIEWPOINT names (off by default:
+  /// PCL's OpenNI grabber writes VIEWPOINT 0 0 0 0 1 0 0 for points in the camera's frame).
+  bool apply_viewpoint = false;
 };
 
 struct LoadedInput {
@@ -29,10 +33,22 @@ struct LoadedInput {
   /// The preset of the sensor when the file tells it (SegComp images: "abw" or "perceptron"),
   /// else empty.
   std::string sensor_preset;
+  /// A PCD's VIEWPOINT (tx ty tz qw qx qy qz) as the points are now: the file's, or the
+  /// identity when InputOptions::apply_viewpoint moved them into that sensor's frame (and for
+  /// other files) ...
+  std::array<double, 7> pose{0, 0, 0, 1, 0, 0, 0};
+  /// ... and the file's VIEWPOINT as text when it is not the identity, else empty.
+  std::string viewpoint;
 };
 
 void add_input_options(CLI::App& cmd, InputOptions& opts, bool positional = true);
 LoadedInput load_input(const InputOptions& opts);
+
+/// Throws std::invalid_argument naming `path` and `extensions` unless `path` ends in one of them
+/// (any case): `command` checks its outputs before any work, so that e.g. `-o x.ply` does not
+/// get PCD bytes.
+void require_output_extension(const std::string& path, const std::vector<std::string>& extensions,
+                              const std::string& command);
 
 /// For the commands that need a pixel grid (`what`, e.g. "a mesh"): an organized cloud stays as
 /// it is; an unorganized one (height 1) whose points lie on a camera's pixel grid (a depth

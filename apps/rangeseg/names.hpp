@@ -29,8 +29,8 @@ nlohmann::json surfaces_json(const synth::Rendering& rendering);
 
 /// Applies a JSON object {"noise": {a, b, z0}, "mesh": {...}, "smoothing": {...}, "segmentation":
 /// {...}, "rings": {k, max_distance, eps_theta, jump_sigmas}, "smooth": bool} read from `path` on
-/// top of `settings`; unknown keys are errors naming the file and the key, and so are invalid
-/// smoothing or rings settings.
+/// top of `settings`; unknown keys, values of the wrong type and any settings the library
+/// rejects (`validate(PipelineSettings)`) are errors naming the file and the key.
 void apply_config_file(const std::string& path, PipelineSettings& settings);
 
 }  // namespace rangeseg::cli

@@ -2,8 +2,12 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdio>
+#include <filesystem>
 #include <stdexcept>
 #include <string>
+#include <system_error>
+#include <vector>
 
 #include "output.hpp"
 #include "rangeseg/colorize.hpp"
@@ -151,14 +155,45 @@ nlohmann::json segments_json(const Segmentation& seg, const PolygonSet* polygons
           {"segments", list}};
 }
 
+namespace {
+
+/// Every file a result folder may hold.
+constexpr std::array<const char*, 7> kFolderFiles = {"labels.png", "segments.json", "polygons.obj",
+                                                     "types.png",  "overlay.png",   "mesh.ply",
+                                                     "cloud.pcd"};
+
+/// A folder written again (a re-run, a batch into an old output) keeps no result of an earlier
+/// run beside this one's: the files this run did not write are removed.
+void remove_earlier_results(const std::filesystem::path& dir,
+                            const std::vector<std::string>& written) {
+  for (const char* name : kFolderFiles) {
+    const std::filesystem::path path = dir / name;
+    if (std::find(written.begin(), written.end(), path.string()) != written.end()) continue;
+    std::error_code error;
+    if (std::filesystem::remove(path, error)) {
+      std::fprintf(stderr, "rangeseg: removed %s of an earlier run\n", path.c_str());
+    } else if (error) {
+      throw std::runtime_error(path.string() + ": cannot remove the earlier run's file (" +
+                               error.message() + ")");
+    }
+  }
+}
+
+std::string joined(const std::vector<std::string>& paths) {
+  std::string all;
+  for (const std::string& p : paths) all += (all.empty() ? "" : ", ") + p;
+  return all;
+}
+
+}  // namespace
+
 std::string write_segmentation_folder(const std::string& dir_name, const OrganizedCloud& input,
                                       const Pipeline& pipeline, FolderFiles files) {
   const auto dir = ensure_dir(dir_name);
-  std::string written;  // the paths, joined by ", "
+  std::vector<std::string> written;
   const auto file = [&](const char* name) {
-    std::string path = (dir / name).string();
-    written += (written.empty() ? "" : ", ") + path;
-    return path;
+    written.push_back((dir / name).string());
+    return written.back();
   };
   const Segmentation& seg = pipeline.segmentation();
   if (!input.is_organized()) {
@@ -167,7 +202,8 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
       write_polygons_obj(file("polygons.obj"), pipeline.polygons());
     }
     write_labelled_cloud(file("cloud.pcd"), pipeline);
-    return written;
+    remove_earlier_results(dir, written);
+    return joined(written);
   }
   io::write_label_png(file("labels.png"), seg.labels);
   write_json(file("segments.json"), segments_json(seg, &pipeline.polygons()));
@@ -183,7 +219,8 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
     write_mesh_ply(file("mesh.ply"), pipeline.cloud(), pipeline.mesh(), &pipeline.normals(), &flat);
   }
   if (files.cloud) write_labelled_cloud(file("cloud.pcd"), pipeline);
-  return written;
+  remove_earlier_results(dir, written);
+  return joined(written);
 }
 
 }  // namespace rangeseg::cli

@@ -32,6 +32,8 @@ struct FolderFiles {
 /// segments.json, polygons.obj, overlay.png with the polygons drawn, types.png and, as `files`
 /// says, mesh.ply and cloud.pcd; `input` is the cloud the pipeline processed (for the overlay's
 /// shading). An unorganized frame (nothing to draw): segments.json, polygons.obj and cloud.pcd.
+/// Those of these files that this call does not write (left by an earlier run into `dir`) are
+/// removed, so that the folder holds one frame's results only.
 std::string write_segmentation_folder(const std::string& dir, const OrganizedCloud& input,
                                       const Pipeline& pipeline, FolderFiles files);
 

@@ -44,6 +44,16 @@ void depth_to_cloud_rows(View<const std::uint16_t> depth, const CameraIntrinsics
 void depth_to_cloud_rows(View<const float> depth, const CameraIntrinsics& camera,
                          OrganizedCloud& cloud, int row_begin, int row_end);
 
+/// The pinhole intrinsics of an organized cloud computed from a depth image: the least-squares
+/// fx, cx of x / z = (u - cx) / fx over its valid points with z > 0, and fy, cy alike, with width
+/// and height the cloud's. Returns false when there are fewer than two distinct columns or rows
+/// with such points, or when a point lies more than `tolerance` pixels off its pixel under the
+/// fitted camera (a laser scanner's grid, a cloud transformed out of the camera's frame, a
+/// stereo camera's sub-pixel points). `max_error`, when given, receives that largest deviation
+/// [pixel] (infinity when nothing was fitted).
+bool fit_intrinsics(const OrganizedCloud& cloud, CameraIntrinsics& camera, double tolerance = 0.05,
+                    double* max_error = nullptr);
+
 /// Converts the z plane of an organized cloud back to raw depth units (rounded; 0 where the
 /// point is invalid, z <= 0, or z / depth_scale does not fit in 16 bits).
 DepthImage cloud_to_depth(const OrganizedCloud& cloud, double depth_scale = 0.001);

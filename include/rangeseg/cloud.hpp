@@ -1,6 +1,7 @@
 // Point clouds on a pixel grid.
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -81,5 +82,12 @@ OrganizedCloud valid_points(const OrganizedCloud& cloud,
 /// seed with one standard library), e.g. to check that nothing depends on the points' order.
 OrganizedCloud shuffled_valid_points(const OrganizedCloud& cloud, std::uint64_t seed,
                                      std::vector<std::size_t>* pixels = nullptr);
+
+/// Moves the points of `cloud` into the frame of a sensor whose pose in the cloud's frame is
+/// `pose` = {tx, ty, tz [m], qw, qx, qy, qz} (a PCD's VIEWPOINT, PCL's sensor_origin_ and
+/// sensor_orientation_): p' = R^T (p - t), R the rotation of the quaternion (normalised).
+/// Invalid points stay as they are. Defined in src/cloud_ops.cpp. Throws std::invalid_argument
+/// for a non-finite pose or a quaternion of norm below 1e-6.
+void to_sensor_frame(OrganizedCloud& cloud, const std::array<double, 7>& pose);
 
 }  // namespace rangeseg

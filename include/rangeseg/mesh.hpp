@@ -105,6 +105,11 @@ struct Mesh {
 /// Builds the implicit mesh of an organized cloud into `mesh`, reusing its buffers.
 /// Throws std::invalid_argument for an unorganized cloud or invalid settings.
 void build_mesh(const OrganizedCloud& cloud, const MeshSettings& settings, Mesh& mesh);
+
+/// Throws std::invalid_argument naming the field and its value for settings build_mesh rejects
+/// (an unknown type, eps_theta outside [0, pi/2], negative or non-finite bounds, pixel_stride
+/// below 1).
+void validate(const MeshSettings& settings);
 inline Mesh build_mesh(const OrganizedCloud& cloud, const MeshSettings& settings = {}) {
   Mesh mesh;
   build_mesh(cloud, settings, mesh);

@@ -44,7 +44,7 @@ struct PipelineSettings {
   /// Unorganized clouds only: when the points lie on a pinhole camera's pixel grid (a depth
   /// camera's valid points, in any order: `find_pixel_grid`), and RingSettings::viewpoint is
   /// the origin, they are put back on that grid and run the grid stages, which are faster (a
-  /// 640 x 480 frame: ~12 ms against ~560 ms) and more accurate than the rings. false: always
+  /// 640 x 480 frame: ~20 ms against ~600 ms) and more accurate than the rings. false: always
   /// rings (e.g. to measure them).
   bool restore_grid = true;
 };
@@ -67,13 +67,18 @@ struct StageTimes {
   double input = 0;
 };
 
+/// Throws std::invalid_argument naming the field and its value for settings a Pipeline rejects:
+/// threads outside [1, 256], or mesh, smoothing, segmentation or ring settings that their stage
+/// rejects (`validate` of each).
+void validate(const PipelineSettings& settings);
+
 /// Runs the stages on frame after frame. It owns every intermediate buffer, so after the first
 /// frame of a given size no stage allocates (except segmentation when a frame has more regions
 /// than any before). Results stay valid until the next call of `process`. Not thread-safe.
 class Pipeline {
  public:
-  /// Throws std::invalid_argument for invalid settings. Starts settings.threads - 1 worker
-  /// threads, which live as long as the pipeline.
+  /// Throws std::invalid_argument for invalid settings (`validate`). Starts settings.threads - 1
+  /// worker threads, which live as long as the pipeline.
   explicit Pipeline(const PipelineSettings& settings = {});
 
   /// Processes one cloud. An organized cloud runs the grid stages. An unorganized one (height

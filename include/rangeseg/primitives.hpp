@@ -19,7 +19,7 @@ struct SphereFit {
 };
 
 /// A finite cylinder: the axis line through `axis_point` with unit direction `axis`, the points'
-/// extent along it [0, extent] from `axis_point` (so axis_point is the end of the extent).
+/// extent along it [0, extent] from `axis_point` (so axis_point is where the extent starts).
 struct CylinderFit {
   Point3 axis_point{};
   Point3 axis{};      ///< unit

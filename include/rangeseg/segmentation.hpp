@@ -267,8 +267,9 @@ class Segmenter {
                const SegmentationSettings& settings, Segmentation& out);
   /// As above, with the passes over the whole frame (cell statistics, seed scan, label remaps,
   /// the scans for boundary and adjacent pixels) split into `pool.threads()` row bands that run
-  /// concurrently; region growing itself stays serial. The result is bit-identical to the
-  /// single-threaded call.
+  /// concurrently, and region growing's `growth_bands` bands run concurrently too; merging,
+  /// boundary re-assignment and the grazing-plane search stay serial. The result is
+  /// bit-identical to the single-threaded call.
   void segment(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
                const SegmentationSettings& settings, Segmentation& out, ThreadPool& pool);
 
@@ -288,6 +289,10 @@ class Segmenter {
 
   std::unique_ptr<Scratch> scratch_;
 };
+
+/// Throws std::invalid_argument naming the field and its value for settings `segment` rejects
+/// (e.g. min_region_size below 1, angles outside their ranges, a non-finite noise model).
+void validate(const SegmentationSettings& settings);
 
 /// One-shot segmentation (allocates its scratch buffers; use a Segmenter for streams).
 void segment(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,

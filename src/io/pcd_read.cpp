@@ -77,6 +77,17 @@ std::uint64_t parse_uint(std::string_view token, const std::string& name, const 
   return value;
 }
 
+double parse_finite(std::string_view token, const std::string& name, const char* what) {
+  double value = 0;
+  const char* first = token.data();
+  if (!token.empty() && *first == '+') ++first;  // from_chars rejects an explicit plus sign
+  const auto [end, ec] = std::from_chars(first, token.data() + token.size(), value);
+  if (ec != std::errc{} || end != token.data() + token.size() || !std::isfinite(value)) {
+    fail(name, std::string(what) + ": expected a finite number, got " + quoted(token));
+  }
+  return value;
+}
+
 int parse_dimension(const std::vector<std::string_view>& tokens, const std::string& name,
                     const char* what) {
   if (tokens.size() != 2) fail(name, std::string(what) + " needs exactly one value");
@@ -136,7 +147,13 @@ Header parse_header(const std::uint8_t* data, std::size_t size, const std::strin
       if (tokens.size() != 2) fail(name, "POINTS needs exactly one value");
       points = parse_uint(tokens[1], name, "POINTS");
     } else if (key == "VIEWPOINT") {
-      // The sensor pose is not used: clouds are in the camera frame.
+      if (tokens.size() != 8) {
+        fail(name, "VIEWPOINT needs 7 values (tx ty tz qw qx qy qz), got " +
+                       std::to_string(tokens.size() - 1));
+      }
+      for (std::size_t i = 0; i < 7; ++i) {
+        h.info.viewpoint[i] = parse_finite(tokens[i + 1], name, "VIEWPOINT");
+      }
     } else if (key == "DATA") {
       have_data = true;
       if (tokens.size() != 2) {
@@ -595,6 +612,15 @@ OrganizedCloud parse_pcd(const std::uint8_t* data, std::size_t size, const std::
 OrganizedCloud read_pcd(const std::string& path, PcdInfo* info) {
   const std::vector<std::uint8_t> bytes = read_file(path);
   return parse_pcd(bytes.data(), bytes.size(), path, info);
+}
+
+bool PcdInfo::moved_from_sensor() const {
+  const std::array<double, 7> identity{0, 0, 0, 1, 0, 0, 0};
+  // q and -q are the same rotation.
+  const bool negated_identity =
+      viewpoint[3] == -1 && viewpoint[4] == 0 && viewpoint[5] == 0 && viewpoint[6] == 0;
+  return viewpoint != identity &&
+         !(negated_identity && viewpoint[0] == 0 && viewpoint[1] == 0 && viewpoint[2] == 0);
 }
 
 }  // namespace rangeseg::io

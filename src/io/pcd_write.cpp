@@ -2,6 +2,7 @@
 
 #include <bit>
 #include <charconv>
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <stdexcept>
@@ -114,9 +115,19 @@ std::vector<std::uint8_t> encode_pcd(const OrganizedCloud& cloud, const PcdWrite
   for (const OutField& f : fields) header += std::string(" ") + f.type;
   header += "\nCOUNT";
   for (std::size_t i = 0; i < nf; ++i) header += " 1";
-  header += "\nWIDTH " + std::to_string(w) + "\nHEIGHT " + std::to_string(h) +
-            "\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + std::to_string(n) + "\nDATA " +
-            encoding_name(options.encoding) + "\n";
+  header += "\nWIDTH " + std::to_string(w) + "\nHEIGHT " + std::to_string(h) + "\nVIEWPOINT";
+  for (const double v : options.viewpoint) {
+    if (!std::isfinite(v)) {
+      throw std::invalid_argument("encode_pcd: VIEWPOINT values must be finite, got " +
+                                  std::to_string(v));
+    }
+    // Shortest text that reads back to the same double.
+    char text[32];
+    const auto [end, ec] = std::to_chars(text, text + sizeof text, v);
+    header += ' ';
+    header.append(text, end);
+  }
+  header += "\nPOINTS " + std::to_string(n) + "\nDATA " + encoding_name(options.encoding) + "\n";
 
   std::vector<std::uint8_t> out;
   append(out, header);

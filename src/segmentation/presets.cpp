@@ -48,7 +48,7 @@ SegmentationSettings preset(std::string_view name) {
     // 12-bit range spans ~8.3 m (2 mm per count). The images do not state the noise level, so
     // the bounds are those of `laser` (sigma 15 mm, 20 deg), which hold for noise from 2 to
     // 10 mm: synthetic box scenes in the scanner's view (`eval-synth --camera perceptron --noise
-    // constant:SIGMA`) come out 91-92 % correct at 2, 5 and 10 mm, where a sigma equal to a
+    // constant:SIGMA`) come out 92-93 % correct at 2, 5 and 10 mm, where a sigma equal to a
     // 5 mm truth gets 85 % at 5 mm (the mesh's noise gate then lets the angle test cut faces
     // seen near grazing) and 30 % at 10 mm. 512 x 512 images of tabletop objects: regions of a
     // hundred pixels, as for ABW.

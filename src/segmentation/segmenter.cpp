@@ -482,6 +482,8 @@ void Segmenter::compute_areas(const OrganizedCloud& cloud, const Mesh& mesh, Seg
   seg::segment_areas(f, *scratch_, out.segments);
 }
 
+void validate(const SegmentationSettings& settings) { seg::validate(settings); }
+
 void segment(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
              const SegmentationSettings& settings, Segmentation& out) {
   Segmenter segmenter;

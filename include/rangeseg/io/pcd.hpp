@@ -1,6 +1,7 @@
 // PCD (Point Cloud Library's "Point Cloud Data" format) reading and writing.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -22,6 +23,12 @@ struct PcdInfo {
   int width = 0, height = 0;        ///< grid size; height 1 = unorganized
   std::uint64_t points = 0;         ///< width * height
   PcdEncoding encoding = PcdEncoding::binary;
+  /// VIEWPOINT: the sensor's pose in the points' frame, translation tx ty tz [m] and rotation
+  /// quaternion qw qx qy qz, as PCL stores it (sensor_origin_, sensor_orientation_); identity
+  /// when the header has none. The reader returns the points as stored, in the file's frame.
+  std::array<double, 7> viewpoint{0, 0, 0, 1, 0, 0, 0};
+  /// Whether `viewpoint` is other than the identity (a cloud not in its sensor's frame).
+  bool moved_from_sensor() const;
 };
 
 /// Reads a PCD file (VERSION 0.7 and older headers; DATA ascii, binary or binary_compressed;
@@ -40,6 +47,8 @@ OrganizedCloud parse_pcd(const std::uint8_t* data, std::size_t size, const std::
 
 struct PcdWriteOptions {
   PcdEncoding encoding = PcdEncoding::binary;
+  /// VIEWPOINT written (see PcdInfo::viewpoint; finite values, std::invalid_argument otherwise).
+  std::array<double, 7> viewpoint{0, 0, 0, 1, 0, 0, 0};
   /// Additional F4 fields written after the cloud's own, e.g. {"normal_x", &nx}. Each plane
   /// must have the cloud's width and height (std::invalid_argument otherwise).
   std::vector<std::pair<std::string, const FloatPlane*>> extra_float_fields{};

@@ -1,0 +1,191 @@
+// The CLI's options on inputs and outputs: smoothing passes, output types, intrinsics files.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "cli_util.hpp"
+#include "rangeseg/camera.hpp"
+#include "rangeseg/io/pcd.hpp"
+#include "rangeseg/io/png.hpp"
+#include "rangeseg/synth.hpp"
+#include "test_util.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using rangeseg::test::CliResult;
+CliResult run(const std::string& args) { return rangeseg::test::run_cli(args); }
+
+using rangeseg::test::contains;
+
+std::string read_bytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+/// A small noisy synthetic frame (160x120) so that the commands run in a fraction of a second.
+fs::path write_small_pcd(const fs::path& dir) {
+  const rangeseg::CameraIntrinsics camera{
+      .fx = 131.25, .fy = 131.25, .cx = 79.5, .cy = 59.5, .width = 160, .height = 120};
+  fs::path path = dir / "small.pcd";
+  rangeseg::io::write_pcd(
+      path.string(),
+      rangeseg::synth::render(
+          rangeseg::synth::random_scene(1, false),
+          {.camera = camera, .noise = rangeseg::synth::Noise::kinect, .seed = 1})
+          .cloud,
+      {.encoding = rangeseg::io::PcdEncoding::binary_compressed});
+  return path;
+}
+
+/// Runs `smooth INPUT -o DIR/NAME EXTRA` and returns the bytes written.
+std::string smooth_bytes(const fs::path& input, const fs::path& dir, const std::string& name,
+                         const std::string& extra) {
+  const fs::path out = dir / name;
+  const CliResult r = run("smooth " + input.string() + " -o " + out.string() + " " + extra);
+  EXPECT_EQ(r.code, 0) << r.out;
+  return read_bytes(out);
+}
+
+}  // namespace
+
+// The ideal and abw presets turn the filter off; an explicit --iterations must still filter.
+TEST(CliInputs, SmoothIterationsTurnTheFilterOnUnderAPresetWithoutIt) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_iterations");
+  const fs::path pcd = write_small_pcd(dir);
+  const std::string none = smooth_bytes(pcd, dir, "i0.pcd", "--preset ideal --iterations 0");
+  const std::string two = smooth_bytes(pcd, dir, "i2.pcd", "--preset ideal --iterations 2");
+  const std::string preset = smooth_bytes(pcd, dir, "preset.pcd", "--preset ideal");
+  ASSERT_FALSE(none.empty());
+  // Compared as booleans: a failure would otherwise print the whole files.
+  EXPECT_TRUE(two != none) << "--iterations 2 wrote the unfiltered points";
+  EXPECT_TRUE(preset == none) << "without --iterations the preset decides";
+  // A preset that filters: --iterations 0 turns it off.
+  EXPECT_TRUE(smooth_bytes(pcd, dir, "k.pcd", "--preset kinect") !=
+              smooth_bytes(pcd, dir, "k0.pcd", "--preset kinect --iterations 0"))
+      << "--iterations 0 still filtered";
+}
+
+TEST(CliInputs, SmoothIterationsFilterAnAbwImage) {
+  RANGESEG_REQUIRE_DATA("segcomp_abw/abw.test.1.range");
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_abw");
+  EXPECT_TRUE(smooth_bytes(data_file, dir, "a2.pcd", "--iterations 2") !=
+              smooth_bytes(data_file, dir, "a0.pcd", "--iterations 0"))
+      << "--iterations 2 wrote the unfiltered points";
+}
+
+TEST(CliInputs, NegativeIterationsAreRejected) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_negative");
+  const fs::path pcd = write_small_pcd(dir);
+  const fs::path out = dir / "out.pcd";
+  for (const char* value : {" -7", "=-1"}) {
+    const CliResult r =
+        run("smooth " + pcd.string() + " -o " + out.string() + " --iterations" + value);
+    EXPECT_EQ(r.code, 2) << r.out;
+    EXPECT_TRUE(contains(r.out, "--iterations")) << r.out;
+    EXPECT_FALSE(fs::exists(out));
+  }
+}
+
+TEST(CliInputs, SmoothAndMeshRejectAnOutputTypeTheyCannotWrite) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_ext");
+  const std::string pcd = write_small_pcd(dir).string();
+  struct Case {
+    std::string args, path, expected;
+  };
+  const std::string ply = (dir / "points.ply").string(), txt = (dir / "mesh.txt").string(),
+                    bare = (dir / "mesh").string(), jpg = (dir / "normals.jpg").string();
+  const std::vector<Case> cases = {
+      Case{"smooth " + pcd + " -o " + ply, ply, ".pcd"},
+      Case{"mesh " + pcd + " -o " + txt, txt, ".ply"},
+      Case{"mesh " + pcd + " -o " + bare, bare, ".ply"},
+      Case{"mesh " + pcd + " -o " + (dir / "m.ply").string() + " --normal-png " + jpg, jpg,
+           ".png"}};
+  for (const Case& c : cases) {
+    const CliResult r = run(c.args);
+    EXPECT_EQ(r.code, 2) << c.args << "\n" << r.out;
+    EXPECT_TRUE(contains(r.out, c.path)) << r.out;
+    EXPECT_TRUE(contains(r.out, "expected " + c.expected)) << r.out;
+  }
+  // Nothing was written: only the input is in the folder.
+  int files = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++files;
+  EXPECT_EQ(files, 1);
+  // The types they write still work, in any case.
+  const CliResult smooth = run("smooth " + pcd + " -o " + (dir / "s.PCD").string());
+  EXPECT_EQ(smooth.code, 0) << smooth.out;
+  const CliResult mesh =
+      run("mesh " + pcd + " -o " + (dir / "m.ply").string() + " --normal-png " +
+          (dir / "n.png").string() + " --curvature-png " + (dir / "c.png").string());
+  EXPECT_EQ(mesh.code, 0) << mesh.out;
+  for (const char* f : {"s.PCD", "m.ply", "n.png", "c.png"}) EXPECT_TRUE(fs::exists(dir / f)) << f;
+}
+
+// Intrinsics stated for another resolution would give wrong points without a sign of it.
+TEST(CliInputs, IntrinsicsMustFitTheDepthImage) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_intrinsics");
+  rangeseg::DepthImage depth(8, 6, 1000);
+  const fs::path png = dir / "depth.png";
+  rangeseg::io::write_depth_png(png.string(), depth.view());
+  const auto camera = [&dir](const std::string& name, const std::string& json) {
+    std::ofstream((dir / name).string()) << json;
+    return (dir / name).string();
+  };
+  const std::string matrix = R"("intrinsic_matrix": [6, 0, 0, 0, 6, 0, 3.5, 2.5, 1])";
+  const std::string open3d_small =
+      camera("small.json", R"({"width": 4, "height": 3, )" + matrix + "}");
+  const std::string flat_wide =
+      camera("wide.json", R"({"fx": 6, "fy": 6, "cx": 3.5, "cy": 2.5, "width": 16, "height": 6})");
+  for (const std::string& json : {open3d_small, flat_wide}) {
+    const CliResult r = run("info " + png.string() + " --intrinsics " + json);
+    EXPECT_EQ(r.code, 2) << r.out;
+    EXPECT_TRUE(contains(r.out, json)) << r.out;
+    EXPECT_TRUE(contains(r.out, png.string())) << r.out;
+    EXPECT_TRUE(contains(r.out, "8 x 6")) << r.out;
+  }
+  EXPECT_TRUE(contains(run("info " + png.string() + " --intrinsics " + open3d_small).out, "4 x 3"));
+  const std::string open3d_fits =
+      camera("fits.json", R"({"width": 8, "height": 6, )" + matrix + "}");
+  const std::string flat_unsized =
+      camera("unsized.json", R"({"fx": 6, "fy": 6, "cx": 3.5, "cy": 2.5})");
+  for (const std::string& json : {open3d_fits, flat_unsized}) {
+    const CliResult r = run("info " + png.string() + " --intrinsics " + json);
+    EXPECT_EQ(r.code, 0) << r.out;
+  }
+}
+
+TEST(CliInputs, IntrinsicsFileAndNumbersExcludeEachOther) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_exclude");
+  rangeseg::DepthImage depth(8, 6, 1000);
+  const fs::path png = dir / "depth.png";
+  rangeseg::io::write_depth_png(png.string(), depth.view());
+  const fs::path json = dir / "camera.json";
+  std::ofstream(json) << R"({"fx": 6, "fy": 6, "cx": 3.5, "cy": 2.5})";
+  for (const char* option : {"--fx", "--fy", "--cx", "--cy"}) {
+    const CliResult r =
+        run("info " + png.string() + " --intrinsics " + json.string() + " " + option + " 5");
+    EXPECT_EQ(r.code, 2) << r.out;
+    EXPECT_TRUE(contains(r.out, "--intrinsics")) << r.out;
+    EXPECT_TRUE(contains(r.out, option)) << r.out;
+  }
+  EXPECT_EQ(run("info " + png.string() + " --fx 6 --fy 6").code, 0);
+}
+
+TEST(CliInputs, DemoSaysWhenSmoothingIsOff) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_demo");
+  const std::string pcd = write_small_pcd(dir).string();
+  const CliResult off =
+      run("demo --input " + pcd + " --preset ideal -o " + (dir / "ideal").string());
+  ASSERT_EQ(off.code, 0) << off.out;
+  EXPECT_TRUE(contains(off.out, "smoothing off")) << off.out;
+  EXPECT_FALSE(contains(off.out, "iterations")) << off.out;
+  const CliResult on =
+      run("demo --input " + pcd + " --preset kinect -o " + (dir / "kinect").string());
+  ASSERT_EQ(on.code, 0) << on.out;
+  EXPECT_TRUE(contains(on.out, "(3 iterations)")) << on.out;
+}
