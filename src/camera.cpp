@@ -52,6 +52,20 @@ void require_rows(View<const T> depth, const OrganizedCloud& cloud, int row_begi
 
 /// Every pixel of the rows is written: a valid depth z = metres(raw) > 0 gives the point on the
 /// pixel's ray, anything else NaN.
+/// validate(camera), and a size the camera states must be the depth image's: intrinsics of
+/// another resolution (a colour camera's, a scaled stream's) put every point off its ray.
+template <class T>
+void require_camera_for(const CameraIntrinsics& camera, View<const T> depth) {
+  validate(camera);
+  if ((camera.width != 0 && camera.width != depth.width) ||
+      (camera.height != 0 && camera.height != depth.height)) {
+    throw std::invalid_argument("depth_to_cloud: intrinsics of a " + std::to_string(camera.width) +
+                                " x " + std::to_string(camera.height) + " image for a " +
+                                std::to_string(depth.width) + " x " + std::to_string(depth.height) +
+                                " depth image (width and height 0: any size)");
+  }
+}
+
 template <class T, class Metres>
 void convert_rows(View<const T> depth, const CameraIntrinsics& camera, Metres metres,
                   OrganizedCloud& cloud, int row_begin, int row_end) {
@@ -102,7 +116,7 @@ constexpr auto kMetres = [](float z) { return z; };
 
 void depth_to_cloud_rows(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
                          double depth_scale, OrganizedCloud& cloud, int row_begin, int row_end) {
-  validate(camera);
+  require_camera_for(camera, depth);
   require_scale(depth_scale);
   require_rows(depth, cloud, row_begin, row_end);
   convert_rows(depth, camera, raw_metres(depth_scale), cloud, row_begin, row_end);
@@ -110,14 +124,14 @@ void depth_to_cloud_rows(View<const std::uint16_t> depth, const CameraIntrinsics
 
 void depth_to_cloud_rows(View<const float> depth, const CameraIntrinsics& camera,
                          OrganizedCloud& cloud, int row_begin, int row_end) {
-  validate(camera);
+  require_camera_for(camera, depth);
   require_rows(depth, cloud, row_begin, row_end);
   convert_rows(depth, camera, kMetres, cloud, row_begin, row_end);
 }
 
 void depth_to_cloud(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
                     double depth_scale, OrganizedCloud& cloud) {
-  validate(camera);
+  require_camera_for(camera, depth);
   require_scale(depth_scale);
   prepare(cloud, depth);
   convert_rows(depth, camera, raw_metres(depth_scale), cloud, 0, depth.height);
@@ -125,7 +139,7 @@ void depth_to_cloud(View<const std::uint16_t> depth, const CameraIntrinsics& cam
 
 void depth_to_cloud(View<const float> depth, const CameraIntrinsics& camera,
                     OrganizedCloud& cloud) {
-  validate(camera);
+  require_camera_for(camera, depth);
   prepare(cloud, depth);
   convert_rows(depth, camera, kMetres, cloud, 0, depth.height);
 }

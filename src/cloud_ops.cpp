@@ -95,7 +95,10 @@ void to_sensor_frame(OrganizedCloud& cloud, const std::array<double, 7>& pose) {
   Eigen::Quaterniond q(pose[3], pose[4], pose[5], pose[6]);
   if (!finite || !(q.norm() >= 1e-6)) {
     std::string values;
-    for (const double v : pose) values += (values.empty() ? "" : " ") + std::to_string(v);
+    for (const double v : pose) {
+      if (!values.empty()) values += ' ';
+      values += std::to_string(v);
+    }
     throw std::invalid_argument("to_sensor_frame: pose (tx ty tz qw qx qy qz) = " + values +
                                 " needs finite values and a quaternion of norm >= 1e-6");
   }

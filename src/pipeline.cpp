@@ -345,6 +345,11 @@ void Pipeline::process_grid(const OrganizedCloud& cloud) {
 template <class Convert>
 void Pipeline::process_depth(int width, int height, Convert&& convert_rows) {
   const Clock::time_point start = Clock::now();
+  if (height < 2) {
+    // One row would be taken for an unorganized cloud and run over rings.
+    throw std::invalid_argument("Pipeline::process: a depth image needs at least 2 rows, got " +
+                                std::to_string(width) + " x " + std::to_string(height));
+  }
   if (depth_cloud_.width() != width || depth_cloud_.height() != height) {
     depth_cloud_.resize(width, height);
   }
@@ -361,6 +366,7 @@ void Pipeline::process_depth(int width, int height, Convert&& convert_rows) {
   }
   const double input_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   process(depth_cloud_);
+  input_ = nullptr;  // cloud() is depth_cloud_, wherever the pipeline has moved since
   times_.input = input_ms;
   times_.total += input_ms;
 }

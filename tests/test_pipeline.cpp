@@ -383,6 +383,34 @@ TEST(Pipeline, DepthImagesGiveWhatTheirCloudsGive) {
   OrganizedCloud cloud;
   EXPECT_THROW(depth_to_cloud(View<const float>{nullptr, 4, 4, 4}, kQvgaCamera, cloud),
                std::invalid_argument);
+  // Intrinsics stated for another image size, and one row (which would run as an unorganized
+  // cloud over rings).
+  CameraIntrinsics vga = kQvgaCamera;
+  vga.width = 640;
+  vga.height = 480;
+  EXPECT_THROW(pipeline.process(depth.view(), vga, 0.001), std::invalid_argument);
+  EXPECT_THROW(depth_to_cloud(metres.view(), vga, cloud), std::invalid_argument);
+  CameraIntrinsics any_size = vga;
+  any_size.width = any_size.height = 0;
+  EXPECT_NO_THROW(depth_to_cloud(metres.view(), any_size, cloud));
+  EXPECT_THROW(pipeline.process(View<const std::uint16_t>{depth.row(0), 320, 1, 320}, any_size),
+               std::invalid_argument);
+}
+
+// Without smoothing, cloud() is the frame's points: for a depth image the pipeline's own, which
+// a moved pipeline still gives.
+TEST(Pipeline, MovedPipelineKeepsItsDepthFramesPoints) {
+  const DepthImage depth = cloud_to_depth(qvga(5).cloud, 0.001);
+  PipelineSettings settings = pipeline_preset("kinect");
+  settings.smooth = false;
+  Pipeline first(settings);
+  EXPECT_EQ(first.cloud().size(), 0u);  // before any frame
+  first.process(depth.view(), kQvgaCamera, 0.001);
+  const OrganizedCloud expected = depth_to_cloud(depth.view(), kQvgaCamera, 0.001);
+  const Pipeline moved(std::move(first));
+  ASSERT_EQ(moved.cloud().width(), 320);
+  ASSERT_EQ(moved.cloud().height(), 240);
+  EXPECT_TRUE(same_bits(moved.cloud().z, expected.z));
 }
 
 TEST(Pipeline, RejectsInvalidThreadCounts) {

@@ -356,6 +356,15 @@ TEST(Polygons, SmallHolesAndFilters) {
   EXPECT_EQ(ps.loops.size(), 1u);
   ps = extract_polygons(h.cloud, h.mesh, h.seg, {.min_segment_pixels = 2000});
   EXPECT_TRUE(ps.segments.empty());
+  // The incremental plane model's segments are planes too.
+  h.seg.segments[0].model = SegmentModel::incremental_plane;
+  EXPECT_EQ(extract_polygons(h.cloud, h.mesh, h.seg).segments.size(), 1u);
+  for (const SurfaceKind curved : {SurfaceKind::cylinder, SurfaceKind::sphere}) {
+    h.seg.segments[0].model = SegmentModel::automatic;
+    h.seg.segments[0].kind = curved;
+    EXPECT_TRUE(extract_polygons(h.cloud, h.mesh, h.seg).segments.empty());
+  }
+  h.seg.segments[0].kind = SurfaceKind::plane;
   h.seg.segments[0].model = SegmentModel::smooth;
   EXPECT_TRUE(extract_polygons(h.cloud, h.mesh, h.seg).segments.empty());
   EXPECT_EQ(extract_polygons(h.cloud, h.mesh, h.seg, {.planes_only = false}).segments.size(), 1u);

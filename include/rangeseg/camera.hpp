@@ -7,14 +7,15 @@
 namespace rangeseg {
 
 /// Pinhole intrinsics in pixels: pixel (u, v) with depth z (metres) is the point
-/// x = (u - cx) z / fx, y = (v - cy) z / fy. Defaults: a Kinect / PrimeSense at 640x480.
+/// x = (u - cx) z / fx, y = (v - cy) z / fy. Defaults: fx, fy, cx, cy of a Kinect / PrimeSense
+/// at 640x480; the image size not given.
 struct CameraIntrinsics {
   double fx = 525.0;  ///< focal length along x [pixel]
   double fy = 525.0;  ///< focal length along y [pixel]
   double cx = 319.5;  ///< principal point x [pixel]
   double cy = 239.5;  ///< principal point y [pixel]
-  int width = 0;      ///< image width [pixel], 0 = not given
-  int height = 0;     ///< image height [pixel], 0 = not given
+  int width = 0;      ///< image width [pixel], 0 = not given (else depth images must have it)
+  int height = 0;     ///< image height [pixel], 0 = not given (else depth images must have it)
 };
 
 /// Throws std::invalid_argument unless fx, fy > 0 and all values are finite.
@@ -22,6 +23,8 @@ void validate(const CameraIntrinsics& camera);
 
 /// Converts a depth image (raw units, 0 = no measurement) to an organized cloud.
 /// `depth_scale` is metres per raw unit (0.001 for millimetres). Invalid pixels become NaN.
+/// Throws std::invalid_argument for invalid intrinsics (`validate`), a width or height the
+/// camera states that is not the image's, a depth_scale not > 0, or an invalid view.
 OrganizedCloud depth_to_cloud(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
                               double depth_scale = 0.001);
 

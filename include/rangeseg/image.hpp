@@ -11,7 +11,8 @@
 namespace rangeseg {
 
 /// Non-owning view of one image plane: `height` rows of `width` elements, row `y` starting at
-/// `data + y * stride` (stride in elements, >= width). T is float, std::uint8_t, std::uint16_t or
+/// `data + y * stride` (stride in elements, >= width; not in bytes: a ROS image's `step` or
+/// OpenCV's `Mat::step` is divided by sizeof(T)). T is float, std::uint8_t, std::uint16_t or
 /// std::int32_t in this library.
 template <class T>
 struct View {

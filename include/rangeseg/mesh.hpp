@@ -34,7 +34,7 @@ enum class MeshType : std::uint8_t {
 /// (z - 0.4)^2 m after Nguyen et al. 2012):
 /// - eps_theta 12.5 deg (the paper's and PCL's value): an edge between two neighbouring pixels
 ///   spans ~ s r / f laterally, so it is cut when the depth step exceeds ~4.5 s r / f, i.e.
-///   depth jumps of more than ~9 mm at 1 m and ~36 mm at 4 m. Surfaces seen at more than ~77
+///   depth jumps of more than ~9 mm at 1 m and ~34 mm at 4 m. Surfaces seen at more than ~77
 ///   degrees from their normal are cut too; on the Kinect frames in ../shared/data 0.2-5 % of
 ///   neighbour pairs at 0.5-2 m fall below 12.5 deg (mostly true depth jumps, < 5 deg), up to
 ///   ~11 % on a steep floor at 1.5-2.5 m (between 7.5 and 12.5 deg).
@@ -63,15 +63,17 @@ enum class MeshType : std::uint8_t {
 /// more triangles (one or more edges invalid): then that one is used, so a cell with one
 /// invalid corner or edge always keeps the triangle that avoids it.
 struct MeshSettings {
-  MeshType type = MeshType::adaptive;
-  float eps_theta = 0.2182f;  ///< min angle between edge and viewing ray [rad] (12.5 deg)
-  float max_edge_a = 0.006f;  ///< eps_d constant term [m]
-  float max_edge_b = 0.012f;  ///< eps_d linear term [m per m of range per pixel of stride]
-  float max_edge_c = 0.008f;  ///< eps_d quadratic term [1/m]
+  MeshType type = MeshType::adaptive;  ///< triangulation of each cell (default adaptive)
+  float eps_theta = 0.2182f;           ///< min angle between edge and viewing ray [rad] (12.5 deg)
+  float max_edge_a = 0.006f;           ///< eps_d constant term [m]
+  float max_edge_b = 0.012f;           ///< eps_d linear term [m per m of range per pixel of stride]
+  float max_edge_c = 0.008f;           ///< eps_d quadratic term [1/m]
   std::array<float, 3> viewpoint{0.0f, 0.0f, 0.0f};  ///< sensor origin [m], camera frame
-  int pixel_stride = 1;      ///< mesh every k-th pixel in u and v (1 = full resolution)
-  SensorNoise noise{};       ///< axial noise sigma(range) of the sensor [m]
-  float jump_sigmas = 3.0f;  ///< range steps up to this many sigma of the difference are noise
+  int pixel_stride = 1;  ///< mesh every k-th pixel in u and v [pixels] (1 = full resolution)
+  SensorNoise noise{};   ///< axial noise sigma(range) of the sensor [m] (default: the Kinect's)
+  /// range steps up to this many sigma of the difference are noise (dimensionless, default 3;
+  /// 0 = off)
+  float jump_sigmas = 3.0f;
 };
 
 /// Bits of `Mesh::faces` for the cell whose top-left pixel is (u, v); corners

@@ -24,14 +24,15 @@ struct PipelineSettings {
   NormalSettings normals{};
   bool smooth = true;  ///< run the bilateral filter; segmentation then uses smoothed points/normals
   SmoothingSettings smoothing{};
-  bool segment = true;
+  bool segment = true;  ///< run segmentation (and, with `polygons`, the polygons)
   SegmentationSettings segmentation{};
   bool polygons = true;  ///< outline every plane segment (needs `segment`)
   PolygonSettings polygon{};
-  /// Threads inside one frame: mesh, normals and smoothing run on this many row bands at once,
-  /// and the segments' areas are summed while the polygons are traced (then counted in
-  /// StageTimes::polygons); results are bit-identical to 1 thread. Region growing runs on as
-  /// many threads as the frame has growth bands (SegmentationSettings::growth_bands, default 2).
+  /// Threads inside one frame: mesh, normals, smoothing and segmentation's frame-wide passes run
+  /// on this many row bands at once, and the segments' areas are summed while the polygons are
+  /// traced (then counted in StageTimes::polygons); results are bit-identical to 1 thread.
+  /// Region growing runs on min(threads, growth bands) threads
+  /// (SegmentationSettings::growth_bands, default 2).
   /// Frames under 65536 pixels always run on one thread (a hand-off costs as much as their
   /// work). While `process` runs, idle workers spin between the stages' bands instead of
   /// sleeping (ThreadPool::KeepAwake), so they occupy their cores for the whole frame; between
@@ -52,7 +53,7 @@ struct PipelineSettings {
 /// Sets the sensor noise model of every stage.
 void set_noise(PipelineSettings& settings, const SensorNoise& noise);
 
-/// Settings for a sensor: "kinect" (structured light, also PrimeSense / RealSense-like), "abw"
+/// Settings for a sensor: "kinect" (structured light, also PrimeSense), "abw"
 /// (SegComp ABW scanner in metres), "laser", "perceptron" (SegComp's Perceptron laser) or
 /// "ideal" (noise-free or simulated depth: no smoothing; see `preset` in segmentation.hpp). Sets
 /// the noise model of every stage and the angular pixel spacing. Throws std::invalid_argument for
@@ -116,8 +117,13 @@ class Pipeline {
   /// to lie on, else not found (PixelGrid::found()).
   const PixelGrid& pixel_grid() const { return grid_; }
   const NormalMap& raw_normals() const { return raw_normals_; }
-  /// Smoothed points and normals, or the input and raw normals when smoothing is off.
-  const OrganizedCloud& cloud() const { return settings_.smooth ? smoothed_cloud_ : *input_; }
+  /// Smoothed points and normals, or the input and raw normals when smoothing is off: then the
+  /// caller's cloud of `process(cloud)` (keep it alive while reading), or the pipeline's own
+  /// points of a depth image (empty before the first frame).
+  const OrganizedCloud& cloud() const {
+    if (settings_.smooth) return smoothed_cloud_;
+    return input_ != nullptr ? *input_ : depth_cloud_;
+  }
   const NormalMap& normals() const { return settings_.smooth ? smoothed_normals_ : raw_normals_; }
   const Segmentation& segmentation() const { return segmentation_; }
   const PolygonSet& polygons() const { return polygons_; }
@@ -131,6 +137,8 @@ class Pipeline {
   void process_depth(int width, int height, Convert&& convert_rows);
 
   PipelineSettings settings_;
+  /// The caller's cloud of the last frame; nullptr for a depth image (depth_cloud_), which
+  /// keeps cloud() right when the pipeline is moved.
   const OrganizedCloud* input_ = nullptr;
   OrganizedCloud depth_cloud_;  ///< the points of the last depth image
   Mesh mesh_;

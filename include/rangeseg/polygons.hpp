@@ -57,7 +57,8 @@ struct PolygonSettings {
   bool convex_hull = true;
   /// Segments with fewer pixels are skipped [pixels].
   int min_segment_pixels = 0;
-  /// Only segments with SegmentModel::plane (smooth segments are curved: their plane is a fit).
+  /// Only segments whose surface is a plane (`is_plane`; smooth, cylinder and sphere segments
+  /// are curved: their plane is a fit).
   bool planes_only = true;
   /// Holes and further outer loops (islands) whose area in the image is smaller are dropped
   /// (e.g. single dropped pixels) [pixel^2]; the largest outer loop is always kept. 0 keeps all.

@@ -22,7 +22,9 @@ struct SphereFit {
 /// extent along it [0, extent] from `axis_point` (so axis_point is where the extent starts).
 struct CylinderFit {
   Point3 axis_point{};
-  Point3 axis{};      ///< unit
+  /// unit; points up in the camera frame (y <= 0; a horizontal axis towards +x, or +z when
+  /// along z)
+  Point3 axis{};
   double radius = 0;  ///< [m]
   double extent = 0;  ///< length of the points' projection onto the axis [m]
   double rms = 0;     ///< RMS geometric distance of the points to the cylinder surface [m]

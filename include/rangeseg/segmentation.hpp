@@ -46,9 +46,14 @@ const char* to_string(RegionModel model);
 using SegmentModel = RegionModel;
 
 /// Settings of `segment`. Distances scale with the sensor noise, so one setting serves the whole
-/// depth range of a sensor; see `preset` for physically motivated values per sensor.
+/// depth range of a sensor; see `preset` for physically motivated values per sensor (the
+/// defaults here are the Kinect's noise and bounds, with a smaller `min_region_size` than
+/// `preset("kinect")`'s 200).
 struct SegmentationSettings {
+  /// The region model (default plane; see RegionModel).
   RegionModel model = RegionModel::plane;
+  /// Axial noise sigma(z) of the sensor [m] that the distance bounds scale with (default: the
+  /// Kinect's, 1.2 mm + 1.9 mm/m^2 (z - 0.4 m)^2).
   SensorNoise noise{};
 
   // --- region growing ---
@@ -72,7 +77,8 @@ struct SegmentationSettings {
   double max_smooth_angle = 0.1396;
   /// smooth: points with larger curvature are neither seeds nor added [1/m]
   double max_curvature = 50.0;
-  /// Pixels with larger curvature are not used as seeds [1/m] (both models; inf = all).
+  /// Pixels with larger curvature are not used as seeds [1/m] (every model; the default 1e30
+  /// admits all).
   double max_seed_curvature = 1e30;
   /// plane: a pixel seed needs every pixel within this many lattice steps of it (a square of
   /// 2r + 1 pixels) to be unlabelled. Between two regions the growth test leaves a band a few
@@ -86,7 +92,8 @@ struct SegmentationSettings {
   /// grown pixel by pixel from the border of its cells. Same model, ~10x fewer per-pixel tests;
   /// false grows every pixel individually (the reference).
   bool coarse_cells = true;
-  /// plane models: the frame is grown as this many horizontal bands of whole cell rows, each on
+  /// plane and automatic models: the frame is grown as this many horizontal bands of whole cell
+  /// rows (incremental_plane and smooth grow the whole frame at once), each on
   /// its own (concurrently, with threads), and the regions a band seam cuts in two are joined
   /// again by merging (`merge_planes`) and boundary re-assignment, which see the whole frame.
   /// Results depend on this number, never on the thread count. A band is at least 4 cell rows
@@ -226,8 +233,10 @@ struct Segment {
   double surface_rms = 0;
   /// sphere: centre; cylinder: the point of the axis at the start of the points' extent [m].
   std::array<double, 3> centre{};
-  std::array<double, 3> axis{};  ///< cylinder: unit axis direction (pointing up, y < 0)
-  double radius = 0;             ///< sphere / cylinder radius [m]
+  /// cylinder: unit axis direction, pointing up in the camera frame (y <= 0; a horizontal axis
+  /// towards +x, or +z when along z)
+  std::array<double, 3> axis{};
+  double radius = 0;  ///< sphere / cylinder radius [m]
   double extent = 0;  ///< cylinder: length of the points along the axis from `centre` [m]
   /// Holds points of a plane found seen at grazing incidence
   /// (SegmentationSettings::grazing_min_angle), where the mesh has few faces: `area_m2` counts
@@ -289,6 +298,13 @@ class Segmenter {
 
   std::unique_ptr<Scratch> scratch_;
 };
+
+/// Whether a segment's surface is a plane: its `kind` is plane and its `model` is not smooth (a
+/// smooth segment's plane is only a fit), e.g. for the plane, incremental_plane and auto models'
+/// plane segments.
+inline bool is_plane(const Segment& segment) {
+  return segment.kind == SurfaceKind::plane && segment.model != RegionModel::smooth;
+}
 
 /// Throws std::invalid_argument naming the field and its value for settings `segment` rejects
 /// (e.g. min_region_size below 1, angles outside their ranges, a non-finite noise model).

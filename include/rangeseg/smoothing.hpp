@@ -46,15 +46,18 @@ namespace rangeseg {
 /// relative to `viewpoint`.
 struct SmoothingSettings {
   /// Filter passes; each reads the previous pass's points and normals, the mesh stays the input's.
-  /// 3 passes halve point and normal errors on planes with Kinect noise from 1 to 4 m.
+  /// 3 passes (the default) halve point and normal errors on planes with Kinect noise from 1 to
+  /// 4 m. 0 = the input unchanged.
   int iterations = 3;
 
-  bool use_distance = true;
-  float distance_scale = 1.5f;        ///< k_d: s_d in units of the expected ring edge length [1]
-  float pixel_angle = 1.0f / 525.0f;  ///< angle between neighbouring pixel rays [rad] (Kinect)
-  SensorNoise noise{};                ///< sigma(z) of the sensor (see sensor.hpp)
+  bool use_distance = true;     ///< the spatial term w_d (default on)
+  float distance_scale = 1.5f;  ///< k_d: s_d in units of the expected ring edge length [1]
+  /// angle between neighbouring pixel rays [rad] (default 1 / 525, a Kinect at 640 x 480; set
+  /// it to 1 / fx for another camera or resolution: the pipeline's presets do not know the camera)
+  float pixel_angle = 1.0f / 525.0f;
+  SensorNoise noise{};  ///< sigma(z) of the sensor (see sensor.hpp)
 
-  bool use_normals = true;
+  bool use_normals = true;    ///< the normal term w_n (default on)
   float normal_scale = 1.0f;  ///< s_n where noise < spacing; ||n_i - n_j||_1 is in 0..2 sqrt(3) [1]
 
   /// Intensity term, evaluated only where the cloud has `intensity`, else grey from RGB

@@ -350,7 +350,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
   sc.seg_of_label.assign(n_labels, -1);
   for (const Segment& seg : segmentation.segments) {
     if (seg.label < 1 || static_cast<std::size_t>(seg.label) >= n_labels) continue;
-    if (settings.planes_only && seg.model != SegmentModel::plane) continue;
+    if (settings.planes_only && !is_plane(seg)) continue;
     if (seg.pixel_count < settings.min_segment_pixels) continue;
     if (!std::isfinite(seg.offset) || !std::isfinite(seg.normal[0]) ||
         !std::isfinite(seg.normal[1]) || !std::isfinite(seg.normal[2])) {

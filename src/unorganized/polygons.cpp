@@ -491,7 +491,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const PointRings& ri
   for (std::size_t l = 1; l < n_labels; ++l) {  // by label ascending, as from the grid
     const Segment* seg = sc.segment_of[l];
     if (seg == nullptr) continue;
-    if (settings.planes_only && seg->model != SegmentModel::plane) continue;
+    if (settings.planes_only && !is_plane(*seg)) continue;
     if (seg->pixel_count < settings.min_segment_pixels) continue;
     if (!std::isfinite(seg->offset) || !std::isfinite(seg->normal[0]) ||
         !std::isfinite(seg->normal[1]) || !std::isfinite(seg->normal[2])) {
