@@ -185,9 +185,6 @@ void read_settings(const json& j, const std::string& path, PipelineSettings& s) 
   }
 }
 
-/// Throws std::invalid_argument when the library rejects `s`, before any input is read.
-void check_settings(const PipelineSettings& s) { validate(s); }
-
 }  // namespace
 
 void apply_config_file(const std::string& path, PipelineSettings& s) {
@@ -201,7 +198,7 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
   const PipelineSettings before = s;
   read_settings(j, path, s);
   try {
-    check_settings(s);
+    validate(s);  // before any input is read
   } catch (const std::invalid_argument& e) {
     // The library names the field as its struct spells it (e.g. SmoothingSettings::noise_a for
     // noise.a): name the key of the file that the error is about, the one without which the
@@ -212,7 +209,7 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
       PipelineSettings t = before;
       read_settings(rest, path, t);
       try {
-        check_settings(t);
+        validate(t);
       } catch (const std::invalid_argument& other) {
         return std::string(other.what());
       }

@@ -53,20 +53,7 @@ void add_input_options(CLI::App& cmd, InputOptions& o, bool positional) {
 }
 
 CameraIntrinsics intrinsics_for(const InputOptions& o, int width, int height) {
-  if (!o.intrinsics.empty()) {
-    const CameraIntrinsics cam = io::read_camera_json(o.intrinsics);
-    // Intrinsics of another resolution are in other pixels: the points would come out scaled
-    // and shifted without any sign of it.
-    if ((cam.width != 0 && cam.width != width) || (cam.height != 0 && cam.height != height)) {
-      const auto size = [](int w, int h) {
-        return (w != 0 ? std::to_string(w) : "?") + " x " + (h != 0 ? std::to_string(h) : "?");
-      };
-      throw std::runtime_error(o.intrinsics + ": intrinsics of a " + size(cam.width, cam.height) +
-                               " image, but the depth image " + o.path + " is " +
-                               size(width, height));
-    }
-    return cam;
-  }
+  if (!o.intrinsics.empty()) return io::read_camera_json(o.intrinsics);
   CameraIntrinsics cam{.fx = o.fx,
                        .fy = o.fy,
                        .cx = o.cx_given ? o.cx : (width - 1) / 2.0,
@@ -110,7 +97,13 @@ LoadedInput load_input(const InputOptions& o) {
   } else if (ext == ".png") {
     const DepthImage depth = io::read_depth_png(o.path);
     const CameraIntrinsics cam = intrinsics_for(o, depth.width(), depth.height());
-    in.cloud = depth_to_cloud(depth.view(), cam, o.depth_scale);
+    try {
+      in.cloud = depth_to_cloud(depth.view(), cam, o.depth_scale);
+    } catch (const std::invalid_argument& e) {
+      // e.g. intrinsics of another image size (depth_to_cloud checks them)
+      throw std::runtime_error(o.path + (o.intrinsics.empty() ? "" : " with " + o.intrinsics) +
+                               ": " + e.what());
+    }
     in.format = "16-bit depth PNG";
     in.fields = "depth (scale " + std::to_string(o.depth_scale) + " m/unit)";
   } else if (ext == ".range") {
