@@ -189,3 +189,32 @@ TEST(CliInputs, DemoSaysWhenSmoothingIsOff) {
   ASSERT_EQ(on.code, 0) << on.out;
   EXPECT_TRUE(contains(on.out, "(3 iterations)")) << on.out;
 }
+
+// A frame converted to PLY (organized, with its range_grid) segments as the PCD does, and a
+// folder's .ply files are frames of a batch.
+TEST(CliInputs, PlyOfAFrameSegmentsAsItsPcd) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_ply");
+  const fs::path pcd = write_small_pcd(dir);
+  fs::create_directories(dir / "frames");
+  const fs::path ply = dir / "frames" / "small.ply";
+  CliResult r = run("convert " + pcd.string() + " " + ply.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = run("info " + ply.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(contains(r.out, "160 x 120 (organized)")) << r.out;
+  EXPECT_TRUE(contains(r.out, "range_grid")) << r.out;
+  r = run("segment " + pcd.string() + " -o " + (dir / "a").string() + " --no-mesh");
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = run("segment " + (dir / "frames").string() + " -o " + (dir / "b").string() + " --no-mesh");
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* file : {"labels.png", "segments.json"}) {
+    EXPECT_TRUE(read_bytes(dir / "a" / file) == read_bytes(dir / "b" / "small" / file))
+        << file << " differs between the PCD and its PLY";
+  }
+
+  std::ofstream(dir / "bad.ply") << "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
+                                    "property float y\nproperty float z\nend_header\n1 2 3\n";
+  r = run("info " + (dir / "bad.ply").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(contains(r.out, "bad.ply")) << r.out;
+}

@@ -91,17 +91,7 @@ void convert(const ConvertOptions& o) {
            " (its intrinsics: " + numbers + "; read the PNG back with --intrinsics " + json_path +
            ")";
   } else if (ext == ".ply") {
-    io::PlyMesh ply;  // points only; `rangeseg mesh` writes faces
-    for (int v = 0; v < in.cloud.height(); ++v) {
-      for (int u = 0; u < in.cloud.width(); ++u) {
-        if (!in.cloud.valid(u, v)) continue;
-        ply.xyz.insert(ply.xyz.end(), {in.cloud.x(u, v), in.cloud.y(u, v), in.cloud.z(u, v)});
-        if (in.cloud.has_rgb()) {
-          ply.rgb.insert(ply.rgb.end(), {in.cloud.r(u, v), in.cloud.g(u, v), in.cloud.b(u, v)});
-        }
-      }
-    }
-    io::write_ply(o.out, ply);
+    io::write_ply_cloud(o.out, in.cloud);
   } else {
     throw std::runtime_error(o.out + ": unsupported output type '" + ext +
                              "' (expected .pcd, .png (16-bit depth) or .ply (points))");
@@ -114,9 +104,12 @@ void convert(const ConvertOptions& o) {
 void add_convert(CLI::App& app) {
   auto o = std::make_shared<ConvertOptions>();
   auto* cmd = app.add_subcommand(
-      "convert", "Convert between PCD, depth PNG (+ intrinsics), SegComp .range and PLY points");
+      "convert", "Convert between PCD, PLY points, depth PNG (+ intrinsics) and SegComp .range");
   add_input_options(*cmd, o->in);
-  cmd->add_option("output", o->out, "Output file: .pcd, .png (16-bit depth) or .ply")->required();
+  cmd->add_option("output", o->out,
+                  "Output file: .pcd, .png (16-bit depth) or .ply (points; an organized cloud "
+                  "with its grid, as PCL writes one)")
+      ->required();
   cmd->add_option("--encoding", o->encoding, "PCD encoding: ascii, binary or binary_compressed")
       ->capture_default_str();
   cmd->add_flag("--unorganized", o->unorganized,

@@ -88,10 +88,11 @@ void add_noise(CLI::App& app) {
       "noise",
       "Estimate the sensor's depth noise sigma(z) from frames of ordinary scenes (raw, "
       "unsmoothed), for a sensor that no preset describes; writes it as a --config file");
-  cmd->add_option("inputs", o->inputs,
-                  "Frames of one sensor (.pcd, 16-bit depth .png, .range), folders of them or a "
-                  "TUM RGB-D sequence, as for segment; their blocks are pooled. Planar surfaces "
-                  "at several depths (floor, walls, a table) are what the estimate needs")
+  cmd->add_option(
+         "inputs", o->inputs,
+         "Frames of one sensor (.pcd, .ply, 16-bit depth .png, .range), folders of them or a "
+         "TUM RGB-D sequence, as for segment; their blocks are pooled. Planar surfaces "
+         "at several depths (floor, walls, a table) are what the estimate needs")
       ->required();
   add_input_options(*cmd, o->input, false);
   cmd->add_option("-o,--output", o->output,

@@ -14,6 +14,7 @@
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/io/perceptron.hpp"
+#include "rangeseg/io/ply.hpp"
 #include "rangeseg/io/png.hpp"
 #include "rangeseg/io/rasterfile.hpp"
 #include "rangeseg/pixel_grid.hpp"
@@ -22,7 +23,7 @@ namespace rangeseg::cli {
 
 void add_input_options(CLI::App& cmd, InputOptions& o, bool positional) {
   if (positional) {
-    cmd.add_option("input", o.path, "Input file: .pcd, 16-bit depth .png, SegComp .range")
+    cmd.add_option("input", o.path, "Input file: .pcd, .ply, 16-bit depth .png, SegComp .range")
         ->required();
   }
   CLI::Option* intrinsics =
@@ -106,6 +107,19 @@ LoadedInput load_input(const InputOptions& o) {
     }
     in.format = "16-bit depth PNG";
     in.fields = "depth (scale " + std::to_string(o.depth_scale) + " m/unit)";
+  } else if (ext == ".ply") {
+    io::PlyCloudInfo info;
+    in.cloud = io::read_ply_cloud(o.path, &info);
+    in.format = "PLY " + info.format;
+    if (!info.grid.empty()) {
+      in.format += " (organized by its " +
+                   std::string(info.grid == "range_grid" ? "range_grid element"
+                               : info.grid == "rows"     ? "obj_info num_cols / num_rows"
+                                                         : "camera element's viewport") +
+                   ")";
+    }
+    in.fields = info.fields_summary;
+    if (in.cloud.has_label()) in.ground_truth = in.cloud.label;
   } else if (ext == ".range") {
     io::SegcompSensor sensor{};
     in.cloud = io::read_segcomp_range(o.path, &sensor);
@@ -118,7 +132,7 @@ LoadedInput load_input(const InputOptions& o) {
     if (std::filesystem::exists(gt)) in.ground_truth = io::read_segcomp_gt(gt.string());
   } else {
     throw std::runtime_error(o.path + ": unsupported file type '" + ext +
-                             "' (expected .pcd, .png or .range)");
+                             "' (expected .pcd, .ply, .png or .range)");
   }
   if (in.cloud.empty()) throw std::runtime_error(o.path + ": the cloud has no points");
   return in;
@@ -166,7 +180,7 @@ bool is_tum_list(const fs::path& p) { return p.filename() == "depth.txt"; }
 
 bool is_frame_file(const fs::path& p) {
   const std::string ext = io::extension(p.string());
-  return ext == ".pcd" || ext == ".png" || ext == ".range";
+  return ext == ".pcd" || ext == ".ply" || ext == ".png" || ext == ".range";
 }
 
 /// Frames of a TUM sequence from its depth.txt: "timestamp path" per line, '#' comments. A
@@ -204,7 +218,8 @@ void add_directory_frames(const fs::path& dir, std::vector<FrameSource>& frames)
     if (e.is_regular_file() && is_frame_file(e.path())) files.push_back(e.path());
   }
   if (files.empty()) {
-    throw std::runtime_error(dir.string() + ": no .pcd, .png or .range files in the directory");
+    throw std::runtime_error(dir.string() +
+                             ": no .pcd, .ply, .png or .range files in the directory");
   }
   std::sort(files.begin(), files.end());
   for (const fs::path& f : files) {

@@ -1,4 +1,5 @@
-// Binary little-endian PLY meshes for MeshLab, Open3D, Blender and CloudCompare.
+// PLY: binary little-endian meshes for MeshLab, Open3D, Blender and CloudCompare, and point
+// clouds from any PLY writer (Open3D, PCL, CloudCompare, scanner software).
 #pragma once
 
 #include <cstddef>
@@ -6,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "rangeseg/cloud.hpp"
 #include "rangeseg/io/file.hpp"
 
 namespace rangeseg::io {
@@ -78,5 +80,51 @@ PlyMesh read_ply(const std::string& path);
 
 /// read_ply on bytes in memory; `name` is used in error messages.
 PlyMesh decode_ply(const std::uint8_t* data, std::size_t size, const std::string& name);
+
+/// What a PLY file read as a point cloud declared (read_ply_cloud).
+struct PlyCloudInfo {
+  std::string format;          ///< "ascii", "binary_little_endian" or "binary_big_endian"
+  std::string fields_summary;  ///< the vertex properties in file order, e.g. "x y z red green blue"
+  std::uint64_t vertices = 0;  ///< the vertex element's count
+  int width = 0, height = 0;   ///< the cloud's grid (height 1: unorganized)
+  /// How the vertices were put on a grid: "" (unorganized), "range_grid" (a range_grid element
+  /// names each pixel's vertex), "rows" (num_cols x num_rows vertices in row order) or
+  /// "viewport" (as many vertices as PCL's camera element's viewport has pixels, in row order).
+  std::string grid;
+};
+
+/// Reads the vertices of a PLY file as a cloud: format ascii, binary_little_endian or
+/// binary_big_endian 1.0; properties of every PLY type (char/int8 ... double/float64) and lists.
+/// Vertex properties used: x, y, z (required, metres; double is rounded to float), red, green,
+/// blue (or diffuse_red, ...: uchar as is, ushort / 257, float and double 0..1 times 255),
+/// intensity (or scalar_intensity; any type, as float) and label (or scalar_label; integral
+/// values). Other properties (normals, alpha, ...) and other elements (faces, a camera) are
+/// skipped. The points are unorganized (height 1) unless `obj_info num_cols W` and `obj_info
+/// num_rows H` give a grid of H > 1 rows, as PCL and Stanford range scans write organized clouds:
+/// then either a `range_grid` element of W x H lists of vertex indices places each vertex on its
+/// pixel (pixels with none are NaN; of several, the first), or, without one, the W x H vertices
+/// fill the grid row by row. Without obj_info, the `camera` element of PCL's writer (its default
+/// for organized clouds) gives the grid as `viewportx` x `viewporty` when there are that many
+/// vertices. A point is invalid when x, y or z is not finite.
+/// Throws std::runtime_error naming the file and the problem (a header line, a value, the vertex
+/// or grid cell) for malformed input: truncated data, counts the file cannot hold, a grid that
+/// does not match the vertices, an unknown type or format; never allocates more than the file
+/// size can justify.
+OrganizedCloud read_ply_cloud(const std::string& path, PlyCloudInfo* info = nullptr);
+
+/// read_ply_cloud on bytes in memory; `name` is used in error messages.
+OrganizedCloud decode_ply_cloud(const std::uint8_t* data, std::size_t size, const std::string& name,
+                                PlyCloudInfo* info = nullptr);
+
+/// Encodes a cloud as a binary_little_endian PLY that PCL, Open3D, CloudCompare and MeshLab read:
+/// `float x y z`, then `float intensity`, `uchar red green blue` and `int label` when the cloud
+/// has them. An organized cloud is written as PCL writes one: `obj_info num_cols` / `num_rows`,
+/// its valid points only, and a `range_grid` element placing each on its pixel; an unorganized
+/// one keeps every point, valid or not, in order. read_ply_cloud gives the cloud back, its valid
+/// points bit-exact and its invalid pixels as NaN.
+std::vector<std::uint8_t> encode_ply_cloud(const OrganizedCloud& cloud);
+
+/// The encoding of encode_ply_cloud written atomically (never half-written).
+void write_ply_cloud(const std::string& path, const OrganizedCloud& cloud);
 
 }  // namespace rangeseg::io
