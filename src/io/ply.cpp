@@ -7,20 +7,13 @@
 #include <string>
 #include <vector>
 
+#include "little_endian.hpp"
 #include "rangeseg/io/file.hpp"
 
 namespace rangeseg::io {
 namespace {
 
-static_assert(std::endian::native == std::endian::little,
-              "the PLY writer copies floats and ints as little-endian bytes");
-
-template <class T>
-void append(std::vector<std::uint8_t>& out, T value) {
-  std::uint8_t bytes[sizeof(T)];
-  std::memcpy(bytes, &value, sizeof(T));
-  out.insert(out.end(), bytes, bytes + sizeof(T));
-}
+using detail::append_le;
 
 void validate(const PlyMesh& mesh) {
   const auto bad = [](const std::string& why) { return std::invalid_argument("PLY mesh: " + why); };
@@ -81,9 +74,9 @@ PlyLayout layout_of(const PlyMesh& mesh) {
 
 void append_vertex(std::vector<std::uint8_t>& out, const PlyLayout& layout, const float* xyz,
                    const float* normal, const std::uint8_t* rgb) {
-  for (int k = 0; k < 3; ++k) append(out, xyz[k]);
+  for (int k = 0; k < 3; ++k) append_le(out, xyz[k]);
   if (layout.normals) {
-    for (int k = 0; k < 3; ++k) append(out, normal[k]);
+    for (int k = 0; k < 3; ++k) append_le(out, normal[k]);
   }
   if (layout.rgb) out.insert(out.end(), rgb, rgb + 3);
 }
@@ -91,7 +84,7 @@ void append_vertex(std::vector<std::uint8_t>& out, const PlyLayout& layout, cons
 void append_face(std::vector<std::uint8_t>& out, const PlyLayout& layout,
                  const std::int32_t* indices) {
   out.push_back(static_cast<std::uint8_t>(layout.vertices_per_face));
-  for (int k = 0; k < layout.vertices_per_face; ++k) append(out, indices[k]);
+  for (int k = 0; k < layout.vertices_per_face; ++k) append_le(out, indices[k]);
 }
 
 constexpr std::size_t kChunk = std::size_t{1} << 20;

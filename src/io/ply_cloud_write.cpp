@@ -1,27 +1,15 @@
 // PLY point clouds as PCL writes them: organized clouds with obj_info and a range_grid.
-#include <bit>
-#include <cstring>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "little_endian.hpp"
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/ply.hpp"
 
 namespace rangeseg::io {
-namespace {
 
-static_assert(std::endian::native == std::endian::little,
-              "the PLY writer copies floats and ints as little-endian bytes");
-
-template <class T>
-void put(std::vector<std::uint8_t>& out, T value) {
-  const std::size_t at = out.size();
-  out.resize(at + sizeof(T));
-  std::memcpy(out.data() + at, &value, sizeof(T));
-}
-
-}  // namespace
+using detail::append_le;
 
 std::vector<std::uint8_t> encode_ply_cloud(const OrganizedCloud& cloud) {
   require_consistent(cloud, "encode_ply_cloud");
@@ -54,12 +42,12 @@ std::vector<std::uint8_t> encode_ply_cloud(const OrganizedCloud& cloud) {
   for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
       if (organized && !cloud.valid(u, v)) continue;
-      put(out, cloud.x(u, v)), put(out, cloud.y(u, v)), put(out, cloud.z(u, v));
-      if (cloud.has_intensity()) put(out, cloud.intensity(u, v));
+      append_le(out, cloud.x(u, v)), append_le(out, cloud.y(u, v)), append_le(out, cloud.z(u, v));
+      if (cloud.has_intensity()) append_le(out, cloud.intensity(u, v));
       if (cloud.has_rgb()) {
         out.insert(out.end(), {cloud.r(u, v), cloud.g(u, v), cloud.b(u, v)});
       }
-      if (cloud.has_label()) put(out, cloud.label(u, v));
+      if (cloud.has_label()) append_le(out, cloud.label(u, v));
     }
   }
   if (organized) {
@@ -68,7 +56,7 @@ std::vector<std::uint8_t> encode_ply_cloud(const OrganizedCloud& cloud) {
       for (int u = 0; u < w; ++u) {
         const bool valid = cloud.valid(u, v);
         out.push_back(valid ? 1 : 0);
-        if (valid) put(out, next++);
+        if (valid) append_le(out, next++);
       }
     }
   }
