@@ -10,6 +10,7 @@
 #include "cli_util.hpp"
 #include "rangeseg/camera.hpp"
 #include "rangeseg/io/pcd.hpp"
+#include "rangeseg/io/ply.hpp"
 #include "rangeseg/io/png.hpp"
 #include "rangeseg/synth.hpp"
 #include "test_util.hpp"
@@ -217,4 +218,22 @@ TEST(CliInputs, PlyOfAFrameSegmentsAsItsPcd) {
   r = run("info " + (dir / "bad.ply").string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_TRUE(contains(r.out, "bad.ply")) << r.out;
+}
+
+// A PLY with a label property is ground truth or a segmentation for `eval`, as a PCD is.
+TEST(CliInputs, EvalTakesLabelledPly) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_eval_ply");
+  const rangeseg::CameraIntrinsics camera{
+      .fx = 131.25, .fy = 131.25, .cx = 79.5, .cy = 59.5, .width = 160, .height = 120};
+  const rangeseg::synth::Rendering scene = rangeseg::synth::render(
+      rangeseg::synth::random_scene(2, false), {.camera = camera, .seed = 2});
+  ASSERT_TRUE(scene.cloud.has_label());
+  rangeseg::io::write_ply_cloud((dir / "truth.ply").string(), scene.cloud);
+  rangeseg::io::write_label_png((dir / "labels.png").string(), scene.labels);
+  const CliResult r = run("eval " + (dir / "truth.ply").string() + " " +
+                          (dir / "labels.png").string() + " --json " + (dir / "e.json").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string json = read_bytes(dir / "e.json");
+  EXPECT_TRUE(contains(json, "\"missed\": 0")) << json;
+  EXPECT_TRUE(contains(json, "\"noise\": 0")) << json;
 }

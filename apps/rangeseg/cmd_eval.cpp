@@ -23,6 +23,7 @@
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/io/perceptron.hpp"
+#include "rangeseg/io/ply.hpp"
 #include "rangeseg/io/png.hpp"
 #include "rangeseg/io/rasterfile.hpp"
 #include "segment_output.hpp"
@@ -39,11 +40,15 @@ struct GroundTruth {
   io::SegcompSensor sensor = io::SegcompSensor::abw;  ///< of a SegComp .range beside a .gt-seg
 };
 
-/// A PCD with a label field: ground truth (e.g. an OSD scene) or a segmentation (`rangeseg
-/// segment`'s cloud.pcd of an unorganized cloud).
-OrganizedCloud read_labelled_pcd(const std::string& path) {
-  OrganizedCloud cloud = io::read_pcd(path);
-  if (!cloud.has_label()) throw std::runtime_error(path + ": the PCD file has no 'label' field");
+/// A PCD or PLY with a label field: ground truth (e.g. an OSD scene) or a segmentation
+/// (`rangeseg segment`'s cloud.pcd of an unorganized cloud).
+OrganizedCloud read_labelled_cloud(const std::string& path) {
+  const bool ply = io::extension(path) == ".ply";
+  OrganizedCloud cloud = ply ? io::read_ply_cloud(path) : io::read_pcd(path);
+  if (!cloud.has_label()) {
+    throw std::runtime_error(path + (ply ? ": the PLY file has no 'label' vertex property"
+                                         : ": the PCD file has no 'label' field"));
+  }
   return cloud;
 }
 
@@ -58,13 +63,14 @@ GroundTruth load_ground_truth(const std::string& path) {
     if (fs::exists(range)) gt.cloud = io::read_segcomp_range(range.string(), &gt.sensor);
   } else if (ext == ".png") {
     gt.labels = io::read_label_png(path);
-  } else if (ext == ".pcd") {
-    OrganizedCloud cloud = read_labelled_pcd(path);
+  } else if (ext == ".pcd" || ext == ".ply") {
+    OrganizedCloud cloud = read_labelled_cloud(path);
     gt.labels = cloud.label;
     gt.cloud = std::move(cloud);
   } else {
-    throw std::runtime_error(path + ": unsupported ground truth type '" + ext +
-                             "' (expected .gt-seg, 16-bit label .png or .pcd with a label field)");
+    throw std::runtime_error(
+        path + ": unsupported ground truth type '" + ext +
+        "' (expected .gt-seg, 16-bit label .png, or .pcd or .ply with a label field)");
   }
   return gt;
 }
@@ -72,7 +78,7 @@ GroundTruth load_ground_truth(const std::string& path) {
 LabelImage load_machine(const std::string& path) {
   const std::string ext = io::extension(path);
   if (ext == ".png") return io::read_label_png(path);
-  if (ext == ".pcd") return std::move(read_labelled_pcd(path).label);
+  if (ext == ".pcd" || ext == ".ply") return std::move(read_labelled_cloud(path).label);
   if (ext == ".ms-seg") {
     const BytePlane raw = io::read_rasterfile(path);
     LabelImage labels(raw.width(), raw.height(), 0);
@@ -82,8 +88,8 @@ LabelImage load_machine(const std::string& path) {
     return labels;
   }
   throw std::runtime_error(path + ": unsupported segmentation type '" + ext +
-                           "' (expected a 16-bit label .png, a SegComp .ms-seg or a .pcd with a "
-                           "label field)");
+                           "' (expected a 16-bit label .png, a SegComp .ms-seg, or a .pcd or .ply "
+                           "with a label field)");
 }
 
 /// The labels of the curved surfaces (any type but "plane") in a `synth` surfaces.json.
@@ -342,16 +348,17 @@ void add_eval(CLI::App& app) {
   auto* cmd =
       app.add_subcommand("eval", "Score a segmentation against ground truth (SegComp protocol)");
   cmd->add_option("ground_truth", o->gt,
-                  "SegComp .gt-seg, 16-bit label .png, or .pcd with a label field")
+                  "SegComp .gt-seg, 16-bit label .png, or .pcd or .ply with a label field")
       ->required();
   cmd->add_option("segmentation", o->pred,
-                  "16-bit label .png (e.g. labels.png), SegComp .ms-seg, or .pcd with a label "
-                  "field (segment's cloud.pcd of an unorganized cloud)")
+                  "16-bit label .png (e.g. labels.png), SegComp .ms-seg, or .pcd or .ply with a "
+                  "label field (segment's cloud.pcd of an unorganized cloud)")
       ->required();
   add_tolerance_option(*cmd, o->tolerance);
-  cmd->add_option("--cloud", o->cloud,
-                  "Points of the scene (.pcd or .range) for the angle error, when the ground truth "
-                  "brings none (e.g. a label PNG from `synth`)");
+  cmd->add_option(
+      "--cloud", o->cloud,
+      "Points of the scene (.pcd, .ply or .range) for the angle error, when the ground truth "
+      "brings none (e.g. a label PNG from `synth`)");
   cmd->add_option("--surfaces", o->surfaces,
                   "surfaces.json of `synth`: the angle error leaves out the spheres and cylinders "
                   "(as eval-synth does), whose fitted planes depend on which points a region "
