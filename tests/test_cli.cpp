@@ -318,6 +318,13 @@ TEST(Cli, ViewpointMovesTheCloudBackIntoItsSensorsFrame) {
   const rangeseg::OrganizedCloud kept = rangeseg::io::read_pcd(copy, &info);
   EXPECT_EQ(info.viewpoint, pose);
   EXPECT_EQ(kept.z(320, 240), cloud.z(320, 240));
+
+  // A PLY keeps it in PCL's camera element (as floats), and --apply-viewpoint applies it.
+  const std::string ply = (dir / "moved.ply").string();
+  ASSERT_EQ(run("convert " + moved + " " + ply).code, 0);
+  const CliResult from_ply = run("info " + ply + " --apply-viewpoint");
+  EXPECT_NE(from_ply.out.find("viewpoint: 0.3 -1.2 0.5 "), std::string::npos) << from_ply.out;
+  EXPECT_EQ(depth_line(from_ply.out), depth_line(seen.out));
 }
 
 // A result folder written again holds that run's files only.

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -86,6 +87,27 @@ TEST(PlyCloud, OrganizedCloudRoundTripsThroughItsRangeGrid) {
   expect_same_valid_points(cloud, back);
 }
 
+TEST(PlyCloud, ViewpointRoundTripsThroughPclsCameraElement) {
+  const double n = std::sqrt(0.9 * 0.9 + 0.1 * 0.1 + 0.3 * 0.3 + 0.2 * 0.2);
+  const std::array<double, 7> pose{0.1, -0.2, 0.3, 0.9 / n, 0.1 / n, 0.3 / n, -0.2 / n};
+  for (const bool organized : {true, false}) {
+    const OrganizedCloud cloud = organized ? sample_cloud() : OrganizedCloud(3, 1);
+    const std::vector<std::uint8_t> bytes = io::encode_ply_cloud(cloud, pose);
+    io::PlyCloudInfo info;
+    const OrganizedCloud back = io::decode_ply_cloud(bytes.data(), bytes.size(), "v.ply", &info);
+    for (int k = 0; k < 7; ++k) EXPECT_NEAR(info.viewpoint[k], pose[k], 1e-6) << k;
+    // Still a range grid, not the camera's viewport, for an organized cloud.
+    EXPECT_EQ(info.grid, organized ? "range_grid" : "");
+    EXPECT_EQ(back.width(), cloud.width());
+  }
+  // Without one, no camera element.
+  const std::vector<std::uint8_t> plain = io::encode_ply_cloud(sample_cloud());
+  EXPECT_EQ(std::string(plain.begin(), plain.end()).find("element camera"), std::string::npos);
+  EXPECT_THROW(io::encode_ply_cloud(sample_cloud(), {0, 0, 0, 0, 0, 0, 0}), std::invalid_argument);
+  EXPECT_THROW(io::encode_ply_cloud(sample_cloud(), {NAN, 0, 0, 1, 0, 0, 0}),
+               std::invalid_argument);
+}
+
 TEST(PlyCloud, UnorganizedCloudKeepsEveryPointInOrder) {
   OrganizedCloud cloud(4, 1);
   for (int i = 0; i < 4; ++i) cloud.x(i, 0) = 1.0f * i, cloud.y(i, 0) = -2.0f, cloud.z(i, 0) = 3;
@@ -136,17 +158,25 @@ TEST(PlyCloud, PclCameraViewportGivesTheGridOfABigEndianFile) {
       "property float x\nproperty float y\nproperty float z\nproperty float rgb\n"
       "element face 0\nproperty list uchar int vertex_indices\n"
       "element camera 1\nproperty float view_px\nproperty float view_py\nproperty float view_pz\n"
+      "property float x_axisx\nproperty float x_axisy\nproperty float x_axisz\n"
+      "property float y_axisx\nproperty float y_axisy\nproperty float y_axisz\n"
+      "property float z_axisx\nproperty float z_axisy\nproperty float z_axisz\n"
       "property int viewportx\nproperty int viewporty\nproperty float k1\nend_header\n";
   for (int i = 0; i < 6; ++i) {
     const float x = i == 4 ? NAN : 0.5f * i;
     put(text, x, true), put(text, -0.25f * i, true), put(text, 1.5f + i, true);
     put(text, 0.0f, true);  // the packed colour, skipped
   }
-  put(text, 0.0f, true), put(text, 0.0f, true), put(text, 0.0f, true);
+  // The sensor 0.5 m along z, turned half about x (as PCL's OpenNI grabber stores it).
+  for (const float v : {0.0f, 0.0f, 0.5f, 1.0f, 0.0f, 0.0f, 0.0f, -1.0f, 0.0f, 0.0f, 0.0f, -1.0f}) {
+    put(text, v, true);
+  }
   put(text, std::int32_t{3}, true), put(text, std::int32_t{2}, true), put(text, 0.0f, true);
   io::PlyCloudInfo info;
   const OrganizedCloud c = decode(text, &info);
   EXPECT_EQ(info.grid, "viewport");
+  const std::array<double, 7> pose{0, 0, 0.5, 0, 1, 0, 0};
+  for (int k = 0; k < 7; ++k) EXPECT_NEAR(info.viewpoint[k], pose[k], 1e-12) << k;
   ASSERT_EQ(c.width(), 3);
   ASSERT_EQ(c.height(), 2);
   EXPECT_FLOAT_EQ(c.x(2, 0), 1.0f);

@@ -91,7 +91,7 @@ void convert(const ConvertOptions& o) {
            " (its intrinsics: " + numbers + "; read the PNG back with --intrinsics " + json_path +
            ")";
   } else if (ext == ".ply") {
-    io::write_ply_cloud(o.out, in.cloud);
+    io::write_ply_cloud(o.out, in.cloud, in.pose);
   } else {
     throw std::runtime_error(o.out + ": unsupported output type '" + ext +
                              "' (expected .pcd, .png (16-bit depth) or .ply (points))");

@@ -44,9 +44,10 @@ void add_input_options(CLI::App& cmd, InputOptions& o, bool positional) {
   // The JSON sets all four, so a number given beside it would be dropped without a word.
   intrinsics->excludes(fx)->excludes(fy)->excludes(cx)->excludes(cy);
   cmd.add_flag("--apply-viewpoint", o.apply_viewpoint,
-               "Move a PCD's points into the frame of the sensor its VIEWPOINT names (a cloud "
-               "saved in another frame); by default points are taken as stored, in the sensor's "
-               "frame (PCL's OpenNI grabber writes VIEWPOINT 0 0 0 0 1 0 0 for such points)");
+               "Move a PCD's points into the frame of the sensor its VIEWPOINT names (a PLY's: "
+               "its PCL camera element; a cloud saved in another frame); by default points are "
+               "taken as stored, in the sensor's frame (PCL's OpenNI grabber writes VIEWPOINT 0 "
+               "0 0 0 1 0 0 for such points)");
   cmd.add_option("--depth-scale", o.depth_scale,
                  "Metres per depth PNG unit (0.001 = millimetres; TUM sequences: 0.0002)")
       ->capture_default_str()
@@ -65,6 +66,32 @@ CameraIntrinsics intrinsics_for(const InputOptions& o, int width, int height) {
   return cam;
 }
 
+namespace {
+
+// The sensor pose a PCD's VIEWPOINT or a PLY's camera element gives: kept in `in`, and with
+// --apply-viewpoint the points are moved into that sensor's frame.
+void take_viewpoint(LoadedInput& in, const std::array<double, 7>& p, const InputOptions& o) {
+  if (p == std::array<double, 7>{0, 0, 0, 1, 0, 0, 0}) return;
+  char pose[160];
+  std::snprintf(pose, sizeof pose, "%g %g %g %g %g %g %g", p[0], p[1], p[2], p[3], p[4], p[5],
+                p[6]);
+  in.viewpoint = pose;
+  in.pose = p;
+  if (!o.apply_viewpoint) return;
+  try {
+    to_sensor_frame(in.cloud, p);
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(o.path + ": VIEWPOINT " + pose + ": " + e.what());
+  }
+  in.pose = {0, 0, 0, 1, 0, 0, 0};
+  std::fprintf(stderr,
+               "rangeseg: %s: VIEWPOINT %s: its points are moved into that sensor's frame, in "
+               "which the results are given\n",
+               o.path.c_str(), pose);
+}
+
+}  // namespace
+
 LoadedInput load_input(const InputOptions& o) {
   LoadedInput in;
   const std::string ext = io::extension(o.path);
@@ -75,26 +102,7 @@ LoadedInput load_input(const InputOptions& o) {
     in.format = std::string("PCD ") + names[static_cast<int>(info.encoding)];
     in.fields = info.fields_summary;
     if (in.cloud.has_label()) in.ground_truth = in.cloud.label;
-    if (info.moved_from_sensor()) {
-      const auto& p = info.viewpoint;
-      char pose[160];
-      std::snprintf(pose, sizeof pose, "%g %g %g %g %g %g %g", p[0], p[1], p[2], p[3], p[4], p[5],
-                    p[6]);
-      in.viewpoint = pose;
-      in.pose = p;
-      if (o.apply_viewpoint) {
-        try {
-          to_sensor_frame(in.cloud, p);
-        } catch (const std::invalid_argument& e) {
-          throw std::runtime_error(o.path + ": VIEWPOINT " + pose + ": " + e.what());
-        }
-        in.pose = {0, 0, 0, 1, 0, 0, 0};
-        std::fprintf(stderr,
-                     "rangeseg: %s: VIEWPOINT %s: its points are moved into that sensor's "
-                     "frame, in which the results are given\n",
-                     o.path.c_str(), pose);
-      }
-    }
+    if (info.moved_from_sensor()) take_viewpoint(in, info.viewpoint, o);
   } else if (ext == ".png") {
     const DepthImage depth = io::read_depth_png(o.path);
     const CameraIntrinsics cam = intrinsics_for(o, depth.width(), depth.height());
@@ -120,6 +128,7 @@ LoadedInput load_input(const InputOptions& o) {
     }
     in.fields = info.fields_summary;
     if (in.cloud.has_label()) in.ground_truth = in.cloud.label;
+    take_viewpoint(in, info.viewpoint, o);
   } else if (ext == ".range") {
     io::SegcompSensor sensor{};
     in.cloud = io::read_segcomp_range(o.path, &sensor);

@@ -33,9 +33,9 @@ struct LoadedInput {
   /// The preset of the sensor when the file tells it (SegComp images: "abw" or "perceptron"),
   /// else empty.
   std::string sensor_preset;
-  /// A PCD's VIEWPOINT (tx ty tz qw qx qy qz) as the points are now: the file's, or the
-  /// identity when InputOptions::apply_viewpoint moved them into that sensor's frame (and for
-  /// other files) ...
+  /// A PCD's VIEWPOINT or a PLY's PCL camera pose (tx ty tz qw qx qy qz) as the points are
+  /// now: the file's, or the identity when InputOptions::apply_viewpoint moved them into that
+  /// sensor's frame (and for other files) ...
   std::array<double, 7> pose{0, 0, 0, 1, 0, 0, 0};
   /// ... and the file's VIEWPOINT as text when it is not the identity, else empty.
   std::string viewpoint;

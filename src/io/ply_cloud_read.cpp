@@ -1,6 +1,9 @@
 // PLY point clouds from any writer: the header's elements and properties, ASCII and binary data
 // of either byte order, and the grid of organized clouds (PCL's and Stanford's range_grid).
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <charconv>
 #include <cmath>
@@ -466,11 +469,19 @@ std::vector<std::int32_t> read_range_grid(DataReader& in, const Element& grid, F
   return pixel_vertex;
 }
 
-// The viewport (width, height) of PCL's `camera` element (PLYWriter with use_camera, its
-// default), which follows the vertices of an organized cloud written in row order; {0, 0} if
-// the element has none.
-std::pair<std::int64_t, std::int64_t> read_viewport(DataReader& in, const Element& camera) {
-  std::pair<std::int64_t, std::int64_t> viewport{0, 0};
+// PCL's `camera` element (PLYWriter with use_camera, its default): the sensor's pose, and the
+// viewport, which is the grid of an organized cloud written in row order.
+struct CameraElement {
+  std::int64_t viewport_x = 0, viewport_y = 0;
+  std::array<double, 7> pose{0, 0, 0, 1, 0, 0, 0};  ///< tx ty tz qw qx qy qz
+};
+
+CameraElement read_camera(DataReader& in, const Element& camera) {
+  static constexpr std::string_view kPose[] = {"view_px", "view_py", "view_pz", "x_axisx",
+                                               "x_axisy", "x_axisz", "y_axisx", "y_axisy",
+                                               "y_axisz", "z_axisx", "z_axisy", "z_axisz"};
+  double pose[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+  CameraElement c;
   for (const Property& p : camera.properties) {
     if (p.list) {
       in.skip({p.name, 1, {p}});
@@ -478,10 +489,24 @@ std::pair<std::int64_t, std::int64_t> read_viewport(DataReader& in, const Elemen
     }
     const double v = in.value(p.type);
     const bool size = v >= 0 && v <= std::numeric_limits<int>::max() && v == std::floor(v);
-    if (p.name == "viewportx" && size) viewport.first = static_cast<std::int64_t>(v);
-    if (p.name == "viewporty" && size) viewport.second = static_cast<std::int64_t>(v);
+    if (p.name == "viewportx" && size) c.viewport_x = static_cast<std::int64_t>(v);
+    if (p.name == "viewporty" && size) c.viewport_y = static_cast<std::int64_t>(v);
+    for (int k = 0; k < 12; ++k) {
+      if (p.name == kPose[k]) pose[k] = v;
+    }
   }
-  return viewport;
+  // The axes are the rows of the orientation's rotation matrix; anything but a rotation (a
+  // writer that leaves them zero) is no pose.
+  Eigen::Matrix3d r;
+  r << pose[3], pose[4], pose[5], pose[6], pose[7], pose[8], pose[9], pose[10], pose[11];
+  const Eigen::Vector3d t(pose[0], pose[1], pose[2]);
+  if (t.allFinite() && r.allFinite() &&
+      (r * r.transpose() - Eigen::Matrix3d::Identity()).norm() < 1e-4 && r.determinant() > 0) {
+    Eigen::Quaterniond q(r);
+    if (q.w() < 0) q.coeffs() = -q.coeffs();
+    c.pose = {t.x(), t.y(), t.z(), q.w(), q.x(), q.y(), q.z()};
+  }
+  return c;
 }
 
 // Puts the unorganized `points` on a width x height grid: pixel i gets point source(i), or none.
@@ -543,20 +568,15 @@ OrganizedCloud decode_ply_cloud(const std::uint8_t* data, std::size_t size, cons
                    " vertices and no range_grid element");
   }
 
-  // PCL's default writer puts no grid in obj_info but a camera element whose viewport is the
-  // grid; its points, invalid ones too, are in row order.
-  const Element* camera = organized ? nullptr : find("camera");
-  if (camera != nullptr &&
-      (camera->count == 0 ||
-       std::none_of(camera->properties.begin(), camera->properties.end(),
-                    [](const Property& p) { return p.name == "viewporty"; }))) {
-    camera = nullptr;
-  }
+  // PCL's default writer puts no grid in obj_info but a camera element with the sensor's pose
+  // and a viewport that is the grid; its points, invalid ones too, are in row order.
+  const Element* camera = find("camera");
+  if (camera != nullptr && camera->count == 0) camera = nullptr;
 
   DataReader in(data, size, h.data_start, h.format, name);
   OrganizedCloud points;
   std::vector<std::int32_t> pixel_vertex;
-  std::pair<std::int64_t, std::int64_t> viewport{0, 0};
+  CameraElement sensor;
   int needed = 1 + (grid != nullptr) + (camera != nullptr);
   for (const Element& e : h.elements) {
     if (needed == 0) break;  // what follows (faces, ...) is not needed
@@ -565,7 +585,7 @@ OrganizedCloud decode_ply_cloud(const std::uint8_t* data, std::size_t size, cons
     } else if (&e == grid) {
       pixel_vertex = read_range_grid(in, e, h.format, vertex->count, name);
     } else if (&e == camera) {
-      viewport = read_viewport(in, e);
+      sensor = read_camera(in, e);
     } else {
       in.skip(e);
       continue;
@@ -573,8 +593,8 @@ OrganizedCloud decode_ply_cloud(const std::uint8_t* data, std::size_t size, cons
     --needed;
   }
   const bool by_viewport =
-      viewport.second > 1 &&
-      static_cast<std::uint64_t>(viewport.first * viewport.second) == vertex->count;
+      !organized && sensor.viewport_y > 1 &&
+      static_cast<std::uint64_t>(sensor.viewport_x * sensor.viewport_y) == vertex->count;
 
   if (info != nullptr) {
     info->format = h.format_name;
@@ -583,14 +603,15 @@ OrganizedCloud decode_ply_cloud(const std::uint8_t* data, std::size_t size, cons
       info->fields_summary += (info->fields_summary.empty() ? "" : " ") + p.name;
     }
     info->vertices = vertex->count;
+    info->viewpoint = sensor.pose;
     info->grid = grid != nullptr ? "range_grid"
                  : organized     ? "rows"
                  : by_viewport   ? "viewport"
                                  : "";
   }
   if (organized || by_viewport) {
-    const int w = static_cast<int>(organized ? h.num_cols : viewport.first);
-    const int hgt = static_cast<int>(organized ? h.num_rows : viewport.second);
+    const int w = static_cast<int>(organized ? h.num_cols : sensor.viewport_x);
+    const int hgt = static_cast<int>(organized ? h.num_rows : sensor.viewport_y);
     points = grid != nullptr
                  ? on_grid(points, w, hgt, [&](std::int64_t i) { return pixel_vertex[i]; })
                  : on_grid(points, w, hgt, [](std::int64_t i) { return i; });

@@ -1,4 +1,8 @@
-// PLY point clouds as PCL writes them: organized clouds with obj_info and a range_grid.
+// PLY point clouds as PCL writes them: organized clouds with obj_info and a range_grid, the
+// sensor's pose in a camera element.
+#include <Eigen/Geometry>
+#include <array>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -11,8 +15,47 @@ namespace rangeseg::io {
 
 using detail::append_le;
 
-std::vector<std::uint8_t> encode_ply_cloud(const OrganizedCloud& cloud) {
+namespace {
+
+constexpr std::array<double, 7> kIdentity{0, 0, 0, 1, 0, 0, 0};
+
+// PCL's camera element: the sensor's position, the rows of its orientation's rotation matrix,
+// no intrinsics, the viewport (PCL's reader takes the cloud's size from it) and no distortion.
+void append_camera(std::string& header, std::vector<std::uint8_t>& out,
+                   const std::array<double, 7>& pose, int width, int height) {
+  header += "element camera 1\n";
+  for (const char* name : {"view_px", "view_py", "view_pz", "x_axisx", "x_axisy", "x_axisz",
+                           "y_axisx", "y_axisy", "y_axisz", "z_axisx", "z_axisy", "z_axisz",
+                           "focal", "scalex", "scaley", "centerx", "centery"}) {
+    header += std::string("property float ") + name + "\n";
+  }
+  header +=
+      "property int viewportx\nproperty int viewporty\nproperty float k1\nproperty float k2\n";
+  Eigen::Quaterniond q(pose[3], pose[4], pose[5], pose[6]);
+  const Eigen::Matrix3d r = q.normalized().toRotationMatrix();
+  for (int k = 0; k < 3; ++k) append_le(out, static_cast<float>(pose[k]));
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) append_le(out, static_cast<float>(r(i, j)));
+  }
+  for (int k = 0; k < 5; ++k) append_le(out, 0.0f);
+  append_le(out, std::int32_t{width}), append_le(out, std::int32_t{height});
+  append_le(out, 0.0f), append_le(out, 0.0f);
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> encode_ply_cloud(const OrganizedCloud& cloud,
+                                           const std::array<double, 7>& viewpoint) {
   require_consistent(cloud, "encode_ply_cloud");
+  for (const double c : viewpoint) {
+    if (!std::isfinite(c)) {
+      throw std::invalid_argument("encode_ply_cloud: viewpoint with a non-finite value " +
+                                  std::to_string(c));
+    }
+  }
+  if (viewpoint[3] == 0 && viewpoint[4] == 0 && viewpoint[5] == 0 && viewpoint[6] == 0) {
+    throw std::invalid_argument("encode_ply_cloud: viewpoint with a zero quaternion");
+  }
   const int w = cloud.width(), h = cloud.height();
   const bool organized = cloud.is_organized();
   std::size_t vertices = 0;
@@ -33,6 +76,8 @@ std::vector<std::uint8_t> encode_ply_cloud(const OrganizedCloud& cloud) {
     header += "element range_grid " + std::to_string(cloud.size()) +
               "\nproperty list uchar int vertex_indices\n";
   }
+  std::vector<std::uint8_t> camera;
+  if (viewpoint != kIdentity) append_camera(header, camera, viewpoint, w, h);
   header += "end_header\n";
 
   const std::size_t vertex_bytes = 12 + (cloud.has_intensity() ? 4 : 0) +
@@ -60,11 +105,13 @@ std::vector<std::uint8_t> encode_ply_cloud(const OrganizedCloud& cloud) {
       }
     }
   }
+  out.insert(out.end(), camera.begin(), camera.end());
   return out;
 }
 
-void write_ply_cloud(const std::string& path, const OrganizedCloud& cloud) {
-  write_file_atomic(path, encode_ply_cloud(cloud));
+void write_ply_cloud(const std::string& path, const OrganizedCloud& cloud,
+                     const std::array<double, 7>& viewpoint) {
+  write_file_atomic(path, encode_ply_cloud(cloud, viewpoint));
 }
 
 }  // namespace rangeseg::io

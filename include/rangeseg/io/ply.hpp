@@ -2,6 +2,7 @@
 // clouds from any PLY writer (Open3D, PCL, CloudCompare, scanner software).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -91,6 +92,10 @@ struct PlyCloudInfo {
   /// names each pixel's vertex), "rows" (num_cols x num_rows vertices in row order) or
   /// "viewport" (as many vertices as PCL's camera element's viewport has pixels, in row order).
   std::string grid;
+  /// The sensor's pose in the points' frame from PCL's camera element (view_px .. and the axes
+  /// of its orientation), as PcdInfo::viewpoint: tx ty tz [m], qw qx qy qz; the identity when
+  /// the file has none. The reader returns the points as stored.
+  std::array<double, 7> viewpoint{0, 0, 0, 1, 0, 0, 0};
 };
 
 /// Reads the vertices of a PLY file as a cloud: format ascii, binary_little_endian or
@@ -120,11 +125,17 @@ OrganizedCloud decode_ply_cloud(const std::uint8_t* data, std::size_t size, cons
 /// `float x y z`, then `float intensity`, `uchar red green blue` and `int label` when the cloud
 /// has them. An organized cloud is written as PCL writes one: `obj_info num_cols` / `num_rows`,
 /// its valid points only, and a `range_grid` element placing each on its pixel; an unorganized
-/// one keeps every point, valid or not, in order. read_ply_cloud gives the cloud back, its valid
-/// points bit-exact and its invalid pixels as NaN.
-std::vector<std::uint8_t> encode_ply_cloud(const OrganizedCloud& cloud);
+/// one keeps every point, valid or not, in order. A `viewpoint` other than the identity (tx ty tz
+/// [m], qw qx qy qz, as PlyCloudInfo::viewpoint) is written as PCL's camera element. read_ply_cloud
+/// gives the cloud back, its valid points bit-exact and its invalid pixels as NaN, and the
+/// viewpoint to float precision. Throws std::invalid_argument for a viewpoint with a non-finite
+/// value or a zero quaternion, or a cloud whose planes differ in size.
+std::vector<std::uint8_t> encode_ply_cloud(const OrganizedCloud& cloud,
+                                           const std::array<double, 7>& viewpoint = {0, 0, 0, 1, 0,
+                                                                                     0, 0});
 
 /// The encoding of encode_ply_cloud written atomically (never half-written).
-void write_ply_cloud(const std::string& path, const OrganizedCloud& cloud);
+void write_ply_cloud(const std::string& path, const OrganizedCloud& cloud,
+                     const std::array<double, 7>& viewpoint = {0, 0, 0, 1, 0, 0, 0});
 
 }  // namespace rangeseg::io
