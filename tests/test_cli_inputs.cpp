@@ -1,6 +1,7 @@
 // The CLI's options on inputs and outputs: smoothing passes, output types, intrinsics files.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -236,4 +237,31 @@ TEST(CliInputs, EvalTakesLabelledPly) {
   const std::string json = read_bytes(dir / "e.json");
   EXPECT_TRUE(contains(json, "\"missed\": 0")) << json;
   EXPECT_TRUE(contains(json, "\"noise\": 0")) << json;
+}
+
+// A depth camera's points as text (.xyz, 9 significant digits: floats exactly) are put back on
+// their pixel grid and segment as the same points in an unorganized PCD.
+TEST(CliInputs, XyzTextOfAFrameSegmentsAsItsPoints) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_xyz");
+  const fs::path pcd = write_small_pcd(dir);
+  const fs::path points = dir / "points.pcd";
+  CliResult r = run("convert " + pcd.string() + " " + points.string() + " --unorganized");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const rangeseg::OrganizedCloud cloud = rangeseg::io::read_pcd(points.string());
+  {
+    std::ofstream xyz(dir / "points.xyz");
+    char line[96];
+    for (int i = 0; i < cloud.width(); ++i) {
+      std::snprintf(line, sizeof line, "%.9g %.9g %.9g\n", cloud.x(i, 0), cloud.y(i, 0),
+                    cloud.z(i, 0));
+      xyz << line;
+    }
+  }
+  r = run("segment " + points.string() + " -o " + (dir / "a").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = run("segment " + (dir / "points.xyz").string() + " -o " + (dir / "b").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(contains(r.out, "pixel grid")) << r.out;
+  EXPECT_TRUE(read_bytes(dir / "a" / "segments.json") == read_bytes(dir / "b" / "segments.json"))
+      << "segments.json differs between the PCD and the text file";
 }

@@ -17,13 +17,16 @@
 #include "rangeseg/io/ply.hpp"
 #include "rangeseg/io/png.hpp"
 #include "rangeseg/io/rasterfile.hpp"
+#include "rangeseg/io/xyz.hpp"
 #include "rangeseg/pixel_grid.hpp"
 
 namespace rangeseg::cli {
 
 void add_input_options(CLI::App& cmd, InputOptions& o, bool positional) {
   if (positional) {
-    cmd.add_option("input", o.path, "Input file: .pcd, .ply, 16-bit depth .png, SegComp .range")
+    cmd.add_option(
+           "input", o.path,
+           "Input file: .pcd, .ply, 16-bit depth .png, SegComp .range, .xyz/.xyzn/.xyzrgb/.pts")
         ->required();
   }
   CLI::Option* intrinsics =
@@ -67,6 +70,10 @@ CameraIntrinsics intrinsics_for(const InputOptions& o, int width, int height) {
 }
 
 namespace {
+
+bool is_text_cloud(const std::string& ext) {
+  return ext == ".xyz" || ext == ".xyzn" || ext == ".xyzrgb" || ext == ".pts";
+}
 
 // The sensor pose a PCD's VIEWPOINT or a PLY's camera element gives: kept in `in`, and with
 // --apply-viewpoint the points are moved into that sensor's frame.
@@ -129,6 +136,11 @@ LoadedInput load_input(const InputOptions& o) {
     in.fields = info.fields_summary;
     if (in.cloud.has_label()) in.ground_truth = in.cloud.label;
     take_viewpoint(in, info.viewpoint, o);
+  } else if (is_text_cloud(ext)) {
+    in.cloud = io::read_text_cloud(o.path);
+    in.format = "text point cloud (" + ext + ")";
+    in.fields = std::string("x y z") + (in.cloud.has_intensity() ? " intensity" : "") +
+                (in.cloud.has_rgb() ? " r g b" : "");
   } else if (ext == ".range") {
     io::SegcompSensor sensor{};
     in.cloud = io::read_segcomp_range(o.path, &sensor);
@@ -141,7 +153,7 @@ LoadedInput load_input(const InputOptions& o) {
     if (std::filesystem::exists(gt)) in.ground_truth = io::read_segcomp_gt(gt.string());
   } else {
     throw std::runtime_error(o.path + ": unsupported file type '" + ext +
-                             "' (expected .pcd, .ply, .png or .range)");
+                             "' (expected .pcd, .ply, .png, .range, .xyz, .xyzn, .xyzrgb or .pts)");
   }
   if (in.cloud.empty()) throw std::runtime_error(o.path + ": the cloud has no points");
   return in;
@@ -189,7 +201,7 @@ bool is_tum_list(const fs::path& p) { return p.filename() == "depth.txt"; }
 
 bool is_frame_file(const fs::path& p) {
   const std::string ext = io::extension(p.string());
-  return ext == ".pcd" || ext == ".ply" || ext == ".png" || ext == ".range";
+  return ext == ".pcd" || ext == ".ply" || ext == ".png" || ext == ".range" || is_text_cloud(ext);
 }
 
 /// Frames of a TUM sequence from its depth.txt: "timestamp path" per line, '#' comments. A
@@ -227,8 +239,9 @@ void add_directory_frames(const fs::path& dir, std::vector<FrameSource>& frames)
     if (e.is_regular_file() && is_frame_file(e.path())) files.push_back(e.path());
   }
   if (files.empty()) {
-    throw std::runtime_error(dir.string() +
-                             ": no .pcd, .ply, .png or .range files in the directory");
+    throw std::runtime_error(
+        dir.string() +
+        ": no .pcd, .ply, .png, .range, .xyz, .xyzn, .xyzrgb or .pts files in the directory");
   }
   std::sort(files.begin(), files.end());
   for (const fs::path& f : files) {

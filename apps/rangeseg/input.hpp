@@ -77,10 +77,10 @@ struct FrameList {
 /// the lines "timestamp path" ('#' comments), named by the timestamp, depth PNGs at 5000 units
 /// per metre unless --depth-scale is given, and the intrinsics TUM documents for all its
 /// sequences (fx = fy = 525, cx = 319.5, cy = 239.5: the defaults) unless --intrinsics / --fx..
-/// are given; any other directory contributes its .pcd, .ply, .png and .range files sorted by name
-/// (not recursive). Missing files and malformed depth.txt lines become frames with `error` set,
-/// so the batch reports them and goes on. Duplicate names get "_2", "_3", ...
-/// Throws std::runtime_error naming the input if a directory or depth.txt yields no frames.
+/// are given; any other directory contributes its .pcd, .ply, .png, .range and text cloud files
+/// sorted by name (not recursive). Missing files and malformed depth.txt lines become frames with
+/// `error` set, so the batch reports them and goes on. Duplicate names get "_2", "_3", ... Throws
+/// std::runtime_error naming the input if a directory or depth.txt yields no frames.
 FrameList gather_frames(const std::vector<std::string>& inputs, const InputOptions& base);
 
 /// True if the input is a directory or a TUM depth.txt, i.e. it needs batch processing.

@@ -1,0 +1,109 @@
+// Plain-text point clouds: Open3D's .xyz, .xyzn, .xyzrgb and .pts, and malformed lines.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "rangeseg/io/xyz.hpp"
+#include "test_util.hpp"
+
+namespace rangeseg {
+namespace {
+
+OrganizedCloud decode(const std::string& text, io::TextCloudFormat format) {
+  const std::vector<std::uint8_t> bytes(text.begin(), text.end());
+  return io::decode_text_cloud(bytes.data(), bytes.size(), "t.xyz", format);
+}
+
+TEST(TextCloud, XyzWithCommentsCommasAndWindowsLineEnds) {
+  const OrganizedCloud c =
+      decode("# exported\r\n0.5 -1 2\r\n\r\n// more\r\n1e-3,2,3.25\r\nnan nan nan\r\n4\t5\t6",
+             io::TextCloudFormat::xyz);
+  ASSERT_EQ(c.width(), 4);
+  ASSERT_EQ(c.height(), 1);
+  EXPECT_EQ(c.x(0, 0), 0.5f);
+  EXPECT_EQ(c.y(0, 0), -1.0f);
+  EXPECT_EQ(c.x(1, 0), 1e-3f);
+  EXPECT_EQ(c.z(1, 0), 3.25f);
+  EXPECT_FALSE(c.valid(2, 0));
+  EXPECT_EQ(c.z(3, 0), 6.0f);
+  EXPECT_FALSE(c.has_rgb() || c.has_intensity());
+}
+
+TEST(TextCloud, XyzrgbColoursAreZeroToOneAndNormalsAreSkipped) {
+  const OrganizedCloud c = decode("1 2 3 1 0.5 0\n4 5 6 0 0 0.2\n", io::TextCloudFormat::xyzrgb);
+  ASSERT_TRUE(c.has_rgb());
+  EXPECT_EQ(c.r(0, 0), 255);
+  EXPECT_EQ(c.g(0, 0), 128);
+  EXPECT_EQ(c.b(1, 0), 51);
+  const OrganizedCloud n = decode("1 2 3 0 0 -1\n", io::TextCloudFormat::xyzn);
+  EXPECT_EQ(n.z(0, 0), 3.0f);
+  EXPECT_FALSE(n.has_rgb());
+}
+
+TEST(TextCloud, PtsWithCountIntensityAndColours) {
+  const OrganizedCloud c =
+      decode("2\n1 2 3 -1200 10 20 30\n4 5 6 7 255 0 1\n", io::TextCloudFormat::pts);
+  ASSERT_EQ(c.width(), 2);
+  ASSERT_TRUE(c.has_intensity() && c.has_rgb());
+  EXPECT_EQ(c.intensity(0, 0), -1200.0f);
+  EXPECT_EQ(c.g(0, 0), 20);
+  EXPECT_EQ(c.r(1, 0), 255);
+  EXPECT_EQ(decode("1 2 3 0.5\n", io::TextCloudFormat::pts).intensity(0, 0), 0.5f);
+}
+
+TEST(TextCloud, FormatFromTheExtension) {
+  EXPECT_EQ(io::text_cloud_format(".XYZ"), io::TextCloudFormat::xyz);
+  EXPECT_EQ(io::text_cloud_format(".xyzrgb"), io::TextCloudFormat::xyzrgb);
+  EXPECT_THROW(io::text_cloud_format(".txt"), std::invalid_argument);
+}
+
+TEST(TextCloud, MalformedLinesNameTheFileLineAndProblem) {
+  struct Bad {
+    std::string text;
+    io::TextCloudFormat format;
+    const char* message;
+  };
+  using F = io::TextCloudFormat;
+  const std::vector<Bad> cases = {
+      {"1 2 3\n4 five 6\n", F::xyz, "line 2: expected a number, got \"five\""},
+      {"1 2\n", F::xyz, "line 1: 2 numbers, .xyz (x y z) needs at least 3"},
+      {"1 2 3\n4 5 6 7\n", F::xyz, "line 2: 4 numbers where the first point has 3"},
+      {"1 2 3 0 0 1\n", F::xyz, ""},  // extra columns of a .xyz are ignored
+      {"1 2 3\n", F::xyzn, "needs at least 6"},
+      {"1 2 3 128 0 0\n", F::xyzrgb, "outside 0..1"},
+      {"1 2 3 0 300 0\n", F::pts, "outside 0..255"},
+      {"1 2 3 4 5\n", F::pts, "a .pts point is"},
+      {"3\n1 2 3\n4 5 6\n", F::pts, "the first line gives 3 points, the file has 2"},
+      {"-2\n1 2 3\n", F::pts, "is no count"},
+  };
+  for (const Bad& c : cases) {
+    if (*c.message == 0) {
+      EXPECT_NO_THROW(decode(c.text, c.format)) << c.text;
+      continue;
+    }
+    try {
+      decode(c.text, c.format);
+      ADD_FAILURE() << c.text << ": no error";
+    } catch (const std::runtime_error& e) {
+      const std::string message = e.what();
+      EXPECT_NE(message.find("'t.xyz'"), std::string::npos) << message;
+      EXPECT_NE(message.find(c.message), std::string::npos) << c.text << ": " << message;
+    }
+  }
+}
+
+TEST(TextCloud, ReadsAFileByItsExtension) {
+  const auto dir = test::scratch_dir("text_cloud");
+  std::ofstream(dir / "a.pts") << "1\n0 0 1 5\n";
+  const OrganizedCloud c = io::read_text_cloud((dir / "a.pts").string());
+  EXPECT_EQ(c.width(), 1);
+  EXPECT_TRUE(c.has_intensity());
+  EXPECT_THROW(io::read_text_cloud((dir / "a.txt").string()), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace rangeseg
