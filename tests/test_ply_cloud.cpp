@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -258,6 +259,64 @@ TEST(PlyCloud, FloatColoursScalarFieldsAndListsInTheVertex) {
   EXPECT_EQ(c.label(1, 0), -2);
 }
 
+// Cases from a review of the reader against other writers' files.
+TEST(PlyCloud, OtherWritersQuirks) {
+  const std::string xyz = "property float x\nproperty float y\nproperty float z\n";
+  // Two camera elements before the vertices: the first is the sensor, the second is skipped.
+  OrganizedCloud c = decode(
+      "ply\nformat ascii 1.0\nelement camera 2\nproperty float view_px\n"
+      "property float view_py\nproperty float view_pz\nelement vertex 2\n" +
+      xyz + "end_header\n0 2 1\n5 5 5\n1 2 3\n4 5 6\n");
+  ASSERT_EQ(c.width(), 2);
+  EXPECT_EQ(c.x(0, 0), 1.0f);
+  EXPECT_EQ(c.z(1, 0), 6.0f);
+  // PCL's uint labels keep their bits; '+' signs; "ply " with a trailing space; two properties
+  // with one meaning (the first counts); a double beyond float's range is an invalid point.
+  io::PlyCloudInfo info;
+  c = decode("ply \nformat ascii 1.0\nelement vertex 2\n" + xyz +
+                 "property uint label\nproperty float scalar_label\nend_header\n"
+                 "+1 +2.5 3 4294967295 7\n1e300 0 1 2147483648 7\n",
+             &info);
+  ASSERT_EQ(c.width(), 2);
+  EXPECT_EQ(c.x(0, 0), 1.0f);
+  EXPECT_EQ(c.y(0, 0), 2.5f);
+  EXPECT_EQ(c.label(0, 0), -1);
+  EXPECT_EQ(c.label(1, 0), std::numeric_limits<std::int32_t>::min());
+  EXPECT_FALSE(c.valid(1, 0));
+  // A header alone, ending right after end_header.
+  EXPECT_EQ(decode("ply\nformat binary_little_endian 1.0\nelement vertex 0\n" + xyz + "end_header")
+                .size(),
+            0u);
+  // A range_grid of one row gives its holes; a viewport of width 0 is no grid.
+  c = decode("ply\nformat ascii 1.0\nobj_info num_cols 3\nobj_info num_rows 1\nelement vertex 1\n" +
+             xyz +
+             "element range_grid 3\nproperty list uchar int vertex_indices\nend_header\n"
+             "1 2 3\n0\n1 0\n0\n");
+  ASSERT_EQ(c.width(), 3);
+  EXPECT_FALSE(c.valid(0, 0));
+  EXPECT_EQ(c.z(1, 0), 3.0f);
+  c = decode("ply\nformat ascii 1.0\nelement vertex 0\n" + xyz +
+             "element camera 1\nproperty int viewportx\nproperty int viewporty\nend_header\n0 5\n");
+  EXPECT_EQ(c.width() * c.height(), 0);
+  EXPECT_FALSE(c.is_organized());
+  // A tiny quaternion cannot be written faithfully.
+  EXPECT_THROW(io::encode_ply_cloud(sample_cloud(), {0, 0, 0, 1e-200, 0, 0, 1e-200}),
+               std::invalid_argument);
+}
+
+// Many properties: the header's duplicate check must stay linear (this took seconds when it
+// compared every pair).
+TEST(PlyCloud, HeaderWithManyPropertiesIsRead) {
+  std::string text = "ply\nformat ascii 1.0\nelement vertex 1\n";
+  for (int k = 0; k < 20000; ++k) text += "property uchar p" + std::to_string(k) + "\n";
+  text += "property float x\nproperty float y\nproperty float z\nend_header\n";
+  for (int k = 0; k < 20000; ++k) text += "0 ";
+  text += "1 2 3\n";
+  const OrganizedCloud c = decode(text);
+  ASSERT_EQ(c.width(), 1);
+  EXPECT_EQ(c.z(0, 0), 3.0f);
+}
+
 TEST(PlyCloud, ReadsTheVerticesOfAMesh) {
   io::PlyMesh mesh;
   mesh.xyz = {0, 0, 1, 1, 0, 1, 0, 1, 1};
@@ -342,6 +401,8 @@ TEST(PlyCloud, MalformedFilesGiveErrorsNamingTheFileAndTheProblem) {
            "0\n1 "
            "1\n",
        "names vertex 1"},
+      {"data context", ascii + "element vertex 1\n" + xyz + "end_header\n1 2 x\n",
+       "(in element \"vertex\")"},
       {"grid alone",
        ascii + "element vertex 1\n" + xyz +
            "element range_grid 1\nproperty list uchar int vertex_indices\nend_header\n1 2 3\n1 0\n",

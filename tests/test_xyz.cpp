@@ -20,7 +20,7 @@ OrganizedCloud decode(const std::string& text, io::TextCloudFormat format) {
 
 TEST(TextCloud, XyzWithCommentsCommasAndWindowsLineEnds) {
   const OrganizedCloud c =
-      decode("# exported\r\n0.5 -1 2\r\n\r\n// more\r\n1e-3,2,3.25\r\nnan nan nan\r\n4\t5\t6",
+      decode("# exported\r\n+0.5 -1 +2\r\n\r\n// more\r\n1e-3,2,3.25\r\nnan nan nan\r\n4\t5\t6",
              io::TextCloudFormat::xyz);
   ASSERT_EQ(c.width(), 4);
   ASSERT_EQ(c.height(), 1);

@@ -77,7 +77,8 @@ bool is_text_cloud(const std::string& ext) {
 
 // The sensor pose a PCD's VIEWPOINT or a PLY's camera element gives: kept in `in`, and with
 // --apply-viewpoint the points are moved into that sensor's frame.
-void take_viewpoint(LoadedInput& in, const std::array<double, 7>& p, const InputOptions& o) {
+void take_viewpoint(LoadedInput& in, const std::array<double, 7>& p, const InputOptions& o,
+                    const char* what) {
   if (p == std::array<double, 7>{0, 0, 0, 1, 0, 0, 0}) return;
   char pose[160];
   std::snprintf(pose, sizeof pose, "%g %g %g %g %g %g %g", p[0], p[1], p[2], p[3], p[4], p[5],
@@ -88,13 +89,13 @@ void take_viewpoint(LoadedInput& in, const std::array<double, 7>& p, const Input
   try {
     to_sensor_frame(in.cloud, p);
   } catch (const std::invalid_argument& e) {
-    throw std::runtime_error(o.path + ": VIEWPOINT " + pose + ": " + e.what());
+    throw std::runtime_error(o.path + ": " + what + " " + pose + ": " + e.what());
   }
   in.pose = {0, 0, 0, 1, 0, 0, 0};
   std::fprintf(stderr,
-               "rangeseg: %s: VIEWPOINT %s: its points are moved into that sensor's frame, in "
-               "which the results are given\n",
-               o.path.c_str(), pose);
+               "rangeseg: %s: %s %s: its points are moved into that sensor's frame, in which "
+               "the results are given\n",
+               o.path.c_str(), what, pose);
 }
 
 }  // namespace
@@ -109,7 +110,7 @@ LoadedInput load_input(const InputOptions& o) {
     in.format = std::string("PCD ") + names[static_cast<int>(info.encoding)];
     in.fields = info.fields_summary;
     if (in.cloud.has_label()) in.ground_truth = in.cloud.label;
-    if (info.moved_from_sensor()) take_viewpoint(in, info.viewpoint, o);
+    if (info.moved_from_sensor()) take_viewpoint(in, info.viewpoint, o, "VIEWPOINT");
   } else if (ext == ".png") {
     const DepthImage depth = io::read_depth_png(o.path);
     const CameraIntrinsics cam = intrinsics_for(o, depth.width(), depth.height());
@@ -135,7 +136,7 @@ LoadedInput load_input(const InputOptions& o) {
     }
     in.fields = info.fields_summary;
     if (in.cloud.has_label()) in.ground_truth = in.cloud.label;
-    take_viewpoint(in, info.viewpoint, o);
+    take_viewpoint(in, info.viewpoint, o, "camera element's sensor pose");
   } else if (is_text_cloud(ext)) {
     in.cloud = io::read_text_cloud(o.path);
     in.format = "text point cloud (" + ext + ")";

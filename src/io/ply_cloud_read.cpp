@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
@@ -102,7 +103,8 @@ Type header_type(std::string_view token, std::string_view line, const std::strin
   return *type;
 }
 
-void add_property(Header& h, const std::vector<std::string_view>& w, std::string_view line,
+void add_property(Header& h, std::unordered_set<std::string>& names,
+                  const std::vector<std::string_view>& w, std::string_view line,
                   const std::string& name) {
   if (h.elements.empty()) fail(name, "property before any element: " + quoted(line));
   Property p;
@@ -118,26 +120,29 @@ void add_property(Header& h, const std::vector<std::string_view>& w, std::string
   } else {
     fail(name, "malformed property line " + quoted(line));
   }
-  Element& e = h.elements.back();
-  for (const Property& q : e.properties) {
-    if (q.name == p.name) fail(name, "property " + quoted(p.name) + " declared twice");
+  if (!names.insert(p.name).second) {
+    fail(name, "property " + quoted(p.name) + " declared twice");
   }
-  e.properties.push_back(std::move(p));
+  h.elements.back().properties.push_back(std::move(p));
 }
 
 Header parse_header(const std::uint8_t* data, std::size_t size, const std::string& name) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);
-  if (!text.starts_with("ply\n") && !text.starts_with("ply\r\n")) {
+  const std::size_t first_eol = text.find('\n');
+  if (!text.starts_with("ply") || first_eol == std::string_view::npos ||
+      text.substr(3, first_eol - 3).find_first_not_of(" \t\r") != std::string_view::npos) {
     fail(name, "not a PLY file (the first line is not \"ply\")");
   }
   Header h;
+  std::unordered_set<std::string> names;  // of the current element's properties
   bool have_format = false;
   std::size_t pos = text.find('\n') + 1;
   for (;;) {
-    const std::size_t eol = text.find('\n', pos);
-    if (eol == std::string_view::npos) fail(name, "the header ends without end_header");
+    // The last line may end without a newline (a file of a header alone).
+    if (pos >= text.size()) fail(name, "the header ends without end_header");
+    const std::size_t eol = std::min(text.find('\n', pos), text.size());
     std::string_view line = text.substr(pos, eol - pos);
-    pos = eol + 1;
+    pos = std::min(eol + 1, text.size());
     if (line.ends_with('\r')) line.remove_suffix(1);
     const std::vector<std::string_view> w = words(line);
     if (w.empty() || w[0] == "comment") continue;
@@ -166,8 +171,9 @@ Header parse_header(const std::uint8_t* data, std::size_t size, const std::strin
     } else if (w[0] == "element") {
       if (w.size() != 3) fail(name, "malformed element line " + quoted(line));
       h.elements.push_back({std::string(w[1]), header_count(w[2], line, name), {}});
+      names.clear();
     } else if (w[0] == "property") {
-      add_property(h, w, line, name);
+      add_property(h, names, w, line, name);
     } else {
       fail(name, "unknown header line " + quoted(line));
     }
@@ -185,11 +191,13 @@ class DataReader {
       : data_(data), size_(size), pos_(pos), format_(format), name_(name) {}
 
   std::size_t remaining() const { return size_ - pos_; }
+  /// The element being read, for error messages.
+  void at(const std::string& element) { element_ = &element; }
 
   double value(Type type) {
     if (format_ == Format::ascii) return ascii_value(type);
     const int n = size_of(type);
-    if (remaining() < static_cast<std::size_t>(n)) fail(name_, "the data ends early");
+    if (remaining() < static_cast<std::size_t>(n)) fail(name_, "the data ends early" + where());
     std::uint8_t bytes[8];
     std::memcpy(bytes, data_ + pos_, n);
     pos_ += n;
@@ -201,7 +209,7 @@ class DataReader {
 
   std::uint64_t list_count(Type type) {
     const double v = value(type);
-    if (!(v >= 0)) fail(name_, "negative list count " + std::to_string(v));
+    if (!(v >= 0)) fail(name_, "negative list count " + std::to_string(v) + where());
     return static_cast<std::uint64_t>(v);
   }
 
@@ -275,21 +283,23 @@ class DataReader {
     while (pos_ < size_ && space(text[pos_])) ++pos_;
     const std::size_t start = pos_;
     while (pos_ < size_ && !space(text[pos_])) ++pos_;
-    if (pos_ == start) fail(name_, "the data ends early");
-    const std::string_view token(text + start, pos_ - start);
+    if (pos_ == start) fail(name_, "the data ends early" + where());
+    std::string_view token(text + start, pos_ - start);
+    // from_chars takes no '+' sign, which some writers put on positive numbers.
+    if (token.size() > 1 && token[0] == '+' && token[1] != '-') token.remove_prefix(1);
     double v = 0;
     if (is_integer(type)) {
       std::int64_t i = 0;
       const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), i);
       if (ec != std::errc{} || end != token.data() + token.size()) {
-        fail(name_, "expected an integer, got " + quoted(token));
+        fail(name_, "expected an integer, got " + quoted(token) + where());
       }
       v = static_cast<double>(i);
-      if (!fits(type, i)) fail(name_, quoted(token) + " is out of its type's range");
+      if (!fits(type, i)) fail(name_, quoted(token) + " is out of its type's range" + where());
     } else {
       const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), v);
       if (ec != std::errc{} || end != token.data() + token.size()) {
-        fail(name_, "expected a number, got " + quoted(token));
+        fail(name_, "expected a number, got " + quoted(token) + where());
       }
     }
     return v;
@@ -314,8 +324,13 @@ class DataReader {
     }
   }
 
+  std::string where() const {
+    return element_ == nullptr ? std::string() : " (in element " + quoted(*element_) + ")";
+  }
+
   const std::uint8_t* data_;
   std::size_t size_, pos_;
+  const std::string* element_ = nullptr;
   Format format_;
   const std::string& name_;
 };
@@ -341,10 +356,9 @@ std::vector<Role> vertex_roles(const Element& vertex, const std::string& name) {
   std::vector<Role> roles;
   bool seen[9] = {};
   for (const Property& p : vertex.properties) {
-    const Role role = role_of(p.name);
-    if (role != Role::skip && seen[static_cast<int>(role)]) {
-      fail(name, "vertex property " + quoted(p.name) + " repeats another of the same meaning");
-    }
+    Role role = role_of(p.name);
+    // Of two with one meaning (red and diffuse_red, label and scalar_label) the first counts.
+    if (role != Role::skip && seen[static_cast<int>(role)]) role = Role::skip;
     seen[static_cast<int>(role)] = true;
     if (role != Role::skip && p.list) {
       fail(name, "vertex property " + quoted(p.name) + " is a list");
@@ -360,6 +374,15 @@ std::vector<Role> vertex_roles(const Element& vertex, const std::string& name) {
     fail(name, "the vertex colour needs all of red, green and blue");
   }
   return roles;
+}
+
+// Doubles beyond float's range become infinite (an invalid point), which a plain cast leaves
+// undefined.
+float to_float(double v) {
+  if (std::fabs(v) > std::numeric_limits<float>::max()) {
+    return v > 0 ? std::numeric_limits<float>::infinity() : -std::numeric_limits<float>::infinity();
+  }
+  return static_cast<float>(v);
 }
 
 std::uint8_t colour_byte(Type type, double v) {
@@ -405,13 +428,13 @@ OrganizedCloud read_vertices(DataReader& in, const Element& vertex, const Format
         case Role::skip:
           break;
         case Role::x:
-          cloud.x(i, 0) = static_cast<float>(v);
+          cloud.x(i, 0) = to_float(v);
           break;
         case Role::y:
-          cloud.y(i, 0) = static_cast<float>(v);
+          cloud.y(i, 0) = to_float(v);
           break;
         case Role::z:
-          cloud.z(i, 0) = static_cast<float>(v);
+          cloud.z(i, 0) = to_float(v);
           break;
         case Role::red:
           cloud.r(i, 0) = colour_byte(p.type, v);
@@ -423,15 +446,17 @@ OrganizedCloud read_vertices(DataReader& in, const Element& vertex, const Format
           cloud.b(i, 0) = colour_byte(p.type, v);
           break;
         case Role::intensity:
-          cloud.intensity(i, 0) = static_cast<float>(v);
+          cloud.intensity(i, 0) = to_float(v);
           break;
         case Role::label:
+          // PCL's labels are uint32: values above 2^31 - 1 keep their bits, as in a PCD.
           if (!(v == std::floor(v) && v >= std::numeric_limits<std::int32_t>::min() &&
-                v <= std::numeric_limits<std::int32_t>::max())) {
+                v <= std::numeric_limits<std::uint32_t>::max())) {
             fail(name, "vertex " + std::to_string(i) + ": label " + std::to_string(v) +
-                           " is not an int32 value");
+                           " is not an int32 or uint32 value");
           }
-          cloud.label(i, 0) = static_cast<std::int32_t>(v);
+          cloud.label(i, 0) = v < 0 ? static_cast<std::int32_t>(v)
+                                    : std::bit_cast<std::int32_t>(static_cast<std::uint32_t>(v));
           break;
       }
     }
@@ -549,9 +574,9 @@ OrganizedCloud decode_ply_cloud(const std::uint8_t* data, std::size_t size, cons
   const Element* vertex = find("vertex");
   if (vertex == nullptr) fail(name, "no vertex element");
   const Element* grid = find("range_grid");
-  const bool organized = h.num_cols > 0 && h.num_rows > 1;
+  const bool organized = h.num_cols > 0 && h.num_rows > 0 && (h.num_rows > 1 || grid != nullptr);
   if (grid != nullptr && !organized) {
-    fail(name, "a range_grid element without obj_info num_cols and num_rows (> 1)");
+    fail(name, "a range_grid element without obj_info num_cols and num_rows");
   }
   const std::uint64_t pixels = organized ? static_cast<std::uint64_t>(h.num_cols) * h.num_rows : 0;
   if (organized && pixels > static_cast<std::uint64_t>(std::numeric_limits<int>::max())) {
@@ -580,12 +605,14 @@ OrganizedCloud decode_ply_cloud(const std::uint8_t* data, std::size_t size, cons
   int needed = 1 + (grid != nullptr) + (camera != nullptr);
   for (const Element& e : h.elements) {
     if (needed == 0) break;  // what follows (faces, ...) is not needed
+    in.at(e.name);
     if (&e == vertex) {
       points = read_vertices(in, e, h.format, name);
     } else if (&e == grid) {
       pixel_vertex = read_range_grid(in, e, h.format, vertex->count, name);
     } else if (&e == camera) {
       sensor = read_camera(in, e);
+      if (e.count > 1) in.skip({e.name, e.count - 1, e.properties});  // one camera is the sensor
     } else {
       in.skip(e);
       continue;
@@ -593,7 +620,7 @@ OrganizedCloud decode_ply_cloud(const std::uint8_t* data, std::size_t size, cons
     --needed;
   }
   const bool by_viewport =
-      !organized && sensor.viewport_y > 1 &&
+      !organized && sensor.viewport_x > 0 && sensor.viewport_y > 1 &&
       static_cast<std::uint64_t>(sensor.viewport_x * sensor.viewport_y) == vertex->count;
 
   if (info != nullptr) {

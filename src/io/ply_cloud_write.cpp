@@ -53,8 +53,11 @@ std::vector<std::uint8_t> encode_ply_cloud(const OrganizedCloud& cloud,
                                   std::to_string(c));
     }
   }
-  if (viewpoint[3] == 0 && viewpoint[4] == 0 && viewpoint[5] == 0 && viewpoint[6] == 0) {
-    throw std::invalid_argument("encode_ply_cloud: viewpoint with a zero quaternion");
+  const double norm = std::sqrt(viewpoint[3] * viewpoint[3] + viewpoint[4] * viewpoint[4] +
+                                viewpoint[5] * viewpoint[5] + viewpoint[6] * viewpoint[6]);
+  if (!(norm >= 1e-6)) {
+    throw std::invalid_argument("encode_ply_cloud: viewpoint quaternion of norm " +
+                                std::to_string(norm) + ", expected about 1");
   }
   const int w = cloud.width(), h = cloud.height();
   const bool organized = cloud.is_organized();
@@ -71,7 +74,7 @@ std::vector<std::uint8_t> encode_ply_cloud(const OrganizedCloud& cloud,
             "\nproperty float x\nproperty float y\nproperty float z\n";
   if (cloud.has_intensity()) header += "property float intensity\n";
   if (cloud.has_rgb()) header += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
-  if (cloud.has_label()) header += "property int label\n";
+  if (cloud.has_label()) header += "property uint label\n";  // PCL's type; the int32 bits
   if (organized) {
     header += "element range_grid " + std::to_string(cloud.size()) +
               "\nproperty list uchar int vertex_indices\n";

@@ -38,7 +38,9 @@ bool numbers_of(std::string_view line, std::vector<double>& out, const std::stri
   while (i < line.size()) {
     const std::size_t start = i;
     while (i < line.size() && !separator(line[i])) ++i;
-    const std::string_view token = line.substr(start, i - start);
+    std::string_view token = line.substr(start, i - start);
+    // from_chars takes no '+' sign, which some writers put on positive numbers.
+    if (token.size() > 1 && token[0] == '+' && token[1] != '-') token.remove_prefix(1);
     double v = 0;
     const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), v);
     if (ec != std::errc{} || end != token.data() + token.size()) {

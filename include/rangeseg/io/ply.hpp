@@ -103,18 +103,20 @@ struct PlyCloudInfo {
 /// Vertex properties used: x, y, z (required, metres; double is rounded to float), red, green,
 /// blue (or diffuse_red, ...: uchar as is, ushort / 257, float and double 0..1 times 255),
 /// intensity (or scalar_intensity; any type, as float) and label (or scalar_label; integral
-/// values). Other properties (normals, alpha, ...) and other elements (faces, a camera) are
+/// values, uint32 ones above 2^31 - 1 kept as their bits). Of two properties with one meaning
+/// the first is used. Other properties (normals, alpha, ...) and other elements (faces) are
 /// skipped. The points are unorganized (height 1) unless `obj_info num_cols W` and `obj_info
-/// num_rows H` give a grid of H > 1 rows, as PCL and Stanford range scans write organized clouds:
-/// then either a `range_grid` element of W x H lists of vertex indices places each vertex on its
-/// pixel (pixels with none are NaN; of several, the first), or, without one, the W x H vertices
-/// fill the grid row by row. Without obj_info, the `camera` element of PCL's writer (its default
-/// for organized clouds) gives the grid as `viewportx` x `viewporty` when there are that many
-/// vertices. A point is invalid when x, y or z is not finite.
+/// num_rows H` give a grid, as PCL and Stanford range scans write organized clouds: either a
+/// `range_grid` element of W x H lists of vertex indices places each vertex on its pixel (pixels
+/// with none are NaN; of several, the first), or, without one, the W x H vertices fill a grid of
+/// H > 1 rows row by row. Without obj_info, the (first) `camera` element of PCL's writer (its
+/// default for organized clouds) gives the grid as `viewportx` x `viewporty` when there are that
+/// many vertices. A point is invalid when x, y or z is not finite (doubles beyond float's range
+/// become infinite).
 /// Throws std::runtime_error naming the file and the problem (a header line, a value, the vertex
 /// or grid cell) for malformed input: truncated data, counts the file cannot hold, a grid that
-/// does not match the vertices, an unknown type or format; never allocates more than the file
-/// size can justify.
+/// does not match the vertices, an unknown type or format; allocates at most a fixed multiple
+/// (~30) of the file's size, whatever its header claims.
 OrganizedCloud read_ply_cloud(const std::string& path, PlyCloudInfo* info = nullptr);
 
 /// read_ply_cloud on bytes in memory; `name` is used in error messages.
@@ -122,14 +124,15 @@ OrganizedCloud decode_ply_cloud(const std::uint8_t* data, std::size_t size, cons
                                 PlyCloudInfo* info = nullptr);
 
 /// Encodes a cloud as a binary_little_endian PLY that PCL, Open3D, CloudCompare and MeshLab read:
-/// `float x y z`, then `float intensity`, `uchar red green blue` and `int label` when the cloud
-/// has them. An organized cloud is written as PCL writes one: `obj_info num_cols` / `num_rows`,
-/// its valid points only, and a `range_grid` element placing each on its pixel; an unorganized
-/// one keeps every point, valid or not, in order. A `viewpoint` other than the identity (tx ty tz
-/// [m], qw qx qy qz, as PlyCloudInfo::viewpoint) is written as PCL's camera element. read_ply_cloud
-/// gives the cloud back, its valid points bit-exact and its invalid pixels as NaN, and the
-/// viewpoint to float precision. Throws std::invalid_argument for a viewpoint with a non-finite
-/// value or a zero quaternion, or a cloud whose planes differ in size.
+/// `float x y z`, then `float intensity`, `uchar red green blue` and `uint label` (PCL's type,
+/// holding the label's int32 bits) when the cloud has them. An organized cloud is written as PCL
+/// writes one: `obj_info num_cols` / `num_rows`, its valid points only, and a `range_grid` element
+/// placing each on its pixel; an unorganized one keeps every point, valid or not, in order. A
+/// `viewpoint` other than the identity (tx ty tz [m], qw qx qy qz, as PlyCloudInfo::viewpoint) is
+/// written as PCL's camera element. read_ply_cloud gives the cloud back, its valid points bit-exact
+/// and its invalid pixels as NaN, and the viewpoint to float precision. Throws
+/// std::invalid_argument for a viewpoint with a non-finite value or a quaternion of norm below
+/// 1e-6, or a cloud whose planes differ in size.
 std::vector<std::uint8_t> encode_ply_cloud(const OrganizedCloud& cloud,
                                            const std::array<double, 7>& viewpoint = {0, 0, 0, 1, 0,
                                                                                      0, 0});
