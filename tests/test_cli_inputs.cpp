@@ -265,3 +265,31 @@ TEST(CliInputs, XyzTextOfAFrameSegmentsAsItsPoints) {
   EXPECT_TRUE(read_bytes(dir / "a" / "segments.json") == read_bytes(dir / "b" / "segments.json"))
       << "segments.json differs between the PCD and the text file";
 }
+
+// A config's smoothing iterations turn the filter on as `--iterations` does, also under a
+// preset without it, unless the config also says "smooth".
+TEST(CliInputs, ConfigIterationsTurnTheFilterOn) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_config_iterations");
+  const fs::path pcd = write_small_pcd(dir);
+  std::ofstream(dir / "two.json") << R"({"smoothing": {"iterations": 2}})";
+  std::ofstream(dir / "off.json") << R"({"smooth": false, "smoothing": {"iterations": 2}})";
+  const std::string plain = smooth_bytes(pcd, dir, "plain.pcd", "--preset ideal");
+  ASSERT_FALSE(plain.empty());
+  EXPECT_TRUE(smooth_bytes(pcd, dir, "two.pcd",
+                           "--preset ideal --config " + (dir / "two.json").string()) != plain)
+      << "the config's iterations did not filter";
+  EXPECT_TRUE(smooth_bytes(pcd, dir, "off.pcd",
+                           "--preset ideal --config " + (dir / "off.json").string()) == plain)
+      << "\"smooth\": false was overridden";
+}
+
+// Without smoothing the demo writes no "smoothed" normals (they would be the raw ones).
+TEST(CliInputs, DemoWithoutSmoothingWritesNoSmoothedNormals) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_demo_ideal");
+  std::ofstream(dir / "normals_smoothed.png") << "an earlier run's";
+  const CliResult r = run("demo -o " + dir.string() + " --preset ideal");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(contains(r.out, "smoothing off")) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "normals_raw.png"));
+  EXPECT_FALSE(fs::exists(dir / "normals_smoothed.png"));
+}

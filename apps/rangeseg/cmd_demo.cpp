@@ -1,4 +1,5 @@
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -97,7 +98,12 @@ void run_demo(const DemoOptions& o) {
   const NormalMap& smooth = pipeline.normals();
   const RgbImage smooth_colours =
       colorize_normals(smooth.nx.view(), smooth.ny.view(), smooth.nz.view());
-  io::write_rgb_png((dir / "normals_smoothed.png").string(), smooth_colours);
+  // Without smoothing these would be the raw normals again under a misleading name.
+  if (settings.smooth) {
+    io::write_rgb_png((dir / "normals_smoothed.png").string(), smooth_colours);
+  } else {
+    std::filesystem::remove(dir / "normals_smoothed.png");  // of an earlier run
+  }
   io::write_rgb_png((dir / "curvature.png").string(),
                     colorize_scalar_auto(pipeline.raw_normals().curvature.view()));
   write_mesh_ply((dir / "mesh.ply").string(), input, pipeline.mesh(), &raw, &normal_colours);

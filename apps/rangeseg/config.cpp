@@ -107,6 +107,9 @@ void read_settings(const json& j, const std::string& path, PipelineSettings& s) 
                    where);
     auto& t = s.smoothing;
     take(m, "iterations", t.iterations, where);
+    // As `smooth --iterations N`: a count turns the filter on (N > 0) or off, also under a
+    // preset without it (abw, ideal), unless "smooth" says otherwise.
+    if (m.contains("iterations") && !j.contains("smooth")) s.smooth = t.iterations > 0;
     take(m, "use_distance", t.use_distance, where);
     take(m, "distance_scale", t.distance_scale, where);
     take(m, "pixel_angle", t.pixel_angle, where);
