@@ -3,13 +3,13 @@
 // when they are a depth camera's (e.g. after pcl::removeNaNFromPointCloud), else over
 // k-nearest-neighbour rings; all with the outline of every plane.
 //
-//   rangeseg_example_segment_frame [frame.pcd]
+//   rangeseg_example_segment_frame [frame.pcd|.ply|.xyz|...]
 //
 // Without an argument it renders the built-in demo scene with Kinect-like noise.
 #include <cstdio>
 #include <exception>
 
-#include <rangeseg/io/pcd.hpp>
+#include <rangeseg/io/cloud_file.hpp>
 #include <rangeseg/pipeline.hpp>
 #include <rangeseg/synth.hpp>
 
@@ -37,7 +37,7 @@ void print_segment(const rangeseg::Segment& s) {
 
 int main(int argc, char** argv) try {
   const rangeseg::OrganizedCloud cloud =
-      argc > 1 ? rangeseg::io::read_pcd(argv[1])
+      argc > 1 ? rangeseg::io::read_cloud(argv[1])
                : rangeseg::synth::render(rangeseg::synth::demo_scene(),
                                          {.noise = rangeseg::synth::Noise::kinect})
                      .cloud;

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "rangeseg/io/cloud_file.hpp"
+#include "rangeseg/io/ply.hpp"
 #include "rangeseg/io/xyz.hpp"
 #include "test_util.hpp"
 
@@ -103,6 +105,27 @@ TEST(TextCloud, ReadsAFileByItsExtension) {
   EXPECT_EQ(c.width(), 1);
   EXPECT_TRUE(c.has_intensity());
   EXPECT_THROW(io::read_text_cloud((dir / "a.txt").string()), std::runtime_error);
+}
+
+// read_cloud picks the reader by the extension.
+TEST(TextCloud, ReadCloudPicksTheReader) {
+  const auto dir = test::scratch_dir("read_cloud");
+  std::ofstream(dir / "a.XYZ") << "1 2 3\n4 5 6\n";
+  EXPECT_EQ(io::read_cloud((dir / "a.XYZ").string()).width(), 2);
+  OrganizedCloud grid(2, 2);
+  grid.x(1, 1) = 0, grid.y(1, 1) = 0, grid.z(1, 1) = 1;
+  io::write_ply_cloud((dir / "b.ply").string(), grid);
+  const OrganizedCloud back = io::read_cloud((dir / "b.ply").string());
+  EXPECT_EQ(back.height(), 2);
+  EXPECT_TRUE(back.valid(1, 1));
+  for (const char* file : {"c.png", "d.obj"}) {
+    try {
+      io::read_cloud((dir / file).string());
+      ADD_FAILURE() << file << ": no error";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(file), std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace
