@@ -342,6 +342,15 @@ TEST(Cli, SegmentIntoAnOldFolderRemovesItsEarlierResults) {
   EXPECT_FALSE(fs::exists(dir / "out" / "cloud.pcd"));
   EXPECT_TRUE(fs::exists(dir / "out" / "labels.png"));
   EXPECT_TRUE(fs::exists(dir / "out" / "notes.txt"));
+
+  // A batch into a single frame's folder, and a single frame into a batch's.
+  ASSERT_EQ(run("segment " + cloud + " " + cloud + " -o " + out + " --no-mesh").code, 0);
+  EXPECT_TRUE(fs::exists(dir / "out" / "summary.json"));
+  EXPECT_FALSE(fs::exists(dir / "out" / "labels.png"));
+  ASSERT_EQ(run("segment " + cloud + " -o " + out + " --no-mesh").code, 0);
+  EXPECT_FALSE(fs::exists(dir / "out" / "summary.json"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "labels.png"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "notes.txt"));
 }
 
 // `eval-synth` scores what `synth`, `segment` and `eval` score seed by seed, and counts the

@@ -293,3 +293,19 @@ TEST(CliInputs, DemoWithoutSmoothingWritesNoSmoothedNormals) {
   EXPECT_TRUE(fs::exists(dir / "normals_raw.png"));
   EXPECT_FALSE(fs::exists(dir / "normals_smoothed.png"));
 }
+
+// `noise` over several frames skips a bad one, as a segment batch does.
+TEST(CliInputs, NoiseSkipsABadFrameAmongSeveral) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_noise_skip");
+  ASSERT_EQ(run("synth -o " + (dir / "scene").string() + " --scene boxes --seed 1").code, 0);
+  fs::create_directories(dir / "frames");
+  fs::copy_file(dir / "scene" / "cloud.pcd", dir / "frames" / "a.pcd");
+  std::ofstream(dir / "frames" / "b.xyz") << "";  // no points
+  const CliResult r = run("noise " + (dir / "frames").string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(contains(r.out, "skipped")) << r.out;
+  EXPECT_TRUE(contains(r.out, "b.xyz")) << r.out;
+  EXPECT_TRUE(contains(r.out, "sigma(z)")) << r.out;
+  const CliResult alone = run("noise " + (dir / "frames" / "b.xyz").string());
+  EXPECT_EQ(alone.code, 2) << alone.out;
+}

@@ -299,6 +299,13 @@ TEST(PlyCloud, OtherWritersQuirks) {
              "element camera 1\nproperty int viewportx\nproperty int viewporty\nend_header\n0 5\n");
   EXPECT_EQ(c.width() * c.height(), 0);
   EXPECT_FALSE(c.is_organized());
+  // Camera axes that are no rotation: no pose, and the caller is told.
+  c = decode("ply\nformat ascii 1.0\nelement vertex 1\n" + xyz +
+                 "element camera 1\nproperty float view_px\nproperty float x_axisx\nend_header\n"
+                 "1 2 3\n0.5 2\n",
+             &info);
+  EXPECT_TRUE(info.viewpoint_ignored);
+  EXPECT_EQ(info.viewpoint[0], 0.0);
   // A tiny quaternion cannot be written faithfully.
   EXPECT_THROW(io::encode_ply_cloud(sample_cloud(), {0, 0, 0, 1e-200, 0, 0, 1e-200}),
                std::invalid_argument);
@@ -403,6 +410,15 @@ TEST(PlyCloud, MalformedFilesGiveErrorsNamingTheFileAndTheProblem) {
        "names vertex 1"},
       {"data context", ascii + "element vertex 1\n" + xyz + "end_header\n1 2 x\n",
        "(in element \"vertex\")"},
+      {"extra value", ascii + "element vertex 2\n" + xyz + "end_header\n1 2 3 4\n5 6 7\n",
+       "more values on a line"},
+      {"empty", "", "the file is empty"},
+      {"grid reuse",
+       ascii + "obj_info num_cols 1\nobj_info num_rows 2\nelement vertex 1\n" + xyz +
+           "element range_grid 2\nproperty list uchar int vertex_indices\nend_header\n1 2 3\n1 "
+           "0\n1 "
+           "0\n",
+       "which an earlier cell holds"},
       {"grid alone",
        ascii + "element vertex 1\n" + xyz +
            "element range_grid 1\nproperty list uchar int vertex_indices\nend_header\n1 2 3\n1 0\n",

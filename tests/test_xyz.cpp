@@ -54,7 +54,14 @@ TEST(TextCloud, PtsWithCountIntensityAndColours) {
   EXPECT_EQ(c.intensity(0, 0), -1200.0f);
   EXPECT_EQ(c.g(0, 0), 20);
   EXPECT_EQ(c.r(1, 0), 255);
-  EXPECT_EQ(decode("1 2 3 0.5\n", io::TextCloudFormat::pts).intensity(0, 0), 0.5f);
+  // A constant intensity (Open3D writes 0) is no measurement.
+  EXPECT_FALSE(decode("1 2 3 0 9 9 9\n4 5 6 0 1 1 1\n", io::TextCloudFormat::pts).has_intensity());
+  // A UTF-8 byte order mark before the first line.
+  EXPECT_EQ(decode("\xEF\xBB\xBF"
+                   "1 2 3\n",
+                   io::TextCloudFormat::xyz)
+                .x(0, 0),
+            1.0f);
 }
 
 TEST(TextCloud, FormatFromTheExtension) {
@@ -73,6 +80,7 @@ TEST(TextCloud, MalformedLinesNameTheFileLineAndProblem) {
   const std::vector<Bad> cases = {
       {"1 2 3\n4 five 6\n", F::xyz, "line 2: expected a number, got \"five\""},
       {"1 2\n", F::xyz, "line 1: 2 numbers, .xyz (x y z) needs at least 3"},
+      {"7\n", F::xyz, "line 1: 1 number, .xyz"},
       {"1 2 3\n4 5 6 7\n", F::xyz, "line 2: 4 numbers where the first point has 3"},
       {"1 2 3 0 0 1\n", F::xyz, ""},  // extra columns of a .xyz are ignored
       {"1 2 3\n", F::xyzn, "needs at least 6"},
@@ -100,9 +108,9 @@ TEST(TextCloud, MalformedLinesNameTheFileLineAndProblem) {
 
 TEST(TextCloud, ReadsAFileByItsExtension) {
   const auto dir = test::scratch_dir("text_cloud");
-  std::ofstream(dir / "a.pts") << "1\n0 0 1 5\n";
+  std::ofstream(dir / "a.pts") << "2\n0 0 1 5\n0 0 2 6\n";
   const OrganizedCloud c = io::read_text_cloud((dir / "a.pts").string());
-  EXPECT_EQ(c.width(), 1);
+  EXPECT_EQ(c.width(), 2);
   EXPECT_TRUE(c.has_intensity());
   EXPECT_THROW(io::read_text_cloud((dir / "a.txt").string()), std::runtime_error);
 }

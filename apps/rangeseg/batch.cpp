@@ -199,6 +199,7 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
       {"failures", failures},
       {"per_frame", frames}};
   write_json((out_dir / "summary.json").string(), summary);
+  remove_earlier_results(out_dir, {(out_dir / "summary.json").string()});
 
   std::printf("%zu frames: %zu ok, %zu failed; %.2f s with %zu thread%s", n, ok, n - ok, wall_s,
               threads, threads == 1 ? "" : "s");

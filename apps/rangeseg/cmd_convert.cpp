@@ -104,7 +104,9 @@ void convert(const ConvertOptions& o) {
 void add_convert(CLI::App& app) {
   auto o = std::make_shared<ConvertOptions>();
   auto* cmd = app.add_subcommand(
-      "convert", "Convert between PCD, PLY points, depth PNG (+ intrinsics) and SegComp .range");
+      "convert",
+      "Convert a cloud (PCD, PLY, depth PNG + intrinsics, SegComp .range, .xyz/.xyzn/.xyzrgb/.pts) "
+      "to PCD, PLY points or a depth PNG");
   add_input_options(*cmd, o->in);
   cmd->add_option("output", o->out,
                   "Output file: .pcd, .png (16-bit depth) or .ply (points; an organized cloud "

@@ -146,7 +146,9 @@ void add_demo(CLI::App& app) {
       "Run every stage (region model auto) on the built-in scene (or --input) and write "
       "pictures; summary.png ends with the segments coloured by surface type");
   cmd->add_option("-o,--output", o->out_dir, "Output directory")->capture_default_str();
-  cmd->add_option("--input", o->in.path, "Use this file instead of the built-in scene");
+  cmd->add_option("--input", o->in.path,
+                  "Use this file instead of the built-in scene (.pcd, .ply, 16-bit depth .png, "
+                  ".range, .xyz/.xyzn/.xyzrgb/.pts; a cloud with a pixel grid)");
   add_input_options(*cmd, o->in, false);
   cmd->add_option("--preset", o->preset, kAutoPresetHelp)->capture_default_str();
   cmd->add_option("--seed", o->seed, "Noise seed of the built-in scene")->capture_default_str();

@@ -355,10 +355,10 @@ void add_eval(CLI::App& app) {
                   "label field (segment's cloud.pcd of an unorganized cloud)")
       ->required();
   add_tolerance_option(*cmd, o->tolerance);
-  cmd->add_option(
-      "--cloud", o->cloud,
-      "Points of the scene (.pcd, .ply or .range) for the angle error, when the ground truth "
-      "brings none (e.g. a label PNG from `synth`)");
+  cmd->add_option("--cloud", o->cloud,
+                  "Points of the scene (any input the other commands take) for the angle error, "
+                  "when the ground truth "
+                  "brings none (e.g. a label PNG from `synth`)");
   cmd->add_option("--surfaces", o->surfaces,
                   "surfaces.json of `synth`: the angle error leaves out the spheres and cylinders "
                   "(as eval-synth does), whose fitted planes depend on which points a region "

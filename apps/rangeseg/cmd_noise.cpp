@@ -1,6 +1,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdio>
+#include <exception>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -28,14 +29,27 @@ nlohmann::json noise_json(const SensorNoise& n) { return {{"a", n.a}, {"b", n.b}
 void run_noise(const NoiseOptions& o) {
   NoiseEstimator estimator(o.settings);
   const FrameList list = gather_frames(o.inputs, o.input);
+  // As in a segment batch, a bad frame among several is reported and skipped.
+  const bool batch = list.frames.size() > 1;
+  std::size_t used = 0;
   for (const FrameSource& frame : list.frames) {
-    if (!frame.error.empty()) throw std::runtime_error(frame.path + ": " + frame.error);
-    InputOptions in = list.options;
-    in.path = frame.path;
-    LoadedInput loaded = load_input(in);
-    require_grid(loaded.cloud, frame.path, "a pixel grid to fit blocks on",
-                 "estimate the noise from the organized frames of the same sensor");
-    estimator.add(loaded.cloud);
+    try {
+      if (!frame.error.empty()) throw std::runtime_error(frame.path + ": " + frame.error);
+      InputOptions in = list.options;
+      in.path = frame.path;
+      LoadedInput loaded = load_input(in);
+      require_grid(loaded.cloud, frame.path, "a pixel grid to fit blocks on",
+                   "estimate the noise from the organized frames of the same sensor");
+      estimator.add(loaded.cloud);
+      ++used;
+    } catch (const std::exception& error) {
+      if (!batch) throw;
+      std::fprintf(stderr, "rangeseg: noise: skipped %s\n", error.what());
+    }
+  }
+  if (used == 0) {
+    throw std::runtime_error("none of the " + std::to_string(list.frames.size()) +
+                             " frames could be used");
   }
   NoiseEstimate e;
   try {
@@ -90,9 +104,10 @@ void add_noise(CLI::App& app) {
       "unsmoothed), for a sensor that no preset describes; writes it as a --config file");
   cmd->add_option(
          "inputs", o->inputs,
-         "Frames of one sensor (.pcd, .ply, 16-bit depth .png, .range), folders of them or a "
-         "TUM RGB-D sequence, as for segment; their blocks are pooled. Planar surfaces "
-         "at several depths (floor, walls, a table) are what the estimate needs")
+         "Frames of one sensor (.pcd, .ply, 16-bit depth .png, .range, .xyz/.xyzn/.xyzrgb/.pts "
+         "on a pixel grid), folders of them or a TUM RGB-D sequence, as for segment (a bad "
+         "frame among several is reported and skipped); their blocks are pooled. Planar "
+         "surfaces at several depths (floor, walls, a table) are what the estimate needs")
       ->required();
   add_input_options(*cmd, o->input, false);
   cmd->add_option("-o,--output", o->output,

@@ -107,10 +107,11 @@ void add_segment(CLI::App& app) {
       "labels.png, segments.json, polygons.obj, overlay.png, types.png and mesh.ply (and with "
       "--cloud cloud.pcd) into a folder (an unorganized cloud: segments.json, polygons.obj and "
       "cloud.pcd)");
-  cmd->add_option("input", o->inputs,
-                  "Input file (.pcd, .ply, 16-bit depth .png, SegComp .range, .xyz/.pts text), "
-                  "several files, a directory of them, or a TUM RGB-D sequence folder (with "
-                  "depth.txt)")
+  cmd->add_option(
+         "input", o->inputs,
+         "Input file (.pcd, .ply, 16-bit depth .png, SegComp .range, .xyz/.xyzn/.xyzrgb/.pts), "
+         "several files, a directory of them, or a TUM RGB-D sequence folder (with "
+         "depth.txt)")
       ->required();
   add_input_options(*cmd, o->in, /*positional=*/false);
   cmd->add_option("-o,--output", o->out_dir,

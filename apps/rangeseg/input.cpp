@@ -136,6 +136,17 @@ LoadedInput load_input(const InputOptions& o) {
     }
     in.fields = info.fields_summary;
     if (in.cloud.has_label()) in.ground_truth = in.cloud.label;
+    if (info.viewpoint_ignored) {
+      if (o.apply_viewpoint) {
+        throw std::runtime_error(o.path +
+                                 ": --apply-viewpoint: the camera element's axes are no "
+                                 "rotation, so its sensor pose cannot be applied");
+      }
+      std::fprintf(stderr,
+                   "rangeseg: %s: the camera element's axes are no rotation: its sensor pose is "
+                   "ignored\n",
+                   o.path.c_str());
+    }
     take_viewpoint(in, info.viewpoint, o, "camera element's sensor pose");
   } else if (is_text_cloud(ext)) {
     in.cloud = io::read_text_cloud(o.path);
@@ -202,6 +213,8 @@ bool is_tum_list(const fs::path& p) { return p.filename() == "depth.txt"; }
 
 bool is_frame_file(const fs::path& p) {
   const std::string ext = io::extension(p.string());
+  // Hidden files (".name", macOS "._name" resource forks) are no frames.
+  if (p.filename().string().starts_with('.')) return false;
   return ext == ".pcd" || ext == ".ply" || ext == ".png" || ext == ".range" || is_text_cloud(ext);
 }
 

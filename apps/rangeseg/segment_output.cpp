@@ -157,13 +157,19 @@ nlohmann::json segments_json(const Segmentation& seg, const PolygonSet* polygons
 
 namespace {
 
-/// Every file a result folder may hold.
-constexpr std::array<const char*, 7> kFolderFiles = {"labels.png", "segments.json", "polygons.obj",
+/// Every file a result folder may hold (summary.json: a batch's).
+constexpr std::array<const char*, 8> kFolderFiles = {"labels.png", "segments.json", "polygons.obj",
                                                      "types.png",  "overlay.png",   "mesh.ply",
-                                                     "cloud.pcd"};
+                                                     "cloud.pcd",  "summary.json"};
 
-/// A folder written again (a re-run, a batch into an old output) keeps no result of an earlier
-/// run beside this one's: the files this run did not write are removed.
+std::string joined(const std::vector<std::string>& paths) {
+  std::string all;
+  for (const std::string& p : paths) all += (all.empty() ? "" : ", ") + p;
+  return all;
+}
+
+}  // namespace
+
 void remove_earlier_results(const std::filesystem::path& dir,
                             const std::vector<std::string>& written) {
   for (const char* name : kFolderFiles) {
@@ -178,14 +184,6 @@ void remove_earlier_results(const std::filesystem::path& dir,
     }
   }
 }
-
-std::string joined(const std::vector<std::string>& paths) {
-  std::string all;
-  for (const std::string& p : paths) all += (all.empty() ? "" : ", ") + p;
-  return all;
-}
-
-}  // namespace
 
 std::string write_segmentation_folder(const std::string& dir_name, const OrganizedCloud& input,
                                       const Pipeline& pipeline, FolderFiles files) {

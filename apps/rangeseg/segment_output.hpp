@@ -4,7 +4,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include <filesystem>
 #include <string>
+#include <vector>
 
 #include "rangeseg/colorize.hpp"
 #include "rangeseg/pipeline.hpp"
@@ -36,5 +38,12 @@ struct FolderFiles {
 /// removed, so that the folder holds one frame's results only.
 std::string write_segmentation_folder(const std::string& dir, const OrganizedCloud& input,
                                       const Pipeline& pipeline, FolderFiles files);
+
+/// Removes the result files (those of write_segmentation_folder, and a batch's summary.json)
+/// in `dir` that are not among the paths in `written`: a folder written again (a re-run, a
+/// batch into a single frame's folder or the other way round) keeps no result of an earlier run
+/// beside this one's. Other files and folders stay.
+void remove_earlier_results(const std::filesystem::path& dir,
+                            const std::vector<std::string>& written);
 
 }  // namespace rangeseg::cli

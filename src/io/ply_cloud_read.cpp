@@ -129,6 +129,7 @@ void add_property(Header& h, std::unordered_set<std::string>& names,
 Header parse_header(const std::uint8_t* data, std::size_t size, const std::string& name) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);
   const std::size_t first_eol = text.find('\n');
+  if (text.empty()) fail(name, "the file is empty");
   if (!text.starts_with("ply") || first_eol == std::string_view::npos ||
       text.substr(3, first_eol - 3).find_first_not_of(" \t\r") != std::string_view::npos) {
     fail(name, "not a PLY file (the first line is not \"ply\")");
@@ -207,6 +208,17 @@ class DataReader {
     return decode(type, bytes);
   }
 
+  // In ASCII each instance is one line: values left on it mean the header's properties are not
+  // the data's (which would silently shift every later value).
+  void end_instance() {
+    if (format_ != Format::ascii) return;
+    const char* text = reinterpret_cast<const char*>(data_);
+    while (pos_ < size_ && (text[pos_] == ' ' || text[pos_] == '\t' || text[pos_] == '\r')) ++pos_;
+    if (pos_ < size_ && text[pos_] != '\n') {
+      fail(name_, "more values on a line than its element's properties" + where());
+    }
+  }
+
   std::uint64_t list_count(Type type) {
     const double v = value(type);
     if (!(v >= 0)) fail(name_, "negative list count " + std::to_string(v) + where());
@@ -231,20 +243,26 @@ class DataReader {
     }
     for (std::uint64_t i = 0; i < e.count; ++i) {
       for (const Property& p : e.properties) {
-        if (!p.list) {
-          value(p.type);
-          continue;
-        }
-        const std::uint64_t n = list_count(p.count_type);
-        if (format_ != Format::ascii) {
-          const std::uint64_t bytes = n * size_of(p.type);
-          if (bytes > remaining()) fail(name_, "truncated in element " + quoted(e.name));
-          pos_ += bytes;
+        if (p.list) {
+          skip_list(p);
         } else {
-          for (std::uint64_t k = 0; k < n; ++k) value(p.type);
+          value(p.type);
         }
       }
+      end_instance();
     }
+  }
+
+  // Skips one value of a list property.
+  void skip_list(const Property& p) {
+    const std::uint64_t n = list_count(p.count_type);
+    if (format_ == Format::ascii) {
+      for (std::uint64_t k = 0; k < n; ++k) value(p.type);
+      return;
+    }
+    const std::uint64_t bytes = n * size_of(p.type);
+    if (bytes > remaining()) fail(name_, "the data ends early" + where());
+    pos_ += bytes;
   }
 
  private:
@@ -419,8 +437,7 @@ OrganizedCloud read_vertices(DataReader& in, const Element& vertex, const Format
     for (std::size_t k = 0; k < roles.size(); ++k) {
       const Property& p = vertex.properties[k];
       if (p.list) {
-        Element one{p.name, 1, {p}};
-        in.skip(one);
+        in.skip_list(p);
         continue;
       }
       const double v = in.value(p.type);
@@ -460,6 +477,7 @@ OrganizedCloud read_vertices(DataReader& in, const Element& vertex, const Format
           break;
       }
     }
+    in.end_instance();
   }
   return cloud;
 }
@@ -478,18 +496,28 @@ std::vector<std::int32_t> read_range_grid(DataReader& in, const Element& grid, F
                    std::to_string(in.remaining()) + " bytes left");
   }
   std::vector<std::int32_t> pixel_vertex(grid.count, -1);
+  std::vector<bool> placed(vertices, false);
   for (std::uint64_t c = 0; c < grid.count; ++c) {
     const std::uint64_t n = in.list_count(p.count_type);
     for (std::uint64_t k = 0; k < n; ++k) {
       const double index = in.value(p.type);
       if (!(index >= 0 && index < static_cast<double>(vertices))) {
         fail(name, "range_grid cell " + std::to_string(c) + " names vertex " +
-                       std::to_string(static_cast<long long>(index)) + ", outside 0.." +
-                       std::to_string(vertices) + "-1");
+                       std::to_string(static_cast<long long>(index)) +
+                       (vertices == 0 ? ", but there are no vertices"
+                                      : ", outside 0.." + std::to_string(vertices - 1)));
       }
-      // A cell with several vertices (merged scans) keeps its first.
+      // A cell with several vertices (merged scans) keeps its first; a vertex on two pixels is
+      // a broken grid.
+      const auto v = static_cast<std::size_t>(index);
+      if (placed[v]) {
+        fail(name, "range_grid cell " + std::to_string(c) + " names vertex " + std::to_string(v) +
+                       ", which an earlier cell holds");
+      }
+      placed[v] = true;
       if (k == 0) pixel_vertex[c] = static_cast<std::int32_t>(index);
     }
+    in.end_instance();
   }
   return pixel_vertex;
 }
@@ -498,6 +526,7 @@ std::vector<std::int32_t> read_range_grid(DataReader& in, const Element& grid, F
 // viewport, which is the grid of an organized cloud written in row order.
 struct CameraElement {
   std::int64_t viewport_x = 0, viewport_y = 0;
+  bool pose_ignored = false;                        ///< the file has axes that are no rotation
   std::array<double, 7> pose{0, 0, 0, 1, 0, 0, 0};  ///< tx ty tz qw qx qy qz
 };
 
@@ -509,7 +538,7 @@ CameraElement read_camera(DataReader& in, const Element& camera) {
   CameraElement c;
   for (const Property& p : camera.properties) {
     if (p.list) {
-      in.skip({p.name, 1, {p}});
+      in.skip_list(p);
       continue;
     }
     const double v = in.value(p.type);
@@ -530,6 +559,8 @@ CameraElement read_camera(DataReader& in, const Element& camera) {
     Eigen::Quaterniond q(r);
     if (q.w() < 0) q.coeffs() = -q.coeffs();
     c.pose = {t.x(), t.y(), t.z(), q.w(), q.x(), q.y(), q.z()};
+  } else {
+    c.pose_ignored = true;
   }
   return c;
 }
@@ -612,6 +643,7 @@ OrganizedCloud decode_ply_cloud(const std::uint8_t* data, std::size_t size, cons
       pixel_vertex = read_range_grid(in, e, h.format, vertex->count, name);
     } else if (&e == camera) {
       sensor = read_camera(in, e);
+      in.end_instance();
       if (e.count > 1) in.skip({e.name, e.count - 1, e.properties});  // one camera is the sensor
     } else {
       in.skip(e);
@@ -631,6 +663,7 @@ OrganizedCloud decode_ply_cloud(const std::uint8_t* data, std::size_t size, cons
     }
     info->vertices = vertex->count;
     info->viewpoint = sensor.pose;
+    info->viewpoint_ignored = sensor.pose_ignored;
     info->grid = grid != nullptr ? "range_grid"
                  : organized     ? "rows"
                  : by_viewport   ? "viewport"

@@ -67,7 +67,8 @@ Columns columns_for(TextCloudFormat format, std::size_t n, const std::string& na
   const auto need = [&](std::size_t least, const char* what) {
     if (n < least) {
       fail(name, line_no,
-           std::to_string(n) + " numbers, " + what + " needs at least " + std::to_string(least));
+           std::to_string(n) + (n == 1 ? " number, " : " numbers, ") + what + " needs at least " +
+               std::to_string(least));
     }
   };
   switch (format) {
@@ -111,7 +112,8 @@ TextCloudFormat text_cloud_format(const std::string& extension) {
 
 OrganizedCloud decode_text_cloud(const std::uint8_t* data, std::size_t size,
                                  const std::string& name, TextCloudFormat format) {
-  const std::string_view text(reinterpret_cast<const char*>(data), size);
+  std::string_view text(reinterpret_cast<const char*>(data), size);
+  if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);  // a UTF-8 byte order mark
   std::vector<float> xyz, intensity;
   std::vector<std::uint8_t> rgb;
   std::vector<double> v;
@@ -164,6 +166,12 @@ OrganizedCloud decode_text_cloud(const std::uint8_t* data, std::size_t size,
     fail(name, line_no,
          "the first line gives " + std::to_string(declared) + " points, the file has " +
              std::to_string(n));
+  }
+  // An intensity that is the same at every point measures nothing (Open3D writes 0 for every
+  // point): dropped, so that the smoothing's intensity term takes grey from the colours.
+  if (std::all_of(intensity.begin(), intensity.end(),
+                  [&](float i) { return i == intensity.front(); })) {
+    intensity.clear();
   }
   OrganizedCloud cloud(static_cast<int>(n), n > 0 ? 1 : 0);
   if (!intensity.empty()) cloud.add_intensity();

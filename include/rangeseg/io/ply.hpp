@@ -96,6 +96,9 @@ struct PlyCloudInfo {
   /// of its orientation), as PcdInfo::viewpoint: tx ty tz [m], qw qx qy qz; the identity when
   /// the file has none. The reader returns the points as stored.
   std::array<double, 7> viewpoint{0, 0, 0, 1, 0, 0, 0};
+  /// The camera element's axes are no rotation matrix (PCL writes one), so `viewpoint` is the
+  /// identity although the file names a pose.
+  bool viewpoint_ignored = false;
 };
 
 /// Reads the vertices of a PLY file as a cloud: format ascii, binary_little_endian or

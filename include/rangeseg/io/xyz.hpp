@@ -24,9 +24,10 @@ TextCloudFormat text_cloud_format(const std::string& extension);
 
 /// Reads a text cloud as an unorganized cloud (height 1), one point per line in file order, in
 /// metres. Numbers are separated by spaces, tabs or commas; empty lines and lines starting with
-/// '#' or "//" are skipped; "nan" marks an invalid point. Colours become r, g, b (0..255),
-/// a .pts intensity column `intensity`. Throws std::runtime_error naming the file, the line
-/// and the problem for a line that is not numbers, has fewer columns than the format needs or
+/// '#' or "//" are skipped (and a UTF-8 byte order mark); "nan" marks an invalid point. Colours
+/// become r, g, b (0..255), a .pts intensity column `intensity` unless it is the same at every
+/// point (Open3D writes 0), which measures nothing. Throws std::runtime_error naming the file, the
+/// line and the problem for a line that is not numbers, has fewer columns than the format needs or
 /// another count than the first point's, a colour out of range, or a .pts count that is not
 /// the number of points.
 OrganizedCloud read_text_cloud(const std::string& path);
