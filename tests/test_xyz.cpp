@@ -68,6 +68,8 @@ TEST(TextCloud, FormatFromTheExtension) {
   EXPECT_EQ(io::text_cloud_format(".XYZ"), io::TextCloudFormat::xyz);
   EXPECT_EQ(io::text_cloud_format(".xyzrgb"), io::TextCloudFormat::xyzrgb);
   EXPECT_THROW(io::text_cloud_format(".txt"), std::invalid_argument);
+  EXPECT_TRUE(io::is_text_cloud_extension(".PTS"));
+  EXPECT_FALSE(io::is_text_cloud_extension(".txt"));
 }
 
 TEST(TextCloud, MalformedLinesNameTheFileLineAndProblem) {

@@ -71,10 +71,6 @@ CameraIntrinsics intrinsics_for(const InputOptions& o, int width, int height) {
 
 namespace {
 
-bool is_text_cloud(const std::string& ext) {
-  return ext == ".xyz" || ext == ".xyzn" || ext == ".xyzrgb" || ext == ".pts";
-}
-
 // The sensor pose a PCD's VIEWPOINT or a PLY's camera element gives: kept in `in`, and with
 // --apply-viewpoint the points are moved into that sensor's frame.
 void take_viewpoint(LoadedInput& in, const std::array<double, 7>& p, const InputOptions& o,
@@ -148,7 +144,7 @@ LoadedInput load_input(const InputOptions& o) {
                    o.path.c_str());
     }
     take_viewpoint(in, info.viewpoint, o, "camera element's sensor pose");
-  } else if (is_text_cloud(ext)) {
+  } else if (io::is_text_cloud_extension(ext)) {
     in.cloud = io::read_text_cloud(o.path);
     in.format = "text point cloud (" + ext + ")";
     in.fields = std::string("x y z") + (in.cloud.has_intensity() ? " intensity" : "") +
@@ -215,7 +211,8 @@ bool is_frame_file(const fs::path& p) {
   const std::string ext = io::extension(p.string());
   // Hidden files (".name", macOS "._name" resource forks) are no frames.
   if (p.filename().string().starts_with('.')) return false;
-  return ext == ".pcd" || ext == ".ply" || ext == ".png" || ext == ".range" || is_text_cloud(ext);
+  return ext == ".pcd" || ext == ".ply" || ext == ".png" || ext == ".range" ||
+         io::is_text_cloud_extension(ext);
 }
 
 /// Frames of a TUM sequence from its depth.txt: "timestamp path" per line, '#' comments. A

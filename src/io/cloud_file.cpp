@@ -16,9 +16,7 @@ OrganizedCloud read_cloud(const std::string& path) {
   if (ext == ".pcd") return read_pcd(path);
   if (ext == ".ply") return read_ply_cloud(path);
   if (ext == ".range") return read_segcomp_range(path);
-  if (ext == ".xyz" || ext == ".xyzn" || ext == ".xyzrgb" || ext == ".pts") {
-    return read_text_cloud(path);
-  }
+  if (is_text_cloud_extension(ext)) return read_text_cloud(path);
   if (ext == ".png") {
     throw std::runtime_error(path +
                              ": a depth image needs its camera: read it with read_depth_png "

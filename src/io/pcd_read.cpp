@@ -11,6 +11,7 @@
 #include <string_view>
 #include <vector>
 
+#include "quoted.hpp"
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/pcd.hpp"
 
@@ -60,13 +61,7 @@ std::vector<std::string_view> split(std::string_view line) {
   return tokens;
 }
 
-std::string quoted(std::string_view s) {
-  constexpr std::size_t kMax = 40;  // garbage input must not make huge messages
-  std::string out = "'";
-  for (char c : s.substr(0, kMax)) out += (c >= 32 && c < 127) ? c : '?';
-  if (s.size() > kMax) out += "...";
-  return out + "'";
-}
+std::string quoted(std::string_view s) { return detail::quoted(s, '\'', 40); }
 
 std::uint64_t parse_uint(std::string_view token, const std::string& name, const char* what) {
   std::uint64_t value = 0;

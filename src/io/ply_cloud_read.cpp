@@ -17,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+#include "quoted.hpp"
 #include "rangeseg/io/ply.hpp"
 
 namespace rangeseg::io {
@@ -67,14 +68,7 @@ struct Header {
   throw std::runtime_error("PLY '" + name + "': " + why);
 }
 
-// Garbage input must not make huge or unprintable messages.
-std::string quoted(std::string_view text) {
-  constexpr std::size_t kMax = 60;
-  std::string out = "\"";
-  for (const char c : text.substr(0, kMax)) out += (c >= 32 && c < 127) ? c : '?';
-  if (text.size() > kMax) out += "...";
-  return out + "\"";
-}
+using detail::quoted;
 
 std::vector<std::string_view> words(std::string_view line) {
   std::vector<std::string_view> out;

@@ -5,11 +5,13 @@
 #include <charconv>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "quoted.hpp"
 #include "rangeseg/io/file.hpp"
 
 namespace rangeseg::io {
@@ -19,12 +21,7 @@ namespace {
   throw std::runtime_error("point cloud '" + name + "', line " + std::to_string(line) + ": " + why);
 }
 
-std::string quoted(std::string_view text) {
-  constexpr std::size_t kMax = 40;  // garbage input must not make huge messages
-  std::string out = "\"";
-  for (const char c : text.substr(0, kMax)) out += (c >= 32 && c < 127) ? c : '?';
-  return out + (text.size() > kMax ? "...\"" : "\"");
-}
+using detail::quoted;
 
 bool separator(char c) { return c == ' ' || c == '\t' || c == ',' || c == '\r'; }
 
@@ -98,7 +95,9 @@ Columns columns_for(TextCloudFormat format, std::size_t n, const std::string& na
 
 }  // namespace
 
-TextCloudFormat text_cloud_format(const std::string& extension) {
+namespace {
+
+std::optional<TextCloudFormat> format_of(const std::string& extension) {
   std::string e = extension;
   std::transform(e.begin(), e.end(), e.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
@@ -106,6 +105,17 @@ TextCloudFormat text_cloud_format(const std::string& extension) {
   if (e == ".xyzn") return TextCloudFormat::xyzn;
   if (e == ".xyzrgb") return TextCloudFormat::xyzrgb;
   if (e == ".pts") return TextCloudFormat::pts;
+  return std::nullopt;
+}
+
+}  // namespace
+
+bool is_text_cloud_extension(const std::string& extension) {
+  return format_of(extension).has_value();
+}
+
+TextCloudFormat text_cloud_format(const std::string& extension) {
+  if (const auto format = format_of(extension)) return *format;
   throw std::invalid_argument("text_cloud_format: '" + extension +
                               "' is not .xyz, .xyzn, .xyzrgb or .pts");
 }

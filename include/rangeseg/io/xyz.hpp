@@ -22,6 +22,9 @@ enum class TextCloudFormat {
 /// std::invalid_argument for any other.
 TextCloudFormat text_cloud_format(const std::string& extension);
 
+/// Whether text_cloud_format knows the extension.
+bool is_text_cloud_extension(const std::string& extension);
+
 /// Reads a text cloud as an unorganized cloud (height 1), one point per line in file order, in
 /// metres. Numbers are separated by spaces, tabs or commas; empty lines and lines starting with
 /// '#' or "//" are skipped (and a UTF-8 byte order mark); "nan" marks an invalid point. Colours
