@@ -60,6 +60,31 @@ TEST(Segmentation, GrowthBandSeamsAreJoinedButCreasesAreNot) {
   EXPECT_NE(q.seg.labels(540, 20), 0);
 }
 
+/// A surface that a band seam cuts into pieces, each below min_region_size (and too narrow to
+/// be kept as a wide face), is kept as with one band: the pieces count together. Here an
+/// 18 x 18 pixel square 1 m in front of a wall at 2 m, its centre on the seam of 2 bands at row
+/// 240: 162 pixels above and below, against a minimum of 200. (Before, both were removed before
+/// merging could join them.)
+TEST(Segmentation, SurfaceCutByASeamIsKeptWhenItsPiecesAreSmall) {
+  const OrganizedCloud cloud = cast(640, 480, [](double a, double b) {
+    const double u = a * kF + kCx, v = b * kF + kCy;
+    return (u >= 311 && u < 329 && v >= 231 && v < 249) ? 1.0 : 2.0;
+  });
+  SegmentationSettings settings = preset("kinect");
+  ASSERT_EQ(settings.min_region_size, 200);
+  for (const int bands : {1, 2}) {
+    settings.growth_bands = bands;
+    const Stages p = run(cloud, settings);
+    expect_consistent(cloud, p.seg, settings);
+    ASSERT_EQ(p.seg.segments.size(), 2u) << bands << " bands";
+    const Segment& square = p.seg.segments[1];
+    EXPECT_GE(square.pixel_count, 17 * 17) << bands << " bands";
+    EXPECT_NEAR(square.offset, 1.0, 1e-3) << bands << " bands";
+    EXPECT_EQ(p.seg.labels(320, 235), square.label) << bands << " bands";
+    EXPECT_EQ(p.seg.labels(320, 245), square.label) << bands << " bands";
+  }
+}
+
 /// A band is at least 4 cell rows tall: more bands than that allows give the largest count
 /// that fits (7 at 240 rows = 30 cell rows; 3 at 241 rows with mesh stride 2 = 15 cell rows of
 /// lattice rows, the last band taking the partial cell row; 1 at 48 rows), and the results with

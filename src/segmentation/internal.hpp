@@ -228,7 +228,10 @@ struct Segmenter::Scratch {
   std::vector<std::uint8_t> cell_complete;   ///< per cell of one cell row (cells.cpp)
   // post-processing
   std::vector<detail::PlaneFit> fits;
-  std::vector<std::int32_t> parent;  ///< union-find over raw labels
+  std::vector<std::int32_t> parent;       ///< union-find over raw labels
+  std::vector<std::int32_t> seam_parent;  ///< union-find of the pieces a band seam cut apart
+  std::vector<std::int64_t> seam_count;   ///< per seam_parent root: its group's pixels
+  std::vector<std::uint8_t> seam_kept;    ///< per raw label: kept for its group (1), dropped (2)
   std::vector<std::uint64_t> adjacency;
   std::vector<std::uint64_t> adjacency_table;  ///< scratch of detail::sort_distinct
   std::vector<std::int32_t> remap;

@@ -599,6 +599,52 @@ bool planes_merge(const PlaneStats& sa, const PlaneFit& a, const PlaneStats& sb,
   return true;
 }
 
+namespace {
+
+/// Union-find over raw labels in s.seam_parent: the regions on either side of a growth band's
+/// seam that a mesh edge joins across it and whose planes merge (planes_merge), where one of
+/// them is below min_region_size; and per root the pixels of its group in s.seam_count. A
+/// surface the seam cuts into pieces, each below the minimum, would otherwise be removed
+/// before merging joins them again, so whether it is kept would depend on where the seam runs.
+/// Returns false when there is no seam.
+bool group_seam_pieces(const Frame& f, const SegmentationSettings& settings,
+                       Segmenter::Scratch& s) {
+  const std::size_t bands = s.growth_rows.size() < 2 ? 1 : s.growth_rows.size() - 1;
+  if (bands < 2 || s.growth_rows.back() != f.height) return false;
+  const auto region_count = static_cast<std::int32_t>(s.regions.size());
+  s.seam_parent.resize(static_cast<std::size_t>(region_count));
+  std::iota(s.seam_parent.begin(), s.seam_parent.end(), 0);
+  const auto small = [&](std::int32_t r) { return s.regions[r].count < settings.min_region_size; };
+  const int step = f.pixel_stride;
+  for (std::size_t b = 1; b < bands; ++b) {
+    const int above = s.growth_rows[b] - step;  // the last lattice row of band b - 1
+    if (above < 0) continue;
+    for (int u = 0; u < f.width; u += step) {
+      const std::ptrdiff_t i = static_cast<std::ptrdiff_t>(above) * f.stride + u;
+      const std::int32_t a = f.labels[i];
+      if (a <= 0) continue;
+      for (int k = 0; k < 8; ++k) {
+        if (kNeighbourDv[k] != 1 || ((f.edges[i] >> k) & 1u) == 0) continue;
+        const std::int32_t c = f.labels[i + f.neighbour_offset[k]];
+        if (c <= 0 || c == a || (!small(a) && !small(c))) continue;
+        const std::int32_t ra = find_root(s.seam_parent, a), rc = find_root(s.seam_parent, c);
+        if (ra == rc) continue;
+        const detail::PlaneFit fa = s.regions[a].fit(), fc = s.regions[c].fit();
+        if (fa.ok && fc.ok && planes_merge(s.regions[a], fa, s.regions[c], fc, settings)) {
+          s.seam_parent[std::max(ra, rc)] = std::min(ra, rc);
+        }
+      }
+    }
+  }
+  s.seam_count.assign(static_cast<std::size_t>(region_count), 0);
+  for (std::int32_t r = 1; r < region_count; ++r) {
+    s.seam_count[find_root(s.seam_parent, r)] += s.regions[r].count;
+  }
+  return true;
+}
+
+}  // namespace
+
 void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s,
                  Segmentation& out) {
   const auto region_count = static_cast<std::int32_t>(s.regions.size());  // incl. label 0
@@ -613,9 +659,16 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
   // pieces from being adjacent. Raw labels map to themselves or to 0.
   s.remap.assign(region_count, 0);
   const double footprint = planes ? pixel_footprint(f, s) : 0;
+  const bool seams = planes && settings.merge_planes && group_seam_pieces(f, settings, s);
+  if (seams) s.seam_kept.assign(static_cast<std::size_t>(region_count), 0);
   for (std::int32_t r = 1; r < region_count; ++r) {
-    if (s.regions[r].count >= settings.min_region_size ||
-        wide_enough(s.regions[r], settings.min_region_size, footprint)) {
+    bool keep = s.regions[r].count >= settings.min_region_size ||
+                wide_enough(s.regions[r], settings.min_region_size, footprint);
+    if (!keep && seams && s.seam_count[find_root(s.seam_parent, r)] >= settings.min_region_size) {
+      keep = true;
+      s.seam_kept[r] = 1;
+    }
+    if (keep) {
       s.remap[r] = r;
       if (!s.fits[r].ok) s.fits[r] = s.regions[r].fit();
     }
@@ -638,6 +691,21 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
   // composition root -> compact label in one pass below.
   for (std::int32_t r = 1; r < region_total; ++r) {
     s.remap[r] = s.remap[r] == r ? find_root(s.parent, r) : 0;
+  }
+  if (seams) {
+    // Seam pieces that merging did not join into a region of min_region_size go, as they
+    // would have without the seam: their root is marked in seam_kept (2), then unmapped.
+    s.seam_kept.resize(static_cast<std::size_t>(region_total), 0);  // split parts
+    for (std::int32_t r = 1; r < region_count; ++r) {
+      const std::int32_t root = s.remap[r];
+      if (s.seam_kept[r] == 1 && root > 0 && s.regions[root].count < settings.min_region_size) {
+        s.seam_kept[root] = 2;
+      }
+    }
+    for (std::int32_t r = 1; r < region_total; ++r) {
+      const std::int32_t root = s.remap[r];
+      if (root > 0 && s.seam_kept[root] == 2) s.remap[r] = 0;
+    }
   }
 
   // Compact labels 1..N by size, descending (ties by raw label for determinism).

@@ -387,6 +387,7 @@ void Segmenter::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalM
   std::optional<ThreadPool::KeepAwake> awake;
   if (pool != nullptr) awake.emplace(*pool);
   s.queue.resize(static_cast<std::size_t>(f.stride) * f.height);
+  s.growth_rows.clear();  // growing in bands sets them (grow_planes)
   // The plane model collects its pixel seeds itself, after growing over cells.
   const bool cell_seeds =
       settings.model == RegionModel::plane || settings.model == RegionModel::automatic;
