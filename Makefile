@@ -11,8 +11,12 @@ all: build
 deps:
 	@./scripts/install-deps.sh
 
+# The Python module is built for Debian's interpreter, for which `deps` installs NumPy (another
+# python3 first on PATH, e.g. pyenv's, may lack it); PYTHON=... picks another.
+PYTHON     ?= $(firstword $(wildcard /usr/bin/python3) python3)
+
 $(BUILD)/CMakeCache.txt: | deps
-	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DPYTHON_EXECUTABLE=$(PYTHON)
 
 build: deps $(BUILD)/CMakeCache.txt
 	cmake --build $(BUILD) -j $(JOBS)
@@ -37,15 +41,16 @@ fuzz-smoke: asan-build
 	./scripts/fuzz-smoke.sh $(BUILD_ASAN)
 
 # clang-tidy (checks in .clang-tidy, every finding an error) over LINT_DIRS (default: the library,
-# CLI, tests, benchmarks and examples; CI lints the library, CLI and examples only, and with
+# CLI, tests, benchmarks, examples and Python module; CI lints the library, CLI, examples and
+# Python module only, and with
 # LINT_BASE only the units that may have changed since that commit, to stay within its time
 # budget on 2 cores; see scripts/lint.sh), and clang-format (.clang-format) over every source file.
-LINT_DIRS  ?= src|apps|tests|bench|examples
+LINT_DIRS  ?= src|apps|tests|bench|examples|python
 LINT_BASE  ?=
 lint: build
 	RANGESEG_WITH_LINT=1 ./scripts/install-deps.sh
 	JOBS=$(JOBS) ./scripts/lint.sh $(BUILD) '$(LINT_DIRS)' '$(LINT_BASE)'
-	find include src apps tests bench fuzz examples -name '*.[ch]pp' | xargs clang-format --dry-run --Werror
+	find include src apps tests bench fuzz examples python -name '*.[ch]pp' | xargs clang-format --dry-run --Werror
 
 bench: build
 	$(BUILD)/bench/rangeseg_bench
@@ -64,7 +69,7 @@ compare: build
 	./scripts/compare.sh $(BUILD_COMPARE) $(BUILD) $(OUT)/compare
 
 format:
-	find include src apps tests bench fuzz examples -name '*.[ch]pp' | xargs clang-format -i
+	find include src apps tests bench fuzz examples python -name '*.[ch]pp' | xargs clang-format -i
 
 clean:
 	rm -rf $(BUILD) $(BUILD_ASAN) $(BUILD_COMPARE) $(OUT)

@@ -3,7 +3,8 @@
 # Idempotent; works as root or through sudo.
 set -euo pipefail
 packages=(build-essential cmake pkg-config libeigen3-dev libpng-dev liblzf-dev nlohmann-json3-dev
-          libnanoflann-dev libcli11-dev googletest libgtest-dev libgmock-dev libbenchmark-dev)
+          libnanoflann-dev libcli11-dev googletest libgtest-dev libgmock-dev libbenchmark-dev
+          pybind11-dev python3-dev python3-numpy)
 if [[ "${RANGESEG_WITH_CLANG:-0}" == 1 ]]; then packages+=(clang libclang-rt-14-dev); fi
 if [[ "${RANGESEG_WITH_LINT:-0}" == 1 ]]; then packages+=(clang-tidy clang-format); fi
 if [[ "${RANGESEG_WITH_COMPARE:-0}" == 1 ]]; then packages+=(libpcl-dev libopen3d-dev); fi

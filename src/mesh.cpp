@@ -30,6 +30,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -311,6 +312,15 @@ std::size_t count_faces(const Mesh& mesh) {
     count += row;
   }
   return count;
+}
+
+MeshType mesh_type_from_string(std::string_view name) {
+  if (name == "adaptive") return MeshType::adaptive;
+  if (name == "quad") return MeshType::quad;
+  if (name == "left") return MeshType::left_cut;
+  if (name == "right") return MeshType::right_cut;
+  throw std::invalid_argument("unknown mesh type '" + std::string(name) +
+                              "' (expected adaptive, quad, left or right)");
 }
 
 }  // namespace rangeseg

@@ -297,7 +297,7 @@ void run_eval_synth(const EvalSynthOptions& o) {
       total.gt_regions > 0 ? 100.0 * total.correct / total.gt_regions : 0.0, o.tolerance,
       angle_summary(s.mean_angle_deg, s.std_angle_deg).c_str());
   // The other models label no segment a sphere or cylinder.
-  if (region_model_by_name(o.model) == RegionModel::automatic) print_curved(curved);
+  if (region_model_from_string(o.model) == RegionModel::automatic) print_curved(curved);
   if (!o.json.empty()) {
     nlohmann::json totals = counts_json(total);
     totals["angle_mean_deg"] =

@@ -27,15 +27,6 @@ struct MeshOptions {
 
 }  // namespace
 
-MeshType mesh_type_by_name(const std::string& name) {
-  if (name == "adaptive") return MeshType::adaptive;
-  if (name == "quad") return MeshType::quad;
-  if (name == "left") return MeshType::left_cut;
-  if (name == "right") return MeshType::right_cut;
-  throw std::invalid_argument("unknown mesh type '" + name +
-                              "' (expected adaptive, quad, left or right)");
-}
-
 void add_mesh(CLI::App& app) {
   auto o = std::make_shared<MeshOptions>();
   auto* cmd = app.add_subcommand(
@@ -58,7 +49,7 @@ void add_mesh(CLI::App& app) {
     const auto mesh_settings = [o](const std::string& sensor_preset) {
       MeshSettings s =
           settings_from(resolve_preset(o->preset, sensor_preset), "plane", o->config, false).mesh;
-      s.type = mesh_type_by_name(o->type);
+      s.type = mesh_type_from_string(o->type);
       s.pixel_stride = o->stride;
       return s;
     };

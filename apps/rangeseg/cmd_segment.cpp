@@ -9,6 +9,7 @@
 #include "input.hpp"
 #include "names.hpp"
 #include "output.hpp"
+#include "rangeseg/io/settings_json.hpp"
 #include "segment_output.hpp"
 
 namespace rangeseg::cli {
@@ -29,20 +30,11 @@ struct SegmentOptions {
 
 }  // namespace
 
-RegionModel region_model_by_name(const std::string& model) {
-  if (model == "plane") return RegionModel::plane;
-  if (model == "smooth") return RegionModel::smooth;
-  if (model == "incremental_plane" || model == "incremental") return RegionModel::incremental_plane;
-  if (model == "auto") return RegionModel::automatic;
-  throw std::invalid_argument("unknown model '" + model +
-                              "' (expected plane, smooth, incremental_plane or auto)");
-}
-
 PipelineSettings settings_from(const std::string& preset, const std::string& model,
                                const std::string& config, bool no_smooth) {
   PipelineSettings s = pipeline_preset(preset);
-  s.segmentation.model = region_model_by_name(model);
-  if (!config.empty()) apply_config_file(config, s);
+  s.segmentation.model = region_model_from_string(model);
+  if (!config.empty()) io::apply_settings_file(config, s);
   if (no_smooth) s.smooth = false;
   return s;
 }

@@ -13,10 +13,6 @@
 
 namespace rangeseg::cli {
 
-MeshType mesh_type_by_name(const std::string& name);
-/// "plane", "smooth", "incremental_plane" (or "incremental") or "auto"; throws
-/// std::invalid_argument naming the valid models otherwise.
-RegionModel region_model_by_name(const std::string& name);
 /// "demo" (the scene of `rangeseg demo`: synth::demo_scene() with a can lying on the floor),
 /// "boxes" or "mixed" (synth::random_scene); throws std::invalid_argument naming them otherwise.
 synth::Scene scene_by_name(const std::string& name, std::uint64_t seed);
@@ -26,12 +22,6 @@ synth::RenderSettings sensor_by_name(const std::string& noise, const std::string
 /// Registers --noise and --camera (the arguments of sensor_by_name).
 void add_sensor_options(CLI::App& cmd, std::string& noise, std::string& camera);
 nlohmann::json surfaces_json(const synth::Rendering& rendering);
-
-/// Applies a JSON object {"noise": {a, b, z0}, "mesh": {...}, "smoothing": {...}, "segmentation":
-/// {...}, "rings": {k, max_distance, eps_theta, jump_sigmas}, "smooth": bool} read from `path` on
-/// top of `settings`; unknown keys, values of the wrong type and any settings the library
-/// rejects (`validate(PipelineSettings)`) are errors naming the file and the key.
-void apply_config_file(const std::string& path, PipelineSettings& settings);
 
 }  // namespace rangeseg::cli
 

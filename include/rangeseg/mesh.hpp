@@ -3,6 +3,7 @@
 
 #include <array>
 #include <cstdint>
+#include <string_view>
 #include <vector>
 
 #include "rangeseg/cloud.hpp"
@@ -18,6 +19,10 @@ enum class MeshType : std::uint8_t {
   right_cut,  ///< two triangles, cut from top left to bottom right
   adaptive,   ///< two triangles, cut along the shorter diagonal
 };
+
+/// The mesh type of a name: "adaptive", "quad", "left" (left_cut) or "right" (right_cut). Throws
+/// std::invalid_argument naming the valid types for any other name.
+MeshType mesh_type_from_string(std::string_view name);
 
 /// Settings of mesh construction (paper, eq. 1). Edge (p_i, p_j) is valid when both points are
 /// valid (finite), the edge is not within eps_theta of the viewing ray through p_i,

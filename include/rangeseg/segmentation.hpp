@@ -43,6 +43,9 @@ enum class RegionModel : std::uint8_t {
 enum class SurfaceKind : std::uint8_t { plane, cylinder, sphere, smooth };
 const char* to_string(SurfaceKind kind);
 const char* to_string(RegionModel model);
+/// The model of a name: "plane", "smooth", "incremental_plane" (or "incremental") or "auto".
+/// Throws std::invalid_argument naming the valid models for any other name.
+RegionModel region_model_from_string(std::string_view name);
 using SegmentModel = RegionModel;
 
 /// Settings of `segment`. Distances scale with the sensor noise, so one setting serves the whole

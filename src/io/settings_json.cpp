@@ -1,14 +1,16 @@
+#include "rangeseg/io/settings_json.hpp"
+
+#include <nlohmann/json.hpp>
+
 #include <cstdint>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
 
-#include "names.hpp"
 #include "rangeseg/io/file.hpp"
-#include "rangeseg/pipeline.hpp"
 
-namespace rangeseg::cli {
+namespace rangeseg::io {
 namespace {
 
 using nlohmann::json;
@@ -89,7 +91,7 @@ void read_settings(const json& j, const std::string& path, PipelineSettings& s) 
                    {"type", "eps_theta", "jump_sigmas", "max_edge_a", "max_edge_b", "max_edge_c",
                     "pixel_stride"},
                    where);
-    take_name(m, "type", s.mesh.type, mesh_type_by_name, where);
+    take_name(m, "type", s.mesh.type, mesh_type_from_string, where);
     take(m, "eps_theta", s.mesh.eps_theta, where);
     take(m, "jump_sigmas", s.mesh.jump_sigmas, where);
     take(m, "max_edge_a", s.mesh.max_edge_a, where);
@@ -150,7 +152,7 @@ void read_settings(const json& j, const std::string& path, PipelineSettings& s) 
                     "reassign_across_mesh_cuts"},
                    where);
     auto& t = s.segmentation;
-    take_name(m, "model", t.model, region_model_by_name, where);
+    take_name(m, "model", t.model, region_model_from_string, where);
     take(m, "max_normal_angle", t.max_normal_angle, where);
     take(m, "max_distance_sigmas", t.max_distance_sigmas, where);
     take(m, "normal_noise_sigmas", t.normal_noise_sigmas, where);
@@ -190,15 +192,15 @@ void read_settings(const json& j, const std::string& path, PipelineSettings& s) 
 
 }  // namespace
 
-void apply_config_file(const std::string& path, PipelineSettings& s) {
-  const std::vector<std::uint8_t> bytes = io::read_file(path, 1 << 20);
+void apply_settings_json(std::string_view text, const std::string& path,
+                         PipelineSettings& settings) {
   json j;
   try {
-    j = json::parse(bytes.begin(), bytes.end());
+    j = json::parse(text.begin(), text.end());
   } catch (const json::exception& e) {
     throw std::runtime_error(path + ": not valid JSON: " + e.what());
   }
-  const PipelineSettings before = s;
+  PipelineSettings s = settings;  // `settings` stays as it was when anything is wrong
   read_settings(j, path, s);
   try {
     validate(s);  // before any input is read
@@ -209,7 +211,7 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
     const auto error_without = [&](const std::string& section, const std::string& key) {
       json rest = j;
       rest[section].erase(key);
-      PipelineSettings t = before;
+      PipelineSettings t = settings;
       read_settings(rest, path, t);
       try {
         validate(t);
@@ -231,6 +233,12 @@ void apply_config_file(const std::string& path, PipelineSettings& s) {
     }
     throw std::runtime_error(path + ": invalid settings (" + e.what() + ")");
   }
+  settings = s;
 }
 
-}  // namespace rangeseg::cli
+void apply_settings_file(const std::string& path, PipelineSettings& settings) {
+  const std::vector<std::uint8_t> bytes = read_file(path, 1 << 20);
+  apply_settings_json(std::string(bytes.begin(), bytes.end()), path, settings);
+}
+
+}  // namespace rangeseg::io

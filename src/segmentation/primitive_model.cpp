@@ -10,6 +10,9 @@
 #include <cstdint>
 #include <numbers>
 #include <numeric>
+#include <stdexcept>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "detail/primitive_fit.hpp"
@@ -44,6 +47,15 @@ const char* to_string(RegionModel model) {
       return "auto";
   }
   return "unknown";
+}
+
+RegionModel region_model_from_string(std::string_view name) {
+  if (name == "plane") return RegionModel::plane;
+  if (name == "smooth") return RegionModel::smooth;
+  if (name == "incremental_plane" || name == "incremental") return RegionModel::incremental_plane;
+  if (name == "auto") return RegionModel::automatic;
+  throw std::invalid_argument("unknown model '" + std::string(name) +
+                              "' (expected plane, smooth, incremental_plane or auto)");
 }
 
 }  // namespace rangeseg

@@ -1,0 +1,259 @@
+#include "arrays.hpp"
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace rangeseg::python {
+namespace {
+
+template <class T>
+using CArray = py::array_t<T, py::array::c_style | py::array::forcecast>;
+
+std::string shape_text(const py::array& a) {
+  std::string text = "(";
+  for (py::ssize_t i = 0; i < a.ndim(); ++i) {
+    if (i > 0) text += ", ";
+    text += std::to_string(a.shape(i));
+  }
+  return text + (a.ndim() == 1 ? ",)" : ")");
+}
+
+/// The argument as a NumPy array of a real or integer dtype.
+py::array numeric_array(const py::handle& object, const char* name) {
+  py::array a;
+  try {
+    a = py::array::ensure(object);
+  } catch (const py::error_already_set&) {
+    a = py::array();
+  }
+  if (!a) throw std::invalid_argument(std::string(name) + " must be an array of numbers");
+  const char kind = a.dtype().kind();
+  if (kind != 'f' && kind != 'i' && kind != 'u') {
+    throw std::invalid_argument(std::string(name) + " must hold real numbers, got dtype '" +
+                                std::string(py::str(a.dtype())) + "'");
+  }
+  return a;
+}
+
+int checked_size(py::ssize_t n, const char* name) {
+  if (n < 1 || n > INT_MAX) {
+    throw std::invalid_argument(std::string(name) + " has " + std::to_string(n) +
+                                " points along an axis; 1 to " + std::to_string(INT_MAX) +
+                                " are supported");
+  }
+  return static_cast<int>(n);
+}
+
+/// Checks that `a` has the points' shape (H, W) or (N,), with `channels` > 0 a last axis of that
+/// length, and returns whether it has.
+void require_shape(const py::array& a, int width, int height, bool organized, int channels,
+                   const char* name) {
+  std::vector<py::ssize_t> want;
+  if (organized) want.push_back(height);
+  want.push_back(width);
+  if (channels > 0) want.push_back(channels);
+  bool same = a.ndim() == static_cast<py::ssize_t>(want.size());
+  for (std::size_t i = 0; same && i < want.size(); ++i) same = a.shape(i) == want[i];
+  if (!same) {
+    std::string text = "(";
+    for (std::size_t i = 0; i < want.size(); ++i)
+      text += (i > 0 ? ", " : "") + std::to_string(want[i]);
+    text += want.size() == 1 ? ",)" : ")";
+    throw std::invalid_argument(std::string(name) + " must have the points' shape " + text +
+                                ", got " + shape_text(a));
+  }
+}
+
+template <class T, class U>
+void copy_rows(const U* data, Plane<T>& plane) {
+  const auto width = static_cast<std::size_t>(plane.width());
+  for (int v = 0; v < plane.height(); ++v) {
+    const U* in = data + static_cast<std::size_t>(v) * width;
+    std::copy(in, in + width, plane.row(v));
+  }
+}
+
+void set_colors(const py::array& a, OrganizedCloud& cloud) {
+  cloud.add_rgb();
+  if (a.dtype().is(py::dtype::of<std::uint8_t>())) {  // as they are, without a check
+    const CArray<std::uint8_t> values = CArray<std::uint8_t>::ensure(a);
+    const std::uint8_t* data = values.data();
+    for (int v = 0; v < cloud.height(); ++v) {
+      const std::uint8_t* in = data + static_cast<std::size_t>(v) * cloud.width() * 3;
+      for (int u = 0; u < cloud.width(); ++u) {
+        const std::size_t k = 3 * static_cast<std::size_t>(u);
+        cloud.r(u, v) = in[k];
+        cloud.g(u, v) = in[k + 1];
+        cloud.b(u, v) = in[k + 2];
+      }
+    }
+    return;
+  }
+  const bool floating = a.dtype().kind() == 'f';
+  const CArray<double> values = CArray<double>::ensure(a);
+  const double* data = values.data();
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      const double* c = data + (static_cast<std::size_t>(v) * cloud.width() + u) * 3;
+      std::array<std::uint8_t, 3> rgb{};
+      for (int k = 0; k < 3; ++k) {
+        const double value = floating ? c[k] * 255.0 : c[k];
+        if (!(value >= -0.5 && value < 255.5)) {
+          throw std::invalid_argument(
+              std::string("colors must be uint8 0..255 or floats 0..1; point ") +
+              std::to_string(static_cast<std::size_t>(v) * cloud.width() + u) + " has " +
+              std::to_string(c[k]));
+        }
+        rgb[static_cast<std::size_t>(k)] = static_cast<std::uint8_t>(std::lround(value));
+      }
+      cloud.r(u, v) = rgb[0];
+      cloud.g(u, v) = rgb[1];
+      cloud.b(u, v) = rgb[2];
+    }
+  }
+}
+
+template <class T>
+py::array_t<T> plane_array_of(const Plane<T>& plane, bool organized) {
+  std::vector<py::ssize_t> shape;
+  if (organized) shape.push_back(plane.height());
+  shape.push_back(plane.width());
+  py::array_t<T> out(shape);
+  T* data = out.mutable_data();
+  const auto width = static_cast<std::size_t>(plane.width());
+  for (int v = 0; v < plane.height(); ++v) {
+    std::copy(plane.row(v), plane.row(v) + width, data + static_cast<std::size_t>(v) * width);
+  }
+  return out;
+}
+
+}  // namespace
+
+OrganizedCloud cloud_from_arrays(const py::handle& points, const py::handle& intensity,
+                                 const py::handle& colors, const py::handle& labels) {
+  const py::array a = numeric_array(points, "points");
+  const bool organized = a.ndim() == 3;
+  if ((a.ndim() != 2 && a.ndim() != 3) || a.shape(a.ndim() - 1) != 3) {
+    throw std::invalid_argument("points must have the shape (H, W, 3) of an organized cloud or " +
+                                std::string("(N, 3) of an unorganized one, got ") + shape_text(a));
+  }
+  const int width = checked_size(a.shape(organized ? 1 : 0), "points");
+  const int height = organized ? checked_size(a.shape(0), "points") : 1;
+  OrganizedCloud cloud(width, height);
+  const CArray<float> xyz = CArray<float>::ensure(a);
+  const float* data = xyz.data();
+  for (int v = 0; v < height; ++v) {
+    float* x = cloud.x.row(v);
+    float* y = cloud.y.row(v);
+    float* z = cloud.z.row(v);
+    const float* in = data + static_cast<std::size_t>(v) * width * 3;
+    for (int u = 0; u < width; ++u) {
+      const std::size_t k = 3 * static_cast<std::size_t>(u);
+      x[u] = in[k];
+      y[u] = in[k + 1];
+      z[u] = in[k + 2];
+    }
+  }
+  if (!intensity.is_none()) {
+    const py::array i = numeric_array(intensity, "intensity");
+    require_shape(i, width, height, organized, 0, "intensity");
+    cloud.add_intensity();
+    copy_rows(CArray<float>::ensure(i).data(), cloud.intensity);
+  }
+  if (!colors.is_none()) {
+    const py::array c = numeric_array(colors, "colors");
+    require_shape(c, width, height, organized, 3, "colors");
+    set_colors(c, cloud);
+  }
+  if (!labels.is_none()) {
+    const py::array l = numeric_array(labels, "labels");
+    require_shape(l, width, height, organized, 0, "labels");
+    if (l.dtype().kind() == 'f') throw std::invalid_argument("labels must be integers");
+    const CArray<std::int64_t> values = CArray<std::int64_t>::ensure(l);
+    const std::int64_t* data64 = values.data();
+    const auto n = static_cast<std::size_t>(values.size());
+    if (std::any_of(data64, data64 + n,
+                    [](std::int64_t x) { return x < INT_MIN || x > INT_MAX; })) {
+      throw std::invalid_argument("labels must fit in 32-bit integers");
+    }
+    cloud.add_label();
+    copy_rows(data64, cloud.label);
+  }
+  return cloud;
+}
+
+py::array_t<float> xyz_array(const FloatPlane& x, const FloatPlane& y, const FloatPlane& z,
+                             bool organized) {
+  std::vector<py::ssize_t> shape;
+  if (organized) shape.push_back(z.height());
+  shape.push_back(z.width());
+  shape.push_back(3);
+  py::array_t<float> out(shape);
+  float* data = out.mutable_data();
+  for (int v = 0; v < z.height(); ++v) {
+    float* o = data + static_cast<std::size_t>(v) * z.width() * 3;
+    for (int u = 0; u < z.width(); ++u) {
+      const std::size_t k = 3 * static_cast<std::size_t>(u);
+      o[k] = x(u, v);
+      o[k + 1] = y(u, v);
+      o[k + 2] = z(u, v);
+    }
+  }
+  return out;
+}
+
+py::array_t<float> plane_array(const FloatPlane& plane, bool organized) {
+  return plane_array_of(plane, organized);
+}
+py::array_t<std::int32_t> plane_array(const LabelImage& plane, bool organized) {
+  return plane_array_of(plane, organized);
+}
+py::array_t<std::uint16_t> plane_array(const DepthImage& plane, bool organized) {
+  return plane_array_of(plane, organized);
+}
+
+py::array_t<std::uint8_t> colors_array(const OrganizedCloud& cloud) {
+  std::vector<py::ssize_t> shape;
+  if (cloud.is_organized()) shape.push_back(cloud.height());
+  shape.push_back(cloud.width());
+  shape.push_back(3);
+  py::array_t<std::uint8_t> out(shape);
+  std::uint8_t* data = out.mutable_data();
+  for (int v = 0; v < cloud.height(); ++v) {
+    std::uint8_t* o = data + static_cast<std::size_t>(v) * cloud.width() * 3;
+    for (int u = 0; u < cloud.width(); ++u) {
+      const std::size_t k = 3 * static_cast<std::size_t>(u);
+      o[k] = cloud.r(u, v);
+      o[k + 1] = cloud.g(u, v);
+      o[k + 2] = cloud.b(u, v);
+    }
+  }
+  return out;
+}
+
+LabelImage labels_from_array(const py::handle& array, const char* name) {
+  const py::array a = numeric_array(array, name);
+  if (a.ndim() != 2) {
+    throw std::invalid_argument(std::string(name) + " must be a 2D label image (H, W), got " +
+                                shape_text(a));
+  }
+  if (a.dtype().kind() == 'f') throw std::invalid_argument(std::string(name) + " must be integers");
+  const int height = checked_size(a.shape(0), name);
+  const int width = checked_size(a.shape(1), name);
+  const CArray<std::int64_t> values = CArray<std::int64_t>::ensure(a);
+  const std::int64_t* data = values.data();
+  const auto n = static_cast<std::size_t>(values.size());
+  if (std::any_of(data, data + n, [](std::int64_t x) { return x < INT_MIN || x > INT_MAX; })) {
+    throw std::invalid_argument(std::string(name) + " must fit in 32-bit integers");
+  }
+  LabelImage labels(width, height);
+  copy_rows(data, labels);
+  return labels;
+}
+
+}  // namespace rangeseg::python

@@ -1,0 +1,95 @@
+// rangeseg.Cloud and the file readers.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <string>
+
+#include "arrays.hpp"
+#include "bindings.hpp"
+#include "rangeseg/io/camera_json.hpp"
+#include "rangeseg/io/cloud_file.hpp"
+#include "rangeseg/io/png.hpp"
+
+namespace rangeseg::python {
+namespace {
+
+using namespace pybind11::literals;
+
+template <class Read>
+auto without_gil(Read&& read) {
+  const py::gil_scoped_release release;
+  return read();
+}
+
+}  // namespace
+
+void bind_cloud(py::module_& m) {
+  py::class_<OrganizedCloud>(
+      m, "Cloud", R"(A point cloud: organized (a pixel grid, height > 1) or unorganized (height 1).
+
+The arrays are copies: points float32 (H, W, 3) or (N, 3) in metres, NaN where there
+is no point; intensity (H, W) / (N,), colors uint8 (H, W, 3) / (N, 3) and labels int32
+(H, W) / (N,), or None when the cloud has none.)")
+      .def(py::init([](const py::object& points, const py::object& intensity,
+                       const py::object& colors, const py::object& labels) {
+             return cloud_from_arrays(points, intensity, colors, labels);
+           }),
+           "points"_a, "intensity"_a = py::none(), "colors"_a = py::none(), "labels"_a = py::none())
+      .def_property_readonly("points", [](const OrganizedCloud& c) { return points_array(c); })
+      .def_property_readonly("intensity",
+                             [](const OrganizedCloud& c) -> py::object {
+                               if (!c.has_intensity()) return py::none();
+                               return plane_array(c.intensity, c.is_organized());
+                             })
+      .def_property_readonly("colors",
+                             [](const OrganizedCloud& c) -> py::object {
+                               if (!c.has_rgb()) return py::none();
+                               return colors_array(c);
+                             })
+      .def_property_readonly("labels",
+                             [](const OrganizedCloud& c) -> py::object {
+                               if (!c.has_label()) return py::none();
+                               return plane_array(c.label, c.is_organized());
+                             })
+      .def_property_readonly("width", &OrganizedCloud::width)
+      .def_property_readonly("height", &OrganizedCloud::height)
+      .def_property_readonly("is_organized", &OrganizedCloud::is_organized)
+      .def("count_valid", &OrganizedCloud::count_valid, "points with finite x, y and z")
+      .def("__repr__", [](const OrganizedCloud& c) {
+        return "<rangeseg.Cloud " + std::to_string(c.width()) + " x " + std::to_string(c.height()) +
+               (c.is_organized() ? ", organized" : ", unorganized") + ", " +
+               std::to_string(c.count_valid()) + " valid points>";
+      });
+
+  m.def(
+      "read_cloud",
+      [](const std::string& path) { return without_gil([&] { return io::read_cloud(path); }); },
+      "path"_a,
+      R"(Reads a point cloud by its extension: .pcd, .ply, .xyz / .xyzn / .xyzrgb / .pts, or a
+SegComp .range image. Raises RuntimeError naming the file and the problem.)");
+  m.def(
+      "read_depth_png",
+      [](const std::string& path) {
+        return plane_array(without_gil([&] { return io::read_depth_png(path); }), true);
+      },
+      "path"_a, "A 16-bit depth PNG as uint16 (H, W), raw units (0 = no measurement).");
+  m.def(
+      "read_label_png",
+      [](const std::string& path) {
+        return plane_array(without_gil([&] { return io::read_label_png(path); }), true);
+      },
+      "path"_a, "A label PNG (e.g. labels.png of `rangeseg segment`) as int32 (H, W).");
+  m.def(
+      "read_camera_json",
+      [](const std::string& path) {
+        const CameraIntrinsics c = io::read_camera_json(path);
+        return py::dict("fx"_a = c.fx, "fy"_a = c.fy, "cx"_a = c.cx, "cy"_a = c.cy,
+                        "width"_a = c.width, "height"_a = c.height);
+      },
+      "path"_a,
+      R"(Pinhole intrinsics from a JSON file (Open3D's PinholeCameraIntrinsic or flat fx, fy,
+cx, cy, width, height) as a dict; width and height are 0 when the file does not give them.)");
+}
+
+}  // namespace rangeseg::python

@@ -1,0 +1,58 @@
+// rangeseg.evaluate: the SegComp protocol of Hoover et al.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "arrays.hpp"
+#include "bindings.hpp"
+#include "rangeseg/eval.hpp"
+
+namespace rangeseg::python {
+namespace {
+
+using namespace pybind11::literals;
+
+py::dict evaluate(const py::object& ground_truth, const py::object& segmentation, double tolerance,
+                  int min_gt_label, const py::object& points) {
+  const LabelImage gt = labels_from_array(ground_truth, "ground_truth");
+  const LabelImage ms = labels_from_array(segmentation, "segmentation");
+  const eval::EvalSettings settings{.tolerance = tolerance, .min_gt_label = min_gt_label};
+  const eval::EvalResult r = eval::evaluate(gt, ms, settings);
+  py::dict out("tolerance"_a = tolerance, "gt_regions"_a = r.gt_regions,
+               "ms_regions"_a = r.ms_regions, "correct"_a = r.correct, "over"_a = r.over,
+               "under"_a = r.under, "missed"_a = r.missed, "noise"_a = r.noise,
+               "correct_pairs"_a = r.correct_pairs);
+  if (!points.is_none()) {
+    const OrganizedCloud cloud = cloud_from_arrays(points, py::none(), py::none(), py::none());
+    if (cloud.width() != gt.width() || cloud.height() != gt.height() || !cloud.is_organized()) {
+      throw std::invalid_argument("points must be (H, W, 3) of the label images' size " +
+                                  std::to_string(gt.height()) + " x " + std::to_string(gt.width()));
+    }
+    const eval::AngleStats a = eval::angle_error(r, gt, eval::fit_planes(cloud, gt, min_gt_label),
+                                                 eval::fit_planes(cloud, ms, 1));
+    out["angle_pairs"] = a.pairs;
+    out["angle_error_deg"] = a.mean_deg;
+    out["angle_error_std_deg"] = a.std_deg;
+  }
+  return out;
+}
+
+}  // namespace
+
+void bind_eval(py::module_& m) {
+  m.def("evaluate", &evaluate, "ground_truth"_a, "segmentation"_a, "tolerance"_a = 0.8,
+        "min_gt_label"_a = 1, "points"_a = py::none(),
+        R"(Scores a segmentation against ground truth by the SegComp protocol (Hoover et al.
+1996): two integer label images of one size. Ground-truth labels below min_gt_label are
+no region (10 for SegComp .gt-seg images); segmentation labels <= 0 are unlabelled.
+Returns a dict: gt_regions, ms_regions, correct, over, under, missed, noise (counts at
+the overlap tolerance T = tolerance, 0.5 < T <= 1) and correct_pairs [(gt, ms)]; with
+the points (H, W, 3) also Hoover's angle error of adjacent correctly detected planes
+(angle_error_deg, its std, angle_pairs; NaN when there is no such pair).)");
+}
+
+}  // namespace rangeseg::python

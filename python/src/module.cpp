@@ -1,0 +1,23 @@
+// The rangeseg Python module: the library's pipeline on NumPy arrays.
+#include <pybind11/pybind11.h>
+
+#include "bindings.hpp"
+
+PYBIND11_MODULE(rangeseg, m) {
+  m.doc() = R"(Fast range image segmentation and smoothing (Holz & Behnke).
+
+Turns organized point clouds and depth images (Kinect, RealSense, laser range scans)
+and unorganized clouds into smoothed points and normals, a segmentation into planes,
+cylinders, spheres and smooth surfaces, and plane polygons, in milliseconds per frame.
+
+    import rangeseg
+    cloud = rangeseg.read_cloud("frame.pcd")
+    result = rangeseg.Pipeline(preset="kinect").process(cloud)
+    result.labels, result.segments
+
+Units are metres and radians.)";
+  m.attr("__version__") = RANGESEG_VERSION;
+  rangeseg::python::bind_cloud(m);
+  rangeseg::python::bind_pipeline(m);
+  rangeseg::python::bind_eval(m);
+}

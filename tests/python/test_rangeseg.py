@@ -1,0 +1,300 @@
+"""Tests of the rangeseg Python module against analytic scenes, the command line and bad input.
+
+Run by ctest (test `python_module`) with the built module on PYTHONPATH; RANGESEG_CLI names the
+command-line tool, RANGESEG_DATA (or ../shared/data beside the sources) the sensor data.
+"""
+
+import json
+import math
+import os
+import subprocess
+import tempfile
+import unittest
+
+import numpy as np
+
+import rangeseg
+
+SOURCE_DIR = os.environ.get("RANGESEG_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
+DATA_DIR = os.environ.get("RANGESEG_DATA", os.path.join(SOURCE_DIR, "..", "shared", "data"))
+KINECT_FRAME = os.path.join(DATA_DIR, "kinect", "grabber_frame0.pcd")
+
+# A Kinect at 640 x 480, and the same camera at half the resolution.
+FX, CX, CY = 525.0, 319.5, 239.5
+HALF = dict(fx=FX / 2, fy=FX / 2, cx=159.5, cy=119.5)
+
+
+def rays(width, height, fx, fy, cx, cy):
+    """Viewing rays (H, W, 3) with z = 1."""
+    u, v = np.meshgrid(np.arange(width, dtype=np.float64), np.arange(height, dtype=np.float64))
+    return np.stack([(u - cx) / fx, (v - cy) / fy, np.ones_like(u)], axis=-1)
+
+
+def plane_depth(normal, offset, width=320, height=240, **camera):
+    """Depth z of the plane normal . x + offset = 0 along each pixel's ray (NaN behind)."""
+    camera = camera or HALF
+    d = rays(width, height, **camera)
+    denom = d @ np.asarray(normal, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = -offset / denom
+    z[~(z > 0)] = np.nan
+    return z
+
+
+def kinect_sigma(z):
+    return 0.0012 + 0.0019 * (z - 0.4) ** 2
+
+
+def angle_deg(a, b):
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    c = abs(a @ b) / (np.linalg.norm(a) * np.linalg.norm(b))
+    return math.degrees(math.acos(min(1.0, c)))
+
+
+def depth_to_points(z, fx, fy, cx, cy):
+    return (rays(z.shape[1], z.shape[0], fx, fy, cx, cy) * z[..., None]).astype(np.float32)
+
+
+class AnalyticScenes(unittest.TestCase):
+    def test_tilted_plane_is_one_segment_with_the_true_plane(self):
+        normal = np.array([0.2, -0.5, -1.0])
+        normal /= np.linalg.norm(normal)
+        z = plane_depth(normal, 1.5)
+        result = rangeseg.Pipeline(preset="ideal").process_depth(z.astype(np.float32), **HALF)
+        valid = np.isfinite(z)
+        self.assertEqual(len(result.segments), 1)
+        segment = result.segments[0]
+        self.assertGreaterEqual((result.labels[valid] == 1).mean(), 0.99)
+        self.assertLess(angle_deg(segment["normal"], normal), 0.05)
+        self.assertAlmostEqual(segment["offset"], 1.5, delta=1e-4)
+        self.assertEqual(segment["surface"]["type"], "plane")
+        # The polygon's corners lie on the plane, and its area is that of the points' faces.
+        outer = segment["polygon"]["loops"][0]
+        self.assertFalse(outer["hole"])
+        self.assertLess(np.abs(outer["points"] @ normal + 1.5).max(), 1e-4)
+        self.assertAlmostEqual(segment["polygon"]["area_m2"], segment["area_m2"],
+                               delta=0.02 * segment["area_m2"])
+
+    def test_noisy_millimetre_depth_gives_the_plane_within_a_degree(self):
+        normal = np.array([0.0, -0.6, -0.8])
+        z = plane_depth(normal, 1.2)
+        rng = np.random.default_rng(7)
+        noisy = z + rng.normal(size=z.shape) * kinect_sigma(np.nan_to_num(z))
+        depth_mm = np.where(np.isfinite(noisy), np.round(noisy * 1000), 0).astype(np.uint16)
+        result = rangeseg.Pipeline(preset="kinect").process_depth(depth_mm, **HALF)
+        self.assertEqual(len(result.segments), 1)
+        self.assertLess(angle_deg(result.segments[0]["normal"], normal), 1.0)
+        self.assertGreaterEqual((result.labels[depth_mm > 0] == 1).mean(), 0.97)
+
+    def test_a_depth_step_gives_two_planes_that_score_as_correct(self):
+        z = np.full((240, 320), 1.0)
+        z[:, 160:] = 1.5
+        truth = np.where(np.arange(320) < 160, 1, 2)[None, :].repeat(240, axis=0)
+        result = rangeseg.Pipeline(preset="ideal").process_depth(z, **HALF)
+        self.assertEqual(len(result.segments), 2)
+        score = rangeseg.evaluate(truth, result.labels)
+        self.assertEqual((score["gt_regions"], score["correct"], score["noise"]), (2, 2, 0))
+        offsets = sorted(s["offset"] for s in result.segments)
+        self.assertAlmostEqual(offsets[0], 1.0, delta=1e-4)
+        self.assertAlmostEqual(offsets[1], 1.5, delta=1e-4)
+
+    def test_a_sphere_before_a_wall_is_found_with_its_radius(self):
+        width, height = 320, 240
+        d = rays(width, height, **HALF)
+        d /= np.linalg.norm(d, axis=-1, keepdims=True)
+        centre, radius = np.array([0.05, 0.0, 1.3]), 0.15
+        b = d @ centre
+        disc = b * b - (centre @ centre - radius * radius)
+        hit = disc > 0
+        t = np.where(hit, b - np.sqrt(np.where(hit, disc, 0)), np.inf)
+        wall = 2.0 / d[..., 2]
+        r = np.minimum(t, wall)
+        points = (d * r[..., None]).astype(np.float32)
+        result = rangeseg.Pipeline(preset="ideal", model="auto").process(points)
+        spheres = [s for s in result.segments if s["surface"]["type"] == "sphere"]
+        self.assertEqual(len(spheres), 1, [s["surface"]["type"] for s in result.segments])
+        found = spheres[0]["surface"]
+        self.assertAlmostEqual(found["radius"], radius, delta=0.01 * radius)
+        self.assertLess(np.linalg.norm(np.asarray(found["centre"]) - centre), 0.005)
+        # Nearly every pixel that sees the sphere is in its segment.
+        label = spheres[0]["id"]
+        self.assertGreaterEqual((result.labels[hit] == label).mean(), 0.95)
+
+
+class Inputs(unittest.TestCase):
+    def step_points(self):
+        z = np.full((240, 320), 1.0)
+        z[:, 160:] = 1.4
+        z[100:140, 40:80] = np.nan  # a hole
+        return depth_to_points(z, **HALF)
+
+    def test_unorganized_points_in_any_order_get_the_labels_of_their_pixels(self):
+        points = self.step_points()
+        organized = rangeseg.Pipeline(preset="ideal").process(points)
+        valid = np.isfinite(points[..., 2])
+        flat = points[valid]
+        order = np.random.default_rng(3).permutation(len(flat))
+        result = rangeseg.Pipeline(preset="ideal").process(flat[order])
+        self.assertFalse(result.organized)
+        self.assertEqual(result.labels.shape, (len(flat),))
+        self.assertEqual(result.points.shape, (len(flat), 3))
+        back = np.empty_like(result.labels)
+        back[order] = result.labels
+        np.testing.assert_array_equal(back, organized.labels[valid])
+
+    def test_float64_lists_and_clouds_give_the_float32_result(self):
+        points = self.step_points()
+        pipeline = rangeseg.Pipeline(preset="ideal")
+        want = pipeline.process(points).labels
+        np.testing.assert_array_equal(pipeline.process(points.astype(np.float64)).labels, want)
+        np.testing.assert_array_equal(pipeline.process(rangeseg.Cloud(points)).labels, want)
+        small = points[:4, :5]
+        np.testing.assert_array_equal(pipeline.process(small.tolist()).points, pipeline.process(small).points)
+
+    def test_results_are_copies_that_outlive_the_next_frame(self):
+        pipeline = rangeseg.Pipeline(preset="ideal")
+        first = pipeline.process(self.step_points())
+        labels = first.labels.copy()
+        pipeline.process_depth(np.full((240, 320), 2.0), **HALF)
+        np.testing.assert_array_equal(first.labels, labels)
+        self.assertEqual(len(first.segments), 2)
+
+    def test_two_threads_give_the_one_thread_result(self):
+        z = plane_depth([0.1, -0.7, -0.7], 1.0, 640, 480, fx=FX, fy=FX, cx=CX, cy=CY)
+        z[:, 300:] = np.minimum(z[:, 300:], 1.3)
+        one = rangeseg.Pipeline(preset="ideal").process_depth(z, fx=FX, fy=FX, cx=CX, cy=CY)
+        two = rangeseg.Pipeline(preset="ideal", threads=2).process_depth(z, fx=FX, fy=FX, cx=CX, cy=CY)
+        self.assertEqual(two.labels.max(), one.labels.max())
+        np.testing.assert_array_equal(two.labels, one.labels)
+        np.testing.assert_array_equal(two.normals, one.normals)
+
+    def test_colours_as_open3d_floats_equal_uint8_colours(self):
+        points = self.step_points()
+        rgb = (np.indices(points.shape[:2]).sum(axis=0) % 256).astype(np.uint8)
+        colors = np.repeat(rgb[..., None], 3, axis=-1)
+        pipeline = rangeseg.Pipeline(preset="kinect")
+        a = pipeline.process(points, colors=colors)
+        b = pipeline.process(points, colors=colors / 255.0)
+        np.testing.assert_array_equal(a.points, b.points)
+
+    def test_config_dict_and_file_set_the_same_settings(self):
+        points = self.step_points()
+        # The left face of the step has 160 x 240 - 1600 = 36800 points, the right one 38400.
+        config = {"segmentation": {"min_region_size": 37500}}
+        from_dict = rangeseg.Pipeline(preset="ideal", config=config).process(points)
+        self.assertEqual([s["pixel_count"] for s in from_dict.segments], [160 * 240])
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "params.json")
+            with open(path, "w") as f:
+                json.dump(config, f)
+            from_file = rangeseg.Pipeline(preset="ideal", config=path).process(points)
+        np.testing.assert_array_equal(from_file.labels, from_dict.labels)
+
+    def test_read_cloud_reads_what_it_is_given(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "small.pcd")
+            with open(path, "w") as f:
+                f.write("VERSION .7\nFIELDS x y z rgb label\nSIZE 4 4 4 4 4\nTYPE F F F U U\n"
+                        "COUNT 1 1 1 1 1\nWIDTH 2\nHEIGHT 2\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 4\n"
+                        "DATA ascii\n0 0 1 16711680 3\n0.1 0 1 65280 3\nnan nan nan 0 0\n0.1 0.1 1.5 255 7\n")
+            cloud = rangeseg.read_cloud(path)
+        self.assertTrue(cloud.is_organized)
+        self.assertEqual((cloud.width, cloud.height, cloud.count_valid()), (2, 2, 3))
+        self.assertEqual(cloud.points.shape, (2, 2, 3))
+        np.testing.assert_array_equal(cloud.colors[0, 0], [255, 0, 0])
+        np.testing.assert_array_equal(cloud.colors[1, 1], [0, 0, 255])
+        np.testing.assert_array_equal(cloud.labels, [[3, 3], [0, 7]])
+        self.assertTrue(np.isnan(cloud.points[1, 0]).all())
+        self.assertIsNone(cloud.intensity)
+
+
+class BadInput(unittest.TestCase):
+    def assert_raises_with(self, error, text, call, *args, **kwargs):
+        with self.assertRaises(error) as caught:
+            call(*args, **kwargs)
+        self.assertIn(text, str(caught.exception))
+
+    def test_arrays_of_the_wrong_shape_or_type_are_value_errors_naming_them(self):
+        p = rangeseg.Pipeline()
+        self.assert_raises_with(ValueError, "(H, W, 3)", p.process, np.zeros((10, 4)))
+        self.assert_raises_with(ValueError, "got (5,)", p.process, np.zeros(5))
+        self.assert_raises_with(ValueError, "dtype", p.process, np.array([["a", "b", "c"]]))
+        self.assert_raises_with(ValueError, "points", p.process, np.zeros((0, 3)))
+        points = np.ones((4, 5, 3), dtype=np.float32)
+        self.assert_raises_with(ValueError, "intensity must have the points' shape (4, 5)", p.process,
+                                points, intensity=np.ones((5, 4)))
+        self.assert_raises_with(ValueError, "colors must be uint8 0..255 or floats 0..1", p.process,
+                                points, colors=np.full((4, 5, 3), 300))
+        self.assert_raises_with(ValueError, "depth must be a 2D array", p.process_depth,
+                                np.ones((2, 2, 2)), **HALF)
+        self.assert_raises_with(ValueError, "depth_scale", p.process_depth, np.ones((4, 4), np.uint16),
+                                depth_scale=-1, **HALF)
+        self.assert_raises_with(ValueError, "ground_truth must be integers", rangeseg.evaluate,
+                                np.zeros((2, 2)), np.zeros((2, 2), int))
+        self.assert_raises_with(ValueError, "is 2x3", rangeseg.evaluate,
+                                np.zeros((2, 2), int), np.zeros((3, 2), int))
+
+    def test_bad_settings_name_the_setting(self):
+        self.assert_raises_with(ValueError, "valid", rangeseg.Pipeline, preset="kinnect")
+        self.assert_raises_with(ValueError, "unknown model 'planes'", rangeseg.Pipeline, model="planes")
+        self.assert_raises_with(ValueError, "threads", rangeseg.Pipeline, threads=0)
+        self.assert_raises_with(RuntimeError, "unknown key 'min_region'", rangeseg.Pipeline,
+                                config={"segmentation": {"min_region": 3}})
+        self.assert_raises_with(RuntimeError, "key 'min_region_size' = -3 is invalid", rangeseg.Pipeline,
+                                config={"segmentation": {"min_region_size": -3}})
+        self.assert_raises_with(ValueError, "config must be a dict", rangeseg.Pipeline, config=3)
+
+    def test_unreadable_files_are_runtime_errors_naming_the_file(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            missing = os.path.join(tmp, "missing.pcd")
+            self.assert_raises_with(RuntimeError, missing, rangeseg.read_cloud, missing)
+            truncated = os.path.join(tmp, "truncated.pcd")
+            with open(truncated, "w") as f:
+                f.write("VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 4\n"
+                        "HEIGHT 4\nPOINTS 16\nDATA binary\n\0\0")
+            self.assert_raises_with(RuntimeError, truncated, rangeseg.read_cloud, truncated)
+            self.assert_raises_with(RuntimeError, "unknown.txt", rangeseg.read_cloud,
+                                    os.path.join(tmp, "unknown.txt"))
+            self.assert_raises_with(RuntimeError, missing, rangeseg.Pipeline, config=missing)
+
+
+@unittest.skipUnless(os.path.exists(KINECT_FRAME), f"shared data not found: {KINECT_FRAME} "
+                     "(set RANGESEG_DATA or put ../shared/data beside the repository)")
+class KinectFrame(unittest.TestCase):
+    @unittest.skipUnless(os.environ.get("RANGESEG_CLI"), "RANGESEG_CLI is not set")
+    def test_the_module_gives_the_command_lines_segmentation(self):
+        result = rangeseg.Pipeline(preset="kinect").process(rangeseg.read_cloud(KINECT_FRAME))
+        with tempfile.TemporaryDirectory() as tmp:
+            subprocess.run([os.environ["RANGESEG_CLI"], "segment", KINECT_FRAME, "-o", tmp,
+                            "--preset", "kinect", "--no-mesh"], check=True, capture_output=True)
+            labels = rangeseg.read_label_png(os.path.join(tmp, "labels.png"))
+            with open(os.path.join(tmp, "segments.json")) as f:
+                segments = json.load(f)["segments"]
+        np.testing.assert_array_equal(result.labels, labels)
+        self.assertEqual([s["pixel_count"] for s in result.segments],
+                         [s["pixel_count"] for s in segments])
+        for mine, theirs in zip(result.segments, segments):
+            self.assertAlmostEqual(mine["offset"], theirs["offset"], places=9)
+            if "polygon" in theirs:
+                self.assertAlmostEqual(mine["polygon"]["area_m2"], theirs["polygon"]["area_m2"], places=9)
+
+    def test_the_floor_is_one_plane_and_the_timings_add_up(self):
+        result = rangeseg.Pipeline().process(rangeseg.read_cloud(KINECT_FRAME))
+        largest = result.segments[0]
+        self.assertEqual(largest["surface"]["type"], "plane")
+        self.assertGreater(largest["pixel_count"], 100000)
+        t = result.times
+        stages = t["input"] + t["mesh"] + t["normals"] + t["smoothing"] + t["segmentation"] + t["polygons"]
+        self.assertLessEqual(stages, t["total"] * 1.001)
+        self.assertEqual(result.curvature.shape, (480, 640))
+
+
+class Examples(unittest.TestCase):
+    def test_the_example_runs(self):
+        example = os.path.join(SOURCE_DIR, "examples", "segment_frame.py")
+        out = subprocess.run([os.sys.executable, example], check=True, capture_output=True, text=True).stdout
+        self.assertIn("segments", out)
+
+
+if __name__ == "__main__":
+    unittest.main()

@@ -1,0 +1,84 @@
+// Tests of the settings JSON parser (the CLI's --config, the Python module's config).
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+#include <string>
+
+#include "rangeseg/io/settings_json.hpp"
+#include "rangeseg/pipeline.hpp"
+
+namespace rangeseg {
+namespace {
+
+std::string error_of(const std::string& text, PipelineSettings& settings) {
+  try {
+    io::apply_settings_json(text, "params.json", settings);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(SettingsJson, KeysSetTheirFieldsAndNamesSetModels) {
+  PipelineSettings s = pipeline_preset("kinect");
+  io::apply_settings_json(
+      R"({"smooth": false, "mesh": {"type": "quad", "eps_theta": 0.2},
+          "segmentation": {"model": "incremental", "min_region_size": 321},
+          "noise": {"a": 0.002, "b": 0.001, "z0": 0.5}})",
+      "params.json", s);
+  EXPECT_FALSE(s.smooth);
+  EXPECT_EQ(s.mesh.type, MeshType::quad);
+  EXPECT_FLOAT_EQ(static_cast<float>(s.mesh.eps_theta), 0.2f);  // a float field
+  EXPECT_EQ(s.segmentation.model, RegionModel::incremental_plane);
+  EXPECT_EQ(s.segmentation.min_region_size, 321);
+  // The noise model goes into every stage.
+  EXPECT_DOUBLE_EQ(s.segmentation.noise.a, 0.002);
+  EXPECT_DOUBLE_EQ(s.mesh.noise.a, 0.002);
+  // "iterations" turns the filter on unless "smooth" says otherwise.
+  PipelineSettings abw = pipeline_preset("abw");
+  ASSERT_FALSE(abw.smooth);
+  io::apply_settings_json(R"({"smoothing": {"iterations": 2}})", "p", abw);
+  EXPECT_TRUE(abw.smooth);
+  EXPECT_EQ(abw.smoothing.iterations, 2);
+}
+
+TEST(SettingsJson, ErrorsNameTheSourceAndKeyAndChangeNothing) {
+  struct Case {
+    const char* json;
+    const char* message;
+  };
+  for (const Case c :
+       {Case{R"({"segmentation": {"min_region": 3}})", "unknown key 'min_region'"},
+        Case{R"({"segmentation": {"min_region_size": 2.5}})", "must be an integer"},
+        Case{R"({"segmentation": {"min_region_size": -3}})",
+             "[segmentation]: key 'min_region_size' = -3 is invalid"},
+        Case{R"({"segmentation": {"model": "planes"}})", "unknown model 'planes'"},
+        Case{R"({"mesh": {"type": "triangles"}})", "unknown mesh type"},
+        Case{R"({"smooth": "yes"})", "wrong type"}, Case{R"([1, 2])", "expected a JSON object"},
+        Case{R"({"mesh": )", "not valid JSON"}}) {
+    PipelineSettings s = pipeline_preset("kinect");
+    s.segmentation.min_region_size = 77;
+    const std::string error = error_of(c.json, s);
+    EXPECT_NE(error.find("params.json"), std::string::npos) << c.json << ": " << error;
+    EXPECT_NE(error.find(c.message), std::string::npos) << c.json << ": " << error;
+    EXPECT_EQ(s.segmentation.min_region_size, 77) << c.json;
+    EXPECT_EQ(s.segmentation.model, RegionModel::plane) << c.json;
+  }
+  // A valid key beside an invalid one is not applied either.
+  PipelineSettings s = pipeline_preset("kinect");
+  const double angle = s.segmentation.max_normal_angle;
+  EXPECT_FALSE(
+      error_of(R"({"segmentation": {"max_normal_angle": 0.5, "min_region_size": 0}})", s).empty());
+  EXPECT_DOUBLE_EQ(s.segmentation.max_normal_angle, angle);
+}
+
+TEST(SettingsJson, NamesOfModelsAndMeshTypes) {
+  EXPECT_EQ(region_model_from_string("auto"), RegionModel::automatic);
+  EXPECT_EQ(region_model_from_string("smooth"), RegionModel::smooth);
+  EXPECT_EQ(mesh_type_from_string("left"), MeshType::left_cut);
+  EXPECT_THROW(region_model_from_string("Plane"), std::invalid_argument);
+  EXPECT_THROW(mesh_type_from_string(""), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace rangeseg
