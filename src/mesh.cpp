@@ -314,6 +314,20 @@ std::size_t count_faces(const Mesh& mesh) {
   return count;
 }
 
+const char* to_string(MeshType type) {
+  switch (type) {
+    case MeshType::adaptive:
+      return "adaptive";
+    case MeshType::quad:
+      return "quad";
+    case MeshType::left_cut:
+      return "left";
+    case MeshType::right_cut:
+      return "right";
+  }
+  return "unknown";
+}
+
 MeshType mesh_type_from_string(std::string_view name) {
   if (name == "adaptive") return MeshType::adaptive;
   if (name == "quad") return MeshType::quad;

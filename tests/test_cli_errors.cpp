@@ -177,3 +177,22 @@ TEST(CliErrors, EvalWithoutPlanePairsPrintsNoNan) {
   EXPECT_EQ(line.substr(0, 10), "labels.png") << r.out;
   EXPECT_EQ(line.back(), '-') << r.out;
 }
+
+// `settings` prints every key of a config; given back as --config it gives the same settings,
+// also under another preset, and a bad config is an error of its own.
+TEST(CliConfig, SettingsPrintAConfigThatGivesThemBack) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_settings");
+  const fs::path file = dir / "abw.json";
+  ASSERT_EQ(run("settings --preset abw --model auto -o " + file.string()).code, 0);
+  std::stringstream text;
+  text << std::ifstream(file).rdbuf();
+  EXPECT_TRUE(contains(text.str(), "\"model\": \"auto\"")) << text.str();
+  EXPECT_TRUE(contains(text.str(), "\"smooth\": false")) << text.str();
+  const CliResult back = run("settings --preset kinect --config " + file.string());
+  ASSERT_EQ(back.code, 0) << back.out;
+  EXPECT_EQ(back.out, text.str());
+  std::ofstream(dir / "bad.json") << R"({"segmentation": {"growth_bands": 0}})";
+  const CliResult bad = run("settings --config " + (dir / "bad.json").string());
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_TRUE(contains(bad.out, "key 'growth_bands' = 0 is invalid")) << bad.out;
+}

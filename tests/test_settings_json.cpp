@@ -72,12 +72,42 @@ TEST(SettingsJson, ErrorsNameTheSourceAndKeyAndChangeNothing) {
   EXPECT_DOUBLE_EQ(s.segmentation.max_normal_angle, angle);
 }
 
+/// The JSON of any settings, applied to other settings, gives them back: every key written is
+/// read (and floats are written as the decimals they were set as).
+TEST(SettingsJson, WrittenSettingsReadBack) {
+  for (const char* preset : {"kinect", "abw", "laser", "perceptron", "ideal"}) {
+    PipelineSettings s = pipeline_preset(preset);
+    s.segmentation.model = RegionModel::automatic;
+    s.mesh.type = MeshType::right_cut;
+    s.rings.k = 9;
+    s.restore_grid = false;
+    const std::string text = io::settings_to_json(s);
+    PipelineSettings back;
+    io::apply_settings_json(text, "written", back);
+    EXPECT_EQ(io::settings_to_json(back), text) << preset;
+    EXPECT_EQ(back.smooth, s.smooth) << preset;
+    EXPECT_EQ(back.segmentation.min_region_size, s.segmentation.min_region_size) << preset;
+    EXPECT_EQ(back.segmentation.noise.a, s.segmentation.noise.a) << preset;
+    EXPECT_EQ(back.mesh.eps_theta, s.mesh.eps_theta) << preset;
+    EXPECT_EQ(back.smoothing.pixel_angle, s.smoothing.pixel_angle) << preset;
+    EXPECT_EQ(back.mesh.type, MeshType::right_cut);
+    EXPECT_EQ(back.rings.k, 9);
+    EXPECT_FALSE(back.restore_grid);
+  }
+  EXPECT_NE(io::settings_to_json(pipeline_preset("kinect")).find("\"eps_theta\": 0.2182,"),
+            std::string::npos);
+}
+
 TEST(SettingsJson, NamesOfModelsAndMeshTypes) {
   EXPECT_EQ(region_model_from_string("auto"), RegionModel::automatic);
   EXPECT_EQ(region_model_from_string("smooth"), RegionModel::smooth);
   EXPECT_EQ(mesh_type_from_string("left"), MeshType::left_cut);
   EXPECT_THROW(region_model_from_string("Plane"), std::invalid_argument);
   EXPECT_THROW(mesh_type_from_string(""), std::invalid_argument);
+  for (const MeshType t :
+       {MeshType::adaptive, MeshType::quad, MeshType::left_cut, MeshType::right_cut}) {
+    EXPECT_EQ(mesh_type_from_string(to_string(t)), t);
+  }
 }
 
 }  // namespace

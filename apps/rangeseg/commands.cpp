@@ -20,6 +20,7 @@ void register_commands(CLI::App& app) {
   add_eval(app);
   add_eval_synth(app);
   add_bench(app);
+  add_settings(app);
 }
 
 }  // namespace rangeseg::cli

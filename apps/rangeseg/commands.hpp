@@ -25,5 +25,6 @@ void add_bench(CLI::App& app);
 void add_smooth(CLI::App& app);
 void add_eval(CLI::App& app);
 void add_eval_synth(CLI::App& app);
+void add_settings(CLI::App& app);
 
 }  // namespace rangeseg::cli

@@ -23,6 +23,8 @@ enum class MeshType : std::uint8_t {
 /// The mesh type of a name: "adaptive", "quad", "left" (left_cut) or "right" (right_cut). Throws
 /// std::invalid_argument naming the valid types for any other name.
 MeshType mesh_type_from_string(std::string_view name);
+/// The name of a mesh type, as mesh_type_from_string takes it.
+const char* to_string(MeshType type);
 
 /// Settings of mesh construction (paper, eq. 1). Edge (p_i, p_j) is valid when both points are
 /// valid (finite), the edge is not within eps_theta of the viewing ray through p_i,

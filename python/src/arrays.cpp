@@ -14,32 +14,6 @@ namespace {
 template <class T>
 using CArray = py::array_t<T, py::array::c_style | py::array::forcecast>;
 
-std::string shape_text(const py::array& a) {
-  std::string text = "(";
-  for (py::ssize_t i = 0; i < a.ndim(); ++i) {
-    if (i > 0) text += ", ";
-    text += std::to_string(a.shape(i));
-  }
-  return text + (a.ndim() == 1 ? ",)" : ")");
-}
-
-/// The argument as a NumPy array of a real or integer dtype.
-py::array numeric_array(const py::handle& object, const char* name) {
-  py::array a;
-  try {
-    a = py::array::ensure(object);
-  } catch (const py::error_already_set&) {
-    a = py::array();
-  }
-  if (!a) throw std::invalid_argument(std::string(name) + " must be an array of numbers");
-  const char kind = a.dtype().kind();
-  if (kind != 'f' && kind != 'i' && kind != 'u') {
-    throw std::invalid_argument(std::string(name) + " must hold real numbers, got dtype '" +
-                                std::string(py::str(a.dtype())) + "'");
-  }
-  return a;
-}
-
 int checked_size(py::ssize_t n, const char* name) {
   if (n < 1 || n > INT_MAX) {
     throw std::invalid_argument(std::string(name) + " has " + std::to_string(n) +
@@ -134,6 +108,42 @@ py::array_t<T> plane_array_of(const Plane<T>& plane, bool organized) {
 
 }  // namespace
 
+std::string shape_text(const py::array& a) {
+  std::string text = "(";
+  for (py::ssize_t i = 0; i < a.ndim(); ++i) {
+    if (i > 0) text += ", ";
+    text += std::to_string(a.shape(i));
+  }
+  return text + (a.ndim() == 1 ? ",)" : ")");
+}
+
+py::array numeric_array(const py::handle& object, const char* name) {
+  const std::string type = py::str(py::type::of(object).attr("__name__"));
+  py::array a = py::reinterpret_steal<py::array>(py::handle());  // null, unlike py::array()
+  if (!object.is_none() && !py::isinstance<py::str>(object) && !py::isinstance<py::bytes>(object)) {
+    a = py::array::ensure(object);  // null when NumPy cannot make an array of it
+  }
+  const char kind = a ? a.dtype().kind() : 'O';
+  if (kind != 'f' && kind != 'i' && kind != 'u') {
+    std::string hint;
+    if (type == "PointCloud") hint = " (for an Open3D PointCloud: np.asarray(pcd.points))";
+    throw std::invalid_argument(
+        std::string(name) + " must be an array of real numbers, got " +
+        (a && a.ndim() > 0 ? "dtype '" + std::string(py::str(a.dtype())) + "'" : type) + hint);
+  }
+  return a;
+}
+
+std::string path_of(const py::handle& path, const char* what) {
+  if (py::isinstance<py::str>(path) || py::isinstance<py::bytes>(path) ||
+      py::hasattr(path, "__fspath__")) {
+    const py::object text = py::module_::import("os").attr("fsdecode")(path);
+    return text.cast<std::string>();
+  }
+  throw std::invalid_argument(std::string(what) + " must be a path (str or os.PathLike), got " +
+                              std::string(py::str(py::type::of(path).attr("__name__"))));
+}
+
 OrganizedCloud cloud_from_arrays(const py::handle& points, const py::handle& intensity,
                                  const py::handle& colors, const py::handle& labels) {
   const py::array a = numeric_array(points, "points");
@@ -141,6 +151,11 @@ OrganizedCloud cloud_from_arrays(const py::handle& points, const py::handle& int
   if ((a.ndim() != 2 && a.ndim() != 3) || a.shape(a.ndim() - 1) != 3) {
     throw std::invalid_argument("points must have the shape (H, W, 3) of an organized cloud or " +
                                 std::string("(N, 3) of an unorganized one, got ") + shape_text(a));
+  }
+  if (organized && a.shape(0) < 2) {
+    throw std::invalid_argument(
+        "points of an organized cloud (H, W, 3) need at least 2 rows, got " + shape_text(a) +
+        "; an unorganized cloud is (N, 3)");
   }
   const int width = checked_size(a.shape(organized ? 1 : 0), "points");
   const int height = organized ? checked_size(a.shape(0), "points") : 1;
@@ -154,9 +169,12 @@ OrganizedCloud cloud_from_arrays(const py::handle& points, const py::handle& int
     const float* in = data + static_cast<std::size_t>(v) * width * 3;
     for (int u = 0; u < width; ++u) {
       const std::size_t k = 3 * static_cast<std::size_t>(u);
-      x[u] = in[k];
-      y[u] = in[k + 1];
-      z[u] = in[k + 2];
+      // inf, as NaN, is no point: all three NaN, so that every stage sees the same.
+      const bool valid =
+          std::isfinite(in[k]) && std::isfinite(in[k + 1]) && std::isfinite(in[k + 2]);
+      x[u] = valid ? in[k] : NAN;
+      y[u] = valid ? in[k + 1] : NAN;
+      z[u] = valid ? in[k + 2] : NAN;
     }
   }
   if (!intensity.is_none()) {

@@ -5,6 +5,7 @@
 #include <pybind11/pybind11.h>
 
 #include <cstdint>
+#include <string>
 
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/image.hpp"
@@ -38,6 +39,17 @@ py::array_t<std::int32_t> plane_array(const LabelImage& plane, bool organized);
 py::array_t<std::uint16_t> plane_array(const DepthImage& plane, bool organized);
 /// (H, W, 3) uint8 of the cloud's colours, or (N, 3).
 py::array_t<std::uint8_t> colors_array(const OrganizedCloud& cloud);
+
+/// The argument as a NumPy array of a real or integer dtype (not bool, complex or object);
+/// throws std::invalid_argument naming `name` otherwise.
+py::array numeric_array(const py::handle& object, const char* name);
+
+/// A file path from a str, bytes or os.PathLike (pathlib.Path); throws std::invalid_argument
+/// naming `what` for anything else.
+std::string path_of(const py::handle& path, const char* what);
+
+/// "(2, 3)": the shape of an array as NumPy prints it.
+std::string shape_text(const py::array& a);
 
 /// A label image from a 2D integer array (for evaluation); `name` is used in errors.
 LabelImage labels_from_array(const py::handle& array, const char* name);

@@ -64,32 +64,38 @@ is no point; intensity (H, W) / (N,), colors uint8 (H, W, 3) / (N, 3) and labels
 
   m.def(
       "read_cloud",
-      [](const std::string& path) { return without_gil([&] { return io::read_cloud(path); }); },
+      [](const py::object& file) {
+        const std::string path = path_of(file, "path");
+        return without_gil([&] { return io::read_cloud(path); });
+      },
       "path"_a,
       R"(Reads a point cloud by its extension: .pcd, .ply, .xyz / .xyzn / .xyzrgb / .pts, or a
 SegComp .range image. Raises RuntimeError naming the file and the problem.)");
   m.def(
       "read_depth_png",
-      [](const std::string& path) {
+      [](const py::object& file) {
+        const std::string path = path_of(file, "path");
         return plane_array(without_gil([&] { return io::read_depth_png(path); }), true);
       },
       "path"_a, "A 16-bit depth PNG as uint16 (H, W), raw units (0 = no measurement).");
   m.def(
       "read_label_png",
-      [](const std::string& path) {
+      [](const py::object& file) {
+        const std::string path = path_of(file, "path");
         return plane_array(without_gil([&] { return io::read_label_png(path); }), true);
       },
       "path"_a, "A label PNG (e.g. labels.png of `rangeseg segment`) as int32 (H, W).");
   m.def(
       "read_camera_json",
-      [](const std::string& path) {
-        const CameraIntrinsics c = io::read_camera_json(path);
+      [](const py::object& file) {
+        const CameraIntrinsics c = io::read_camera_json(path_of(file, "path"));
         return py::dict("fx"_a = c.fx, "fy"_a = c.fy, "cx"_a = c.cx, "cy"_a = c.cy,
                         "width"_a = c.width, "height"_a = c.height);
       },
       "path"_a,
       R"(Pinhole intrinsics from a JSON file (Open3D's PinholeCameraIntrinsic or flat fx, fy,
-cx, cy, width, height) as a dict; width and height are 0 when the file does not give them.)");
+cx, cy, width, height) as a dict, the keywords of Pipeline.process_depth; width and
+height are 0 when the file does not give them.)");
 }
 
 }  // namespace rangeseg::python

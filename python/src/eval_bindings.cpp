@@ -20,6 +20,12 @@ py::dict evaluate(const py::object& ground_truth, const py::object& segmentation
                   int min_gt_label, const py::object& points) {
   const LabelImage gt = labels_from_array(ground_truth, "ground_truth");
   const LabelImage ms = labels_from_array(segmentation, "segmentation");
+  if (ms.width() != gt.width() || ms.height() != gt.height()) {
+    throw std::invalid_argument("segmentation has the shape (" + std::to_string(ms.height()) +
+                                ", " + std::to_string(ms.width()) + ") but ground_truth (" +
+                                std::to_string(gt.height()) + ", " + std::to_string(gt.width()) +
+                                ")");
+  }
   const eval::EvalSettings settings{.tolerance = tolerance, .min_gt_label = min_gt_label};
   const eval::EvalResult r = eval::evaluate(gt, ms, settings);
   py::dict out("tolerance"_a = tolerance, "gt_regions"_a = r.gt_regions,
@@ -27,11 +33,16 @@ py::dict evaluate(const py::object& ground_truth, const py::object& segmentation
                "under"_a = r.under, "missed"_a = r.missed, "noise"_a = r.noise,
                "correct_pairs"_a = r.correct_pairs);
   if (!points.is_none()) {
-    const OrganizedCloud cloud = cloud_from_arrays(points, py::none(), py::none(), py::none());
-    if (cloud.width() != gt.width() || cloud.height() != gt.height() || !cloud.is_organized()) {
-      throw std::invalid_argument("points must be (H, W, 3) of the label images' size " +
-                                  std::to_string(gt.height()) + " x " + std::to_string(gt.width()));
+    const py::array p = numeric_array(points, "points");
+    if (p.ndim() != 3 || p.shape(0) != gt.height() || p.shape(1) != gt.width() || p.shape(2) != 3) {
+      throw std::invalid_argument("points must have the shape (" + std::to_string(gt.height()) +
+                                  ", " + std::to_string(gt.width()) +
+                                  ", 3) of the label images, got " + shape_text(p));
     }
+    // A label image of one row is an unorganized cloud to cloud_from_arrays: (W, 3).
+    const OrganizedCloud cloud =
+        cloud_from_arrays(gt.height() >= 2 ? py::object(p) : p.attr("reshape")(-1, 3), py::none(),
+                          py::none(), py::none());
     const eval::AngleStats a = eval::angle_error(r, gt, eval::fit_planes(cloud, gt, min_gt_label),
                                                  eval::fit_planes(cloud, ms, 1));
     out["angle_pairs"] = a.pairs;

@@ -3,6 +3,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <climits>
 #include <cmath>
 #include <mutex>
 #include <optional>
@@ -30,23 +31,57 @@ struct Result {
   py::dict times;
 };
 
+/// A config dict as JSON text: NumPy scalars as their values; NaN and infinity are errors.
+std::string config_json(const py::dict& config) {
+  const py::cpp_function plain([](const py::object& value) -> py::object {
+    if (py::hasattr(value, "item")) return value.attr("item")();  // np.int64, np.float32, ...
+    throw py::type_error("config values must be numbers, booleans, strings or dicts, got " +
+                         std::string(py::str(py::type::of(value).attr("__name__"))));
+  });
+  try {
+    return py::module_::import("json")
+        .attr("dumps")(config, "allow_nan"_a = false, "default"_a = plain)
+        .cast<std::string>();
+  } catch (const py::error_already_set& e) {
+    if (!e.matches(PyExc_ValueError)) throw;
+    throw std::invalid_argument("config: values must be finite numbers (" +
+                                std::string(py::str(e.value())) + ")");
+  }
+}
+
 PipelineSettings settings_from(const std::string& preset, const std::optional<std::string>& model,
                                std::optional<bool> smooth, int threads, const py::handle& config) {
   PipelineSettings s = pipeline_preset(preset);
-  if (model) s.segmentation.model = region_model_from_string(*model);
-  if (py::isinstance<py::str>(config)) {
-    io::apply_settings_file(config.cast<std::string>(), s);
-  } else if (py::isinstance<py::dict>(config)) {
-    const auto text = py::module_::import("json").attr("dumps")(config).cast<std::string>();
-    io::apply_settings_json(text, "config", s);
+  if (py::isinstance<py::dict>(config)) {
+    try {
+      io::apply_settings_json(config_json(config.cast<py::dict>()), "config", s);
+    } catch (const std::runtime_error& e) {
+      throw std::invalid_argument(e.what());  // a bad value, as for the other arguments
+    }
   } else if (!config.is_none()) {
-    throw std::invalid_argument("config must be a dict or the path of a JSON file, got " +
-                                std::string(py::str(py::type::of(config).attr("__name__"))));
+    io::apply_settings_file(path_of(config, "config (a dict or the path of a JSON file)"), s);
   }
+  // The keywords win over the config, as the command line's options do.
+  if (model) s.segmentation.model = region_model_from_string(*model);
   if (smooth) s.smooth = *smooth;
   s.threads = threads;
   validate(s);
   return s;
+}
+
+/// The depth image's size, checked: (H, W) with H >= 2 and W >= 1 rows and columns.
+void check_depth_shape(const py::array& a) {
+  if (a.ndim() != 2 || a.shape(0) < 2 || a.shape(1) < 1 || a.shape(0) > INT_MAX ||
+      a.shape(1) > INT_MAX) {
+    std::string shape;
+    for (py::ssize_t i = 0; i < a.ndim(); ++i) {
+      shape += (i > 0 ? ", " : "") + std::to_string(a.shape(i));
+    }
+    throw std::invalid_argument(
+        "depth must be a 2D array (H, W) with at least 2 rows and 1 "
+        "column, got shape (" +
+        shape + (a.ndim() == 1 ? ",)" : ")"));
+  }
 }
 
 class PyPipeline {
@@ -54,53 +89,62 @@ class PyPipeline {
   explicit PyPipeline(const PipelineSettings& settings) : pipeline_(settings) {}
 
   Result process(const OrganizedCloud& cloud) {
-    const std::lock_guard lock(mutex_);
-    {
-      const py::gil_scoped_release release;
-      pipeline_.process(cloud);
-    }
-    return result(cloud.is_organized());
+    return run(cloud.is_organized(), [&] { pipeline_.process(cloud); });
   }
 
   Result process_depth(const py::handle& depth, const CameraIntrinsics& camera,
                        std::optional<double> depth_scale) {
-    const py::array a = py::array::ensure(depth);
-    if (!a || a.ndim() != 2) {
-      throw std::invalid_argument("depth must be a 2D array (H, W), got " +
-                                  (a ? std::to_string(a.ndim()) + " dimensions" : "no array"));
-    }
-    const char kind = a.dtype().kind();
-    if (kind != 'u' && kind != 'i' && kind != 'f') {
-      throw std::invalid_argument("depth must hold numbers, got dtype '" +
-                                  std::string(py::str(a.dtype())) + "'");
-    }
+    const py::array a = numeric_array(depth, "depth");
+    check_depth_shape(a);
     if (depth_scale && !(*depth_scale > 0 && std::isfinite(*depth_scale))) {
       throw std::invalid_argument("depth_scale must be > 0 metres per unit, got " +
                                   std::to_string(*depth_scale));
     }
-    const std::lock_guard lock(mutex_);
-    if (a.dtype().is(py::dtype::of<std::uint16_t>())) {
-      const auto d = py::array_t<std::uint16_t, py::array::c_style>::ensure(a);
+    const char kind = a.dtype().kind();
+    // Integers of any dtype in 0..65535 take the uint16 path, so that they give its result.
+    py::array raw = a;
+    if (kind != 'f' && !a.dtype().is(py::dtype::of<std::uint16_t>())) {
+      const bool fits = a.size() == 0 || (py::int_(a.attr("min")()).cast<long long>() >= 0 &&
+                                          py::int_(a.attr("max")()).cast<long long>() <= 65535);
+      if (fits) raw = a.attr("astype")(py::dtype::of<std::uint16_t>());
+    }
+    if (raw.dtype().is(py::dtype::of<std::uint16_t>())) {
+      const auto d =
+          py::array_t<std::uint16_t, py::array::c_style | py::array::forcecast>::ensure(raw);
       const View<const std::uint16_t> view{d.data(), static_cast<int>(d.shape(1)),
                                            static_cast<int>(d.shape(0)), d.shape(1)};
-      const py::gil_scoped_release release;
-      pipeline_.process(view, camera, depth_scale.value_or(0.001));
-    } else {
-      // Other integers in raw units (default millimetres), floats in metres: as metres.
-      const double scale = depth_scale.value_or(kind == 'f' ? 1.0 : 0.001);
-      auto d = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(
-          kind == 'f' && scale == 1.0 ? py::object(a) : a.attr("__mul__")(scale));
-      const View<const float> view{d.data(), static_cast<int>(d.shape(1)),
-                                   static_cast<int>(d.shape(0)), d.shape(1)};
-      const py::gil_scoped_release release;
-      pipeline_.process(view, camera);
+      const double scale = depth_scale.value_or(0.001);
+      return run(true, [&] { pipeline_.process(view, camera, scale); });
     }
-    return result(true);
+    // Floats in metres (times depth_scale), other integers (negative: no measurement) in raw
+    // units.
+    const double scale = depth_scale.value_or(kind == 'f' ? 1.0 : 0.001);
+    const auto d = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(
+        kind == 'f' && scale == 1.0 ? py::object(a) : a.attr("__mul__")(scale));
+    const View<const float> view{d.data(), static_cast<int>(d.shape(1)),
+                                 static_cast<int>(d.shape(0)), d.shape(1)};
+    return run(true, [&] { pipeline_.process(view, camera); });
   }
 
   const PipelineSettings& settings() const { return pipeline_.settings(); }
 
  private:
+  /// Runs a frame without the GIL (other Python threads go on), one at a time, and copies its
+  /// results out before the next frame may start. The GIL is released before the mutex is
+  /// taken: a thread that waits for the mutex must not hold the GIL that its holder needs.
+  template <class Frame>
+  Result run(bool organized, Frame&& frame) {
+    std::optional<Result> out;
+    {
+      const py::gil_scoped_release release;
+      const std::lock_guard lock(mutex_);
+      frame();
+      const py::gil_scoped_acquire acquire;
+      out.emplace(result(organized));
+    }
+    return std::move(*out);
+  }
+
   Result result(bool organized) const {
     Result r;
     const Segmentation& seg = pipeline_.segmentation();
@@ -112,10 +156,8 @@ class PyPipeline {
     r.normals = normals_array(normals, organized);
     r.raw_normals = normals_array(pipeline_.raw_normals(), organized);
     r.curvature = plane_array(normals.curvature, organized);
-    const bool segmented = pipeline_.settings().segment;
-    r.labels = segmented ? py::object(plane_array(seg.labels, organized)) : py::none();
-    const bool polygons = segmented && pipeline_.settings().polygons;
-    r.segments = segments_list(seg, polygons ? &pipeline_.polygons() : nullptr);
+    r.labels = plane_array(seg.labels, organized);
+    r.segments = segments_list(seg, &pipeline_.polygons());
     const StageTimes& t = pipeline_.times();
     r.times = py::dict("input"_a = t.input, "mesh"_a = t.mesh, "normals"_a = t.normals,
                        "smoothing"_a = t.smoothing, "segmentation"_a = t.segmentation,
@@ -134,7 +176,7 @@ void bind_pipeline(py::module_& m) {
                      "One frame's results (copies: they stay valid after the next frame).")
       .def_readonly("labels", &Result::labels,
                     "int32 segment label per point, (H, W) or (N,): 0 = no segment, label i is "
-                    "segments[i - 1]; None when the pipeline does not segment")
+                    "segments[i - 1]")
       .def_readonly("points", &Result::points,
                     "float32 (H, W, 3) or (N, 3): the smoothed points [m] (the input's without "
                     "smoothing), NaN where there is none")
@@ -195,27 +237,44 @@ config: settings on top of the preset, a dict or the path of a JSON file with th
           "points"_a, "intensity"_a = py::none(), "colors"_a = py::none(),
           R"(Processes one cloud: a rangeseg.Cloud, or points as an array (H, W, 3) of an
 organized cloud (a depth camera's grid) or (N, 3) of an unorganized one, in metres in
-the sensor's frame (z along the view), NaN where there is no point. intensity (H, W)
-or (N,) and colors (uint8 0..255 or floats 0..1, the points' shape) feed the
-smoothing's intensity term. Returns a Result.)")
+the sensor's frame (z along the view), NaN (or inf) where there is no point; an
+organized cloud has at least 2 rows. intensity (H, W) or (N,), or else the brightness
+of colors (uint8 0..255 or floats 0..1, the points' shape), feeds the smoothing's
+intensity term. Returns a Result.)")
       .def(
           "process_depth",
           [](PyPipeline& p, const py::object& depth, double fx, double fy, double cx, double cy,
-             std::optional<double> depth_scale) {
-            const CameraIntrinsics camera{.fx = fx, .fy = fy, .cx = cx, .cy = cy};
+             std::optional<double> depth_scale, int width, int height) {
+            const CameraIntrinsics camera{
+                .fx = fx, .fy = fy, .cx = cx, .cy = cy, .width = width, .height = height};
             return p.process_depth(depth, camera, depth_scale);
           },
           "depth"_a, py::kw_only(), "fx"_a, "fy"_a, "cx"_a, "cy"_a, "depth_scale"_a = py::none(),
+          "width"_a = 0, "height"_a = 0,
           R"(Processes a depth image (H, W) seen by a pinhole camera (fx, fy, cx, cy in
-pixels): integers in raw units (0 = no measurement, depth_scale metres per unit,
-default 0.001), or floats in metres (NaN or <= 0 = no measurement; depth_scale
-default 1). Returns a Result.)")
+pixels): integers in raw units (0 or negative = no measurement, depth_scale metres
+per unit, default 0.001), or floats in metres (NaN or <= 0 = no measurement;
+depth_scale default 1). width and height, when not 0, must be the image's (as in
+read_camera_json's dict: process_depth(depth, **camera)). Returns a Result.)")
       .def_property_readonly("threads", [](const PyPipeline& p) { return p.settings().threads; })
       .def_property_readonly("model",
                              [](const PyPipeline& p) {
                                return std::string(to_string(p.settings().segmentation.model));
                              })
-      .def_property_readonly("smooth", [](const PyPipeline& p) { return p.settings().smooth; });
+      .def_property_readonly("smooth", [](const PyPipeline& p) { return p.settings().smooth; })
+      .def_property_readonly(
+          "settings",
+          [](const PyPipeline& p) {
+            return py::module_::import("json").attr("loads")(io::settings_to_json(p.settings()));
+          },
+          "every setting as a dict with the keys of `config` (metres, radians): the preset's "
+          "values with the config and keywords applied; a valid config itself")
+      .def("__repr__", [](const PyPipeline& p) {
+        const PipelineSettings& s = p.settings();
+        return "<rangeseg.Pipeline model='" + std::string(to_string(s.segmentation.model)) +
+               "' smooth=" + (s.smooth ? "True" : "False") +
+               " threads=" + std::to_string(s.threads) + ">";
+      });
 }
 
 }  // namespace rangeseg::python

@@ -2,11 +2,16 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
+#include <charconv>
 #include <cstdint>
+#include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <vector>
 
 #include "rangeseg/io/file.hpp"
 
@@ -59,7 +64,7 @@ void take_name(const json& obj, const char* key, T& field, ByName by_name,
   }
 }
 
-void reject_unknown(const json& obj, std::initializer_list<const char*> known,
+void reject_unknown(const json& obj, const std::vector<const char*>& known,
                     const std::string& where) {
   if (!obj.is_object()) throw std::runtime_error(where + ": expected a JSON object");
   for (const auto& item : obj.items()) {
@@ -69,11 +74,75 @@ void reject_unknown(const json& obj, std::initializer_list<const char*> known,
   }
 }
 
+/// Calls visit(section, key, field) for every key of the settings JSON but the noise model's,
+/// in the order they are written; section "" is the top level. The one list of keys, for
+/// reading and writing.
+template <class Visit>
+void for_each_key(PipelineSettings& s, Visit&& visit) {
+  visit("", "smooth", s.smooth);
+  visit("", "restore_grid", s.restore_grid);
+  auto& m = s.mesh;
+  visit("mesh", "type", m.type);
+  visit("mesh", "eps_theta", m.eps_theta);
+  visit("mesh", "jump_sigmas", m.jump_sigmas);
+  visit("mesh", "max_edge_a", m.max_edge_a);
+  visit("mesh", "max_edge_b", m.max_edge_b);
+  visit("mesh", "max_edge_c", m.max_edge_c);
+  visit("mesh", "pixel_stride", m.pixel_stride);
+  auto& f = s.smoothing;
+  visit("smoothing", "iterations", f.iterations);
+  visit("smoothing", "use_distance", f.use_distance);
+  visit("smoothing", "distance_scale", f.distance_scale);
+  visit("smoothing", "pixel_angle", f.pixel_angle);
+  visit("smoothing", "use_normals", f.use_normals);
+  visit("smoothing", "normal_scale", f.normal_scale);
+  visit("smoothing", "use_intensity", f.use_intensity);
+  visit("smoothing", "intensity_scale", f.intensity_scale);
+  visit("smoothing", "intensity_range", f.intensity_range);
+  visit("smoothing", "move_along_ray", f.move_along_ray);
+  visit("smoothing", "recompute_normals", f.recompute_normals);
+  auto& g = s.segmentation;
+  visit("segmentation", "model", g.model);
+  visit("segmentation", "max_normal_angle", g.max_normal_angle);
+  visit("segmentation", "max_distance_sigmas", g.max_distance_sigmas);
+  visit("segmentation", "normal_noise_sigmas", g.normal_noise_sigmas);
+  visit("segmentation", "min_normal_angle", g.min_normal_angle);
+  visit("segmentation", "max_smooth_angle", g.max_smooth_angle);
+  visit("segmentation", "max_curvature", g.max_curvature);
+  visit("segmentation", "max_seed_curvature", g.max_seed_curvature);
+  visit("segmentation", "seed_clearance", g.seed_clearance);
+  visit("segmentation", "growth_bands", g.growth_bands);
+  visit("segmentation", "min_region_size", g.min_region_size);
+  visit("segmentation", "merge_planes", g.merge_planes);
+  visit("segmentation", "merge_angle", g.merge_angle);
+  visit("segmentation", "merge_distance_sigmas", g.merge_distance_sigmas);
+  visit("segmentation", "merge_rms_sigmas", g.merge_rms_sigmas);
+  visit("segmentation", "merge_rms_max_angle", g.merge_rms_max_angle);
+  visit("segmentation", "split_residual_factor", g.split_residual_factor);
+  visit("segmentation", "boundary_refine_sigmas", g.boundary_refine_sigmas);
+  visit("segmentation", "grazing_min_angle", g.grazing_min_angle);
+  visit("segmentation", "grazing_max_angle", g.grazing_max_angle);
+  visit("segmentation", "reassign_boundary", g.reassign_boundary);
+  visit("segmentation", "reassign_max_normal_angle", g.reassign_max_normal_angle);
+  visit("segmentation", "reassign_across_mesh_cuts", g.reassign_across_mesh_cuts);
+  auto& r = s.rings;
+  visit("rings", "k", r.k);
+  visit("rings", "max_distance", r.max_distance);
+  visit("rings", "eps_theta", r.eps_theta);
+  visit("rings", "jump_sigmas", r.jump_sigmas);
+  visit("rings", "by_direction", r.by_direction);
+  visit("rings", "balanced", r.balanced);
+}
+
+constexpr std::array<const char*, 4> kSections{"mesh", "smoothing", "segmentation", "rings"};
+
 void read_settings(const json& j, const std::string& path, PipelineSettings& s) {
-  reject_unknown(
-      j, {"noise", "mesh", "smoothing", "segmentation", "rings", "smooth", "restore_grid"}, path);
-  take(j, "smooth", s.smooth, path);
-  take(j, "restore_grid", s.restore_grid, path);
+  std::vector<const char*> top{"noise"};
+  top.insert(top.end(), kSections.begin(), kSections.end());
+  for_each_key(s, [&](const char* section, const char* key, auto&) {
+    if (*section == 0) top.push_back(key);
+  });
+  reject_unknown(j, top, path);
   if (j.contains("noise")) {
     const json& m = j["noise"];
     const std::string where = path + " [noise]";
@@ -84,110 +153,40 @@ void read_settings(const json& j, const std::string& path, PipelineSettings& s) 
     take(m, "z0", noise.z0, where);
     set_noise(s, noise);
   }
-  if (j.contains("mesh")) {
-    const json& m = j["mesh"];
-    const std::string where = path + " [mesh]";
-    reject_unknown(m,
-                   {"type", "eps_theta", "jump_sigmas", "max_edge_a", "max_edge_b", "max_edge_c",
-                    "pixel_stride"},
-                   where);
-    take_name(m, "type", s.mesh.type, mesh_type_from_string, where);
-    take(m, "eps_theta", s.mesh.eps_theta, where);
-    take(m, "jump_sigmas", s.mesh.jump_sigmas, where);
-    take(m, "max_edge_a", s.mesh.max_edge_a, where);
-    take(m, "max_edge_b", s.mesh.max_edge_b, where);
-    take(m, "max_edge_c", s.mesh.max_edge_c, where);
-    take(m, "pixel_stride", s.mesh.pixel_stride, where);
+  for (const char* section : kSections) {
+    if (!j.contains(section)) continue;
+    std::vector<const char*> known;
+    for_each_key(s, [&](const char* in, const char* key, auto&) {
+      if (std::strcmp(in, section) == 0) known.push_back(key);
+    });
+    reject_unknown(j[section], known, path + " [" + section + "]");
   }
-  if (j.contains("smoothing")) {
-    const json& m = j["smoothing"];
-    const std::string where = path + " [smoothing]";
-    reject_unknown(m,
-                   {"iterations", "use_distance", "distance_scale", "pixel_angle", "use_normals",
-                    "normal_scale", "use_intensity", "intensity_scale", "intensity_range",
-                    "move_along_ray", "recompute_normals"},
-                   where);
-    auto& t = s.smoothing;
-    take(m, "iterations", t.iterations, where);
-    // As `smooth --iterations N`: a count turns the filter on (N > 0) or off, also under a
-    // preset without it (abw, ideal), unless "smooth" says otherwise.
-    if (m.contains("iterations") && !j.contains("smooth")) s.smooth = t.iterations > 0;
-    take(m, "use_distance", t.use_distance, where);
-    take(m, "distance_scale", t.distance_scale, where);
-    take(m, "pixel_angle", t.pixel_angle, where);
-    take(m, "use_normals", t.use_normals, where);
-    take(m, "normal_scale", t.normal_scale, where);
-    take(m, "use_intensity", t.use_intensity, where);
-    take(m, "intensity_scale", t.intensity_scale, where);
-    take(m, "intensity_range", t.intensity_range, where);
-    take(m, "move_along_ray", t.move_along_ray, where);
-    take(m, "recompute_normals", t.recompute_normals, where);
+  for_each_key(s, [&](const char* section, const char* key, auto& field) {
+    const bool top_level = *section == 0;
+    if (!top_level && !j.contains(section)) return;
+    const json& obj = top_level ? j : j[section];
+    const std::string where = top_level ? path : path + " [" + section + "]";
+    using T = std::remove_reference_t<decltype(field)>;
+    if constexpr (std::is_same_v<T, MeshType>) {
+      take_name(obj, key, field, mesh_type_from_string, where);
+    } else if constexpr (std::is_same_v<T, RegionModel>) {
+      take_name(obj, key, field, region_model_from_string, where);
+    } else {
+      take(obj, key, field, where);
+    }
+  });
+  // As `smooth --iterations N`: a count turns the filter on (N > 0) or off, also under a
+  // preset without it (abw, ideal), unless "smooth" says otherwise.
+  if (j.contains("smoothing") && j["smoothing"].contains("iterations") && !j.contains("smooth")) {
+    s.smooth = s.smoothing.iterations > 0;
   }
-  if (j.contains("segmentation")) {
-    const json& m = j["segmentation"];
-    const std::string where = path + " [segmentation]";
-    reject_unknown(m,
-                   {"model",
-                    "max_normal_angle",
-                    "max_distance_sigmas",
-                    "normal_noise_sigmas",
-                    "min_normal_angle",
-                    "max_smooth_angle",
-                    "max_curvature",
-                    "max_seed_curvature",
-                    "seed_clearance",
-                    "growth_bands",
-                    "min_region_size",
-                    "merge_planes",
-                    "merge_angle",
-                    "merge_distance_sigmas",
-                    "merge_rms_sigmas",
-                    "merge_rms_max_angle",
-                    "split_residual_factor",
-                    "boundary_refine_sigmas",
-                    "grazing_min_angle",
-                    "grazing_max_angle",
-                    "reassign_boundary",
-                    "reassign_max_normal_angle",
-                    "reassign_across_mesh_cuts"},
-                   where);
-    auto& t = s.segmentation;
-    take_name(m, "model", t.model, region_model_from_string, where);
-    take(m, "max_normal_angle", t.max_normal_angle, where);
-    take(m, "max_distance_sigmas", t.max_distance_sigmas, where);
-    take(m, "normal_noise_sigmas", t.normal_noise_sigmas, where);
-    take(m, "min_normal_angle", t.min_normal_angle, where);
-    take(m, "max_smooth_angle", t.max_smooth_angle, where);
-    take(m, "max_curvature", t.max_curvature, where);
-    take(m, "max_seed_curvature", t.max_seed_curvature, where);
-    take(m, "seed_clearance", t.seed_clearance, where);
-    take(m, "growth_bands", t.growth_bands, where);
-    take(m, "min_region_size", t.min_region_size, where);
-    take(m, "merge_planes", t.merge_planes, where);
-    take(m, "merge_angle", t.merge_angle, where);
-    take(m, "merge_distance_sigmas", t.merge_distance_sigmas, where);
-    take(m, "merge_rms_sigmas", t.merge_rms_sigmas, where);
-    take(m, "merge_rms_max_angle", t.merge_rms_max_angle, where);
-    take(m, "split_residual_factor", t.split_residual_factor, where);
-    take(m, "boundary_refine_sigmas", t.boundary_refine_sigmas, where);
-    take(m, "grazing_min_angle", t.grazing_min_angle, where);
-    take(m, "grazing_max_angle", t.grazing_max_angle, where);
-    take(m, "reassign_boundary", t.reassign_boundary, where);
-    take(m, "reassign_max_normal_angle", t.reassign_max_normal_angle, where);
-    take(m, "reassign_across_mesh_cuts", t.reassign_across_mesh_cuts, where);
-  }
-  if (j.contains("rings")) {
-    const json& m = j["rings"];
-    const std::string where = path + " [rings]";
-    reject_unknown(m, {"k", "max_distance", "eps_theta", "jump_sigmas", "by_direction", "balanced"},
-                   where);
-    take(m, "k", s.rings.k, where);
-    take(m, "max_distance", s.rings.max_distance, where);
-    take(m, "eps_theta", s.rings.eps_theta, where);
-    take(m, "jump_sigmas", s.rings.jump_sigmas, where);
-    take(m, "by_direction", s.rings.by_direction, where);
-    take(m, "balanced", s.rings.balanced, where);
-  }
+}
+
+/// A float setting as the decimal it was written as (0.2182f, not 0.21819999814033508).
+double decimal(float value) {
+  std::array<char, 32> text{};
+  const auto end = std::to_chars(text.data(), text.data() + text.size(), value).ptr;
+  return std::strtod(std::string(text.data(), end).c_str(), nullptr);
 }
 
 }  // namespace
@@ -239,6 +238,25 @@ void apply_settings_json(std::string_view text, const std::string& path,
 void apply_settings_file(const std::string& path, PipelineSettings& settings) {
   const std::vector<std::uint8_t> bytes = read_file(path, 1 << 20);
   apply_settings_json(std::string(bytes.begin(), bytes.end()), path, settings);
+}
+
+std::string settings_to_json(const PipelineSettings& settings) {
+  nlohmann::ordered_json j;
+  PipelineSettings s = settings;  // for_each_key takes mutable fields
+  const SensorNoise& noise = s.segmentation.noise;
+  j["noise"] = {{"a", noise.a}, {"b", noise.b}, {"z0", noise.z0}};
+  for_each_key(s, [&](const char* section, const char* key, auto& field) {
+    nlohmann::ordered_json& obj = *section == 0 ? j : j[section];
+    using T = std::remove_reference_t<decltype(field)>;
+    if constexpr (std::is_same_v<T, MeshType> || std::is_same_v<T, RegionModel>) {
+      obj[key] = to_string(field);
+    } else if constexpr (std::is_same_v<T, float>) {
+      obj[key] = decimal(field);
+    } else {
+      obj[key] = field;
+    }
+  });
+  return j.dump(2) + "\n";
 }
 
 }  // namespace rangeseg::io

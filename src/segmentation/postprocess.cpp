@@ -601,11 +601,12 @@ bool planes_merge(const PlaneStats& sa, const PlaneFit& a, const PlaneStats& sb,
 
 namespace {
 
-/// Union-find over raw labels in s.seam_parent: the regions on either side of a growth band's
-/// seam that a mesh edge joins across it and whose planes merge (planes_merge), where one of
-/// them is below min_region_size; and per root the pixels of its group in s.seam_count. A
-/// surface the seam cuts into pieces, each below the minimum, would otherwise be removed
-/// before merging joins them again, so whether it is kept would depend on where the seam runs.
+/// Union-find over raw labels in s.seam_parent: the regions below min_region_size on either
+/// side of a growth band's seam that a mesh edge joins across it and whose planes merge
+/// (planes_merge); and per root the pixels of its group in s.seam_count. A surface the seam
+/// cuts into pieces, each below the minimum, would otherwise be removed before merging joins
+/// them again, so whether it is kept would depend on where the seam runs. (A small piece
+/// beside a large one goes, and boundary re-assignment gives its points to the large one.)
 /// Returns false when there is no seam.
 bool group_seam_pieces(const Frame& f, const SegmentationSettings& settings,
                        Segmenter::Scratch& s) {
@@ -626,7 +627,7 @@ bool group_seam_pieces(const Frame& f, const SegmentationSettings& settings,
       for (int k = 0; k < 8; ++k) {
         if (kNeighbourDv[k] != 1 || ((f.edges[i] >> k) & 1u) == 0) continue;
         const std::int32_t c = f.labels[i + f.neighbour_offset[k]];
-        if (c <= 0 || c == a || (!small(a) && !small(c))) continue;
+        if (c <= 0 || c == a || !small(a) || !small(c)) continue;
         const std::int32_t ra = find_root(s.seam_parent, a), rc = find_root(s.seam_parent, c);
         if (ra == rc) continue;
         const detail::PlaneFit fa = s.regions[a].fit(), fc = s.regions[c].fit();

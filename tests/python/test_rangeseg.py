@@ -8,7 +8,9 @@ import json
 import math
 import os
 import subprocess
+import pathlib
 import tempfile
+import threading
 import unittest
 
 import numpy as np
@@ -159,6 +161,47 @@ class Inputs(unittest.TestCase):
         np.testing.assert_array_equal(first.labels, labels)
         self.assertEqual(len(first.segments), 2)
 
+    def test_python_threads_may_share_a_pipeline(self):
+        pipeline = rangeseg.Pipeline(preset="ideal")
+        scenes = [self.step_points(), depth_to_points(np.full((240, 320), 1.2), **HALF)]
+        want = [pipeline.process(s).labels.max() for s in scenes]
+        got = {}
+
+        def work(i):
+            got[i] = [pipeline.process(scenes[(i + k) % 2]).labels.max() for k in range(4)]
+
+        threads = [threading.Thread(target=work, args=(i,), daemon=True) for i in range(2)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(timeout=120)
+        self.assertFalse(any(t.is_alive() for t in threads), "threads sharing a pipeline hang")
+        for i in range(2):
+            self.assertEqual(got[i], [want[(i + k) % 2] for k in range(4)])
+
+    def test_inf_is_no_point_as_nan_is(self):
+        points = self.step_points()
+        gaps = (np.arange(320) % 7 == 0)[None, :, None]
+        pipeline = rangeseg.Pipeline(preset="kinect")
+        with_nan = pipeline.process(np.where(gaps, np.nan, points))
+        with_inf = pipeline.process(np.where(gaps, np.inf, points))
+        np.testing.assert_array_equal(with_inf.labels, with_nan.labels)
+        self.assertFalse(np.isinf(with_inf.points).any())
+
+    def test_depth_of_any_integer_dtype_gives_the_uint16_result(self):
+        z = plane_depth([0.1, -0.6, -0.8], 1.3)
+        depth = np.where(np.isfinite(z), np.round(z * 1000), 0).astype(np.uint16)
+        pipeline = rangeseg.Pipeline(preset="kinect")
+        want = pipeline.process_depth(depth, **HALF)
+        for other in (depth.astype(np.int32), depth.astype(">u2"), depth.astype(np.uint32)[::1, ::1].T.T):
+            got = pipeline.process_depth(other, **HALF)
+            np.testing.assert_array_equal(got.labels, want.labels)
+            np.testing.assert_array_equal(got.points, want.points)
+        camera = dict(HALF, width=320, height=240)  # as read_camera_json gives it
+        np.testing.assert_array_equal(pipeline.process_depth(depth, **camera).labels, want.labels)
+        self.assert_raises_with = BadInput.assert_raises_with.__get__(self)
+        self.assert_raises_with(ValueError, "640", pipeline.process_depth, depth, **dict(HALF, width=640))
+
     def test_two_threads_give_the_one_thread_result(self):
         z = plane_depth([0.1, -0.7, -0.7], 1.0, 640, 480, fx=FX, fy=FX, cx=CX, cy=CY)
         z[:, 300:] = np.minimum(z[:, 300:], 1.3)
@@ -197,7 +240,7 @@ class Inputs(unittest.TestCase):
                 f.write("VERSION .7\nFIELDS x y z rgb label\nSIZE 4 4 4 4 4\nTYPE F F F U U\n"
                         "COUNT 1 1 1 1 1\nWIDTH 2\nHEIGHT 2\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 4\n"
                         "DATA ascii\n0 0 1 16711680 3\n0.1 0 1 65280 3\nnan nan nan 0 0\n0.1 0.1 1.5 255 7\n")
-            cloud = rangeseg.read_cloud(path)
+            cloud = rangeseg.read_cloud(pathlib.Path(path))
         self.assertTrue(cloud.is_organized)
         self.assertEqual((cloud.width, cloud.height, cloud.count_valid()), (2, 2, 3))
         self.assertEqual(cloud.points.shape, (2, 2, 3))
@@ -227,22 +270,52 @@ class BadInput(unittest.TestCase):
                                 points, colors=np.full((4, 5, 3), 300))
         self.assert_raises_with(ValueError, "depth must be a 2D array", p.process_depth,
                                 np.ones((2, 2, 2)), **HALF)
+        self.assert_raises_with(ValueError, "got shape (1, 640)", p.process_depth, np.ones((1, 640)), **HALF)
+        self.assert_raises_with(ValueError, "got shape (480, 0)", p.process_depth,
+                                np.ones((480, 0), np.uint16), **HALF)
+        self.assert_raises_with(ValueError, "depth must be an array of real numbers, got str",
+                                p.process_depth, "depth.png", **HALF)
+        self.assert_raises_with(ValueError, "need at least 2 rows", p.process, np.ones((1, 5, 3)))
         self.assert_raises_with(ValueError, "depth_scale", p.process_depth, np.ones((4, 4), np.uint16),
                                 depth_scale=-1, **HALF)
         self.assert_raises_with(ValueError, "ground_truth must be integers", rangeseg.evaluate,
                                 np.zeros((2, 2)), np.zeros((2, 2), int))
-        self.assert_raises_with(ValueError, "is 2x3", rangeseg.evaluate,
+        self.assert_raises_with(ValueError, "shape (3, 2) but ground_truth (2, 2)", rangeseg.evaluate,
                                 np.zeros((2, 2), int), np.zeros((3, 2), int))
 
     def test_bad_settings_name_the_setting(self):
         self.assert_raises_with(ValueError, "valid", rangeseg.Pipeline, preset="kinnect")
         self.assert_raises_with(ValueError, "unknown model 'planes'", rangeseg.Pipeline, model="planes")
         self.assert_raises_with(ValueError, "threads", rangeseg.Pipeline, threads=0)
-        self.assert_raises_with(RuntimeError, "unknown key 'min_region'", rangeseg.Pipeline,
+        self.assert_raises_with(ValueError, "unknown key 'min_region'", rangeseg.Pipeline,
                                 config={"segmentation": {"min_region": 3}})
-        self.assert_raises_with(RuntimeError, "key 'min_region_size' = -3 is invalid", rangeseg.Pipeline,
-                                config={"segmentation": {"min_region_size": -3}})
-        self.assert_raises_with(ValueError, "config must be a dict", rangeseg.Pipeline, config=3)
+        self.assert_raises_with(ValueError, "key 'min_region_size' = -3 is invalid", rangeseg.Pipeline,
+                                config={"segmentation": {"min_region_size": np.int64(-3)}})
+        self.assert_raises_with(ValueError, "finite", rangeseg.Pipeline,
+                                config={"segmentation": {"max_normal_angle": float("nan")}})
+        self.assert_raises_with(ValueError, "a dict or the path", rangeseg.Pipeline, config=3)
+        # A file's errors name the file.
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "params.json")
+            with open(path, "w") as f:
+                f.write('{"mesh": {"typ": "quad"}}')
+            self.assert_raises_with(RuntimeError, path + " [mesh]: unknown key 'typ'", rangeseg.Pipeline,
+                                    config=path)
+
+    def test_settings_show_every_key_and_feed_back_as_config(self):
+        pipeline = rangeseg.Pipeline(preset="abw", model="auto")
+        settings = pipeline.settings
+        self.assertEqual(settings["segmentation"]["model"], "auto")
+        self.assertFalse(settings["smooth"])
+        self.assertAlmostEqual(settings["mesh"]["eps_theta"], 0.2182)
+        self.assertEqual(rangeseg.Pipeline(preset="kinect", config=settings).settings, settings)
+        self.assertIn("model='auto'", repr(pipeline))
+
+    def test_keywords_win_over_the_config(self):
+        config = {"smooth": False, "segmentation": {"model": "auto", "min_region_size": 50}}
+        pipeline = rangeseg.Pipeline(model="plane", smooth=True, config=config)
+        self.assertEqual((pipeline.model, pipeline.smooth), ("plane", True))
+        self.assertEqual(rangeseg.Pipeline(config=config).model, "auto")
 
     def test_unreadable_files_are_runtime_errors_naming_the_file(self):
         with tempfile.TemporaryDirectory() as tmp:

@@ -29,4 +29,9 @@ void apply_settings_json(std::string_view text, const std::string& source,
 /// The same for a file of at most 1 MiB; errors name the file.
 void apply_settings_file(const std::string& path, PipelineSettings& settings);
 
+/// Every key that apply_settings_json reads, with the values of `settings` (the noise model:
+/// the segmentation's), as indented JSON text: applied to any settings, it gives these back.
+/// For showing a preset's values and for writing a config file to edit.
+std::string settings_to_json(const PipelineSettings& settings);
+
 }  // namespace rangeseg::io
