@@ -23,8 +23,8 @@ int checked_size(py::ssize_t n, const char* name) {
   return static_cast<int>(n);
 }
 
-/// Checks that `a` has the points' shape (H, W) or (N,), with `channels` > 0 a last axis of that
-/// length, and returns whether it has.
+/// Throws std::invalid_argument naming `name` unless `a` has the points' shape (H, W) or (N,),
+/// with `channels` > 0 a last axis of that length.
 void require_shape(const py::array& a, int width, int height, bool organized, int channels,
                    const char* name) {
   std::vector<py::ssize_t> want;
@@ -35,8 +35,9 @@ void require_shape(const py::array& a, int width, int height, bool organized, in
   for (std::size_t i = 0; same && i < want.size(); ++i) same = a.shape(i) == want[i];
   if (!same) {
     std::string text = "(";
-    for (std::size_t i = 0; i < want.size(); ++i)
+    for (std::size_t i = 0; i < want.size(); ++i) {
       text += (i > 0 ? ", " : "") + std::to_string(want[i]);
+    }
     text += want.size() == 1 ? ",)" : ")";
     throw std::invalid_argument(std::string(name) + " must have the points' shape " + text +
                                 ", got " + shape_text(a));
