@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
 """Segments one frame with the rangeseg Python module and prints its segments.
 
-    python3 examples/segment_frame.py [CLOUD]
+    python3 examples/segment_frame.py [CLOUD [PRESET]]
 
 CLOUD is a .pcd, .ply, .xyz* or .range file; without it, a depth image of a floor with a box
-on it, seen by a Kinect 1 m above the floor, is made here with NumPy.
+on it, seen by a Kinect 1 m above the floor, is made here with NumPy. PRESET is the sensor's:
+kinect (the default), abw or perceptron (SegComp .range images), laser or ideal.
 """
 
 import sys
@@ -35,7 +36,8 @@ def floor_with_a_box(width=640, height=480, fx=525.0, fy=525.0, cx=319.5, cy=239
 
 
 def main():
-    pipeline = rangeseg.Pipeline(preset="kinect", model="auto")
+    preset = sys.argv[2] if len(sys.argv) > 2 else "kinect"
+    pipeline = rangeseg.Pipeline(preset=preset, model="auto")
     if len(sys.argv) > 1:
         result = pipeline.process(rangeseg.read_cloud(sys.argv[1]))
     else:

@@ -224,7 +224,11 @@ class GrazingFinder {
   }
 
  private:
-  bool candidate(std::ptrdiff_t i) const { return f_.labels[i] == 0 && f_.z[i] > 0; }
+  // An infinite coordinate is no point, as NaN is.
+  bool candidate(std::ptrdiff_t i) const {
+    return f_.labels[i] == 0 && f_.z[i] > 0 && std::isfinite(f_.z[i]) && std::isfinite(f_.x[i]) &&
+           std::isfinite(f_.y[i]);
+  }
 
   /// The component of `start` and, each time a plane is taken from one, the components of the
   /// rest of its points: a component may hold two grazing surfaces (a box's top and its side).

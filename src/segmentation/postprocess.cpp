@@ -562,7 +562,7 @@ double pixel_footprint(const Frame& f, Segmenter::Scratch& s) {
     const int v = (f.height * band / 4) / step * step;
     for (int u = 0; u + step < f.width; u += step) {
       const std::ptrdiff_t i = static_cast<std::ptrdiff_t>(v) * f.stride + u, j = i + step;
-      if (!(f.z[i] > 0) || !(f.z[j] > 0)) continue;  // also NaN
+      if (!(f.z[i] > 0) || !(f.z[j] > 0) || !std::isfinite(f.z[i] + f.z[j])) continue;  // NaN, inf
       steps.push_back(std::hypot(f.x[j] - f.x[i], f.y[j] - f.y[i], f.z[j] - f.z[i]) / f.z[i]);
     }
   }
