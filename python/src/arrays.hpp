@@ -22,6 +22,9 @@ namespace py = pybind11;
 /// argument and the shapes for anything else.
 OrganizedCloud cloud_from_arrays(const py::handle& points, const py::handle& intensity,
                                  const py::handle& colors, const py::handle& labels);
+/// The same into `cloud`, whose planes keep their memory when it suffices.
+void cloud_from_arrays(const py::handle& points, const py::handle& intensity,
+                       const py::handle& colors, const py::handle& labels, OrganizedCloud& cloud);
 
 /// (H, W, 3) float32 of three planes, or (W, 3) when `organized` is false (height 1).
 py::array_t<float> xyz_array(const FloatPlane& x, const FloatPlane& y, const FloatPlane& z,

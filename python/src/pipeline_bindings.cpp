@@ -92,6 +92,24 @@ class PyPipeline {
     return run(cloud.is_organized(), [&] { pipeline_.process(cloud); });
   }
 
+  /// NumPy points into the pipeline's own input cloud, which keeps its memory between frames;
+  /// filled under the mutex, as another thread's frame may be reading it.
+  Result process(const py::handle& points, const py::handle& intensity, const py::handle& colors) {
+    std::optional<Result> out;
+    {
+      const py::gil_scoped_release release;
+      const std::lock_guard lock(mutex_);
+      {
+        const py::gil_scoped_acquire acquire;
+        cloud_from_arrays(points, intensity, colors, py::none(), input_);
+      }
+      pipeline_.process(input_);
+      const py::gil_scoped_acquire acquire;
+      out.emplace(result(input_.is_organized()));
+    }
+    return std::move(*out);
+  }
+
   Result process_depth(const py::handle& depth, const CameraIntrinsics& camera,
                        std::optional<double> depth_scale) {
     const py::array a = numeric_array(depth, "depth");
@@ -166,7 +184,8 @@ class PyPipeline {
   }
 
   Pipeline pipeline_;
-  std::mutex mutex_;  ///< one frame at a time when Python threads share a pipeline
+  OrganizedCloud input_;  ///< the last NumPy points (Pipeline::cloud() may refer to it)
+  std::mutex mutex_;      ///< one frame at a time when Python threads share a pipeline
 };
 
 }  // namespace
@@ -231,8 +250,7 @@ config: settings on top of the preset, a dict or the path of a JSON file with th
               }
               return p.process(points.cast<const OrganizedCloud&>());
             }
-            const OrganizedCloud cloud = cloud_from_arrays(points, intensity, colors, py::none());
-            return p.process(cloud);
+            return p.process(points, intensity, colors);
           },
           "points"_a, "intensity"_a = py::none(), "colors"_a = py::none(),
           R"(Processes one cloud: a rangeseg.Cloud, or points as an array (H, W, 3) of an
