@@ -161,6 +161,19 @@ class Inputs(unittest.TestCase):
         np.testing.assert_array_equal(first.labels, labels)
         self.assertEqual(len(first.segments), 2)
 
+    def test_a_frame_keeps_nothing_of_the_frame_before(self):
+        # NumPy points go into a buffer the pipeline keeps: a frame with intensity, another size
+        # or an unorganized cloud before must not change the next frame's result.
+        points = self.step_points()
+        want = rangeseg.Pipeline(preset="kinect").process(points)
+        pipeline = rangeseg.Pipeline(preset="kinect")
+        pipeline.process(points, intensity=np.random.default_rng(1).random(points.shape[:2]))
+        pipeline.process(points[:100, :50])
+        pipeline.process(points[np.isfinite(points[..., 2])][:5000])
+        got = pipeline.process(points)
+        np.testing.assert_array_equal(got.labels, want.labels)
+        np.testing.assert_array_equal(got.points, want.points)
+
     def test_python_threads_may_share_a_pipeline(self):
         pipeline = rangeseg.Pipeline(preset="ideal")
         scenes = [self.step_points(), depth_to_points(np.full((240, 320), 1.2), **HALF)]
