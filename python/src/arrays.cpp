@@ -182,9 +182,12 @@ void cloud_from_arrays(const py::handle& points, const py::handle& intensity,
     const float* in = data + static_cast<std::size_t>(v) * width * 3;
     for (int u = 0; u < width; ++u) {
       const std::size_t k = 3 * static_cast<std::size_t>(u);
-      // inf, as NaN, is no point: all three NaN, so that every stage sees the same.
-      const bool valid =
-          std::isfinite(in[k]) && std::isfinite(in[k + 1]) && std::isfinite(in[k + 2]);
+      // inf, as NaN, is no point, and so is the sensor's own position (0, 0, 0), which
+      // RealSense's SDK and many drivers write for a pixel without depth: all three NaN, so
+      // that every stage sees the same (a camera's points, flattened, stay on its pixel grid).
+      const bool valid = std::isfinite(in[k]) && std::isfinite(in[k + 1]) &&
+                         std::isfinite(in[k + 2]) &&
+                         (in[k] != 0.0f || in[k + 1] != 0.0f || in[k + 2] != 0.0f);
       x[u] = valid ? in[k] : NAN;
       y[u] = valid ? in[k + 1] : NAN;
       z[u] = valid ? in[k + 2] : NAN;

@@ -16,7 +16,7 @@ namespace rangeseg::python {
 namespace py = pybind11;
 
 /// A cloud from `points`, (H, W, 3) for an organized cloud or (N, 3) for an unorganized one
-/// (any real dtype; metres, NaN or inf = no point), and the optional per-point arrays of its
+/// (any real dtype; metres; NaN, inf or (0, 0, 0) = no point), and the optional arrays of its
 /// shape without the last axis (`intensity`, `labels`) or with it (`colors`: uint8 0..255, or
 /// floats 0..1 as Open3D keeps them). None = absent. Throws std::invalid_argument naming the
 /// argument and the shapes for anything else.

@@ -255,8 +255,9 @@ config: settings on top of the preset, a dict or the path of a JSON file with th
           "points"_a, "intensity"_a = py::none(), "colors"_a = py::none(),
           R"(Processes one cloud: a rangeseg.Cloud, or points as an array (H, W, 3) of an
 organized cloud (a depth camera's grid) or (N, 3) of an unorganized one, in metres in
-the sensor's frame (z along the view), NaN (or inf) where there is no point; an
-organized cloud has at least 2 rows. intensity (H, W) or (N,), or else the brightness
+the sensor's frame (z along the view), NaN where there is no point (inf, and the
+point (0, 0, 0) that RealSense's SDK and many drivers write for a pixel without depth,
+count as none too); an organized cloud has at least 2 rows. intensity (H, W) or (N,), or else the brightness
 of colors (uint8 0..255 or floats 0..1, the points' shape), feeds the smoothing's
 intensity term. Returns a Result.)")
       .def(

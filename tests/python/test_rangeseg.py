@@ -364,6 +364,18 @@ class KinectFrame(unittest.TestCase):
             if "polygon" in theirs:
                 self.assertAlmostEqual(mine["polygon"]["area_m2"], theirs["polygon"]["area_m2"], places=9)
 
+    def test_zeros_for_missing_points_are_no_points(self):
+        # RealSense's SDK writes (0, 0, 0) for a pixel without depth; flattened to (N, 3), such
+        # a frame must still be put back on its pixel grid, as one with NaN is (before, it ran
+        # over k-nearest-neighbour rings: 22 segments instead of 11).
+        points = rangeseg.read_cloud(KINECT_FRAME).points
+        pipeline = rangeseg.Pipeline(preset="kinect", smooth=False)
+        with_nan = pipeline.process(points.reshape(-1, 3))
+        with_zeros = pipeline.process(np.nan_to_num(points).reshape(-1, 3))
+        np.testing.assert_array_equal(with_zeros.labels, with_nan.labels)
+        organized = pipeline.process(np.nan_to_num(points))
+        np.testing.assert_array_equal(organized.labels, pipeline.process(points).labels)
+
     def test_the_floor_is_one_plane_and_the_timings_add_up(self):
         result = rangeseg.Pipeline().process(rangeseg.read_cloud(KINECT_FRAME))
         largest = result.segments[0]
