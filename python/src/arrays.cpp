@@ -119,13 +119,13 @@ std::string shape_text(const py::array& a) {
 }
 
 py::array numeric_array(const py::handle& object, const char* name) {
-  const std::string type = py::str(py::type::of(object).attr("__name__"));
   py::array a = py::reinterpret_steal<py::array>(py::handle());  // null, unlike py::array()
   if (!object.is_none() && !py::isinstance<py::str>(object) && !py::isinstance<py::bytes>(object)) {
     a = py::array::ensure(object);  // null when NumPy cannot make an array of it
   }
   const char kind = a ? a.dtype().kind() : 'O';
   if (kind != 'f' && kind != 'i' && kind != 'u') {
+    const std::string type = py::str(py::type::of(object).attr("__name__"));
     std::string hint;
     if (type == "PointCloud") hint = " (for an Open3D PointCloud: np.asarray(pcd.points))";
     throw std::invalid_argument(

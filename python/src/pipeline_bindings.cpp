@@ -61,7 +61,8 @@ PipelineSettings settings_from(const std::string& preset, const std::optional<st
   } else if (!config.is_none()) {
     io::apply_settings_file(path_of(config, "config (a dict or the path of a JSON file)"), s);
   }
-  // The keywords win over the config, as the command line's options do.
+  // The keywords, when given, win over the config (unlike the command line's --model, which
+  // has a default and so gives way to a config's model).
   if (model) s.segmentation.model = region_model_from_string(*model);
   if (smooth) s.smooth = *smooth;
   s.threads = threads;
@@ -73,14 +74,9 @@ PipelineSettings settings_from(const std::string& preset, const std::optional<st
 void check_depth_shape(const py::array& a) {
   if (a.ndim() != 2 || a.shape(0) < 2 || a.shape(1) < 1 || a.shape(0) > INT_MAX ||
       a.shape(1) > INT_MAX) {
-    std::string shape;
-    for (py::ssize_t i = 0; i < a.ndim(); ++i) {
-      shape += (i > 0 ? ", " : "") + std::to_string(a.shape(i));
-    }
     throw std::invalid_argument(
-        "depth must be a 2D array (H, W) with at least 2 rows and 1 "
-        "column, got shape (" +
-        shape + (a.ndim() == 1 ? ",)" : ")"));
+        "depth must be a 2D array (H, W) with at least 2 rows and 1 column, got shape " +
+        shape_text(a));
   }
 }
 
@@ -89,25 +85,14 @@ class PyPipeline {
   explicit PyPipeline(const PipelineSettings& settings) : pipeline_(settings) {}
 
   Result process(const OrganizedCloud& cloud) {
-    return run(cloud.is_organized(), [&] { pipeline_.process(cloud); });
+    return run([] {}, [&] { pipeline_.process(cloud); });
   }
 
   /// NumPy points into the pipeline's own input cloud, which keeps its memory between frames;
   /// filled under the mutex, as another thread's frame may be reading it.
   Result process(const py::handle& points, const py::handle& intensity, const py::handle& colors) {
-    std::optional<Result> out;
-    {
-      const py::gil_scoped_release release;
-      const std::lock_guard lock(mutex_);
-      {
-        const py::gil_scoped_acquire acquire;
-        cloud_from_arrays(points, intensity, colors, py::none(), input_);
-      }
-      pipeline_.process(input_);
-      const py::gil_scoped_acquire acquire;
-      out.emplace(result(input_.is_organized()));
-    }
-    return std::move(*out);
+    return run([&] { cloud_from_arrays(points, intensity, colors, py::none(), input_); },
+               [&] { pipeline_.process(input_); });
   }
 
   Result process_depth(const py::handle& depth, const CameraIntrinsics& camera,
@@ -122,8 +107,8 @@ class PyPipeline {
     // Integers of any dtype in 0..65535 take the uint16 path, so that they give its result.
     py::array raw = a;
     if (kind != 'f' && !a.dtype().is(py::dtype::of<std::uint16_t>())) {
-      const bool fits = a.size() == 0 || (py::int_(a.attr("min")()).cast<long long>() >= 0 &&
-                                          py::int_(a.attr("max")()).cast<long long>() <= 65535);
+      const bool fits = py::int_(a.attr("min")()).cast<long long>() >= 0 &&
+                        py::int_(a.attr("max")()).cast<long long>() <= 65535;
       if (fits) raw = a.attr("astype")(py::dtype::of<std::uint16_t>());
     }
     if (raw.dtype().is(py::dtype::of<std::uint16_t>())) {
@@ -132,7 +117,7 @@ class PyPipeline {
       const View<const std::uint16_t> view{d.data(), static_cast<int>(d.shape(1)),
                                            static_cast<int>(d.shape(0)), d.shape(1)};
       const double scale = depth_scale.value_or(0.001);
-      return run(true, [&] { pipeline_.process(view, camera, scale); });
+      return run([] {}, [&] { pipeline_.process(view, camera, scale); });
     }
     // Floats in metres (times depth_scale), other integers (negative: no measurement) in raw
     // units.
@@ -141,32 +126,38 @@ class PyPipeline {
         kind == 'f' && scale == 1.0 ? py::object(a) : a.attr("__mul__")(scale));
     const View<const float> view{d.data(), static_cast<int>(d.shape(1)),
                                  static_cast<int>(d.shape(0)), d.shape(1)};
-    return run(true, [&] { pipeline_.process(view, camera); });
+    return run([] {}, [&] { pipeline_.process(view, camera); });
   }
 
   const PipelineSettings& settings() const { return pipeline_.settings(); }
 
  private:
-  /// Runs a frame without the GIL (other Python threads go on), one at a time, and copies its
-  /// results out before the next frame may start. The GIL is released before the mutex is
+  /// Runs a frame without the GIL (other Python threads go on), one at a time: `prepare` (with
+  /// the GIL, e.g. to read NumPy arrays into the pipeline's buffers), `frame`, and the copies of
+  /// its results, all before the next frame may start. The GIL is released before the mutex is
   /// taken: a thread that waits for the mutex must not hold the GIL that its holder needs.
-  template <class Frame>
-  Result run(bool organized, Frame&& frame) {
+  template <class Prepare, class Frame>
+  Result run(Prepare&& prepare, Frame&& frame) {
     std::optional<Result> out;
     {
       const py::gil_scoped_release release;
       const std::lock_guard lock(mutex_);
+      {
+        const py::gil_scoped_acquire acquire;
+        prepare();
+      }
       frame();
       const py::gil_scoped_acquire acquire;
-      out.emplace(result(organized));
+      out.emplace(result());
     }
     return std::move(*out);
   }
 
-  Result result(bool organized) const {
+  Result result() const {
     Result r;
     const Segmentation& seg = pipeline_.segmentation();
     const NormalMap& normals = pipeline_.normals();
+    const bool organized = normals.height() > 1;  // an unorganized cloud's results are per point
     r.organized = organized;
     r.width = normals.width();
     r.height = normals.height();

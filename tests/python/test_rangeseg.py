@@ -206,14 +206,14 @@ class Inputs(unittest.TestCase):
         depth = np.where(np.isfinite(z), np.round(z * 1000), 0).astype(np.uint16)
         pipeline = rangeseg.Pipeline(preset="kinect")
         want = pipeline.process_depth(depth, **HALF)
-        for other in (depth.astype(np.int32), depth.astype(">u2"), depth.astype(np.uint32)[::1, ::1].T.T):
+        for other in (depth.astype(np.int32), depth.astype(">u2"), depth.astype(np.uint32)):
             got = pipeline.process_depth(other, **HALF)
             np.testing.assert_array_equal(got.labels, want.labels)
             np.testing.assert_array_equal(got.points, want.points)
         camera = dict(HALF, width=320, height=240)  # as read_camera_json gives it
         np.testing.assert_array_equal(pipeline.process_depth(depth, **camera).labels, want.labels)
-        self.assert_raises_with = BadInput.assert_raises_with.__get__(self)
-        self.assert_raises_with(ValueError, "640", pipeline.process_depth, depth, **dict(HALF, width=640))
+        with self.assertRaisesRegex(ValueError, "640"):
+            pipeline.process_depth(depth, **dict(HALF, width=640))
 
     def test_two_threads_give_the_one_thread_result(self):
         z = plane_depth([0.1, -0.7, -0.7], 1.0, 640, 480, fx=FX, fy=FX, cx=CX, cy=CY)
