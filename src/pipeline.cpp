@@ -74,11 +74,13 @@ void validate(const PipelineSettings& settings) {
   validate(settings.smoothing);
   validate(settings.segmentation);
   validate(settings.rings);
+  validate(settings.tracking);
 }
 
 Pipeline::Pipeline(const PipelineSettings& settings)
     : settings_(settings), smoother_(settings.smoothing) {
   validate(settings);
+  tracker_ = SegmentTracker(settings.tracking);
   if (settings.threads > 1) pool_ = std::make_unique<ThreadPool>(settings.threads);
 }
 
@@ -136,6 +138,7 @@ void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
     segmentation_ = Segmentation{};
     polygons_ = PolygonSet{};
   }
+  tracker_.reset();  // labels per point of a cloud over rings are no pixels to match
   unorganized::rings_to_input_order(ordered_rings_, order.order, rings_);
   unorganized::to_input_order(raw_normals_, order);
   if (settings_.smooth) {
@@ -334,10 +337,15 @@ void Pipeline::process_grid(const OrganizedCloud& cloud) {
     } else {
       polygons_ = PolygonSet{};
     }
+    if (settings_.track) {
+      tracker_.update(segmentation_);
+      times_.tracking = ms_since(t);
+    }
   } else {
     polygons_ = PolygonSet{};
     segmentation_.labels.clear();
     segmentation_.segments.clear();
+    tracker_.reset();
   }
   times_.total = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }

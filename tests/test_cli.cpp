@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <string>
 
@@ -799,6 +800,49 @@ TEST(CliBatch, TwoThreadsWriteTheSameBytesAsOne) {
     EXPECT_EQ(s1["per_frame"][i]["name"], s2["per_frame"][i]["name"]);
     EXPECT_EQ(s1["per_frame"][i].value("segments", -1), s2["per_frame"][i].value("segments", -1));
   }
+}
+
+// --track: the frames run in order on one pipeline (threads inside each frame), a bad frame in
+// between does not break a track, and the pictures colour a surface by its track.
+TEST(CliBatch, TrackedSequenceKeepsIdsAndColoursAcrossFrames) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_batch_track");
+  write_small_pcd(dir / "in" / "0.pcd", 7);
+  write_truncated_pcd(dir / "in" / "1.pcd");
+  write_small_pcd(dir / "in" / "2.pcd", 7);  // the same scene again
+  const CliResult r =
+      run("segment " + (dir / "in").string() + " --track --threads 2 -o " + (dir / "out").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(rangeseg::test::contains(r.out, "segments tracked")) << r.out;
+  const auto first = read_json(dir / "out" / "0" / "segments.json")["segments"];
+  const auto again = read_json(dir / "out" / "2" / "segments.json")["segments"];
+  ASSERT_FALSE(first.empty());
+  ASSERT_EQ(first.size(), again.size());
+  std::set<std::uint32_t> ids;
+  for (std::size_t i = 0; i < first.size(); ++i) {
+    ASSERT_TRUE(first[i].contains("track_id"));
+    EXPECT_EQ(first[i]["track_id"], again[i]["track_id"]);
+    EXPECT_TRUE(ids.insert(first[i]["track_id"].get<std::uint32_t>()).second);
+  }
+  EXPECT_EQ(read_text(dir / "out" / "0" / "overlay.png"),
+            read_text(dir / "out" / "2" / "overlay.png"));
+  const auto summary = read_json(dir / "out" / "summary.json");
+  EXPECT_EQ(summary["tracked"], true);
+  EXPECT_EQ(summary["threads"], 2);
+  EXPECT_EQ(summary["failed"], 1);
+  EXPECT_GT(summary["median_ms"]["tracking"].get<double>(), 0.0);
+
+  // The same from a config, and nothing of it without.
+  std::ofstream(dir / "track.json") << R"({"track": true})";
+  ASSERT_EQ(run("segment " + (dir / "in" / "0.pcd").string() + " --config " +
+                (dir / "track.json").string() + " -o " + (dir / "config").string())
+                .code,
+            0);
+  EXPECT_TRUE(read_json(dir / "config" / "segments.json")["segments"][0].contains("track_id"));
+  ASSERT_EQ(run("segment " + (dir / "in").string() + " -o " + (dir / "plain").string()).code, 0);
+  for (const auto& s : read_json(dir / "plain" / "0" / "segments.json")["segments"]) {
+    EXPECT_FALSE(s.contains("track_id"));
+  }
+  EXPECT_FALSE(read_json(dir / "plain" / "summary.json")["median_ms"].contains("tracking"));
 }
 
 TEST(CliBatch, BenchSizesJson) {

@@ -1,4 +1,5 @@
-// The frame pipeline: results equal the stage-by-stage calls, and no heap allocation per frame.
+// The frame pipeline: results equal the stage-by-stage calls, and no heap allocation per frame
+// (segment tracking included).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -173,6 +174,7 @@ TEST(Pipeline, NoAllocationPerFrameAfterTheFirst) {
     PipelineSettings settings = pipeline_preset("kinect");
     settings.threads = threads;
     settings.segmentation.growth_bands = threads;
+    settings.track = true;
     Pipeline pipeline(settings);
     for (int warmup = 0; warmup < 9; ++warmup) pipeline.process(frame_of(warmup));
     const long before = g_allocations.load();
@@ -257,6 +259,7 @@ TEST(Pipeline, DepthImageFramesAllocateNothingAfterTheFirst) {
   for (const int threads : {1, 2}) {
     PipelineSettings settings = pipeline_preset("kinect");
     settings.threads = threads;
+    settings.track = true;
     Pipeline pipeline(settings);
     for (int warmup = 0; warmup < 4; ++warmup) {
       pipeline.process((warmup % 2 == 0 ? a : b).view(), kQvgaCamera, 0.001);

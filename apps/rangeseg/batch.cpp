@@ -37,23 +37,29 @@ struct FrameResult {
 /// sensors), made when first needed: frames of one sensor reuse one pipeline's buffers.
 class WorkerPipelines {
  public:
-  explicit WorkerPipelines(const BatchSettings& settings) : settings_(settings) {}
+  WorkerPipelines(const BatchSettings& settings, int frame_threads)
+      : settings_(settings), frame_threads_(frame_threads) {}
   Pipeline& operator()(const std::string& preset) {
     std::unique_ptr<Pipeline>& p = by_preset_[preset];
-    if (!p) p = std::make_unique<Pipeline>(settings_.settings_for(preset));
+    if (!p) {
+      PipelineSettings s = settings_.settings_for(preset);
+      s.threads = frame_threads_;
+      p = std::make_unique<Pipeline>(s);
+    }
     return *p;
   }
 
  private:
   const BatchSettings& settings_;
+  int frame_threads_;
   std::map<std::string, std::unique_ptr<Pipeline>> by_preset_;
 };
 
 /// Every stage name in the order of summary.json: a frame on a grid has no rings, one over rings
 /// no mesh; "order" is an unorganized frame's move into spatial order or onto its pixel grid
 /// and back.
-constexpr const char* kStages[] = {"mesh",      "order",        "rings",    "normals",
-                                   "smoothing", "segmentation", "polygons", "total"};
+constexpr const char* kStages[] = {"mesh",         "order",    "rings",    "normals", "smoothing",
+                                   "segmentation", "polygons", "tracking", "total"};
 
 /// Loads, segments and writes one frame; every failure is caught and returned as the reason.
 FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options,
@@ -106,6 +112,7 @@ std::vector<StageTime> stage_times(const StageTimes& t, bool organized, bool rin
       {rings ? "rings" : "mesh", t.mesh}, {"normals", t.normals},   {"smoothing", t.smoothing},
       {"segmentation", t.segmentation},   {"polygons", t.polygons}, {"total", t.total}};
   if (!organized) stages.insert(stages.begin(), {"order", t.input});
+  if (t.tracking > 0) stages.insert(stages.end() - 1, {"tracking", t.tracking});
   return stages;
 }
 
@@ -123,13 +130,19 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
   const auto out_dir = ensure_dir(options.out_dir);
   keep_freed_memory_for_reuse();
   const std::size_t n = list.frames.size();
-  const std::size_t threads = std::clamp<std::size_t>(
-      static_cast<std::size_t>(std::max(options.threads, 1)), 1, std::max<std::size_t>(n, 1));
+  // Tracked segments need the frames in order, on one pipeline: the threads then work inside
+  // each frame.
+  const bool track = settings.settings_for(resolve_preset(settings.preset, "")).track;
+  const int frame_threads = track ? std::max(options.threads, 1) : 1;
+  const std::size_t threads =
+      track ? 1
+            : std::clamp<std::size_t>(static_cast<std::size_t>(std::max(options.threads, 1)), 1,
+                                      std::max<std::size_t>(n, 1));
   // The first pipeline of each worker is made here, so that invalid settings throw before any
   // work starts.
   std::vector<WorkerPipelines> pipelines;
   for (std::size_t t = 0; t < threads; ++t) {
-    pipelines.emplace_back(settings)(resolve_preset(settings.preset, ""));
+    pipelines.emplace_back(settings, frame_threads)(resolve_preset(settings.preset, ""));
   }
 
   std::vector<FrameResult> results(n);
@@ -191,7 +204,8 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
       {"frames", n},
       {"succeeded", ok},
       {"failed", n - ok},
-      {"threads", threads},
+      {"threads", track ? frame_threads : static_cast<int>(threads)},
+      {"tracked", track},
       {"wall_seconds", wall_s},
       // Of the frames segmented: failures are often cut short by a bad header.
       {"frames_per_second", wall_s > 0 ? static_cast<double>(ok) / wall_s : 0.0},
@@ -201,8 +215,15 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
   write_json((out_dir / "summary.json").string(), summary);
   remove_earlier_results(out_dir, {(out_dir / "summary.json").string()});
 
-  std::printf("%zu frames: %zu ok, %zu failed; %.2f s with %zu thread%s", n, ok, n - ok, wall_s,
-              threads, threads == 1 ? "" : "s");
+  if (track) {
+    std::printf(
+        "%zu frames: %zu ok, %zu failed; %.2f s, in order with %d thread%s per frame, "
+        "segments tracked",
+        n, ok, n - ok, wall_s, frame_threads, frame_threads == 1 ? "" : "s");
+  } else {
+    std::printf("%zu frames: %zu ok, %zu failed; %.2f s with %zu thread%s", n, ok, n - ok, wall_s,
+                threads, threads == 1 ? "" : "s");
+  }
   if (ok > 0) std::printf(" (%.1f frames/s)", summary["frames_per_second"].get<double>());
   std::printf("\n");
   if (ok > 0) {

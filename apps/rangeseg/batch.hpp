@@ -46,7 +46,8 @@ struct StageTime {
 
 /// The stages a frame ran, with their times: for unorganized input "order" (StageTimes::input),
 /// then mesh (a grid: organized, or the pixel grid restored) or rings (the k-nearest-neighbour
-/// rings, StageTimes::mesh), normals, smoothing, segmentation, polygons and total.
+/// rings, StageTimes::mesh), normals, smoothing, segmentation, polygons, tracking (when the
+/// frame's segments were tracked: StageTimes::tracking > 0) and total.
 std::vector<StageTime> stage_times(const StageTimes& times, bool organized, bool rings);
 
 /// Median of `values` (0 for none); the mean of the two middle values for an even count.

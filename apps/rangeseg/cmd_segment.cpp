@@ -26,6 +26,7 @@ struct SegmentOptions {
   bool no_smooth = false;
   bool no_mesh = false;
   bool cloud = false;
+  bool track = false;
 };
 
 }  // namespace
@@ -117,6 +118,11 @@ void add_segment(CLI::App& app) {
       ->check(CLI::Range(1, 256));
   add_settings_options(*cmd, o->model, o->preset, o->config, o->no_smooth,
                        /*auto_preset=*/true);
+  cmd->add_flag("--track", o->track,
+                "A sequence: give the segments track ids that persist from frame to frame "
+                "(segments.json: track_id; the pictures, mesh.ply and cloud.pcd coloured by "
+                "track); the frames then run one after another in input order, --threads "
+                "inside each frame (also config key \"track\")");
   cmd->add_flag("--no-mesh", o->no_mesh, "Do not write mesh.ply");
   cmd->add_flag("--cloud", o->cloud,
                 "Also write cloud.pcd for an organized input: the smoothed points, organized as "
@@ -137,7 +143,9 @@ void add_segment(CLI::App& app) {
       "or no frame of a batch succeeded.");
   cmd->callback([o] {
     const auto settings_for = [o](const std::string& preset) {
-      return settings_from(preset, o->model, o->config, o->no_smooth);
+      PipelineSettings s = settings_from(preset, o->model, o->config, o->no_smooth);
+      s.track = s.track || o->track;
+      return s;
     };
     // Bad options (an unknown preset or model, a bad --config) fail before any input is read.
     settings_for(resolve_preset(o->preset, ""));

@@ -73,12 +73,33 @@ nlohmann::json surface_json(const Segment& s) {
   return j;
 }
 
+/// What the pictures colour a pixel by: its segment's track id when the segments are tracked
+/// (PipelineSettings::track), so that a surface keeps its colour from frame to frame, else its
+/// label.
+LabelImage colour_ids(const Segmentation& seg) {
+  const bool tracked = std::any_of(seg.segments.begin(), seg.segments.end(),
+                                   [](const Segment& s) { return s.track_id != 0; });
+  if (!tracked) return seg.labels;
+  std::vector<std::int32_t> id_of(seg.segments.size() + 1, 0);
+  for (const Segment& s : seg.segments) {
+    // Colours repeat after 2^31 tracks; label_colour takes positive ids.
+    id_of[static_cast<std::size_t>(s.label)] = static_cast<std::int32_t>(s.track_id & 0x7fffffffU);
+  }
+  LabelImage ids(seg.labels.width(), seg.labels.height());
+  for (int v = 0; v < ids.height(); ++v) {
+    for (int u = 0; u < ids.width(); ++u) {
+      ids(u, v) = id_of[static_cast<std::size_t>(seg.labels(u, v))];
+    }
+  }
+  return ids;
+}
+
 /// The processed points with normals, curvature, labels and the labels' colours
-/// (colorize_labels without shading; black where there is no point).
+/// (colorize_labels of colour_ids without shading; black where there is no point).
 void write_labelled_cloud(const std::string& path, const Pipeline& pipeline) {
   OrganizedCloud cloud = pipeline.cloud();
   cloud.label = pipeline.segmentation().labels;
-  const RgbImage colours = colorize_labels(cloud.label);
+  const RgbImage colours = colorize_labels(colour_ids(pipeline.segmentation()));
   cloud.add_rgb();
   for (int v = 0; v < cloud.height(); ++v) {
     for (int u = 0; u < cloud.width(); ++u) {
@@ -144,6 +165,7 @@ nlohmann::json segments_json(const Segmentation& seg, const PolygonSet* polygons
                  {"rms_residual", s.rms_residual},
                  {"grazing", s.grazing},
                  {"surface", surface_json(s)}});
+    if (s.track_id != 0) item["track_id"] = s.track_id;
   }
   return {{"plane_equation", "normal . x + offset = 0, camera frame, metres"},
           {"surface",
@@ -208,12 +230,13 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
   if (!pipeline.polygons().segments.empty()) {
     write_polygons_obj(file("polygons.obj"), pipeline.polygons());
   }
-  RgbImage overlay = colorize_labels(seg.labels, &input);
+  const LabelImage colour_by = colour_ids(seg);
+  RgbImage overlay = colorize_labels(colour_by, &input);
   io::write_rgb_png(file("types.png"), colorize_surface_types(seg, overlay));
   draw_polygons(overlay, pipeline.polygons());
   io::write_rgb_png(file("overlay.png"), overlay);
   if (files.mesh) {
-    const RgbImage flat = colorize_labels(seg.labels);
+    const RgbImage flat = colorize_labels(colour_by);
     write_mesh_ply(file("mesh.ply"), pipeline.cloud(), pipeline.mesh(), &pipeline.normals(), &flat);
   }
   if (files.cloud) write_labelled_cloud(file("cloud.pcd"), pipeline);

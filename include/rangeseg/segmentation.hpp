@@ -247,6 +247,9 @@ struct Segment {
   /// mesh before it traces the polygons (an unorganized cloud has no mesh: the flag only says
   /// how the plane was found).
   bool grazing = false;
+  /// The segment's track in a stream (SegmentTracker, PipelineSettings::track): the same id as
+  /// the segment of the previous frame it continues, else a new one; 0 when not tracked.
+  std::uint32_t track_id = 0;
 };
 
 struct Segmentation {

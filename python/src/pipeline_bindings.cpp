@@ -50,7 +50,8 @@ std::string config_json(const py::dict& config) {
 }
 
 PipelineSettings settings_from(const std::string& preset, const std::optional<std::string>& model,
-                               std::optional<bool> smooth, int threads, const py::handle& config) {
+                               std::optional<bool> smooth, std::optional<bool> track, int threads,
+                               const py::handle& config) {
   PipelineSettings s = pipeline_preset(preset);
   if (py::isinstance<py::dict>(config)) {
     try {
@@ -65,6 +66,7 @@ PipelineSettings settings_from(const std::string& preset, const std::optional<st
   // has a default and so gives way to a config's model).
   if (model) s.segmentation.model = region_model_from_string(*model);
   if (smooth) s.smooth = *smooth;
+  if (track) s.track = *track;
   s.threads = threads;
   validate(s);
   return s;
@@ -130,6 +132,11 @@ class PyPipeline {
   }
 
   const PipelineSettings& settings() const { return pipeline_.settings(); }
+  void reset_tracks() {
+    const py::gil_scoped_release release;  // as run(): the GIL is not held while waiting
+    const std::lock_guard lock(mutex_);
+    pipeline_.reset_tracks();
+  }
 
  private:
   /// Runs a frame without the GIL (other Python threads go on), one at a time: `prepare` (with
@@ -170,7 +177,7 @@ class PyPipeline {
     const StageTimes& t = pipeline_.times();
     r.times = py::dict("input"_a = t.input, "mesh"_a = t.mesh, "normals"_a = t.normals,
                        "smoothing"_a = t.smoothing, "segmentation"_a = t.segmentation,
-                       "polygons"_a = t.polygons, "total"_a = t.total);
+                       "polygons"_a = t.polygons, "tracking"_a = t.tracking, "total"_a = t.total);
     return r;
   }
 
@@ -198,8 +205,9 @@ void bind_pipeline(py::module_& m) {
       .def_readonly("segments", &Result::segments,
                     "list of dicts, one per segment by pixel count descending, with the keys of "
                     "segments.json: id, model, pixel_count, area_m2, centroid, normal, offset "
-                    "(normal . x + offset = 0, metres), rms_residual, grazing, surface, and "
-                    "polygon for plane segments (point lists as NumPy arrays)")
+                    "(normal . x + offset = 0, metres), rms_residual, grazing, surface, "
+                    "polygon for plane segments (point lists as NumPy arrays), and track_id "
+                    "when the pipeline tracks segments")
       .def_readonly("times", &Result::times, "milliseconds per stage of this frame")
       .def_readonly("width", &Result::width)
       .def_readonly("height", &Result::height)
@@ -220,17 +228,21 @@ preset: sensor settings: "kinect" (structured light, also PrimeSense and RealSen
 model:  region model: "plane", "smooth", "incremental_plane" or "auto" (planes,
         cylinders and spheres); default the preset's ("plane").
 smooth: run the bilateral filter (default the preset's: on, but for abw and ideal).
+track:  give the segments of consecutive frames track ids (segments' "track_id"): the
+        same id while a surface stays in view, for frames of one camera in order
+        (default False; ~0.2-0.5 ms per 640x480 frame).
 threads: threads inside a frame (1..256).
 config: settings on top of the preset, a dict or the path of a JSON file with the
         keys of `rangeseg segment --config` (metres, radians), e.g.
         {"segmentation": {"min_region_size": 200}}.)")
       .def(py::init([](const std::string& preset, const std::optional<std::string>& model,
-                       std::optional<bool> smooth, int threads, const py::object& config) {
+                       std::optional<bool> smooth, std::optional<bool> track, int threads,
+                       const py::object& config) {
              return std::make_unique<PyPipeline>(
-                 settings_from(preset, model, smooth, threads, config));
+                 settings_from(preset, model, smooth, track, threads, config));
            }),
-           "preset"_a = "kinect", "model"_a = py::none(), "smooth"_a = py::none(), "threads"_a = 1,
-           "config"_a = py::none())
+           "preset"_a = "kinect", "model"_a = py::none(), "smooth"_a = py::none(),
+           "track"_a = py::none(), "threads"_a = 1, "config"_a = py::none())
       .def(
           "process",
           [](PyPipeline& p, const py::object& points, const py::object& intensity,
@@ -272,6 +284,10 @@ read_camera_json's dict: process_depth(depth, **camera)). Returns a Result.)")
                                return std::string(to_string(p.settings().segmentation.model));
                              })
       .def_property_readonly("smooth", [](const PyPipeline& p) { return p.settings().smooth; })
+      .def_property_readonly("track", [](const PyPipeline& p) { return p.settings().track; })
+      .def("reset_tracks", &PyPipeline::reset_tracks,
+           "forget the previous frame's segments: the next frame starts new tracks (e.g. at a "
+           "cut in a sequence)")
       .def_property_readonly(
           "settings",
           [](const PyPipeline& p) {
@@ -283,7 +299,8 @@ read_camera_json's dict: process_depth(depth, **camera)). Returns a Result.)")
         const PipelineSettings& s = p.settings();
         return "<rangeseg.Pipeline model='" + std::string(to_string(s.segmentation.model)) +
                "' smooth=" + (s.smooth ? "True" : "False") +
-               " threads=" + std::to_string(s.threads) + ">";
+               " track=" + (s.track ? "True" : "False") + " threads=" + std::to_string(s.threads) +
+               ">";
       });
 }
 

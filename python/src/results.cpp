@@ -77,6 +77,7 @@ py::list segments_list(const Segmentation& segmentation, const PolygonSet* polyg
     if (const SegmentPolygons* sp = by_label[static_cast<std::size_t>(s.label)]) {
       d["polygon"] = polygon_dict(*polygons, *sp);
     }
+    if (s.track_id != 0) d["track_id"] = s.track_id;
     list.append(d);
   }
   return list;

@@ -81,6 +81,7 @@ template <class Visit>
 void for_each_key(PipelineSettings& s, Visit&& visit) {
   visit("", "smooth", s.smooth);
   visit("", "restore_grid", s.restore_grid);
+  visit("", "track", s.track);
   auto& m = s.mesh;
   visit("mesh", "type", m.type);
   visit("mesh", "eps_theta", m.eps_theta);
@@ -132,9 +133,12 @@ void for_each_key(PipelineSettings& s, Visit&& visit) {
   visit("rings", "jump_sigmas", r.jump_sigmas);
   visit("rings", "by_direction", r.by_direction);
   visit("rings", "balanced", r.balanced);
+  visit("tracking", "min_overlap", s.tracking.min_overlap);
+  visit("tracking", "max_normal_angle", s.tracking.max_normal_angle);
 }
 
-constexpr std::array<const char*, 4> kSections{"mesh", "smoothing", "segmentation", "rings"};
+constexpr std::array<const char*, 5> kSections{"mesh", "smoothing", "segmentation", "rings",
+                                               "tracking"};
 
 void read_settings(const json& j, const std::string& path, PipelineSettings& s) {
   std::vector<const char*> top{"noise"};

@@ -100,6 +100,26 @@ class AnalyticScenes(unittest.TestCase):
         self.assertAlmostEqual(offsets[0], 1.0, delta=1e-4)
         self.assertAlmostEqual(offsets[1], 1.5, delta=1e-4)
 
+    def test_tracked_planes_keep_their_ids_while_the_step_moves(self):
+        pipeline = rangeseg.Pipeline(preset="ideal", track=True)
+        self.assertTrue(pipeline.track)
+        ids_of_depth = None
+        for frame in range(4):
+            z = np.full((240, 320), 1.0)
+            z[:, 100 + 20 * frame:] = 1.5  # the step moves 20 px per frame
+            result = pipeline.process_depth(z, **HALF)
+            self.assertEqual(len(result.segments), 2)
+            ids = {round(s["offset"], 3): s["track_id"] for s in result.segments}
+            if ids_of_depth is not None:
+                self.assertEqual(ids, ids_of_depth)
+            ids_of_depth = ids
+            self.assertGreater(result.times["tracking"], 0.0)
+        pipeline.reset_tracks()
+        again = pipeline.process_depth(z, **HALF)
+        self.assertTrue(all(s["track_id"] > max(ids_of_depth.values()) for s in again.segments))
+        untracked = rangeseg.Pipeline(preset="ideal").process_depth(z, **HALF)
+        self.assertTrue(all("track_id" not in s for s in untracked.segments))
+
     def test_a_sphere_before_a_wall_is_found_with_its_radius(self):
         width, height = 320, 240
         d = rays(width, height, **HALF)
@@ -329,6 +349,8 @@ class BadInput(unittest.TestCase):
         pipeline = rangeseg.Pipeline(model="plane", smooth=True, config=config)
         self.assertEqual((pipeline.model, pipeline.smooth), ("plane", True))
         self.assertEqual(rangeseg.Pipeline(config=config).model, "auto")
+        self.assertFalse(rangeseg.Pipeline(track=False, config={"track": True}).track)
+        self.assertTrue(rangeseg.Pipeline(config={"track": True}).track)
 
     def test_unreadable_files_are_runtime_errors_naming_the_file(self):
         with tempfile.TemporaryDirectory() as tmp:

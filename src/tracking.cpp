@@ -1,0 +1,277 @@
+#include "rangeseg/tracking.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+namespace rangeseg {
+namespace {
+
+constexpr std::uint64_t kEmpty = 0;  // labels are >= 1, so no pair has key 0
+
+std::uint64_t pair_key(std::int32_t previous, std::int32_t current) {
+  return static_cast<std::uint64_t>(previous) << 32 | static_cast<std::uint32_t>(current);
+}
+
+std::size_t slot_of(std::uint64_t key, std::size_t mask) {
+  return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ULL) >> 32) & mask;
+}
+
+/// The end of the run of `value` that starts at row[begin], at most `end`. Labels come in long
+/// runs: whole blocks of 8 are compared at once.
+int run_end(const std::int32_t* row, int begin, int end, std::int32_t value) {
+  int u = begin + 1;
+  while (u + 8 <= end) {
+    std::uint32_t differ = 0;
+    for (int k = 0; k < 8; ++k) differ |= static_cast<std::uint32_t>(row[u + k] ^ value);
+    if (differ != 0) break;
+    u += 8;
+  }
+  while (u < end && row[u] == value) ++u;
+  return u;
+}
+
+[[noreturn]] void bad_label(std::int32_t label, int u, int v, int segments) {
+  throw std::invalid_argument("SegmentTracker::update: label " + std::to_string(label) +
+                              " at pixel (" + std::to_string(u) + ", " + std::to_string(v) +
+                              ") is outside [0, " + std::to_string(segments) + "]");
+}
+
+}  // namespace
+
+void validate(const TrackingSettings& settings) {
+  if (!(settings.min_overlap > 0 && settings.min_overlap <= 1)) {
+    throw std::invalid_argument("TrackingSettings::min_overlap must be in (0, 1], got " +
+                                std::to_string(settings.min_overlap));
+  }
+  if (!(settings.max_normal_angle >= 0 && settings.max_normal_angle <= std::numbers::pi)) {
+    throw std::invalid_argument("TrackingSettings::max_normal_angle must be in [0, pi] rad, got " +
+                                std::to_string(settings.max_normal_angle));
+  }
+}
+
+SegmentTracker::SegmentTracker(const TrackingSettings& settings) : settings_(settings) {
+  validate(settings_);
+}
+
+void SegmentTracker::reset() {
+  previous_labels_.resize(0, 0);
+  previous_.clear();
+}
+
+void SegmentTracker::add_shared(std::uint64_t key, std::uint32_t count) {
+  std::size_t mask = keys_.size() - 1;
+  for (std::size_t s = slot_of(key, mask);; s = (s + 1) & mask) {
+    if (keys_[s] == key) {
+      counts_[s] += count;
+      return;
+    }
+    if (keys_[s] != kEmpty) continue;
+    keys_[s] = key;
+    counts_[s] = count;
+    if (2 * ++pairs_ <= keys_.size()) return;
+    // More than half full: twice the size (allocates only for more pairs than ever before).
+    std::vector<std::uint64_t> keys(2 * keys_.size(), kEmpty);
+    std::vector<std::uint32_t> counts(keys.size(), 0);
+    mask = keys.size() - 1;
+    for (std::size_t i = 0; i < keys_.size(); ++i) {
+      if (keys_[i] == kEmpty) continue;
+      std::size_t t = slot_of(keys_[i], mask);
+      while (keys[t] != kEmpty) t = (t + 1) & mask;
+      keys[t] = keys_[i];
+      counts[t] = counts_[i];
+    }
+    keys_.swap(keys);
+    counts_.swap(counts);
+    return;
+  }
+}
+
+void SegmentTracker::measure_footprints(const LabelImage& labels, int segments) {
+  footprints_.assign(static_cast<std::size_t>(segments) + 1, Footprint{});
+  const bool same_size = previous_labels_.width() == labels.width() &&
+                         previous_labels_.height() == labels.height() && !previous_.empty();
+  if (same_size) clear_shared();
+  for (int v = 0; v < labels.height(); ++v) {
+    const std::int32_t* row = labels.row(v);
+    for (int u = 0; u < labels.width();) {
+      const std::int32_t c = row[u];
+      if (c < 0 || c > segments) bad_label(c, u, v, segments);
+      const int end = run_end(row, u, labels.width(), c);
+      if (c > 0) {
+        Footprint& f = footprints_[static_cast<std::size_t>(c)];
+        const int n = end - u;
+        if (f.pixels == 0) f = {0, 0, 0, u, end - 1, v, v};
+        f.sum_u += 0.5 * (u + end - 1) * n;
+        f.sum_v += static_cast<double>(v) * n;
+        f.pixels += n;
+        f.min_u = std::min(f.min_u, u);
+        f.max_u = std::max(f.max_u, end - 1);
+        f.max_v = v;
+        if (same_size) count_run(c, previous_labels_.row(v), u, end);
+      }
+      u = end;
+    }
+  }
+}
+
+void SegmentTracker::clear_shared() {
+  if (keys_.empty()) {
+    keys_.assign(1024, kEmpty);
+    counts_.assign(keys_.size(), 0);
+  } else {
+    std::fill(keys_.begin(), keys_.end(), kEmpty);
+  }
+  pairs_ = 0;
+}
+
+void SegmentTracker::count_run(std::int32_t current, const std::int32_t* previous, int begin,
+                               int end) {
+  // Runs of one previous label within the run of the current one go to the table at once.
+  for (int u = begin; u < end;) {
+    const std::int32_t p = previous[u];
+    const int stop = run_end(previous, u, end, p);
+    if (p != 0) add_shared(pair_key(p, current), static_cast<std::uint32_t>(stop - u));
+    u = stop;
+  }
+}
+
+void SegmentTracker::count_shared_pixels(const LabelImage& labels, int du, int dv) {
+  clear_shared();
+  // Pixel (u, v) now against pixel (u - du, v - dv) of the frame before.
+  const int width = labels.width();
+  const int u0 = std::max(0, du), u1 = std::min(width, width + du);
+  for (int v = std::max(0, dv); v < std::min(labels.height(), labels.height() + dv); ++v) {
+    const std::int32_t* current = labels.row(v);
+    const std::int32_t* previous = previous_labels_.row(v - dv) - du;
+    for (int u = u0; u < u1;) {
+      const std::int32_t c = current[u];
+      const int end = run_end(current, u, u1, c);
+      if (c != 0 && open_[static_cast<std::size_t>(c)] != 0) count_run(c, previous, u, end);
+      u = end;
+    }
+  }
+}
+
+void SegmentTracker::add_candidates(const Segmentation& segmentation) {
+  const double min_cos = std::cos(settings_.max_normal_angle);
+  for (std::size_t s = 0; s < keys_.size(); ++s) {
+    if (keys_[s] == kEmpty) continue;
+    const auto p = static_cast<std::int32_t>(keys_[s] >> 32);
+    const auto c = static_cast<std::int32_t>(keys_[s] & 0xffffffffU);
+    const Track& before = previous_[static_cast<std::size_t>(p - 1)];
+    const Segment& now = segmentation.segments[static_cast<std::size_t>(c - 1)];
+    if (before.kind != now.kind || before.plane != is_plane(now)) continue;
+    if (static_cast<double>(counts_[s]) <
+        settings_.min_overlap * std::min(before.pixels, now.pixel_count)) {
+      continue;
+    }
+    if (before.plane) {
+      const double cos_angle = before.normal[0] * now.normal[0] + before.normal[1] * now.normal[1] +
+                               before.normal[2] * now.normal[2];
+      if (cos_angle < min_cos) continue;
+    }
+    candidates_.push_back({counts_[s], p, c});
+  }
+}
+
+std::array<int, 2> SegmentTracker::image_motion(int width, int height) {
+  // The shift of the image between the frames, from the segments that continue one another
+  // without touching the image's border (a segment cut by the border moves less than the
+  // image): per axis the median of their centroids' shifts, weighted by shared pixels.
+  motions_.clear();
+  for (const Pair& pair : candidates_) {
+    const Footprint& a = previous_[static_cast<std::size_t>(pair.previous - 1)].footprint;
+    const Footprint& b = footprints_[static_cast<std::size_t>(pair.current)];
+    const auto inside = [&](const Footprint& f) {
+      return f.min_u > 0 && f.min_v > 0 && f.max_u < width - 1 && f.max_v < height - 1;
+    };
+    if (!inside(a) || !inside(b)) continue;
+    motions_.push_back({b.sum_u / b.pixels - a.sum_u / a.pixels,
+                        b.sum_v / b.pixels - a.sum_v / a.pixels, static_cast<double>(pair.shared)});
+  }
+  std::array<int, 2> shift{0, 0};
+  if (motions_.empty()) return shift;
+  for (std::size_t axis = 0; axis < 2; ++axis) {
+    std::sort(motions_.begin(), motions_.end(),
+              [axis](const auto& x, const auto& y) { return x[axis] < y[axis]; });
+    double total = 0, below = 0;
+    for (const auto& m : motions_) total += m[2];
+    for (const auto& m : motions_) {
+      below += m[2];
+      if (2 * below < total) continue;
+      shift[axis] = static_cast<int>(std::lround(m[axis]));
+      break;
+    }
+  }
+  return shift;
+}
+
+void SegmentTracker::update(Segmentation& segmentation) {
+  std::vector<Segment>& segments = segmentation.segments;
+  const int n = static_cast<int>(segments.size());
+  for (int i = 0; i < n; ++i) {
+    if (segments[static_cast<std::size_t>(i)].label != i + 1) {
+      throw std::invalid_argument("SegmentTracker::update: segments[" + std::to_string(i) +
+                                  "].label is " +
+                                  std::to_string(segments[static_cast<std::size_t>(i)].label) +
+                                  ", expected " + std::to_string(i + 1));
+    }
+  }
+  const LabelImage& labels = segmentation.labels;
+  measure_footprints(labels, n);
+
+  // The pairs that may continue a track: first pixel by pixel, then with the image's shift
+  // between the frames undone, so that a small segment moving by more than its own width
+  // still finds its track. Most shared pixels first.
+  candidates_.clear();
+  const bool same_size = !previous_.empty() && previous_labels_.width() == labels.width() &&
+                         previous_labels_.height() == labels.height();
+  if (same_size) {
+    add_candidates(segmentation);  // measure_footprints counted the shared pixels
+    // The second count is for the segments without a candidate yet.
+    open_.assign(segments.size() + 1, 1);
+    for (const Pair& pair : candidates_) open_[static_cast<std::size_t>(pair.current)] = 0;
+    const auto [du, dv] = image_motion(labels.width(), labels.height());
+    // A shift of one pixel, which noise in the centroids gives too, changes little.
+    if (std::max(std::abs(du), std::abs(dv)) >= 2 && std::abs(du) < labels.width() &&
+        std::abs(dv) < labels.height()) {
+      count_shared_pixels(labels, du, dv);
+      add_candidates(segmentation);
+    }
+  }
+  std::sort(candidates_.begin(), candidates_.end(), [](const Pair& a, const Pair& b) {
+    if (a.shared != b.shared) return a.shared > b.shared;
+    return a.previous != b.previous ? a.previous < b.previous : a.current < b.current;
+  });
+
+  for (Segment& s : segments) s.track_id = 0;
+  taken_.assign(previous_.size(), 0);
+  for (const Pair& pair : candidates_) {
+    Segment& now = segments[static_cast<std::size_t>(pair.current - 1)];
+    std::uint8_t& taken = taken_[static_cast<std::size_t>(pair.previous - 1)];
+    if (taken != 0 || now.track_id != 0) continue;
+    taken = 1;
+    now.track_id = previous_[static_cast<std::size_t>(pair.previous - 1)].id;
+  }
+  for (Segment& s : segments) {
+    if (s.track_id == 0) s.track_id = next_id_++;
+  }
+
+  // This frame is the next one's previous frame.
+  if (previous_labels_.width() != labels.width() || previous_labels_.height() != labels.height()) {
+    previous_labels_.resize(labels.width(), labels.height());
+  }
+  for (int v = 0; v < labels.height(); ++v) {
+    std::copy_n(labels.row(v), labels.width(), previous_labels_.row(v));
+  }
+  previous_.resize(segments.size());
+  for (std::size_t i = 0; i < segments.size(); ++i) {
+    const Segment& s = segments[i];
+    previous_[i] = {s.track_id, s.pixel_count, is_plane(s), s.kind, s.normal, footprints_[i + 1]};
+  }
+}
+
+}  // namespace rangeseg
