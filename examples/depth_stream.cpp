@@ -1,14 +1,16 @@
 // A depth camera loop: 16-bit depth frames (millimetres) and the camera intrinsics in, planes
 // out, one Pipeline reused for every frame (it owns all buffers, so frames after the first
-// allocate nothing).
+// allocate nothing), with segment tracks: a surface keeps its track id from frame to frame.
 //
 //   rangeseg_example_depth_stream [frames] [threads]
 //
-// The frames are rendered from the built-in demo scene with a new noise seed each, standing in
-// for a sensor driver.
+// The frames are rendered from the built-in demo scene with a new noise seed each, the view
+// panning by 2 pixels per frame, standing in for a sensor driver.
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <set>
 
 #include <rangeseg/camera.hpp>
 #include <rangeseg/pipeline.hpp>
@@ -23,12 +25,16 @@ int main(int argc, char** argv) try {
 
   rangeseg::PipelineSettings settings = rangeseg::pipeline_preset("kinect");
   settings.threads = threads;  // row bands of one frame on a persistent thread pool
+  settings.track = true;       // Segment::track_id persists across frames
   rangeseg::Pipeline pipeline(settings);
+  std::set<std::uint32_t> tracks_before;
 
   for (int i = 0; i < frames; ++i) {
     // What a driver delivers: raw depth in millimetres, 0 = no measurement.
+    rangeseg::CameraIntrinsics view = camera;
+    view.cx += 2.0 * i;
     const rangeseg::DepthImage depth = rangeseg::cloud_to_depth(
-        rangeseg::synth::render(scene, {.camera = camera,
+        rangeseg::synth::render(scene, {.camera = view,
                                         .noise = rangeseg::synth::Noise::kinect,
                                         .seed = static_cast<std::uint64_t>(i + 1)})
             .cloud,
@@ -37,11 +43,18 @@ int main(int argc, char** argv) try {
     pipeline.process(depth.view(), camera, 0.001);
     const rangeseg::Segmentation& s = pipeline.segmentation();
     const rangeseg::Segment* largest = s.segments.empty() ? nullptr : &s.segments.front();
-    std::printf("frame %2d: %2zu segments in %5.2f ms", i, s.segments.size(),
-                pipeline.times().total);
+    std::set<std::uint32_t> tracks;
+    int continued = 0;
+    for (const rangeseg::Segment& segment : s.segments) {
+      tracks.insert(segment.track_id);
+      continued += tracks_before.contains(segment.track_id) ? 1 : 0;
+    }
+    tracks_before = tracks;
+    std::printf("frame %2d: %2zu segments (%2d continue a track) in %5.2f ms", i, s.segments.size(),
+                continued, pipeline.times().total);
     if (largest != nullptr) {
-      std::printf(", largest plane %.2f m^2 with normal (%+.2f %+.2f %+.2f)", largest->area_m2,
-                  largest->normal[0], largest->normal[1], largest->normal[2]);
+      std::printf(", largest: track %u, %.2f m^2, normal (%+.2f %+.2f %+.2f)", largest->track_id,
+                  largest->area_m2, largest->normal[0], largest->normal[1], largest->normal[2]);
     }
     std::printf("\n");
     if (s.segments.empty()) return 1;

@@ -89,11 +89,9 @@ void SegmentTracker::add_shared(std::uint64_t key, std::uint32_t count) {
   }
 }
 
-void SegmentTracker::measure_footprints(const LabelImage& labels, int segments) {
+void SegmentTracker::measure_footprints(const LabelImage& labels, int segments, bool count) {
   footprints_.assign(static_cast<std::size_t>(segments) + 1, Footprint{});
-  const bool same_size = previous_labels_.width() == labels.width() &&
-                         previous_labels_.height() == labels.height() && !previous_.empty();
-  if (same_size) clear_shared();
+  if (count) clear_shared();
   for (int v = 0; v < labels.height(); ++v) {
     const std::int32_t* row = labels.row(v);
     for (int u = 0; u < labels.width();) {
@@ -110,7 +108,7 @@ void SegmentTracker::measure_footprints(const LabelImage& labels, int segments) 
         f.min_u = std::min(f.min_u, u);
         f.max_u = std::max(f.max_u, end - 1);
         f.max_v = v;
-        if (same_size) count_run(c, previous_labels_.row(v), u, end);
+        if (count) count_run(c, previous_labels_.row(v), u, end);
       }
       u = end;
     }
@@ -221,14 +219,14 @@ void SegmentTracker::update(Segmentation& segmentation) {
     }
   }
   const LabelImage& labels = segmentation.labels;
-  measure_footprints(labels, n);
+  const bool same_size = !previous_.empty() && previous_labels_.width() == labels.width() &&
+                         previous_labels_.height() == labels.height();
+  measure_footprints(labels, n, same_size);
 
   // The pairs that may continue a track: first pixel by pixel, then with the image's shift
   // between the frames undone, so that a small segment moving by more than its own width
   // still finds its track. Most shared pixels first.
   candidates_.clear();
-  const bool same_size = !previous_.empty() && previous_labels_.width() == labels.width() &&
-                         previous_labels_.height() == labels.height();
   if (same_size) {
     add_candidates(segmentation);  // measure_footprints counted the shared pixels
     // The second count is for the segments without a candidate yet.

@@ -75,8 +75,8 @@ class SegmentTracker {
     std::int32_t previous = 0, current = 0;  ///< labels
   };
 
-  /// Also counts the pixels shared with the previous frame when it has the same size.
-  void measure_footprints(const LabelImage& labels, int segments);
+  /// Checks the labels; with `count` also counts the pixels shared with the previous frame.
+  void measure_footprints(const LabelImage& labels, int segments, bool count);
   void clear_shared();
   void count_run(std::int32_t current, const std::int32_t* previous, int begin, int end);
   /// Counts for the labels of the current frame that are `open_` only.
