@@ -50,6 +50,10 @@ void validate(const TrackingSettings& settings) {
     throw std::invalid_argument("TrackingSettings::max_normal_angle must be in [0, pi] rad, got " +
                                 std::to_string(settings.max_normal_angle));
   }
+  if (!(settings.max_distance >= 0 && std::isfinite(settings.max_distance))) {
+    throw std::invalid_argument("TrackingSettings::max_distance must be finite and >= 0 m, got " +
+                                std::to_string(settings.max_distance));
+  }
 }
 
 SegmentTracker::SegmentTracker(const TrackingSettings& settings) : settings_(settings) {
@@ -161,15 +165,17 @@ void SegmentTracker::add_candidates(const Segmentation& segmentation) {
     const auto c = static_cast<std::int32_t>(keys_[s] & 0xffffffffU);
     const Track& before = previous_[static_cast<std::size_t>(p - 1)];
     const Segment& now = segmentation.segments[static_cast<std::size_t>(c - 1)];
-    if (before.kind != now.kind || before.plane != is_plane(now)) continue;
+    if (before.plane != is_plane(now)) continue;
     if (static_cast<double>(counts_[s]) <
         settings_.min_overlap * std::min(before.pixels, now.pixel_count)) {
       continue;
     }
-    if (before.plane) {
-      const double cos_angle = before.normal[0] * now.normal[0] + before.normal[1] * now.normal[1] +
-                               before.normal[2] * now.normal[2];
-      if (cos_angle < min_cos) continue;
+    const auto dot = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
+      return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    };
+    if (before.plane && dot(before.normal, now.normal) < min_cos) continue;
+    if (std::abs(dot(before.normal, now.centroid) + before.offset) > settings_.max_distance) {
+      continue;
     }
     candidates_.push_back({counts_[s], p, c});
   }
@@ -268,7 +274,7 @@ void SegmentTracker::update(Segmentation& segmentation) {
   previous_.resize(segments.size());
   for (std::size_t i = 0; i < segments.size(); ++i) {
     const Segment& s = segments[i];
-    previous_[i] = {s.track_id, s.pixel_count, is_plane(s), s.kind, s.normal, footprints_[i + 1]};
+    previous_[i] = {s.track_id, s.pixel_count, is_plane(s), s.normal, s.offset, footprints_[i + 1]};
   }
 }
 

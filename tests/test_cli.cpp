@@ -681,6 +681,14 @@ TEST(CliBatch, AutoPresetFollowsEachInputsSensor) {
   EXPECT_EQ(summary["per_frame"][0]["preset"], "abw");
   EXPECT_EQ(summary["per_frame"][1]["preset"], "kinect");
   EXPECT_EQ(read_text(dir / "batch" / "abw.test.3" / "labels.png"), auto_labels);
+  // A tracked sequence is one sensor's: a frame of another is reported and skipped (before, it
+  // ran on its own preset's pipeline, whose tracks gave ids the other's had given too).
+  const CliResult tracked =
+      run("segment " + (dir / "frame.pcd").string() + " " + range + " " +
+          (dir / "frame.pcd").string() + " --track --no-mesh -o " + (dir / "tracked").string());
+  ASSERT_EQ(tracked.code, 0) << tracked.out;
+  EXPECT_TRUE(rangeseg::test::contains(tracked.out, "one sensor's")) << tracked.out;
+  EXPECT_EQ(read_json(dir / "tracked" / "summary.json")["failed"], 1);
   // mesh: the ABW preset's depth-jump gate.
   for (const char* preset : {"auto", "abw", "kinect"}) {
     const CliResult r = run("mesh " + range + " --preset " + preset + " -o " +
@@ -806,15 +814,16 @@ TEST(CliBatch, TwoThreadsWriteTheSameBytesAsOne) {
 // between does not break a track, and the pictures colour a surface by its track.
 TEST(CliBatch, TrackedSequenceKeepsIdsAndColoursAcrossFrames) {
   const fs::path dir = rangeseg::test::scratch_dir("cli_batch_track");
-  write_small_pcd(dir / "in" / "0.pcd", 7);
-  write_truncated_pcd(dir / "in" / "1.pcd");
-  write_small_pcd(dir / "in" / "2.pcd", 7);  // the same scene again
+  // In natural order, as frames are numbered: 1, 2, 10 (not 1, 10, 2).
+  write_small_pcd(dir / "in" / "1.pcd", 7);
+  write_truncated_pcd(dir / "in" / "2.pcd");
+  write_small_pcd(dir / "in" / "10.pcd", 7);  // the same scene again
   const CliResult r =
       run("segment " + (dir / "in").string() + " --track --threads 2 -o " + (dir / "out").string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(rangeseg::test::contains(r.out, "segments tracked")) << r.out;
-  const auto first = read_json(dir / "out" / "0" / "segments.json")["segments"];
-  const auto again = read_json(dir / "out" / "2" / "segments.json")["segments"];
+  const auto first = read_json(dir / "out" / "1" / "segments.json")["segments"];
+  const auto again = read_json(dir / "out" / "10" / "segments.json")["segments"];
   ASSERT_FALSE(first.empty());
   ASSERT_EQ(first.size(), again.size());
   std::set<std::uint32_t> ids;
@@ -823,9 +832,13 @@ TEST(CliBatch, TrackedSequenceKeepsIdsAndColoursAcrossFrames) {
     EXPECT_EQ(first[i]["track_id"], again[i]["track_id"]);
     EXPECT_TRUE(ids.insert(first[i]["track_id"].get<std::uint32_t>()).second);
   }
-  EXPECT_EQ(read_text(dir / "out" / "0" / "overlay.png"),
-            read_text(dir / "out" / "2" / "overlay.png"));
+  EXPECT_EQ(read_text(dir / "out" / "1" / "overlay.png"),
+            read_text(dir / "out" / "10" / "overlay.png"));
   const auto summary = read_json(dir / "out" / "summary.json");
+  ASSERT_EQ(summary["per_frame"].size(), 3U);
+  EXPECT_EQ(summary["per_frame"][0]["name"], "1");
+  EXPECT_EQ(summary["per_frame"][1]["name"], "2");
+  EXPECT_EQ(summary["per_frame"][2]["name"], "10");
   EXPECT_EQ(summary["tracked"], true);
   EXPECT_EQ(summary["threads"], 2);
   EXPECT_EQ(summary["failed"], 1);
@@ -833,15 +846,14 @@ TEST(CliBatch, TrackedSequenceKeepsIdsAndColoursAcrossFrames) {
 
   // The same from a config, and nothing of it without.
   std::ofstream(dir / "track.json") << R"({"track": true})";
-  ASSERT_EQ(run("segment " + (dir / "in" / "0.pcd").string() + " --config " +
+  ASSERT_EQ(run("segment " + (dir / "in" / "1.pcd").string() + " --config " +
                 (dir / "track.json").string() + " -o " + (dir / "config").string())
                 .code,
             0);
   EXPECT_TRUE(read_json(dir / "config" / "segments.json")["segments"][0].contains("track_id"));
   ASSERT_EQ(run("segment " + (dir / "in").string() + " -o " + (dir / "plain").string()).code, 0);
-  for (const auto& s : read_json(dir / "plain" / "0" / "segments.json")["segments"]) {
-    EXPECT_FALSE(s.contains("track_id"));
-  }
+  const auto plain = read_json(dir / "plain" / "1" / "segments.json");
+  for (const auto& s : plain["segments"]) EXPECT_FALSE(s.contains("track_id"));
   EXPECT_FALSE(read_json(dir / "plain" / "summary.json")["median_ms"].contains("tracking"));
 }
 

@@ -131,11 +131,33 @@ TEST(Tracking, PlanesTurnedBeyondTheAngleOrSurfacesOfAnotherKindStartNewTracks) 
   c.segments[0].kind = SurfaceKind::cylinder;
   tracker.update(c);
   EXPECT_NE(c.segments[0].track_id, b.segments[0].track_id);
-  // Curved surfaces keep their track whatever their (fitted plane's) normal does.
+  // Curved surfaces keep their track whatever their (fitted plane's) normal does, also when
+  // the fit takes them for a sphere in one frame and a cylinder in the next.
   Segmentation d = c;
   d.segments[0].normal = tilted(1.2);
+  d.segments[0].kind = SurfaceKind::sphere;
   tracker.update(d);
   EXPECT_EQ(d.segments[0].track_id, c.segments[0].track_id);
+}
+
+// A board put up before a wall, parallel to it, takes more of the wall's pixels than the wall
+// keeps: the wall keeps its track, as the board lies 1.5 m before the wall's plane.
+TEST(Tracking, ASurfaceBeforeAnotherOnItsPixelsStartsItsOwnTrack) {
+  const auto at_depth = [](Segment& s, double z) {
+    s.normal = {0, 0, -1};
+    s.offset = z;  // the plane z = offset
+    s.centroid = {0, 0, z};
+  };
+  SegmentTracker tracker({.max_distance = 0.1});
+  Segmentation wall = frame({{0, 0, 64, 48}});
+  at_depth(wall.segments[0], 3.0);
+  tracker.update(wall);
+  Segmentation both = frame({{0, 0, 40, 48}, {40, 0, 64, 48}});
+  at_depth(both.segments[0], 1.5);  // the board, on 40 of the wall's 64 columns
+  at_depth(both.segments[1], 3.05);
+  tracker.update(both);
+  EXPECT_NE(both.segments[0].track_id, wall.segments[0].track_id);
+  EXPECT_EQ(both.segments[1].track_id, wall.segments[0].track_id);
 }
 
 TEST(Tracking, IdsAreNeverGivenTwiceAcrossResetsAndSizes) {
@@ -177,6 +199,8 @@ TEST(Tracking, InvalidLabelsThrowAndLeaveTheTrackerAsItWas) {
   EXPECT_THROW(SegmentTracker({.min_overlap = 1.5}), std::invalid_argument);
   EXPECT_THROW(SegmentTracker({.max_normal_angle = -0.1}), std::invalid_argument);
   EXPECT_THROW(SegmentTracker({.max_normal_angle = NAN}), std::invalid_argument);
+  EXPECT_THROW(SegmentTracker({.max_distance = -0.1}), std::invalid_argument);
+  EXPECT_THROW(SegmentTracker({.max_distance = INFINITY}), std::invalid_argument);
 }
 
 namespace {

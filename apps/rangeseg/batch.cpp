@@ -62,9 +62,11 @@ constexpr const char* kStages[] = {"mesh",         "order",    "rings",    "norm
                                    "segmentation", "polygons", "tracking", "total"};
 
 /// Loads, segments and writes one frame; every failure is caught and returned as the reason.
+/// `sequence_preset` (tracked sequences only): the preset of the frames so far, which every
+/// frame must share, as one pipeline's tracks must not skip over another sensor's frames.
 FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options,
                       const std::string& preset, WorkerPipelines& pipelines,
-                      const BatchOptions& options) {
+                      const BatchOptions& options, std::string* sequence_preset) {
   FrameResult r;
   try {
     if (!frame.error.empty()) throw std::runtime_error(frame.error);
@@ -72,6 +74,12 @@ FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options
     o.path = frame.path;
     const LoadedInput in = load_input(o);
     r.preset = resolve_preset(preset, in.sensor_preset);
+    if (sequence_preset != nullptr && sequence_preset->empty()) *sequence_preset = r.preset;
+    if (sequence_preset != nullptr && *sequence_preset != r.preset) {
+      throw std::invalid_argument("a tracked sequence is one sensor's: this frame takes preset " +
+                                  r.preset + ", the frames before it " + *sequence_preset +
+                                  " (give --preset, or segment it apart)");
+    }
     Pipeline& pipeline = pipelines(r.preset);
     require_model_for(in.cloud, pipeline.settings(), frame.path);
     pipeline.process(in.cloud);
@@ -146,6 +154,7 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
   }
 
   std::vector<FrameResult> results(n);
+  std::string sequence_preset;  // tracked: the one worker's
   std::atomic<std::size_t> next{0};
   ProgressBar bar(n);
   // Each worker takes the next unclaimed frame; a frame's result depends only on the frame, so
@@ -153,7 +162,8 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
   const auto work = [&](WorkerPipelines& worker) {
     for (std::size_t i = next++; i < n; i = next++) {
       const FrameSource& frame = list.frames[i];
-      results[i] = run_frame(frame, list.options, settings.preset, worker, options);
+      results[i] = run_frame(frame, list.options, settings.preset, worker, options,
+                             track ? &sequence_preset : nullptr);
       if (!results[i].ok) bar.message("skipped " + results[i].error);
       bar.advance(frame.name);
     }

@@ -261,19 +261,7 @@ std::vector<fs::path> segcomp_images(const std::string& dir) {
                                   ? std::string()
                                   : " (" + without_truth.front() + " has no ground truth)"));
   }
-  // "abw.test.12.range" -> ("abw.test.", 12); a stem without a trailing number sorts by name.
-  const auto key = [](const fs::path& p) {
-    const std::string stem = p.stem().string();
-    std::size_t digits = stem.size();
-    while (digits > 0 && stem[digits - 1] >= '0' && stem[digits - 1] <= '9') --digits;
-    const std::string number = stem.substr(digits);
-    return std::make_pair(stem.substr(0, digits),
-                          number.empty() || number.size() > 9 ? -1 : std::stoi(number));
-  };
-  std::sort(images.begin(), images.end(), [&](const fs::path& a, const fs::path& b) {
-    const auto ka = key(a), kb = key(b);
-    return ka != kb ? ka < kb : a.filename() < b.filename();
-  });
+  std::sort(images.begin(), images.end(), natural_less);  // abw.test.2 before abw.test.10
   return images;
 }
 

@@ -86,9 +86,10 @@ void add_settings_options(CLI::App& cmd, std::string& model, std::string& preset
       "--config", config,
       "JSON file with settings overriding the preset: objects noise, mesh, smoothing, "
       "segmentation, rings (k-nearest-neighbour rings of unorganized clouds: k, "
-      "max_distance, eps_theta, jump_sigmas, by_direction, balanced), smooth (true/false) "
-      "and restore_grid (true/false: an unorganized cloud on a camera's pixel grid runs on "
-      "that grid)");
+      "max_distance, eps_theta, jump_sigmas, by_direction, balanced), smooth (true/false), "
+      "restore_grid (true/false: an unorganized cloud on a camera's pixel grid runs on "
+      "that grid), track (true/false: segment tracks across frames) and tracking "
+      "(min_overlap, max_normal_angle); `rangeseg settings` prints them all");
   cmd.add_flag("--no-smooth", no_smooth, "Skip the bilateral filter");
 }
 
@@ -112,8 +113,9 @@ void add_segment(CLI::App& app) {
                   "and summary.json)")
       ->required();
   cmd->add_option("--threads", o->threads,
-                  "A batch: frames processed in parallel (one pipeline each); one input: threads "
-                  "inside the frame (every stage's passes over row bands)")
+                  "A batch: frames processed in parallel (one pipeline each; with --track one "
+                  "frame after another, N threads inside each); one input: threads inside the "
+                  "frame (every stage's passes over row bands)")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
   add_settings_options(*cmd, o->model, o->preset, o->config, o->no_smooth,
@@ -171,6 +173,8 @@ void add_segment(CLI::App& app) {
                                                         {.mesh = !o->no_mesh, .cloud = o->cloud});
     const StageTimes& t = pipeline.times();
     const std::size_t segments = pipeline.segmentation().segments.size();
+    char tracking[48] = "";
+    if (t.tracking > 0) std::snprintf(tracking, sizeof tracking, ", tracking %.2f", t.tracking);
     if (!in.cloud.is_organized()) {
       const PixelGrid& grid = pipeline.pixel_grid();
       char where[128] = "over rings";
@@ -180,19 +184,19 @@ void add_segment(CLI::App& app) {
       }
       std::printf(
           "%s: %zu segments of %zu points (unorganized, %zu valid, %s) in %.2f ms (preset %s; "
-          "order %.2f, %s %.2f, normals %.2f, smoothing %.2f, segmentation %.2f, polygons %.2f); "
-          "wrote %s\n",
+          "order %.2f, %s %.2f, normals %.2f, smoothing %.2f, segmentation %.2f, polygons "
+          "%.2f%s); wrote %s\n",
           o->in.path.c_str(), segments, in.cloud.size(), in.cloud.count_valid(), where, t.total,
           preset.c_str(), t.input, grid.found() ? "mesh" : "rings", t.mesh, t.normals, t.smoothing,
-          t.segmentation, t.polygons, files.c_str());
+          t.segmentation, t.polygons, tracking, files.c_str());
       return;
     }
     std::printf(
         "%s: %zu segments in %.2f ms (preset %s; mesh %.2f, normals %.2f, smoothing %.2f, "
-        "segmentation %.2f, polygons %.2f; a first frame, which allocates the buffers: `rangeseg "
-        "bench` times frames that reuse them)\n",
+        "segmentation %.2f, polygons %.2f%s; a first frame, which allocates the buffers: "
+        "`rangeseg bench` times frames that reuse them)\n",
         o->in.path.c_str(), segments, t.total, preset.c_str(), t.mesh, t.normals, t.smoothing,
-        t.segmentation, t.polygons);
+        t.segmentation, t.polygons, tracking);
   });
 }
 

@@ -254,13 +254,40 @@ void add_directory_frames(const fs::path& dir, std::vector<FrameSource>& frames)
         dir.string() +
         ": no .pcd, .ply, .png, .range, .xyz, .xyzn, .xyzrgb or .pts files in the directory");
   }
-  std::sort(files.begin(), files.end());
+  std::sort(files.begin(), files.end(), natural_less);
   for (const fs::path& f : files) {
     frames.push_back({.path = f.string(), .name = f.stem().string(), .error = {}});
   }
 }
 
 }  // namespace
+
+bool natural_less(const fs::path& a, const fs::path& b) {
+  const std::string x = a.filename().string(), y = b.filename().string();
+  const auto digit = [](char c) { return c >= '0' && c <= '9'; };
+  std::size_t i = 0, j = 0;
+  while (i < x.size() && j < y.size()) {
+    if (digit(x[i]) && digit(y[j])) {
+      // Numbers by value: without leading zeros, the longer is larger, else by their digits.
+      std::size_t ei = i, ej = j;
+      while (ei < x.size() && digit(x[ei])) ++ei;
+      while (ej < y.size() && digit(y[ej])) ++ej;
+      std::size_t si = i, sj = j;
+      while (si + 1 < ei && x[si] == '0') ++si;
+      while (sj + 1 < ej && y[sj] == '0') ++sj;
+      if (ei - si != ej - sj) return ei - si < ej - sj;
+      if (const int c = x.compare(si, ei - si, y, sj, ej - sj); c != 0) return c < 0;
+      i = ei;
+      j = ej;
+    } else {
+      if (x[i] != y[j]) return x[i] < y[j];
+      ++i;
+      ++j;
+    }
+  }
+  if (i < x.size() || j < y.size()) return j < y.size();  // a prefix first
+  return x < y;
+}
 
 bool is_batch_input(const std::string& input) {
   return is_tum_list(input) || fs::is_directory(input);

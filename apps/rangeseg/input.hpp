@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 
 #include <array>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -78,12 +79,18 @@ struct FrameList {
 /// per metre unless --depth-scale is given, and the intrinsics TUM documents for all its
 /// sequences (fx = fy = 525, cx = 319.5, cy = 239.5: the defaults) unless --intrinsics / --fx..
 /// are given; any other directory contributes its .pcd, .ply, .png, .range and text cloud files
-/// sorted by name (not recursive). Missing files and malformed depth.txt lines become frames with
-/// `error` set, so the batch reports them and goes on. Duplicate names get "_2", "_3", ... Throws
-/// std::runtime_error naming the input if a directory or depth.txt yields no frames.
+/// in natural order (`natural_less`: frame2 before frame10; not recursive). Missing files and
+/// malformed depth.txt lines become frames with `error` set, so the batch reports them and goes on.
+/// Duplicate names get "_2", "_3", ... Throws std::runtime_error naming the input if a directory or
+/// depth.txt yields no frames.
 FrameList gather_frames(const std::vector<std::string>& inputs, const InputOptions& base);
 
 /// True if the input is a directory or a TUM depth.txt, i.e. it needs batch processing.
 bool is_batch_input(const std::string& input);
+
+/// Orders file names as people number frames: runs of digits by their value ("frame2" before
+/// "frame10", "abw.test.2" before "abw.test.10"), the rest by character; names equal so (e.g.
+/// "f01" and "f1") by their text.
+bool natural_less(const std::filesystem::path& a, const std::filesystem::path& b);
 
 }  // namespace rangeseg::cli

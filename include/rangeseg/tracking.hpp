@@ -21,10 +21,14 @@ struct TrackingSettings {
   /// default 0.35 (20 deg): a camera turning at up to 300 deg/s at 15 Hz, while the table and a
   /// box top beside it at the same place in the image stay apart from a wall.
   double max_normal_angle = 0.35;
+  /// ... and only if the segment's centroid lies at most this far from the plane fitted to the
+  /// previous one [m], default 0.1: a camera moving at up to 3 m/s at 30 Hz, while a board put
+  /// up before a wall, or a new scene after a cut, starts its own track.
+  double max_distance = 0.1;
 };
 
-/// Throws std::invalid_argument naming the field and its value unless 0 < min_overlap <= 1 and
-/// 0 <= max_normal_angle <= pi.
+/// Throws std::invalid_argument naming the field and its value unless 0 < min_overlap <= 1,
+/// 0 <= max_normal_angle <= pi and max_distance >= 0 (finite).
 void validate(const TrackingSettings& settings);
 
 /// Gives the segments of consecutive frames ids that stay the same while a surface stays in
@@ -40,14 +44,17 @@ class SegmentTracker {
 
   /// Sets Segment::track_id of every segment of `segmentation` to the id of the segment of the
   /// previous frame that it continues, or to a new id (ids count up from 1 and are never given
-  /// twice). A segment continues a previous one when both are of the same SurfaceKind, the
-  /// normals of two planes are within `max_normal_angle`, and they share at least
-  /// `min_overlap` of the smaller one's pixels. A track continues in one segment at most: of
-  /// the pairs that qualify, those sharing the most pixels are taken first, so a segment split
-  /// in two goes on in its larger part, and of two merged the one sharing more pixels goes on.
-  /// A frame of another size than the previous one (or the first) starts new tracks. Throws
-  /// std::invalid_argument when a label lies outside [0, segments.size()] or segments[i].label
-  /// is not i + 1; the tracker is then as before the call.
+  /// twice). A segment continues a previous one when both are planes or both are not (a
+  /// curved surface may be fitted as a cylinder in one frame and a sphere in the next), the
+  /// normals of two planes are within `max_normal_angle`, its centroid is within
+  /// `max_distance` of the previous one's fitted plane, and they share at least `min_overlap`
+  /// of the smaller one's pixels (counted once as they lie, and once more for segments
+  /// without a match with the image's shift between the frames undone). A track continues in one
+  /// segment at most: of the pairs that qualify, those sharing the most pixels are taken first, so
+  /// a segment split in two goes on in its larger part, and of two merged the one sharing more
+  /// pixels goes on. A frame of another size than the previous one (or the first) starts new
+  /// tracks. Throws std::invalid_argument when a label lies outside [0, segments.size()] or
+  /// segments[i].label is not i + 1; the tracker is then as before the call.
   void update(Segmentation& segmentation);
 
   /// Forgets the previous frame: the next `update` starts new tracks (with new ids).
@@ -66,8 +73,8 @@ class SegmentTracker {
     std::uint32_t id = 0;
     int pixels = 0;
     bool plane = false;
-    SurfaceKind kind = SurfaceKind::plane;
-    std::array<double, 3> normal{};
+    std::array<double, 3> normal{};  ///< of the fitted plane (every segment has one)
+    double offset = 0;
     Footprint footprint;
   };
   struct Pair {

@@ -135,6 +135,7 @@ void for_each_key(PipelineSettings& s, Visit&& visit) {
   visit("rings", "balanced", r.balanced);
   visit("tracking", "min_overlap", s.tracking.min_overlap);
   visit("tracking", "max_normal_angle", s.tracking.max_normal_angle);
+  visit("tracking", "max_distance", s.tracking.max_distance);
 }
 
 constexpr std::array<const char*, 5> kSections{"mesh", "smoothing", "segmentation", "rings",

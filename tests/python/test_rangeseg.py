@@ -324,8 +324,10 @@ class BadInput(unittest.TestCase):
                                 config={"segmentation": {"min_region": 3}})
         self.assert_raises_with(ValueError, "key 'min_region_size' = -3 is invalid", rangeseg.Pipeline,
                                 config={"segmentation": {"min_region_size": np.int64(-3)}})
-        self.assert_raises_with(ValueError, "finite", rangeseg.Pipeline,
+        self.assert_raises_with(ValueError, "key 'segmentation.max_normal_angle' must be a finite", rangeseg.Pipeline,
                                 config={"segmentation": {"max_normal_angle": float("nan")}})
+        self.assert_raises_with(ValueError, "key 'tracking.min_overlap' must be a finite", rangeseg.Pipeline,
+                                config={"tracking": {"min_overlap": np.float32("inf")}})
         self.assert_raises_with(ValueError, "a dict or the path", rangeseg.Pipeline, config=3)
         # A file's errors name the file.
         with tempfile.TemporaryDirectory() as tmp:
