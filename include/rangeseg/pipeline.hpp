@@ -52,7 +52,7 @@ struct PipelineSettings {
   /// Give the segments of consecutive frames track ids (Segment::track_id, SegmentTracker):
   /// the same id while a surface stays in view. Frames on a pixel grid only (organized clouds,
   /// depth images and unorganized clouds restored to the same grid); over rings the ids are 0
-  /// and the next grid frame starts new tracks. Default false (costs 0.15-1.1 ms per 640x480
+  /// and the next grid frame starts new tracks. Default false (costs 0.2-0.6 ms per 640x480
   /// frame, more for more fragmented labels).
   bool track = false;
   TrackingSettings tracking{};

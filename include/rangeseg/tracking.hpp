@@ -85,7 +85,6 @@ class SegmentTracker {
   /// Checks the labels; with `count` also counts the pixels shared with the previous frame.
   void measure_footprints(const LabelImage& labels, int segments, bool count);
   void clear_shared();
-  void count_run(std::int32_t current, const std::int32_t* previous, int begin, int end);
   /// Counts for the labels of the current frame that are `open_` only.
   void count_shared_pixels(const LabelImage& labels, int du, int dv);
   void add_shared(std::uint64_t key, std::uint32_t count);
@@ -99,7 +98,8 @@ class SegmentTracker {
   std::vector<std::uint64_t> keys_;
   std::vector<std::uint32_t> counts_;
   std::size_t pairs_ = 0;
-  std::vector<Footprint> footprints_;  ///< per label of the current frame (0 unused)
+  std::vector<Footprint> footprints_;    ///< per label of the current frame (0 unused)
+  std::vector<std::uint64_t> run_bits_;  ///< a row's run starts
   std::vector<Pair> candidates_;
   std::vector<std::array<double, 3>> motions_;  ///< du, dv, weight of matched pairs
   std::vector<std::uint8_t> taken_;             ///< per previous label - 1: its track continues

@@ -250,7 +250,7 @@ model:  region model: "plane", "smooth", "incremental_plane" or "auto" (planes,
 smooth: run the bilateral filter (default the preset's: on, but for abw and ideal).
 track:  give the segments of consecutive frames track ids (segments' "track_id"): the
         same id while a surface stays in view, for frames of one camera in order
-        (default False; 0.15-1.1 ms per 640x480 frame).
+        (default False; 0.2-0.6 ms per 640x480 frame).
 threads: threads inside a frame (1..256).
 config: settings on top of the preset, a dict or the path of a JSON file with the
         keys of `rangeseg segment --config` (metres, radians), e.g.
