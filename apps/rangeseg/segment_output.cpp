@@ -74,9 +74,9 @@ nlohmann::json surface_json(const Segment& s) {
 }
 
 /// What the pictures colour a pixel by: its segment's track id when the segments are tracked
-/// (PipelineSettings::track), so that a surface keeps its colour from frame to frame, else its
-/// label.
-LabelImage colour_ids(const Segmentation& seg) {
+/// (PipelineSettings::track), so that a surface keeps its colour from frame to frame, put into
+/// `ids`; else its label (seg.labels itself: no copy of the frame's labels).
+const LabelImage& colour_ids(const Segmentation& seg, LabelImage& ids) {
   const bool tracked = std::any_of(seg.segments.begin(), seg.segments.end(),
                                    [](const Segment& s) { return s.track_id != 0; });
   if (!tracked) return seg.labels;
@@ -85,7 +85,7 @@ LabelImage colour_ids(const Segmentation& seg) {
     // Colours repeat after 2^31 tracks; label_colour takes positive ids.
     id_of[static_cast<std::size_t>(s.label)] = static_cast<std::int32_t>(s.track_id & 0x7fffffffU);
   }
-  LabelImage ids(seg.labels.width(), seg.labels.height());
+  ids.resize(seg.labels.width(), seg.labels.height());
   for (int v = 0; v < ids.height(); ++v) {
     for (int u = 0; u < ids.width(); ++u) {
       ids(u, v) = id_of[static_cast<std::size_t>(seg.labels(u, v))];
@@ -99,7 +99,8 @@ LabelImage colour_ids(const Segmentation& seg) {
 void write_labelled_cloud(const std::string& path, const Pipeline& pipeline) {
   OrganizedCloud cloud = pipeline.cloud();
   cloud.label = pipeline.segmentation().labels;
-  const RgbImage colours = colorize_labels(colour_ids(pipeline.segmentation()));
+  LabelImage ids;
+  const RgbImage colours = colorize_labels(colour_ids(pipeline.segmentation(), ids));
   cloud.add_rgb();
   for (int v = 0; v < cloud.height(); ++v) {
     for (int u = 0; u < cloud.width(); ++u) {
@@ -230,7 +231,8 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
   if (!pipeline.polygons().segments.empty()) {
     write_polygons_obj(file("polygons.obj"), pipeline.polygons());
   }
-  const LabelImage colour_by = colour_ids(seg);
+  LabelImage ids;
+  const LabelImage& colour_by = colour_ids(seg, ids);
   RgbImage overlay = colorize_labels(colour_by, &input);
   io::write_rgb_png(file("types.png"), colorize_surface_types(seg, overlay));
   draw_polygons(overlay, pipeline.polygons());
