@@ -203,6 +203,35 @@ TEST(Tracking, InvalidLabelsThrowAndLeaveTheTrackerAsItWas) {
   EXPECT_THROW(SegmentTracker({.max_distance = INFINITY}), std::invalid_argument);
 }
 
+// The runs are found 4 pixels at a time from bit masks of 64-pixel words: every pixel must be
+// read wherever it lies (odd widths, runs across words, the scalar tail). A label outside the
+// segments at any one pixel must throw, and a segment one pixel wide must continue.
+TEST(Tracking, EveryPixelCountsWhateverTheWidth) {
+  for (const int width : {1, 3, 5, 61, 64, 65, 66, 130, 203}) {
+    Segmentation base;
+    base.labels.resize(width, 3, 1);
+    base.segments.resize(2);
+    base.segments[0].label = 1;
+    base.segments[1].label = 2;
+    for (Segment& s : base.segments) s.normal = {0, 0, -1};
+    for (int u = 0; u < width; ++u) {
+      Segmentation column = base;
+      for (int v = 0; v < 2; ++v) column.labels(u, v) = 2;  // row 2 stays segment 1
+      column.segments[0].pixel_count = 3 * width - 2;
+      column.segments[1].pixel_count = 2;
+      SegmentTracker tracker;
+      Segmentation first = column;
+      tracker.update(first);
+      Segmentation bad = column;
+      bad.labels(u, 1) = 3;  // no segment 3
+      EXPECT_THROW(tracker.update(bad), std::invalid_argument) << "width " << width << ", u " << u;
+      Segmentation again = column;
+      tracker.update(again);
+      EXPECT_EQ(ids(again), ids(first)) << "width " << width << ", u " << u;
+    }
+  }
+}
+
 namespace {
 
 /// Per ground-truth surface of `truth`, the segment covering at least 80 % of its pixels with
