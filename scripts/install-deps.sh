@@ -2,7 +2,7 @@
 # Installs the Debian packages rangeseg needs, and only those that are missing.
 # Idempotent; works as root or through sudo.
 set -euo pipefail
-packages=(build-essential cmake pkg-config libeigen3-dev libpng-dev liblzf-dev nlohmann-json3-dev
+packages=(build-essential cmake pkg-config libeigen3-dev libpng-dev liblzf-dev nlohmann-json3-dev libyaml-cpp-dev
           libnanoflann-dev libcli11-dev googletest libgtest-dev libgmock-dev libbenchmark-dev
           pybind11-dev python3-dev python3-numpy)
 if [[ "${RANGESEG_WITH_CLANG:-0}" == 1 ]]; then packages+=(clang libclang-rt-14-dev); fi

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <limits>
 #include <optional>
 #include <stdexcept>
@@ -194,6 +195,7 @@ void Pipeline::process_restored(const OrganizedCloud& cloud, double find_ms) {
     std::swap(segmentation_.labels, grid_labels_);
   };
   swap_results();
+  camera_fx_ = grid_.fx;
   process_grid(grid_cloud_);
   swap_results();
   t = Clock::now();
@@ -234,7 +236,22 @@ void Pipeline::process_restored(const OrganizedCloud& cloud, double find_ms) {
   times_.total += extra;
 }
 
-void Pipeline::process(const OrganizedCloud& cloud) {
+void Pipeline::process(const OrganizedCloud& cloud, double camera_fx) {
+  if (!(camera_fx >= 0) || !std::isfinite(camera_fx)) {
+    throw std::invalid_argument("Pipeline::process: camera_fx must be >= 0 and finite, got " +
+                                std::to_string(camera_fx));
+  }
+  camera_fx_ = camera_fx;  // a pixel grid found in an unorganized cloud names its own
+  process_cloud(cloud);
+}
+
+void Pipeline::process_cloud(const OrganizedCloud& cloud) {
+  if (&cloud == &smoothed_cloud_) {
+    // cloud() fed back: the smoothing would write the points it reads.
+    own_input_ = cloud;
+    process_cloud(own_input_);
+    return;
+  }
   if (cloud.height() == 1) {
     require_consistent(cloud, "Pipeline::process");
     process_unorganized(cloud);
@@ -288,6 +305,7 @@ void Pipeline::process_grid(const OrganizedCloud& cloud) {
     times_.normals += ms_since(t);
   }
   if (settings_.smooth) {
+    smoother_.set_camera_fx(camera_fx_);
     if (pool != nullptr) {
       smoother_.run(cloud, mesh_, raw_normals_, smoothed_cloud_, smoothed_normals_, *pool);
     } else {
@@ -351,7 +369,7 @@ void Pipeline::process_grid(const OrganizedCloud& cloud) {
 }
 
 template <class Convert>
-void Pipeline::process_depth(int width, int height, Convert&& convert_rows) {
+void Pipeline::process_depth(int width, int height, double fx, Convert&& convert_rows) {
   const Clock::time_point start = Clock::now();
   if (height < 2) {
     // One row would be taken for an unorganized cloud and run over rings.
@@ -373,7 +391,8 @@ void Pipeline::process_depth(int width, int height, Convert&& convert_rows) {
     convert_rows(0, height);
   }
   const double input_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-  process(depth_cloud_);
+  camera_fx_ = fx;
+  process_cloud(depth_cloud_);
   input_ = nullptr;  // cloud() is depth_cloud_, wherever the pipeline has moved since
   times_.input = input_ms;
   times_.total += input_ms;
@@ -381,13 +400,13 @@ void Pipeline::process_depth(int width, int height, Convert&& convert_rows) {
 
 void Pipeline::process(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
                        double depth_scale) {
-  process_depth(depth.width, depth.height, [&](int v0, int v1) {
+  process_depth(depth.width, depth.height, camera.fx, [&](int v0, int v1) {
     depth_to_cloud_rows(depth, camera, depth_scale, depth_cloud_, v0, v1);
   });
 }
 
 void Pipeline::process(View<const float> depth, const CameraIntrinsics& camera) {
-  process_depth(depth.width, depth.height,
+  process_depth(depth.width, depth.height, camera.fx,
                 [&](int v0, int v1) { depth_to_cloud_rows(depth, camera, depth_cloud_, v0, v1); });
 }
 

@@ -443,14 +443,14 @@ struct PassSetup {
 
 /// The pass for `st` on a mesh of stride `stride`, with the intensity term on `intensity` of
 /// range c_I = `range` (off for nullptr or range <= 0: a constant intensity carries no edge).
-PassSetup make_pass(const SmoothingSettings& st, int stride, const FloatPlane* intensity,
-                    float range) {
+PassSetup make_pass(const SmoothingSettings& st, float pixel_angle, int stride,
+                    const FloatPlane* intensity, float range) {
   PassSetup setup;
   PassParams& prm = setup.prm;
   prm.stride = stride;
   prm.origin = st.viewpoint;
   prm.kd2 = st.distance_scale * st.distance_scale;
-  prm.spacing = static_cast<float>(stride) * st.pixel_angle;
+  prm.spacing = static_cast<float>(stride) * pixel_angle;
   prm.noise_a = static_cast<float>(st.noise.a);
   prm.noise_b = static_cast<float>(st.noise.b);
   prm.noise_z0 = static_cast<float>(st.noise.z0);
@@ -488,7 +488,8 @@ void smooth_rows(const SmoothRowsInput& in, const SmoothingSettings& settings, i
   assert(out_normals.nz.width() == width && out_normals.nz.height() == height);
   (void)width, (void)height;
   const PassSetup setup =
-      make_pass(settings, in.mesh->pixel_stride, in.intensity, in.intensity_range);
+      make_pass(settings, settings.pixel_angle > 0.0f ? settings.pixel_angle : kDefaultPixelAngle,
+                in.mesh->pixel_stride, in.intensity, in.intensity_range);
   PassScratch ps{scratch.rows, scratch.bytes, scratch.layout};
   setup.pass(cloud, *in.normals, *in.mesh, setup.prm, ps, out_cloud, out_normals, v0, v1);
 }
@@ -501,7 +502,13 @@ void validate(const SmoothingSettings& settings) {
                                 std::to_string(settings.iterations));
   }
   check_positive(settings.distance_scale, "distance_scale");
-  check_positive(settings.pixel_angle, "pixel_angle");
+  check_finite(settings.pixel_angle, "pixel_angle");
+  if (settings.pixel_angle < 0.0f) {
+    throw std::invalid_argument(
+        "SmoothingSettings::pixel_angle must be >= 0 (0 = from the "
+        "camera), got " +
+        std::to_string(settings.pixel_angle));
+  }
   check_positive(settings.noise.a, "noise_a");
   check_finite(settings.noise.b, "noise_b");
   if (settings.noise.b < 0.0f) {
@@ -520,6 +527,19 @@ void validate(const SmoothingSettings& settings) {
 }
 
 Smoother::Smoother(const SmoothingSettings& settings) : settings_(settings) { validate(settings_); }
+
+void Smoother::set_camera_fx(double fx) {
+  if (!(fx >= 0) || !std::isfinite(fx)) {
+    throw std::invalid_argument("Smoother::set_camera_fx: fx must be >= 0 and finite, got " +
+                                std::to_string(fx));
+  }
+  camera_fx_ = fx;
+}
+
+float Smoother::pixel_angle() const {
+  if (settings_.pixel_angle > 0.0f) return settings_.pixel_angle;
+  return camera_fx_ > 0 ? static_cast<float>(1.0 / camera_fx_) : kDefaultPixelAngle;
+}
 
 void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
                    OrganizedCloud& out_cloud, NormalMap& out_normals) {
@@ -587,7 +607,7 @@ void Smoother::run_passes(const OrganizedCloud& cloud, const Mesh& mesh, const N
     }
     if (!frame_range) range = st.intensity_range;
   }
-  const PassSetup setup = make_pass(st, mesh.pixel_stride, intensity, range);
+  const PassSetup setup = make_pass(st, pixel_angle(), mesh.pixel_stride, intensity, range);
   const PassParams& prm = setup.prm;
   PassParams last_prm = prm;  // the last pass also copies the curvature through
   if (pass_curvature) {

@@ -319,6 +319,18 @@ TEST(Cli, ViewpointMovesTheCloudBackIntoItsSensorsFrame) {
   const rangeseg::OrganizedCloud kept = rangeseg::io::read_pcd(copy, &info);
   EXPECT_EQ(info.viewpoint, pose);
   EXPECT_EQ(kept.z(320, 240), cloud.z(320, 240));
+  // The results' clouds keep the points' frame, and so their VIEWPOINT; moved into the
+  // sensor's frame, the sensor is at the origin.
+  ASSERT_EQ(run("segment " + moved + " -o " + (dir / "c").string() + " --no-mesh --cloud").code, 0);
+  ASSERT_EQ(run("smooth " + moved + " -o " + (dir / "s.pcd").string()).code, 0);
+  for (const fs::path& written : {dir / "c" / "cloud.pcd", dir / "s.pcd"}) {
+    rangeseg::io::read_pcd(written.string(), &info);
+    EXPECT_EQ(info.viewpoint, pose) << written;
+  }
+  ASSERT_EQ(run("smooth " + moved + " -o " + (dir / "s.pcd").string() + " --apply-viewpoint").code,
+            0);
+  rangeseg::io::read_pcd((dir / "s.pcd").string(), &info);
+  EXPECT_EQ(info.viewpoint, (std::array<double, 7>{0, 0, 0, 1, 0, 0, 0}));
 
   // A PLY keeps it in PCL's camera element (as floats), and --apply-viewpoint applies it.
   const std::string ply = (dir / "moved.ply").string();

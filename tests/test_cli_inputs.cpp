@@ -1,6 +1,8 @@
 // The CLI's options on inputs and outputs: smoothing passes, output types, intrinsics files.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -308,4 +310,64 @@ TEST(CliInputs, NoiseSkipsABadFrameAmongSeveral) {
   EXPECT_TRUE(contains(r.out, "sigma(z)")) << r.out;
   const CliResult alone = run("noise " + (dir / "frames" / "b.xyz").string());
   EXPECT_EQ(alone.code, 2) << alone.out;
+}
+
+// ROS camera_info YAML describes the camera as Open3D's JSON does: the same segmentation; a
+// lens distortion it states is named once per batch, not applied.
+TEST(CliInputs, RosCameraInfoYamlSegmentsAsTheJson) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_camera_yaml");
+  const rangeseg::CameraIntrinsics camera{
+      .fx = 131.25, .fy = 131.5, .cx = 80.25, .cy = 59.75, .width = 160, .height = 120};
+  const rangeseg::synth::Rendering scene = rangeseg::synth::render(
+      rangeseg::synth::random_scene(3, false), {.camera = camera, .seed = 3});
+  rangeseg::DepthImage depth(160, 120, 0);
+  for (int v = 0; v < 120; ++v) {
+    for (int u = 0; u < 160; ++u) {
+      const float z = scene.cloud.z(u, v);
+      if (std::isfinite(z)) depth(u, v) = static_cast<std::uint16_t>(std::lround(z * 1000));
+    }
+  }
+  for (const char* name : {"a.png", "b.png"}) {
+    rangeseg::io::write_depth_png((dir / name).string(), depth.view());
+  }
+  std::ofstream(dir / "camera.json") << R"({"width": 160, "height": 120, "intrinsic_matrix": )"
+                                     << R"([131.25, 0, 0, 0, 131.5, 0, 80.25, 59.75, 1]})";
+  const std::string k = "[131.25, 0.0, 80.25, 0.0, 131.5, 59.75, 0.0, 0.0, 1.0]";
+  std::ofstream(dir / "info.yaml") << "height: 120\nwidth: 160\ndistortion_model: plumb_bob\n"
+                                   << "d: [0.0, 0.0, 0.0, 0.0, 0.0]\nk: " << k << "\n---\n";
+  std::ofstream(dir / "distorted.yaml") << "height: 120\nwidth: 160\ndistortion_model: plumb_bob\n"
+                                        << "d: [0.1, 0.0, 0.0, 0.0, 0.0]\nk: " << k << "\n";
+  const auto segment = [&](const std::string& inputs, const std::string& camera_file,
+                           const std::string& out) {
+    return run("segment " + inputs + " --intrinsics " + (dir / camera_file).string() + " -o " +
+               (dir / out).string());
+  };
+  const std::string a = (dir / "a.png").string();
+  CliResult r = segment(a, "camera.json", "json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = segment(a, "info.yaml", "yaml");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_FALSE(contains(r.out, "distortion")) << r.out;
+  EXPECT_TRUE(read_bytes(dir / "json" / "segments.json") ==
+              read_bytes(dir / "yaml" / "segments.json"));
+  EXPECT_TRUE(read_bytes(dir / "json" / "labels.png") == read_bytes(dir / "yaml" / "labels.png"));
+
+  r = segment(a + " " + (dir / "b.png").string(), "distorted.yaml", "batch");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string warning = "distortion (plumb_bob [0.1, 0, 0, 0, 0]) is not applied";
+  const std::size_t first = r.out.find(warning);
+  ASSERT_NE(first, std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find(warning, first + 1), std::string::npos) << "warned twice:\n" << r.out;
+  EXPECT_TRUE(read_bytes(dir / "json" / "labels.png") ==
+              read_bytes(dir / "batch" / "a" / "labels.png"));
+
+  // `info` fits the camera back to the points.
+  r = run("info " + a + " --intrinsics " + (dir / "info.yaml").string());
+  EXPECT_TRUE(contains(r.out, "camera:   fx 131.25 fy 131.50 cx 80.25 cy 59.75")) << r.out;
+
+  std::ofstream(dir / "bad.yaml") << "k: [131.25, 0, 80.25]\n";
+  r = segment(a, "bad.yaml", "bad");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(contains(r.out, "bad.yaml")) << r.out;
+  EXPECT_TRUE(contains(r.out, "9 numbers")) << r.out;
 }

@@ -315,6 +315,15 @@ TEST(PcdRoundTrip, SyntheticBitExactAllEncodings) {
     expect_same_cloud(original, back);
     EXPECT_EQ(back.count_valid(), original.count_valid());
     EXPECT_LT(back.count_valid(), back.size());
+    // The packed colour is a float in binary, as PCL stores it, and in text the integer PCL
+    // writes, typed U as PCL types it (PCL and Open3D read integer text of a TYPE F field as
+    // that number, another colour).
+    const Bytes file = encode_pcd(original, {.encoding = enc});
+    const std::string text(file.begin(), file.begin() + 400);
+    EXPECT_NE(
+        text.find(enc == PcdEncoding::ascii ? "\nTYPE F F F F U U\n" : "\nTYPE F F F F F U\n"),
+        std::string::npos)
+        << text;
   }
 }
 

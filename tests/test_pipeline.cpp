@@ -364,11 +364,11 @@ TEST(Pipeline, DepthImagesGiveWhatTheirCloudsGive) {
     settings.threads = threads;
     Pipeline from_depth(settings), from_cloud(settings);
     from_depth.process(depth.view(), kQvgaCamera, 0.001);
-    from_cloud.process(from_raw);
+    from_cloud.process(from_raw, kQvgaCamera.fx);
     EXPECT_TRUE(same_bits(from_depth.cloud().z, from_cloud.cloud().z)) << threads;
     EXPECT_TRUE(same_bits(from_depth.segmentation().labels, from_cloud.segmentation().labels));
     from_depth.process(metres.view(), kQvgaCamera);
-    from_cloud.process(from_metres);
+    from_cloud.process(from_metres, kQvgaCamera.fx);
     EXPECT_TRUE(same_bits(from_depth.segmentation().labels, from_cloud.segmentation().labels));
     EXPECT_TRUE(same_bits(from_depth.cloud().x, from_cloud.cloud().x));
   }
@@ -398,6 +398,49 @@ TEST(Pipeline, DepthImagesGiveWhatTheirCloudsGive) {
   EXPECT_NO_THROW(depth_to_cloud(metres.view(), any_size, cloud));
   EXPECT_THROW(pipeline.process(View<const std::uint16_t>{depth.row(0), 320, 1, 320}, any_size),
                std::invalid_argument);
+}
+
+// The smoothing's scale follows the camera: a depth image's fx sets the pixel angle (here
+// twice the Kinect's at quarter VGA), as the settings or process's camera_fx do; a cloud alone
+// takes a Kinect's at VGA.
+TEST(Pipeline, PixelAngleFollowsTheCamera) {
+  const DepthImage depth = cloud_to_depth(qvga(6).cloud, 0.001);
+  const OrganizedCloud cloud = depth_to_cloud(depth.view(), kQvgaCamera, 0.001);
+  Pipeline from_depth(pipeline_preset("kinect")), unknown(pipeline_preset("kinect"));
+  from_depth.process(depth.view(), kQvgaCamera, 0.001);
+  unknown.process(cloud);
+  PipelineSettings stated = pipeline_preset("kinect");
+  stated.smoothing.pixel_angle = static_cast<float>(1.0 / kQvgaCamera.fx);
+  Pipeline with_angle(stated);
+  with_angle.process(cloud);
+  EXPECT_TRUE(same_bits(from_depth.cloud().z, with_angle.cloud().z));
+  EXPECT_FALSE(same_bits(from_depth.cloud().z, unknown.cloud().z));
+  stated.smoothing.pixel_angle = kDefaultPixelAngle;
+  Pipeline kinect_angle(stated);
+  kinect_angle.process(cloud);
+  EXPECT_TRUE(same_bits(unknown.cloud().z, kinect_angle.cloud().z));
+  // Settings that state an angle win over the camera.
+  kinect_angle.process(depth.view(), kQvgaCamera, 0.001);
+  EXPECT_TRUE(same_bits(unknown.cloud().z, kinect_angle.cloud().z));
+  // The next cloud without a camera forgets the depth image's.
+  from_depth.process(cloud);
+  EXPECT_TRUE(same_bits(unknown.cloud().z, from_depth.cloud().z));
+  EXPECT_THROW(from_depth.process(cloud, -1.0), std::invalid_argument);
+  EXPECT_THROW(from_depth.process(cloud, NAN), std::invalid_argument);
+  EXPECT_THROW(Pipeline({.smoothing = {.pixel_angle = -0.01f}}), std::invalid_argument);
+}
+
+// The pipeline's own smoothed points fed back as the next frame give what a copy of them gives
+// (the smoothing writes the buffer it would read).
+TEST(Pipeline, ItsOwnCloudFedBackIsACopysFrame) {
+  const OrganizedCloud cloud = qvga(7).cloud;
+  Pipeline pipeline(pipeline_preset("kinect")), reference(pipeline_preset("kinect"));
+  pipeline.process(cloud);
+  const OrganizedCloud copy = pipeline.cloud();
+  reference.process(copy);
+  pipeline.process(pipeline.cloud());
+  EXPECT_TRUE(same_bits(pipeline.cloud().z, reference.cloud().z));
+  EXPECT_TRUE(same_bits(pipeline.segmentation().labels, reference.segmentation().labels));
 }
 
 // Without smoothing, cloud() is the frame's points: for a depth image the pipeline's own, which
@@ -536,20 +579,21 @@ TEST(ThreadPoolTest, KeepAwakeKeepsIdleWorkersSpinning) {
 }
 
 TEST(Pipeline, UnorganizedCloudsTakeTheRingPathWithoutTheIncrementalPlaneModel) {
+  const OrganizedCloud empty(100, 1);  // no valid point: no segment
   Pipeline pipeline;
-  pipeline.process(OrganizedCloud(100, 1));  // no valid point: no segment
+  pipeline.process(empty);
   EXPECT_TRUE(pipeline.segmentation().segments.empty());
   EXPECT_EQ(pipeline.rings().size(), 100u);
   EXPECT_EQ(pipeline.mesh().width(), 0);
   PipelineSettings automatic;
   automatic.segmentation.model = RegionModel::automatic;
   Pipeline auto_pipeline(automatic);
-  auto_pipeline.process(OrganizedCloud(100, 1));
+  auto_pipeline.process(empty);
   EXPECT_TRUE(auto_pipeline.segmentation().segments.empty());
   PipelineSettings incremental;
   incremental.segmentation.model = RegionModel::incremental_plane;
   Pipeline incremental_pipeline(incremental);
-  EXPECT_THROW(incremental_pipeline.process(OrganizedCloud(100, 1)), std::invalid_argument);
+  EXPECT_THROW(incremental_pipeline.process(empty), std::invalid_argument);
   PipelineSettings bad_rings;
   bad_rings.rings.k = 1;
   EXPECT_THROW(Pipeline{bad_rings}, std::invalid_argument);

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <random>
 #include <vector>
@@ -84,6 +86,30 @@ TEST(PixelGrid, FindsTheGridOfShuffledValidPointsAndScattersThemBack) {
   EXPECT_EQ(grid.pixel.front(), -1);
   EXPECT_EQ(grid.pixel.back(), -1);
   EXPECT_EQ(grid.width, kRight - kLeft);
+}
+
+// Open3D's and PCL's text files keep 6 significant digits (~5e-6 of x / z over a column, 0.002
+// pixel here): the grid is still found, every point on its own pixel.
+TEST(PixelGrid, PointsWrittenAsTextWithSixDigitsStayOnTheirPixels) {
+  const OrganizedCloud frame = cropped_frame(2);
+  Unorganized u = shuffled(frame, 5);
+  char text[32];
+  for (FloatPlane* plane : {&u.cloud.x, &u.cloud.y, &u.cloud.z}) {
+    for (int i = 0; i < plane->width(); ++i) {
+      std::snprintf(text, sizeof text, "%.6g", (*plane)(i, 0));
+      (*plane)(i, 0) = std::strtof(text, nullptr);
+    }
+  }
+  PixelGrid grid;
+  ASSERT_TRUE(find_pixel_grid(u.cloud, grid));
+  EXPECT_EQ(grid.width, kRight - kLeft);
+  EXPECT_EQ(grid.height, 240 - kTop);
+  EXPECT_NEAR(grid.fx, 262.5, 1e-2);
+  for (std::size_t i = 0; i < u.pixel.size(); ++i) {
+    const int col = static_cast<int>(u.pixel[i] % kWidth) - kLeft;
+    const int row = static_cast<int>(u.pixel[i] / kWidth) - kTop;
+    ASSERT_EQ(grid.pixel[i], row * grid.width + col) << i;
+  }
 }
 
 TEST(PixelGrid, EveryOtherPixelIsAGridOfHalfTheFocalLength) {
@@ -227,7 +253,7 @@ TEST(RestoredGrid, PipelineGivesTheGridStagesResultsPerPoint) {
   EXPECT_GT(points.times().input, 0.0);
   OrganizedCloud restored;
   scatter_to_grid(input, grid, restored);
-  grid_pipeline.process(restored);
+  grid_pipeline.process(restored, grid.fx);  // the grid's camera sets the smoothing's scale
   EXPECT_FALSE(grid_pipeline.pixel_grid().found());
   const Segmentation& a = points.segmentation();
   const Segmentation& b = grid_pipeline.segmentation();

@@ -82,9 +82,11 @@ FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options
     }
     Pipeline& pipeline = pipelines(r.preset);
     require_model_for(in.cloud, pipeline.settings(), frame.path);
-    pipeline.process(in.cloud);
+    pipeline.process(in.cloud, in.camera_fx);
+    FolderFiles files = options.files;
+    files.pose = in.pose;
     write_segmentation_folder((std::filesystem::path(options.out_dir) / frame.name).string(),
-                              in.cloud, pipeline, options.files);
+                              in.cloud, pipeline, files);
     r.ok = true;
     r.times = pipeline.times();
     r.segments = pipeline.segmentation().segments.size();

@@ -87,8 +87,8 @@ void run_demo(const DemoOptions& o) {
   Pipeline pipeline(settings);
   // The first frame allocates and first-touches every buffer; a stream pays that once, so the
   // times printed are those of a second run with the buffers reused (same results).
-  pipeline.process(in.cloud);
-  pipeline.process(in.cloud);
+  pipeline.process(in.cloud, in.camera_fx);
+  pipeline.process(in.cloud, in.camera_fx);
   const OrganizedCloud& input = in.cloud;
   const RgbImage depth = colorize_depth(input);
   io::write_rgb_png((dir / "depth.png").string(), depth);

@@ -247,7 +247,7 @@ void run_eval_synth(const EvalSynthOptions& o) {
       pipeline.process(points);
       gridded = on_grid(pipeline.segmentation(), pixel, scene.cloud.width(), scene.cloud.height());
     } else {
-      pipeline.process(scene.cloud);
+      pipeline.process(scene.cloud, settings.camera.fx);
     }
     const Segmentation& segmentation = o.unorganized ? gridded : pipeline.segmentation();
     const eval::EvalResult r =

@@ -4,6 +4,7 @@
 
 #include "commands.hpp"
 #include "input.hpp"
+#include "rangeseg/camera.hpp"
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/pixel_grid.hpp"
 
@@ -31,6 +32,20 @@ void add_info(CLI::App& app) {
                   opts->apply_viewpoint ? "the points moved into this sensor's frame"
                                         : "not applied: --apply-viewpoint moves the points into "
                                           "this sensor's frame");
+    }
+    if (in.cloud.is_organized() && s.valid > 0) {
+      // The smoothing's pixel angle is 1 / fx, which an organized cloud does not state.
+      CameraIntrinsics camera;
+      if (fit_intrinsics(in.cloud, camera)) {
+        std::printf(
+            "camera:   fx %.2f fy %.2f cx %.2f cy %.2f (fitted to the points; the "
+            "smoothing's pixel angle 1 / fx = %.6g rad)\n",
+            camera.fx, camera.fy, camera.cx, camera.cy, 1.0 / camera.fx);
+      } else {
+        std::printf(
+            "camera:   none fits (not a pinhole camera's image: a scanner's grid, or "
+            "points moved out of the camera's frame)\n");
+      }
     }
     if (!in.cloud.is_organized()) {
       PixelGrid grid;

@@ -168,9 +168,9 @@ void add_segment(CLI::App& app) {
     settings.threads = o->threads;
     require_model_for(in.cloud, settings, o->in.path);
     Pipeline pipeline(settings);
-    pipeline.process(in.cloud);
-    const std::string files = write_segmentation_folder(o->out_dir, in.cloud, pipeline,
-                                                        {.mesh = !o->no_mesh, .cloud = o->cloud});
+    pipeline.process(in.cloud, in.camera_fx);
+    const std::string files = write_segmentation_folder(
+        o->out_dir, in.cloud, pipeline, {.mesh = !o->no_mesh, .cloud = o->cloud, .pose = in.pose});
     const StageTimes& t = pipeline.times();
     const std::size_t segments = pipeline.segmentation().segments.size();
     char tracking[48] = "";

@@ -49,8 +49,8 @@ void add_smooth(CLI::App& app) {
     }
     s.segment = false;
     Pipeline pipeline(s);
-    pipeline.process(in.cloud);
-    write_pcd_with_normals(o->out, pipeline.cloud(), pipeline.normals());
+    pipeline.process(in.cloud, in.camera_fx);
+    write_pcd_with_normals(o->out, pipeline.cloud(), pipeline.normals(), in.pose);
     progress("wrote " + o->out +
              (s.smooth ? ""
                        : " (not filtered: the input's points with their raw normals; --iterations "

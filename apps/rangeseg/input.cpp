@@ -6,11 +6,13 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <mutex>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
 #include "rangeseg/camera.hpp"
-#include "rangeseg/io/camera_json.hpp"
+#include "rangeseg/io/camera_file.hpp"
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/io/perceptron.hpp"
@@ -31,8 +33,9 @@ void add_input_options(CLI::App& cmd, InputOptions& o, bool positional) {
   }
   CLI::Option* intrinsics =
       cmd.add_option("--intrinsics", o.intrinsics,
-                     "Camera intrinsics JSON for depth PNGs (Open3D camera_*.json layout, or "
-                     "{fx, fy, cx, cy}); its width and height, when given, must be the PNG's");
+                     "Camera intrinsics for depth PNGs: JSON (Open3D camera_*.json layout, or "
+                     "{fx, fy, cx, cy}) or ROS camera_info YAML (.yaml: a calibration file or a "
+                     "CameraInfo message); its width and height, when given, must be the PNG's");
   CLI::Option* fx =
       cmd.add_option("--fx", o.fx, "Focal length x [pixel] for depth PNGs")->capture_default_str();
   CLI::Option* fy =
@@ -57,8 +60,36 @@ void add_input_options(CLI::App& cmd, InputOptions& o, bool positional) {
       ->each([&o](const std::string&) { o.depth_scale_given = true; });
 }
 
+namespace {
+
+// Once per file, not per frame of a batch (whose frames may load on several threads).
+void warn_distortion(const std::string& path, const io::CameraFile& file) {
+  static std::mutex mutex;
+  static std::set<std::string> warned;
+  const std::lock_guard lock(mutex);
+  if (!warned.insert(path).second) return;
+  std::string coefficients;
+  for (const double d : file.distortion) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%s%g", coefficients.empty() ? "" : ", ", d);
+    coefficients += text;
+  }
+  std::fprintf(stderr,
+               "rangeseg: warning: %s: its lens distortion (%s [%s]) is not applied: the depth "
+               "images are taken as a pinhole camera's (rectified)\n",
+               path.c_str(),
+               file.distortion_model.empty() ? "no model named" : file.distortion_model.c_str(),
+               coefficients.c_str());
+}
+
+}  // namespace
+
 CameraIntrinsics intrinsics_for(const InputOptions& o, int width, int height) {
-  if (!o.intrinsics.empty()) return io::read_camera_json(o.intrinsics);
+  if (!o.intrinsics.empty()) {
+    const io::CameraFile file = io::read_camera_file(o.intrinsics);
+    if (file.distorted()) warn_distortion(o.intrinsics, file);
+    return file.intrinsics;
+  }
   CameraIntrinsics cam{.fx = o.fx,
                        .fy = o.fy,
                        .cx = o.cx_given ? o.cx : (width - 1) / 2.0,
@@ -112,6 +143,7 @@ LoadedInput load_input(const InputOptions& o) {
     const CameraIntrinsics cam = intrinsics_for(o, depth.width(), depth.height());
     try {
       in.cloud = depth_to_cloud(depth.view(), cam, o.depth_scale);
+      in.camera_fx = cam.fx;
     } catch (const std::invalid_argument& e) {
       // e.g. intrinsics of another image size (depth_to_cloud checks them)
       throw std::runtime_error(o.path + (o.intrinsics.empty() ? "" : " with " + o.intrinsics) +

@@ -15,7 +15,7 @@ namespace rangeseg::cli {
 
 struct InputOptions {
   std::string path;
-  std::string intrinsics;  ///< JSON file (Open3D camera_*.json layout) for depth PNGs
+  std::string intrinsics;  ///< camera file for depth PNGs (io::read_camera_file)
   double fx = 525, fy = 525, cx = 319.5, cy = 239.5;
   bool cx_given = false, cy_given = false;
   double depth_scale = 0.001;  ///< metres per raw depth unit
@@ -30,6 +30,8 @@ struct LoadedInput {
   std::string format;  ///< e.g. "PCD binary_compressed"
   std::string fields;  ///< e.g. "x y z rgba"
   std::string units = "m";
+  /// fx of the camera of a depth image [pixel] (for the smoothing's pixel angle), else 0
+  double camera_fx = 0;
   LabelImage ground_truth;  ///< from a SegComp .gt-seg beside a .range, or a PCD label field
   /// The preset of the sensor when the file tells it (SegComp images: "abw" or "perceptron"),
   /// else empty.

@@ -5,12 +5,13 @@
 #include <exception>
 
 #include "commands.hpp"
+#include "rangeseg/version.hpp"
 
 int main(int argc, char** argv) {
   try {
     CLI::App app{"rangeseg: fast range image meshing, smoothing and segmentation"};
     app.require_subcommand(1);
-    app.set_version_flag("--version", "rangeseg 0.1.0");
+    app.set_version_flag("--version", "rangeseg " RANGESEG_VERSION_STRING);
     rangeseg::cli::register_commands(app);
     try {
       app.parse(argc, argv);

@@ -53,9 +53,10 @@ void write_mesh_ply(const std::string& path, const OrganizedCloud& cloud, const 
 }
 
 void write_pcd_with_normals(const std::string& path, const OrganizedCloud& cloud,
-                            const NormalMap& normals) {
+                            const NormalMap& normals, const std::array<double, 7>& pose) {
   io::write_pcd(path, cloud,
                 {.encoding = io::PcdEncoding::binary_compressed,
+                 .viewpoint = pose,
                  .extra_float_fields = {{"normal_x", &normals.nx},
                                         {"normal_y", &normals.ny},
                                         {"normal_z", &normals.nz},

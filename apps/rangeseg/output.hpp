@@ -3,6 +3,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <cstddef>
 #include <filesystem>
 #include <mutex>
@@ -23,9 +24,10 @@ void write_mesh_ply(const std::string& path, const OrganizedCloud& cloud, const 
                     const NormalMap* normals, const RgbImage* colours);
 
 /// Writes `cloud` (its own fields: x y z, [intensity], [rgb], [label]) with the normals as
-/// normal_x normal_y normal_z curvature, binary_compressed, atomically (io::write_pcd).
+/// normal_x normal_y normal_z curvature, binary_compressed, atomically (io::write_pcd), with the
+/// sensor pose `pose` (tx ty tz qw qx qy qz) as VIEWPOINT.
 void write_pcd_with_normals(const std::string& path, const OrganizedCloud& cloud,
-                            const NormalMap& normals);
+                            const NormalMap& normals, const std::array<double, 7>& pose);
 
 /// Pretty-printed JSON, written atomically.
 void write_json(const std::string& path, const nlohmann::json& value);

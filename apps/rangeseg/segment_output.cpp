@@ -96,7 +96,8 @@ const LabelImage& colour_ids(const Segmentation& seg, LabelImage& ids) {
 
 /// The processed points with normals, curvature, labels and the labels' colours
 /// (colorize_labels of colour_ids without shading; black where there is no point).
-void write_labelled_cloud(const std::string& path, const Pipeline& pipeline) {
+void write_labelled_cloud(const std::string& path, const Pipeline& pipeline,
+                          const std::array<double, 7>& pose) {
   OrganizedCloud cloud = pipeline.cloud();
   cloud.label = pipeline.segmentation().labels;
   LabelImage ids;
@@ -111,7 +112,7 @@ void write_labelled_cloud(const std::string& path, const Pipeline& pipeline) {
       cloud.b(u, v) = c[2];
     }
   }
-  write_pcd_with_normals(path, cloud, pipeline.normals());
+  write_pcd_with_normals(path, cloud, pipeline.normals(), pose);
 }
 
 }  // namespace
@@ -222,7 +223,7 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
     if (!pipeline.polygons().segments.empty()) {
       write_polygons_obj(file("polygons.obj"), pipeline.polygons());
     }
-    write_labelled_cloud(file("cloud.pcd"), pipeline);
+    write_labelled_cloud(file("cloud.pcd"), pipeline, files.pose);
     remove_earlier_results(dir, written);
     return joined(written);
   }
@@ -241,7 +242,7 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
     const RgbImage flat = colorize_labels(colour_by);
     write_mesh_ply(file("mesh.ply"), pipeline.cloud(), pipeline.mesh(), &pipeline.normals(), &flat);
   }
-  if (files.cloud) write_labelled_cloud(file("cloud.pcd"), pipeline);
+  if (files.cloud) write_labelled_cloud(file("cloud.pcd"), pipeline, files.pose);
   remove_earlier_results(dir, written);
   return joined(written);
 }

@@ -4,6 +4,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -25,6 +26,9 @@ RgbImage colorize_surface_types(const Segmentation& segmentation, RgbImage shade
 struct FolderFiles {
   bool mesh = true;    ///< mesh.ply (an organized frame)
   bool cloud = false;  ///< cloud.pcd of an organized frame (an unorganized one always has it)
+  /// The input's sensor pose (LoadedInput::pose), cloud.pcd's VIEWPOINT: its points are the
+  /// input's, in the same frame.
+  std::array<double, 7> pose{0, 0, 0, 1, 0, 0, 0};
 };
 
 /// Writes the results of the pipeline's last frame into `dir` (each file atomically) and returns

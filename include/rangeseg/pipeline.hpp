@@ -83,9 +83,11 @@ struct StageTimes {
 /// rejects (`validate` of each), or invalid tracking settings.
 void validate(const PipelineSettings& settings);
 
-/// Runs the stages on frame after frame. It owns every intermediate buffer, so after the first
-/// frame of a given size no stage allocates (except segmentation when a frame has more regions
-/// than any before). Results stay valid until the next call of `process`. Not thread-safe.
+/// Runs the stages on frame after frame. It owns every intermediate buffer and keeps it, so
+/// after the first frame of a given size no stage allocates, except where a frame's content
+/// needs more than any frame before (more segments, polygon vertices, tracks: a stream settles
+/// within a few frames; the five PrimeSense frames allocate 3-27 times in frames 2-5, then
+/// not at all). Results stay valid until the next call of `process`. Not thread-safe.
 class Pipeline {
  public:
   /// Throws std::invalid_argument for invalid settings (`validate`). Starts settings.threads - 1
@@ -108,11 +110,19 @@ class Pipeline {
   /// buffers, the k-d tree's included, are kept too: once they fit the largest cloud seen, nothing
   /// is allocated with `new`; the tree, rebuilt in place per frame, takes its nodes from
   /// nanoflann's pool of 8 KB malloc blocks.
-  void process(const OrganizedCloud& cloud);
+  /// `camera_fx` [pixel]: the focal length of the camera an organized cloud was computed with,
+  /// when known (e.g. from a depth image), for the smoothing's pixel angle (1 / fx) when
+  /// SmoothingSettings::pixel_angle is 0; 0 = unknown (kDefaultPixelAngle). Throws
+  /// std::invalid_argument for a negative or non-finite camera_fx.
+  void process(const OrganizedCloud& cloud, double camera_fx = 0);
+  /// The pipeline reads a cloud in place (cloud() is the caller's without smoothing): a
+  /// temporary would be gone before its results are read. Keep the cloud in a variable.
+  void process(OrganizedCloud&& cloud, double camera_fx = 0) = delete;
 
   /// Processes a depth image (raw units, 0 = no measurement, `depth_scale` metres per unit, e.g.
   /// 0.001 for millimetres) seen with `camera`: its points are computed (depth_to_cloud) into a
-  /// cloud the pipeline owns, so a camera loop allocates nothing after its first frame. Throws
+  /// cloud the pipeline owns, so a camera loop allocates nothing once its buffers fit; the
+  /// smoothing's pixel angle is 1 / camera.fx unless the settings give one. Throws
   /// std::invalid_argument for invalid intrinsics or depth_scale, or fewer than 2 rows.
   void process(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
                double depth_scale = 0.001);
@@ -143,17 +153,22 @@ class Pipeline {
   void reset_tracks() { tracker_.reset(); }
 
  private:
+  void process_cloud(const OrganizedCloud& cloud);
   void process_unorganized(const OrganizedCloud& cloud);
   void process_grid(const OrganizedCloud& cloud);
   void process_restored(const OrganizedCloud& cloud, double find_ms);
   template <class Convert>
-  void process_depth(int width, int height, Convert&& convert_rows);
+  void process_depth(int width, int height, double fx, Convert&& convert_rows);
 
   PipelineSettings settings_;
   /// The caller's cloud of the last frame; nullptr for a depth image (depth_cloud_), which
   /// keeps cloud() right when the pipeline is moved.
   const OrganizedCloud* input_ = nullptr;
   OrganizedCloud depth_cloud_;  ///< the points of the last depth image
+  OrganizedCloud own_input_;    ///< a copy of cloud() when it is fed back to process()
+  /// fx of the frame's camera when known (a depth image's, a pixel grid's), else 0: the
+  /// smoothing's pixel angle when SmoothingSettings::pixel_angle is 0
+  double camera_fx_ = 0;
   Mesh mesh_;
   PointRings rings_;
   NormalMap raw_normals_;

@@ -44,6 +44,10 @@ namespace rangeseg {
 /// cut by the mesh stay sharp. The exponential is evaluated with a polynomial approximation
 /// (relative error < 5e-5); weights below exp(-30) are treated as 0. Depths z are taken
 /// relative to `viewpoint`.
+/// The pixel angle when neither the settings nor the caller give one: 1 / 525 rad, a Kinect
+/// (or any PrimeSense camera) at 640 x 480.
+inline constexpr float kDefaultPixelAngle = 1.0f / 525.0f;
+
 struct SmoothingSettings {
   /// Filter passes; each reads the previous pass's points and normals, the mesh stays the input's.
   /// 3 passes (the default) halve point and normal errors on planes with Kinect noise from 1 to
@@ -52,9 +56,11 @@ struct SmoothingSettings {
 
   bool use_distance = true;     ///< the spatial term w_d (default on)
   float distance_scale = 1.5f;  ///< k_d: s_d in units of the expected ring edge length [1]
-  /// angle between neighbouring pixel rays [rad] (default 1 / 525, a Kinect at 640 x 480; set
-  /// it to 1 / fx for another camera or resolution: the pipeline's presets do not know the camera)
-  float pixel_angle = 1.0f / 525.0f;
+  /// angle between neighbouring pixel rays [rad]; 0 (the default) = 1 / fx of the frame's
+  /// camera when the caller knows it (Smoother::set_camera_fx; Pipeline: the intrinsics of a
+  /// depth image, the pixel grid of an unorganized cloud), else kDefaultPixelAngle. Set it for
+  /// an organized cloud of another camera or resolution, or a scanner's grid.
+  float pixel_angle = 0.0f;
   SensorNoise noise{};  ///< sigma(z) of the sensor (see sensor.hpp)
 
   bool use_normals = true;    ///< the normal term w_n (default on)
@@ -112,8 +118,16 @@ class Smoother {
 
   const SmoothingSettings& settings() const { return settings_; }
 
+  /// The focal length [pixel] of the camera the next frames come from, for settings'
+  /// pixel_angle 0 (then 1 / fx); 0 = unknown (kDefaultPixelAngle). Throws
+  /// std::invalid_argument for a negative or non-finite fx.
+  void set_camera_fx(double fx);
+  /// The pixel angle the next run uses [rad].
+  float pixel_angle() const;
+
  private:
   SmoothingSettings settings_;
+  double camera_fx_ = 0;  ///< set_camera_fx
   OrganizedCloud scratch_cloud_;
   NormalMap scratch_normals_;
   FloatPlane grey_;

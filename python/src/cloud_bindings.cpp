@@ -7,6 +7,7 @@
 
 #include "arrays.hpp"
 #include "bindings.hpp"
+#include "rangeseg/io/camera_file.hpp"
 #include "rangeseg/io/camera_json.hpp"
 #include "rangeseg/io/cloud_file.hpp"
 #include "rangeseg/io/png.hpp"
@@ -20,6 +21,11 @@ template <class Read>
 auto without_gil(Read&& read) {
   const py::gil_scoped_release release;
   return read();
+}
+
+py::dict camera_dict(const CameraIntrinsics& c) {
+  return py::dict("fx"_a = c.fx, "fy"_a = c.fy, "cx"_a = c.cx, "cy"_a = c.cy, "width"_a = c.width,
+                  "height"_a = c.height);
 }
 
 }  // namespace
@@ -88,14 +94,32 @@ SegComp .range image. Raises RuntimeError naming the file and the problem.)");
   m.def(
       "read_camera_json",
       [](const py::object& file) {
-        const CameraIntrinsics c = io::read_camera_json(path_of(file, "path"));
-        return py::dict("fx"_a = c.fx, "fy"_a = c.fy, "cx"_a = c.cx, "cy"_a = c.cy,
-                        "width"_a = c.width, "height"_a = c.height);
+        return camera_dict(io::read_camera_json(path_of(file, "path")));
       },
       "path"_a,
       R"(Pinhole intrinsics from a JSON file (Open3D's PinholeCameraIntrinsic or flat fx, fy,
 cx, cy, width, height) as a dict, the keywords of Pipeline.process_depth; width and
 height are 0 when the file does not give them.)");
+  m.def(
+      "read_camera",
+      [](const py::object& file) {
+        const std::string path = path_of(file, "path");
+        const io::CameraFile camera = io::read_camera_file(path);
+        if (camera.distorted()) {
+          const std::string message = path + ": its lens distortion (" + camera.distortion_model +
+                                      ") is not applied: the depth image is taken as a pinhole "
+                                      "camera's (rectified)";
+          if (PyErr_WarnEx(PyExc_UserWarning, message.c_str(), 1) != 0) {
+            throw py::error_already_set();
+          }
+        }
+        return camera_dict(camera.intrinsics);
+      },
+      "path"_a,
+      R"(Pinhole intrinsics from a camera file as a dict, the keywords of
+Pipeline.process_depth: JSON as read_camera_json reads it, or ROS camera_info YAML (.yaml /
+.yml: a camera_calibration file, or a CameraInfo message as `ros2 topic echo --once` prints
+it). A lens distortion the file states is not applied; a UserWarning says so.)");
 }
 
 }  // namespace rangeseg::python

@@ -106,15 +106,16 @@ class PyPipeline {
  public:
   explicit PyPipeline(const PipelineSettings& settings) : pipeline_(settings) {}
 
-  Result process(const OrganizedCloud& cloud) {
-    return run([] {}, [&] { pipeline_.process(cloud); });
+  Result process(const OrganizedCloud& cloud, double fx) {
+    return run([] {}, [&] { pipeline_.process(cloud, fx); });
   }
 
   /// NumPy points into the pipeline's own input cloud, which keeps its memory between frames;
   /// filled under the mutex, as another thread's frame may be reading it.
-  Result process(const py::handle& points, const py::handle& intensity, const py::handle& colors) {
+  Result process(const py::handle& points, const py::handle& intensity, const py::handle& colors,
+                 double fx) {
     return run([&] { cloud_from_arrays(points, intensity, colors, py::none(), input_); },
-               [&] { pipeline_.process(input_); });
+               [&] { pipeline_.process(input_, fx); });
   }
 
   Result process_depth(const py::handle& depth, const CameraIntrinsics& camera,
@@ -266,23 +267,26 @@ config: settings on top of the preset, a dict or the path of a JSON file with th
       .def(
           "process",
           [](PyPipeline& p, const py::object& points, const py::object& intensity,
-             const py::object& colors) {
+             const py::object& colors, double fx) {
             if (py::isinstance<OrganizedCloud>(points)) {
               if (!intensity.is_none() || !colors.is_none()) {
                 throw std::invalid_argument("intensity and colors are taken from the Cloud");
               }
-              return p.process(points.cast<const OrganizedCloud&>());
+              return p.process(points.cast<const OrganizedCloud&>(), fx);
             }
-            return p.process(points, intensity, colors);
+            return p.process(points, intensity, colors, fx);
           },
-          "points"_a, "intensity"_a = py::none(), "colors"_a = py::none(),
+          "points"_a, "intensity"_a = py::none(), "colors"_a = py::none(), py::kw_only(),
+          "fx"_a = 0.0,
           R"(Processes one cloud: a rangeseg.Cloud, or points as an array (H, W, 3) of an
 organized cloud (a depth camera's grid) or (N, 3) of an unorganized one, in metres in
 the sensor's frame (z along the view), NaN where there is no point (inf, and the
 point (0, 0, 0) that RealSense's SDK and many drivers write for a pixel without depth,
 count as none too); an organized cloud has at least 2 rows. intensity (H, W) or (N,), or else the brightness
 of colors (uint8 0..255 or floats 0..1, the points' shape), feeds the smoothing's
-intensity term. Returns a Result.)")
+intensity term. fx [pixel]: the focal length of the camera of organized points, when known,
+for the smoothing's pixel angle 1 / fx (unless the settings give smoothing.pixel_angle;
+0 = unknown: 1 / 525, a Kinect at 640 x 480). Returns a Result.)")
       .def(
           "process_depth",
           [](PyPipeline& p, const py::object& depth, double fx, double fy, double cx, double cy,

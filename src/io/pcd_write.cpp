@@ -112,7 +112,12 @@ std::vector<std::uint8_t> encode_pcd(const OrganizedCloud& cloud, const PcdWrite
   header += "\nSIZE";
   for (std::size_t i = 0; i < nf; ++i) header += " 4";
   header += "\nTYPE";
-  for (const OutField& f : fields) header += std::string(" ") + f.type;
+  for (const OutField& f : fields) {
+    // In text, PCL writes (and reads) the packed colour as the integer 0x00RRGGBB, typed U: a
+    // reader that took the integer text of a TYPE F field as a float would get another colour.
+    const bool text_rgb = options.encoding == PcdEncoding::ascii && f.name == "rgb";
+    header += std::string(" ") + (text_rgb ? 'U' : f.type);
+  }
   header += "\nCOUNT";
   for (std::size_t i = 0; i < nf; ++i) header += " 1";
   header += "\nWIDTH " + std::to_string(w) + "\nHEIGHT " + std::to_string(h) + "\nVIEWPOINT";

@@ -73,6 +73,8 @@ namespace seg {
 
 void validate(const SegmentationSettings& s) {
   constexpr double pi = 3.14159265358979323846;
+  require(s.model <= RegionModel::automatic, "model", static_cast<int>(s.model),
+          "a RegionModel (plane, smooth, incremental_plane or automatic)");
   require(std::isfinite(s.noise.a) && s.noise.a > 0, "noise.a", s.noise.a, "finite and > 0");
   require(std::isfinite(s.noise.b) && s.noise.b >= 0, "noise.b", s.noise.b, "finite and >= 0");
   require(std::isfinite(s.noise.z0), "noise.z0", s.noise.z0, "finite");

@@ -16,9 +16,11 @@
 namespace rangeseg {
 namespace {
 
-/// x / z of two points of one pixel column differ by float rounding only (~1e-7); the columns
-/// of a camera with fx <= 50000 pixels are at least 2e-5 apart.
-constexpr double kSameColumn = 2e-6;
+/// Sorted x / z values of one pixel column follow each other closely: they differ by float
+/// rounding (~1e-7), or by the rounding of text with 6 significant digits (Open3D's and PCL's
+/// ascii files: ~5e-6 over a column), and a column holds many points; the columns of a camera
+/// with fx <= 50000 pixels are at least 2e-5 apart. A gap of more than this starts a column.
+constexpr double kColumnGap = 1e-5;
 /// How far from an integer pixel coordinate a point may lie [pixels].
 constexpr double kPixelTolerance = 0.05;
 constexpr int kMaxSide = 16384;
@@ -43,17 +45,17 @@ struct Axis {
 /// by least squares (a single gap's rounding would drift over hundreds of columns).
 bool fit_axis(const std::vector<std::uint32_t>& sorted, std::vector<double>& columns, Axis& out) {
   columns.clear();
-  double sum = 0, first = from_order_key(sorted[0]);
+  double sum = 0, previous = from_order_key(sorted[0]);
   std::size_t count = 0;
   for (const std::uint32_t key : sorted) {
     const double t = from_order_key(key);
-    if (t - first > kSameColumn) {
+    if (t - previous > kColumnGap) {
       columns.push_back(sum / static_cast<double>(count));
       if (columns.size() > static_cast<std::size_t>(kMaxSide)) return false;
       sum = 0;
       count = 0;
-      first = t;
     }
+    previous = t;
     sum += t;
     ++count;
   }

@@ -1,4 +1,6 @@
-# Installs rangeseg into a scratch prefix, then configures, builds and runs a tiny consumer project.
+# Installs rangeseg into a scratch prefix, then configures, builds and runs a tiny consumer project
+# and the README's C++ example (the block that starts with "// my_app.cpp"), taken from the README
+# itself so that the example a user copies always compiles.
 file(REMOVE_RECURSE ${WORK_DIR})
 function(run)
   execute_process(COMMAND ${ARGV} RESULT_VARIABLE rc)
@@ -6,8 +8,28 @@ function(run)
     message(FATAL_ERROR "failed (${rc}): ${ARGV}")
   endif()
 endfunction()
+
+file(READ ${SOURCE_DIR}/README.md readme)
+string(FIND "${readme}" "```cpp\n// my_app.cpp" start)
+if(start EQUAL -1)
+  message(FATAL_ERROR "README.md has no ```cpp block starting with // my_app.cpp")
+endif()
+math(EXPR start "${start} + 7")
+string(SUBSTRING "${readme}" ${start} -1 example)
+string(FIND "${example}" "```" end)
+string(SUBSTRING "${example}" 0 ${end} example)
+file(WRITE ${WORK_DIR}/my_app.cpp "${example}")
+
 run(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${WORK_DIR}/prefix)
 run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/consumer -B ${WORK_DIR}/build -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix
-    -DCMAKE_BUILD_TYPE=Release)
+    -DCMAKE_BUILD_TYPE=Release -DMY_APP_SOURCE=${WORK_DIR}/my_app.cpp)
 run(${CMAKE_COMMAND} --build ${WORK_DIR}/build)
 run(${WORK_DIR}/build/consumer)
+
+set(data ${SOURCE_DIR}/../shared/data)
+if(EXISTS ${data}/kinect/grabber_frame0.pcd AND EXISTS ${data}/depth_png/00000.png)
+  run(${WORK_DIR}/build/my_app ${data}/kinect/grabber_frame0.pcd ${data}/depth_png/00000.png
+      ${data}/depth_png/camera_primesense.json)
+else()
+  message(STATUS "../shared/data is absent: the README's example is built, not run")
+endif()

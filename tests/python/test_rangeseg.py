@@ -284,6 +284,28 @@ class Inputs(unittest.TestCase):
         self.assertIsNone(cloud.intensity)
 
 
+    def test_read_camera_takes_ros_camera_info_and_warns_of_distortion(self):
+        z = plane_depth([0.1, -0.6, -0.8], 1.4)
+        depth = np.nan_to_num(z * 1000).astype(np.uint16)
+        k = [HALF["fx"], 0, HALF["cx"], 0, HALF["fy"], HALF["cy"], 0, 0, 1]
+        with tempfile.TemporaryDirectory() as tmp:
+            info = os.path.join(tmp, "info.yaml")
+            with open(info, "w") as f:
+                f.write("height: 240\nwidth: 320\ndistortion_model: plumb_bob\n"
+                        "d: [0.0, 0.0, 0.0, 0.0, 0.0]\nk: %s\n---\n" % k)
+            distorted = os.path.join(tmp, "ost.yaml")
+            with open(distorted, "w") as f:
+                f.write("image_width: 320\nimage_height: 240\ncamera_matrix: {rows: 3, cols: 3, "
+                        "data: %s}\ndistortion_model: plumb_bob\n"
+                        "distortion_coefficients: {data: [0.1, 0, 0, 0, 0]}\n" % k)
+            camera = rangeseg.read_camera(info)
+            with self.assertWarnsRegex(UserWarning, "plumb_bob"):
+                self.assertEqual(rangeseg.read_camera(distorted), camera)
+        self.assertEqual(camera, dict(HALF, width=320, height=240))
+        pipeline = rangeseg.Pipeline()
+        np.testing.assert_array_equal(pipeline.process_depth(depth, **camera).labels,
+                                      pipeline.process_depth(depth, **HALF).labels)
+
 class BadInput(unittest.TestCase):
     def assert_raises_with(self, error, text, call, *args, **kwargs):
         with self.assertRaises(error) as caught:
