@@ -371,10 +371,11 @@ void Pipeline::process_grid(const OrganizedCloud& cloud) {
 template <class Convert>
 void Pipeline::process_depth(int width, int height, double fx, Convert&& convert_rows) {
   const Clock::time_point start = Clock::now();
-  if (height < 2) {
+  if (width < 1 || height < 2) {
     // One row would be taken for an unorganized cloud and run over rings.
-    throw std::invalid_argument("Pipeline::process: a depth image needs at least 2 rows, got " +
-                                std::to_string(width) + " x " + std::to_string(height));
+    throw std::invalid_argument(
+        "Pipeline::process: a depth image needs at least 1 column and 2 rows, got " +
+        std::to_string(width) + " x " + std::to_string(height));
   }
   if (depth_cloud_.width() != width || depth_cloud_.height() != height) {
     depth_cloud_.resize(width, height);

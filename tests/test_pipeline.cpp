@@ -383,6 +383,15 @@ TEST(Pipeline, DepthImagesGiveWhatTheirCloudsGive) {
       std::invalid_argument);
   EXPECT_THROW(pipeline.process(View<const float>{nullptr, 320, 240, 320}, kQvgaCamera),
                std::invalid_argument);
+  // A negative width names the view, not an internal buffer.
+  try {
+    pipeline.process(View<const std::uint16_t>{depth.row(0), -64, 48, 320}, kQvgaCamera, 0.001);
+    ADD_FAILURE() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("depth image needs at least 1 column and 2 rows, got -64"),
+              std::string::npos)
+        << e.what();
+  }
   OrganizedCloud cloud;
   EXPECT_THROW(depth_to_cloud(View<const float>{nullptr, 4, 4, 4}, kQvgaCamera, cloud),
                std::invalid_argument);

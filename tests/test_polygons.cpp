@@ -372,6 +372,12 @@ TEST(Polygons, SmallHolesAndFilters) {
                std::invalid_argument);
   OrganizedCloud other = flat_cloud(10, 10, 1.0);
   EXPECT_THROW(extract_polygons(other, h.mesh, h.seg), std::invalid_argument);
+  // A label that names no segment (it would cut a hole in its neighbour's polygon).
+  for (const std::int32_t bad : {99, -7}) {
+    Segmentation labelled = h.seg;
+    labelled.labels(labelled.labels.width() / 2, labelled.labels.height() / 2) = bad;
+    EXPECT_THROW(extract_polygons(h.cloud, h.mesh, labelled), std::invalid_argument) << bad;
+  }
 }
 
 TEST(Polygons, PipelineSegmentationIsHandledAndExtractorReuseIsDeterministic) {
@@ -609,11 +615,12 @@ TEST(Polygons, VectorPathsMatchScalarOnSpeckledLabels) {
       s.model = l == 4 ? SegmentModel::smooth : SegmentModel::plane;  // 4 is not outlined
       seg.segments.push_back(s);
     }
-    std::uniform_int_distribution<int> label(-1, 6), speckle(0, 9);
+    // Labels that name no segment are refused (SmallHolesAndFilters); speckle with the others.
+    std::uniform_int_distribution<int> label(0, 4), speckle(0, 9);
     for (int v = 0; v < h; ++v) {
       for (int u = 0; u < w; ++u) {
         int l = (u / 9 + v / 7) % 5;
-        if (speckle(rng) == 0) l = label(rng);  // includes -1 and labels beyond the segments
+        if (speckle(rng) == 0) l = label(rng);
         seg.labels(u, v) = l;
       }
     }

@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "detail/segment_labels.hpp"
 #include "detail/simd.hpp"
 #include "polygons/internal.hpp"
 #include "rangeseg/polygons.hpp"
@@ -325,6 +326,8 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
     throw std::invalid_argument("PolygonExtractor::extract: mesh pixel_stride must be >= 1, got " +
                                 std::to_string(s));
   }
+  // A label that names no segment would cut a hole in its neighbour's polygon.
+  detail::require_labels_name_segments(segmentation, "PolygonExtractor::extract");
   if (!(settings.simplify_tolerance >= 0) || !std::isfinite(settings.simplify_tolerance) ||
       !(settings.simplify_tolerance_pixels >= 0) ||
       !std::isfinite(settings.simplify_tolerance_pixels) || !(settings.min_loop_pixels >= 0) ||
@@ -335,7 +338,9 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
         "viewpoint finite; got simplify_tolerance " +
         std::to_string(settings.simplify_tolerance) + ", simplify_tolerance_pixels " +
         std::to_string(settings.simplify_tolerance_pixels) + ", min_loop_pixels " +
-        std::to_string(settings.min_loop_pixels));
+        std::to_string(settings.min_loop_pixels) + ", viewpoint " +
+        std::to_string(settings.viewpoint[0]) + " " + std::to_string(settings.viewpoint[1]) + " " +
+        std::to_string(settings.viewpoint[2]));
   }
 
   Scratch& sc = *scratch_;

@@ -16,6 +16,7 @@
 #include <emmintrin.h>
 #endif
 
+#include "detail/segment_labels.hpp"
 #include "segmentation/internal.hpp"
 
 namespace rangeseg::seg {
@@ -437,7 +438,7 @@ void close_grazing_cells(const Segmentation& segmentation, Mesh& mesh) {
                    [](const Segment& s) { return s.grazing; })) {
     return;
   }
-  seg::require_labels_name_segments(segmentation, "close_grazing_cells");
+  detail::require_labels_name_segments(segmentation, "close_grazing_cells");
   if (labels.stride() != mesh.faces.stride() || labels.stride() != mesh.edges.stride()) {
     throw std::invalid_argument(
         "close_grazing_cells: the label image and the mesh planes have "

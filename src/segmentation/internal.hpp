@@ -519,10 +519,6 @@ detail::PlaneFit fit_grazing_plane(const double* points, std::size_t n,
 bool within_grazing_plane(const detail::PlaneFit& fit, const double* p, double sigmas,
                           double sin_max);
 
-/// Throws std::invalid_argument, naming `caller`, the label and its row, unless every label of
-/// `segmentation.labels` is 0 or names one of its segments (1..segments.size()).
-void require_labels_name_segments(const Segmentation& segmentation, const char* caller);
-
 /// close_grazing_cells on flat planes of one row stride: the faces (and, unless `edges` is null,
 /// the edges) of every lattice cell whose four corners carry the label of one `grazing` segment
 /// (labels 1..segments.size() or 0). `quads`: MeshType::quad.

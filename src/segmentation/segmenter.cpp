@@ -14,6 +14,7 @@
 #include <emmintrin.h>
 #endif
 
+#include "detail/segment_labels.hpp"
 #include "segmentation/internal.hpp"
 #include "segmentation/primitive_internal.hpp"
 
@@ -324,23 +325,6 @@ Frame make_frame(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap&
   return f;
 }
 
-void require_labels_name_segments(const Segmentation& segmentation, const char* caller) {
-  const auto segments = static_cast<std::int32_t>(segmentation.segments.size());
-  for (int v = 0; v < segmentation.labels.height(); ++v) {
-    const std::int32_t* row = segmentation.labels.row(v);
-    std::int32_t low = 0, high = 0;
-    for (int u = 0; u < segmentation.labels.width(); ++u) {
-      low = std::min(low, row[u]);
-      high = std::max(high, row[u]);
-    }
-    if (low < 0 || high > segments) {
-      throw std::invalid_argument(
-          std::string(caller) + ": label " + std::to_string(low < 0 ? low : high) + " in row " +
-          std::to_string(v) + " is not in [0, " + std::to_string(segments) + "] (one per segment)");
-    }
-  }
-}
-
 }  // namespace seg
 
 Segmenter::Segmenter() : scratch_(std::make_unique<Scratch>()) {}
@@ -461,7 +445,7 @@ void Segmenter::compute_areas(const OrganizedCloud& cloud, const Mesh& mesh, Seg
                                 std::to_string(mesh.pixel_stride) + " must be >= 1");
   }
   // Labels index the per-segment sums: each must name a segment.
-  seg::require_labels_name_segments(out, "compute_areas");
+  detail::require_labels_name_segments(out, "compute_areas");
   if (!scratch_) scratch_ = std::make_unique<Scratch>();
   seg::Frame f;
   f.x = cloud.x.row(0);
