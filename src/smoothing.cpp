@@ -487,9 +487,8 @@ void smooth_rows(const SmoothRowsInput& in, const SmoothingSettings& settings, i
   assert(out_cloud.z.width() == width && out_cloud.z.height() == height);
   assert(out_normals.nz.width() == width && out_normals.nz.height() == height);
   (void)width, (void)height;
-  const PassSetup setup =
-      make_pass(settings, settings.pixel_angle > 0.0f ? settings.pixel_angle : kDefaultPixelAngle,
-                in.mesh->pixel_stride, in.intensity, in.intensity_range);
+  const PassSetup setup = make_pass(settings, pixel_angle_for(settings, 0), in.mesh->pixel_stride,
+                                    in.intensity, in.intensity_range);
   PassScratch ps{scratch.rows, scratch.bytes, scratch.layout};
   setup.pass(cloud, *in.normals, *in.mesh, setup.prm, ps, out_cloud, out_normals, v0, v1);
 }
@@ -536,10 +535,12 @@ void Smoother::set_camera_fx(double fx) {
   camera_fx_ = fx;
 }
 
-float Smoother::pixel_angle() const {
-  if (settings_.pixel_angle > 0.0f) return settings_.pixel_angle;
-  return camera_fx_ > 0 ? static_cast<float>(1.0 / camera_fx_) : kDefaultPixelAngle;
+float pixel_angle_for(const SmoothingSettings& settings, double camera_fx) {
+  if (settings.pixel_angle > 0.0f) return settings.pixel_angle;
+  return camera_fx > 0 ? static_cast<float>(1.0 / camera_fx) : kDefaultPixelAngle;
 }
+
+float Smoother::pixel_angle() const { return pixel_angle_for(settings_, camera_fx_); }
 
 void Smoother::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
                    OrganizedCloud& out_cloud, NormalMap& out_normals) {

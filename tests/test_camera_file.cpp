@@ -99,10 +99,12 @@ TEST(CameraYaml, CalibrationFileAndRos1Message) {
   EXPECT_EQ(f.distortion, (std::vector<double>{0.051, -0.12, 0, 0, 0}));
   EXPECT_TRUE(f.distorted());
 
-  // rostopic echo -n 1 (ROS 1): upper-case keys, flow lists, an empty D.
+  // rostopic echo -n 1 (ROS 1): upper-case keys, flow lists, an empty D, a roi the driver filled
+  // in with the whole image.
   const io::CameraFile ros1 = io::parse_camera_yaml(
       "height: 240\nwidth: 320\ndistortion_model: ''\nD: []\n"
-      "K: [285.0, 0.0, 160.5, 0.0, 286.0, 120.5, 0.0, 0.0, 1.0]\n---\n",
+      "K: [285.0, 0.0, 160.5, 0.0, 286.0, 120.5, 0.0, 0.0, 1.0]\n"
+      "roi: {x_offset: 0, y_offset: 0, height: 240, width: 320, do_rectify: false}\n---\n",
       "ros1.yaml");
   expect_camera(ros1.intrinsics,
                 {.fx = 285.0, .fy = 286.0, .cx = 160.5, .cy = 120.5, .width = 320, .height = 240});
@@ -138,6 +140,10 @@ TEST(CameraYaml, BadFilesNameFileKeyAndValue) {
   check("k: [-525, 0, 319.5, 0, 525, 239.5, 0, 0, 1]\n", "fx");
   check("k: [525, 0, 319.5, 0, 525, 239.5, 0, 0, 1]\nbinning_x: 2\n", "binning_x");
   check("k: [525, 0, 319.5, 0, 525, 239.5, 0, 0, 1]\nroi: {x_offset: 8}\n", "roi.x_offset");
+  check(
+      "k: [525, 0, 319.5, 0, 525, 239.5, 0, 0, 1]\nwidth: 640\nheight: 480\n"
+      "roi: {x_offset: 0, y_offset: 0, width: 320, height: 480}\n",
+      "roi.width");
   check("fx: 1\nfy: 1\ncx: 1\n", "\"cy\"");
   check("fx: 1\nfy: [1]\ncx: 1\ncy: 1\n", "\"fy\"");
   check("k: [525, 0, 319.5, 0, 525, 239.5, 0, 0, 1]\nd: 0.1\n", "\"d\"");

@@ -370,8 +370,7 @@ Reference reference_pass(const OrganizedCloud& cloud, const NormalMap& normals, 
   // 1 / (2 s_d(z)^2) and 1 / s_n(z) of one end point.
   auto inverse_scales = [&](double z) {
     const double sigma = static_cast<float>(st.noise.sigma(z));
-    const float angle = st.pixel_angle > 0.0f ? st.pixel_angle : kDefaultPixelAngle;
-    const double spacing = s * static_cast<double>(angle) * z;
+    const double spacing = s * static_cast<double>(pixel_angle_for(st, 0)) * z;
     const double sd2 =
         st.distance_scale * st.distance_scale * (spacing * spacing + 2 * sigma * sigma);
     const double s_n = st.normal_scale * std::max(1.0, sigma / spacing);

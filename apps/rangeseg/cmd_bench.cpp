@@ -225,11 +225,8 @@ void add_bench(CLI::App& app) {
     for (const int k : scales_for(*o, in.cloud.width(), in.cloud.height())) {
       PipelineSettings scaled = settings;
       // Every k-th pixel: neighbouring rays are k times further apart.
-      float& angle = scaled.smoothing.pixel_angle;
-      if (angle == 0.0f) {
-        angle = in.camera_fx > 0 ? static_cast<float>(1.0 / in.camera_fx) : kDefaultPixelAngle;
-      }
-      angle *= static_cast<float>(k);
+      scaled.smoothing.pixel_angle =
+          pixel_angle_for(settings.smoothing, in.camera_fx) * static_cast<float>(k);
       SizeResult r = k == 1 ? measure(in.cloud, scaled, o->repeat, o->threads)
                             : measure(downsample(in.cloud, k), scaled, o->repeat, o->threads);
       r.scale = k;

@@ -86,8 +86,8 @@ void validate(const PipelineSettings& settings);
 /// Runs the stages on frame after frame. It owns every intermediate buffer and keeps it, so
 /// after the first frame of a given size no stage allocates, except where a frame's content
 /// needs more than any frame before (more segments, polygon vertices, tracks: a stream settles
-/// within a few frames; the five PrimeSense frames allocate 3-27 times in frames 2-5, then
-/// not at all). Results stay valid until the next call of `process`. Not thread-safe.
+/// within a few frames). Results stay valid until the next call of `process`. Not
+/// thread-safe.
 class Pipeline {
  public:
   /// Throws std::invalid_argument for invalid settings (`validate`). Starts settings.threads - 1

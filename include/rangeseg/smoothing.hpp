@@ -48,6 +48,11 @@ namespace rangeseg {
 /// (or any PrimeSense camera) at 640 x 480.
 inline constexpr float kDefaultPixelAngle = 1.0f / 525.0f;
 
+struct SmoothingSettings;
+/// The angle between neighbouring pixel rays the filter uses [rad]: settings.pixel_angle when
+/// it is > 0, else 1 / camera_fx when camera_fx [pixel] > 0, else kDefaultPixelAngle.
+float pixel_angle_for(const SmoothingSettings& settings, double camera_fx);
+
 struct SmoothingSettings {
   /// Filter passes; each reads the previous pass's points and normals, the mesh stays the input's.
   /// 3 passes (the default) halve point and normal errors on planes with Kinect noise from 1 to

@@ -76,8 +76,10 @@ std::vector<double> matrix(const YAML::Node& node, const std::string& key,
   return numbers(data, key + ".data", name);
 }
 
-// Binning and a region of interest describe an image cut or scaled from the one K is for.
-void refuse_binning_and_roi(const YAML::Node& root, const std::string& name) {
+// Binning and a region of interest describe an image cut or scaled from the one K is for; a
+// roi of zeros or of the whole image (some drivers fill it in) describes that image.
+void refuse_binning_and_roi(const YAML::Node& root, const CameraIntrinsics& camera,
+                            const std::string& name) {
   for (const char* key : {"binning_x", "binning_y"}) {
     if (const YAML::Node node = root[key]; node && number(node, key, name) > 1) {
       fail(name, std::string("key \"") + key + "\" is " + YAML::Dump(node) +
@@ -87,8 +89,13 @@ void refuse_binning_and_roi(const YAML::Node& root, const std::string& name) {
   }
   const YAML::Node roi = root["roi"];
   if (!roi || !roi.IsMap()) return;
-  for (const char* key : {"x_offset", "y_offset", "width", "height"}) {
-    if (const YAML::Node node = roi[key]; node && number(node, key, name) != 0) {
+  for (const auto& [key, whole] : {std::pair{"x_offset", 0},
+                                   {"y_offset", 0},
+                                   {"width", camera.width},
+                                   {"height", camera.height}}) {
+    const YAML::Node node = roi[key];
+    if (!node) continue;
+    if (const double value = number(node, key, name); value != 0 && value != whole) {
       fail(name, std::string("key \"roi.") + key + "\" is " + YAML::Dump(node) +
                      ": a region of interest is not supported; give the camera of the image "
                      "itself (cx, cy less the offsets)");
@@ -183,7 +190,7 @@ CameraFile parse_camera_yaml(const std::string& text, const std::string& name) {
     camera = from_k(matrix(k, key, name), key, name);
     camera.width = size_value(root, key == "camera_matrix" ? "image_width" : "width", name);
     camera.height = size_value(root, key == "camera_matrix" ? "image_height" : "height", name);
-    refuse_binning_and_roi(root, name);
+    refuse_binning_and_roi(root, camera, name);
   } else if (root["fx"]) {
     for (const auto& [key_name, value] : {std::pair{"fx", &camera.fx},
                                           {"fy", &camera.fy},
