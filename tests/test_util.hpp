@@ -5,8 +5,11 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <iostream>
 #include <stdexcept>
 #include <string>
+#include <system_error>
+#include <vector>
 
 namespace rangeseg::test {
 
@@ -35,13 +38,47 @@ inline std::filesystem::path shared_data_dir() {
   return std::filesystem::path(RANGESEG_SOURCE_DIR) / ".." / "shared" / "data";
 }
 
-/// A fresh, empty scratch directory for one test.
+/// Removes the scratch directories of a test when it ends, unless it failed: a run of the suite
+/// writes ~300 MB of frames and results, which would otherwise pile up in the temporary folder.
+/// A failed test's directories stay for inspection and are named on stderr.
+class ScratchCleaner : public ::testing::EmptyTestEventListener {
+ public:
+  static ScratchCleaner& instance() {
+    // Owned by GoogleTest's listener list once appended; never deleted before exit.
+    static auto* cleaner = [] {
+      auto* c = new ScratchCleaner;
+      ::testing::UnitTest::GetInstance()->listeners().Append(c);
+      return c;
+    }();
+    return *cleaner;
+  }
+  void track(const std::filesystem::path& dir) { dirs_.push_back(dir); }
+
+  void OnTestEnd(const ::testing::TestInfo& info) override {
+    const bool failed = info.result() != nullptr && info.result()->Failed();
+    for (const auto& dir : dirs_) {
+      if (failed) {
+        std::cerr << "scratch directory kept: " << dir.string() << '\n';
+      } else {
+        std::error_code ignored;
+        std::filesystem::remove_all(dir, ignored);
+      }
+    }
+    dirs_.clear();
+  }
+
+ private:
+  std::vector<std::filesystem::path> dirs_;
+};
+
+/// A fresh, empty scratch directory for one test, removed when the test passes.
 inline std::filesystem::path scratch_dir(const std::string& name) {
   auto dir = std::filesystem::temp_directory_path() /
              ("rangeseg_test_" + name + "_" +
               std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
+  ScratchCleaner::instance().track(dir);
   return dir;
 }
 
