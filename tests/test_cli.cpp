@@ -446,6 +446,31 @@ TEST(Cli, EvalSynthScoresWhatSynthSegmentAndEvalScore) {
   EXPECT_EQ(run("eval-synth --scene nowhere").code, 2);
 }
 
+// --camera kinect:WxH renders the Kinect's field of view at another resolution: 320 pixels
+// over the same 57 degrees make fx half of 525.
+TEST(Cli, SynthRendersTheKinectAtAnotherResolution) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_synth_qvga");
+  const CliResult synth =
+      run("synth --camera kinect:320x240 --seed 2 -o " + (dir / "scene").string());
+  ASSERT_EQ(synth.code, 0) << synth.out;
+  const CliResult info = run("info " + (dir / "scene" / "cloud.pcd").string());
+  EXPECT_NE(info.out.find("320 x 240"), std::string::npos) << info.out;
+  const nlohmann::json camera = read_json(dir / "scene" / "camera.json");
+  EXPECT_EQ(camera["width"], 320);
+  EXPECT_EQ(camera["intrinsic_matrix"][0].get<double>(), 262.5);
+  EXPECT_EQ(camera["intrinsic_matrix"][6].get<double>(), 159.5);
+  EXPECT_EQ(camera["intrinsic_matrix"][7].get<double>(), 119.5);
+
+  for (const char* bad : {"kinect:320", "kinect:8x8", "kinect:320x240x", "kinect:320x240.5",
+                          "kinect:99999x240", "kinect:"}) {
+    const CliResult r = run(std::string("synth --camera ") + bad + " -o " +
+                            (dir / "bad").string());
+    EXPECT_EQ(r.code, 2) << bad;
+    EXPECT_NE(r.out.find("kinect:WIDTHxHEIGHT"), std::string::npos) << r.out;
+    EXPECT_FALSE(fs::exists(dir / "bad")) << bad;
+  }
+}
+
 namespace {
 
 /// The totals of `eval-synth --seeds 1-8 ARGS` (its JSON written into `dir`).

@@ -1,6 +1,7 @@
 #include <cmath>
 #include <exception>
 #include <memory>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -55,6 +56,28 @@ synth::Scene scene_by_name(const std::string& name, std::uint64_t seed) {
   throw std::invalid_argument("unknown scene '" + name + "' (expected demo, boxes or mixed)");
 }
 
+namespace {
+
+/// "kinect:WxH": the Kinect's horizontal field of view (57 deg) on W x H square pixels, as a
+/// driver streams it at another resolution (320x240: fx 262.5).
+CameraIntrinsics kinect_at(const std::string& camera) {
+  constexpr int kMaxSide = 8192;
+  const std::string size = camera.substr(camera.find(':') + 1);
+  int w = 0, h = 0;
+  char x = 0, rest = 0;
+  std::istringstream parse(size);
+  if (!(parse >> w >> x >> h) || x != 'x' || parse >> rest || w < 16 || h < 16 || w > kMaxSide ||
+      h > kMaxSide) {
+    throw std::invalid_argument("--camera " + camera +
+                                ": kinect:WIDTHxHEIGHT needs two whole numbers of pixels in 16.." +
+                                std::to_string(kMaxSide) + ", e.g. kinect:320x240");
+  }
+  const double f = CameraIntrinsics{}.fx * w / 640.0;
+  return {.fx = f, .fy = f, .cx = 0.5 * (w - 1), .cy = 0.5 * (h - 1), .width = w, .height = h};
+}
+
+}  // namespace
+
 synth::RenderSettings sensor_by_name(const std::string& noise, const std::string& camera) {
   synth::RenderSettings s;
   if (camera == "perceptron") {
@@ -66,8 +89,11 @@ synth::RenderSettings sensor_by_name(const std::string& noise, const std::string
                 .cy = 255.5,
                 .width = 512,
                 .height = 512};
+  } else if (camera.rfind("kinect:", 0) == 0) {
+    s.camera = kinect_at(camera);
   } else if (camera != "kinect") {
-    throw std::invalid_argument("unknown camera '" + camera + "' (expected kinect or perceptron)");
+    throw std::invalid_argument("unknown camera '" + camera +
+                                "' (expected kinect, kinect:WIDTHxHEIGHT or perceptron)");
   }
   if (noise == "none") return s;
   s.noise = synth::Noise::kinect;
@@ -125,8 +151,9 @@ void add_sensor_options(CLI::App& cmd, std::string& noise, std::string& camera) 
                  "dropouts) or constant:SIGMA (a laser: SIGMA metres along the ray at any range)")
       ->capture_default_str();
   cmd.add_option("--camera", camera,
-                 "kinect (640x480, f = 525 px) or perceptron (512x512 over 51.65 x 36.73 deg, "
-                 "SegComp's Perceptron laser)")
+                 "kinect (640x480, f = 525 px), kinect:WIDTHxHEIGHT (its 57 deg field of view "
+                 "at another resolution, e.g. kinect:320x240 with f = 262.5 px) or perceptron "
+                 "(512x512 over 51.65 x 36.73 deg, SegComp's Perceptron laser)")
       ->capture_default_str();
 }
 
