@@ -88,6 +88,47 @@ OrganizedCloud downsample(const OrganizedCloud& cloud, int factor) {
   return out;
 }
 
+void interleaved_to_cloud(const float* xyz, int width, int height, std::size_t point_stride,
+                          OrganizedCloud& cloud) {
+  constexpr std::size_t kPointBytes = 3 * sizeof(float);
+  if (xyz == nullptr || width < 1 || height < 1 || point_stride < kPointBytes ||
+      point_stride % alignof(float) != 0) {
+    throw std::invalid_argument(
+        "interleaved_to_cloud: needs points, width and height >= 1 and a point stride of at "
+        "least 12 bytes, a multiple of 4; got " +
+        std::string(xyz == nullptr ? "no points" : "points") + ", " + std::to_string(width) +
+        " x " + std::to_string(height) + ", stride " + std::to_string(point_stride));
+  }
+  // Only the sizes change: a stream's cloud keeps its memory from frame to frame.
+  for (FloatPlane* plane : {&cloud.x, &cloud.y, &cloud.z}) plane->resize(width, height, NAN);
+  cloud.intensity.clear();
+  for (BytePlane* plane : {&cloud.r, &cloud.g, &cloud.b}) plane->clear();
+  cloud.label.clear();
+  const std::size_t step = point_stride / sizeof(float);
+  for (int v = 0; v < height; ++v) {
+    const float* in = xyz + static_cast<std::size_t>(v) * static_cast<std::size_t>(width) * step;
+    float* x = cloud.x.row(v);
+    float* y = cloud.y.row(v);
+    float* z = cloud.z.row(v);
+    for (int u = 0; u < width; ++u, in += step) {
+      // The sensor's own position is no measurement: every stage then sees the same invalid
+      // pixel, and a camera's points, flattened, stay on its pixel grid.
+      const bool valid = std::isfinite(in[0]) && std::isfinite(in[1]) && std::isfinite(in[2]) &&
+                         (in[0] != 0.0f || in[1] != 0.0f || in[2] != 0.0f);
+      x[u] = valid ? in[0] : NAN;
+      y[u] = valid ? in[1] : NAN;
+      z[u] = valid ? in[2] : NAN;
+    }
+  }
+}
+
+OrganizedCloud interleaved_to_cloud(const float* xyz, int width, int height,
+                                    std::size_t point_stride) {
+  OrganizedCloud cloud;
+  interleaved_to_cloud(xyz, width, height, point_stride, cloud);
+  return cloud;
+}
+
 void to_sensor_frame(OrganizedCloud& cloud, const std::array<double, 7>& pose) {
   require_consistent(cloud, "to_sensor_frame");
   const bool finite =

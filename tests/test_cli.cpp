@@ -463,8 +463,7 @@ TEST(Cli, SynthRendersTheKinectAtAnotherResolution) {
 
   for (const char* bad : {"kinect:320", "kinect:8x8", "kinect:320x240x", "kinect:320x240.5",
                           "kinect:99999x240", "kinect:"}) {
-    const CliResult r = run(std::string("synth --camera ") + bad + " -o " +
-                            (dir / "bad").string());
+    const CliResult r = run(std::string("synth --camera ") + bad + " -o " + (dir / "bad").string());
     EXPECT_EQ(r.code, 2) << bad;
     EXPECT_NE(r.out.find("kinect:WIDTHxHEIGHT"), std::string::npos) << r.out;
     EXPECT_FALSE(fs::exists(dir / "bad")) << bad;

@@ -1,9 +1,11 @@
-// downsample: every k-th pixel, with the optional planes, against an index formula.
+// downsample: every k-th pixel, with the optional planes, against an index formula;
+// interleaved_to_cloud against the planes it was made from; to_sensor_frame.
 #include <gtest/gtest.h>
 
 #include <array>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -181,4 +183,108 @@ TEST(SensorFrame, UndoesTheSensorPose) {
 
   EXPECT_THROW(to_sensor_frame(cloud, {0, 0, 0, 0, 0, 0, 0}), std::invalid_argument);
   EXPECT_THROW(to_sensor_frame(cloud, {NAN, 0, 0, 1, 0, 0, 0}), std::invalid_argument);
+}
+
+namespace {
+
+// The memory layout of pcl::PointXYZ (x, y, z and one float of padding, 16 bytes) and of a
+// point with more fields after xyz (pcl::PointXYZRGB: 32 bytes).
+struct PclLikePoint {
+  float x, y, z, pad;
+};
+struct WidePoint {
+  float x, y, z, pad;
+  std::array<float, 4> more;
+};
+
+template <class Point>
+std::vector<Point> interleave(const rangeseg::OrganizedCloud& c) {
+  std::vector<Point> points;
+  for (int v = 0; v < c.height(); ++v) {
+    for (int u = 0; u < c.width(); ++u) {
+      Point p{};
+      p.x = c.x(u, v);
+      p.y = c.y(u, v);
+      p.z = c.z(u, v);
+      p.pad = -7.0f;  // never read as a coordinate
+      points.push_back(p);
+    }
+  }
+  return points;
+}
+
+void expect_same_points(const rangeseg::OrganizedCloud& a, const rangeseg::OrganizedCloud& b) {
+  ASSERT_EQ(a.width(), b.width());
+  ASSERT_EQ(a.height(), b.height());
+  for (int v = 0; v < a.height(); ++v) {
+    for (int u = 0; u < a.width(); ++u) {
+      ASSERT_EQ(a.valid(u, v), b.valid(u, v)) << u << ", " << v;
+      if (!a.valid(u, v)) continue;
+      ASSERT_EQ(a.x(u, v), b.x(u, v));
+      ASSERT_EQ(a.y(u, v), b.y(u, v));
+      ASSERT_EQ(a.z(u, v), b.z(u, v));
+    }
+  }
+}
+
+}  // namespace
+
+TEST(Interleaved, CopiesPointsOfEveryStride) {
+  const rangeseg::OrganizedCloud in = numbered_cloud(23, 7);
+  const auto pcl = interleave<PclLikePoint>(in);
+  expect_same_points(rangeseg::interleaved_to_cloud(&pcl[0].x, 23, 7, sizeof(PclLikePoint)), in);
+  const auto wide = interleave<WidePoint>(in);
+  expect_same_points(rangeseg::interleaved_to_cloud(&wide[0].x, 23, 7, sizeof(WidePoint)), in);
+  std::vector<float> packed;
+  for (const PclLikePoint& p : pcl) packed.insert(packed.end(), {p.x, p.y, p.z});
+  const rangeseg::OrganizedCloud out = rangeseg::interleaved_to_cloud(packed.data(), 23, 7, 12);
+  expect_same_points(out, in);
+  EXPECT_FALSE(out.has_intensity() || out.has_rgb() || out.has_label());
+  // One row is an unorganized cloud.
+  const rangeseg::OrganizedCloud row = rangeseg::interleaved_to_cloud(packed.data(), 23 * 7, 1, 12);
+  EXPECT_FALSE(row.is_organized());
+  EXPECT_EQ(row.z(23 * 2 + 4, 0), in.z(4, 2));
+}
+
+TEST(Interleaved, NonFiniteAndOriginPointsAreNoPoints) {
+  const float inf = std::numeric_limits<float>::infinity();
+  const std::vector<float> xyz = {1, 2, 3, NAN, 1, 1, 1, inf, 1, 0, 0, 0, 0, 0, 2, -1, -2, 0.5f};
+  const rangeseg::OrganizedCloud c = rangeseg::interleaved_to_cloud(xyz.data(), 3, 2, 12);
+  const std::array<bool, 6> valid = {true, false, false, false, true, true};
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_EQ(c.valid(i % 3, i / 3), valid[static_cast<std::size_t>(i)]) << i;
+    // An invalid point is NaN in all three coordinates, as every stage expects.
+    if (!valid[static_cast<std::size_t>(i)]) {
+      EXPECT_TRUE(std::isnan(c.x(i % 3, i / 3))) << i;
+    }
+  }
+  EXPECT_EQ(c.z(1, 1), 2.0f);
+  EXPECT_EQ(c.count_valid(), 3U);
+}
+
+TEST(Interleaved, ReusesTheCloudsBuffersAndDropsItsOptionalPlanes) {
+  rangeseg::OrganizedCloud cloud = numbered_cloud(32, 8);
+  const float* x = cloud.x.row(0);
+  const auto pcl = interleave<PclLikePoint>(numbered_cloud(32, 8));
+  rangeseg::interleaved_to_cloud(&pcl[0].x, 32, 8, sizeof(PclLikePoint), cloud);
+  EXPECT_EQ(cloud.x.row(0), x);
+  EXPECT_FALSE(cloud.has_intensity() || cloud.has_rgb() || cloud.has_label());
+}
+
+TEST(Interleaved, RejectsBadArgumentsWithTheirValues) {
+  const std::vector<float> xyz(64, 1.0f);
+  const auto message = [&](const float* p, int w, int h, std::size_t stride) {
+    try {
+      (void)rangeseg::interleaved_to_cloud(p, w, h, stride);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no exception");
+  };
+  EXPECT_NE(message(nullptr, 2, 2, 12).find("no points"), std::string::npos);
+  EXPECT_NE(message(xyz.data(), 0, 2, 12).find("0 x 2"), std::string::npos);
+  EXPECT_NE(message(xyz.data(), 2, -1, 12).find("2 x -1"), std::string::npos);
+  EXPECT_NE(message(xyz.data(), 2, 2, 8).find("stride 8"), std::string::npos);
+  EXPECT_NE(message(xyz.data(), 2, 2, 14).find("stride 14"), std::string::npos);
+  EXPECT_EQ(message(xyz.data(), 2, 2, 16), "no exception");
 }

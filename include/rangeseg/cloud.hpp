@@ -83,6 +83,21 @@ OrganizedCloud valid_points(const OrganizedCloud& cloud,
 OrganizedCloud shuffled_valid_points(const OrganizedCloud& cloud, std::uint64_t seed,
                                      std::vector<std::size_t>* pixels = nullptr);
 
+/// Copies points stored interleaved, row-major, into `cloud` (which becomes width x height points
+/// without optional planes; its buffers are reused when the size does not change, so a stream
+/// converts without allocating). Each point starts with float x, y, z [m] and the next starts
+/// `point_stride` bytes later: 12 for packed xyz, 16 for PCL's `pcl::PointXYZ` (pass
+/// `&pcl_cloud.points[0].x`, `sizeof(pcl::PointXYZ)`), 32 for `pcl::PointXYZRGB`.
+/// A point with a non-finite coordinate, or at exactly (0, 0, 0) (what RealSense's SDK and many
+/// drivers write for a pixel without depth), becomes NaN in x, y and z: no point.
+/// height 1 is an unorganized cloud. Defined in src/cloud_ops.cpp. Throws std::invalid_argument
+/// for a null pointer, width or height below 1, or a stride below 12 or not a multiple of 4.
+void interleaved_to_cloud(const float* xyz, int width, int height, std::size_t point_stride,
+                          OrganizedCloud& cloud);
+/// The same into a new cloud.
+OrganizedCloud interleaved_to_cloud(const float* xyz, int width, int height,
+                                    std::size_t point_stride);
+
 /// Moves the points of `cloud` into the frame of a sensor whose pose in the cloud's frame is
 /// `pose` = {tx, ty, tz [m], qw, qx, qy, qz} (a PCD's VIEWPOINT, PCL's sensor_origin_ and
 /// sensor_orientation_): p' = R^T (p - t), R the rotation of the quaternion (normalised).

@@ -167,32 +167,10 @@ void cloud_from_arrays(const py::handle& points, const py::handle& intensity,
   }
   const int width = checked_size(a.shape(organized ? 1 : 0), "points");
   const int height = organized ? checked_size(a.shape(0), "points") : 1;
-  // Planes only change size: a pipeline's input cloud, filled frame after frame, keeps its
-  // memory (fresh pages cost ~1 ms per MB in a virtual machine).
-  for (FloatPlane* plane : {&cloud.x, &cloud.y, &cloud.z}) plane->resize(width, height, NAN);
-  cloud.intensity.clear();
-  for (BytePlane* plane : {&cloud.r, &cloud.g, &cloud.b}) plane->clear();
-  cloud.label.clear();
+  // The pipeline's input cloud keeps its memory from frame to frame (fresh pages cost ~1 ms per
+  // MB in a virtual machine); inf, NaN and (0, 0, 0) are no point.
   const CArray<float> xyz = CArray<float>::ensure(a);
-  const float* data = xyz.data();
-  for (int v = 0; v < height; ++v) {
-    float* x = cloud.x.row(v);
-    float* y = cloud.y.row(v);
-    float* z = cloud.z.row(v);
-    const float* in = data + static_cast<std::size_t>(v) * width * 3;
-    for (int u = 0; u < width; ++u) {
-      const std::size_t k = 3 * static_cast<std::size_t>(u);
-      // inf, as NaN, is no point, and so is the sensor's own position (0, 0, 0), which
-      // RealSense's SDK and many drivers write for a pixel without depth: all three NaN, so
-      // that every stage sees the same (a camera's points, flattened, stay on its pixel grid).
-      const bool valid = std::isfinite(in[k]) && std::isfinite(in[k + 1]) &&
-                         std::isfinite(in[k + 2]) &&
-                         (in[k] != 0.0f || in[k + 1] != 0.0f || in[k + 2] != 0.0f);
-      x[u] = valid ? in[k] : NAN;
-      y[u] = valid ? in[k + 1] : NAN;
-      z[u] = valid ? in[k + 2] : NAN;
-    }
-  }
+  interleaved_to_cloud(xyz.data(), width, height, 3 * sizeof(float), cloud);
   if (!intensity.is_none()) {
     const py::array i = numeric_array(intensity, "intensity");
     require_shape(i, width, height, organized, 0, "intensity");
