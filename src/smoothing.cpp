@@ -508,13 +508,13 @@ void validate(const SmoothingSettings& settings) {
         "camera), got " +
         std::to_string(settings.pixel_angle));
   }
-  check_positive(settings.noise.a, "noise_a");
-  check_finite(settings.noise.b, "noise_b");
+  check_positive(settings.noise.a, "noise.a");
+  check_finite(settings.noise.b, "noise.b");
   if (settings.noise.b < 0.0f) {
-    throw std::invalid_argument("SmoothingSettings::noise_b must be >= 0, got " +
+    throw std::invalid_argument("SmoothingSettings::noise.b must be >= 0, got " +
                                 std::to_string(settings.noise.b));
   }
-  check_finite(settings.noise.z0, "noise_z0");
+  check_finite(settings.noise.z0, "noise.z0");
   check_positive(settings.normal_scale, "normal_scale");
   check_positive(settings.intensity_scale, "intensity_scale");
   check_finite(settings.intensity_range, "intensity_range");
