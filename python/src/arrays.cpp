@@ -107,6 +107,24 @@ py::array_t<T> plane_array_of(const Plane<T>& plane, bool organized) {
   return out;
 }
 
+/// The integers of `a` as int64, each checked to fit in int32; `name` is used in errors.
+CArray<std::int64_t> int32_values(const py::array& a, const char* name) {
+  if (a.dtype().kind() == 'f') throw std::invalid_argument(std::string(name) + " must be integers");
+  const std::string range = std::string(name) + " must fit in 32-bit integers";
+  // Compared in NumPy first: a uint64 beyond 2^63 would wrap to a negative int64.
+  if (a.dtype().kind() == 'u' && a.dtype().itemsize() == 8 &&
+      py::bool_(a.attr("__gt__")(INT_MAX).attr("any")())) {
+    throw std::invalid_argument(range);
+  }
+  CArray<std::int64_t> values = CArray<std::int64_t>::ensure(a);
+  const std::int64_t* data = values.data();
+  const auto n = static_cast<std::size_t>(values.size());
+  if (std::any_of(data, data + n, [](std::int64_t x) { return x < INT_MIN || x > INT_MAX; })) {
+    throw std::invalid_argument(range);
+  }
+  return values;
+}
+
 }  // namespace
 
 std::string shape_text(const py::array& a) {
@@ -185,16 +203,9 @@ void cloud_from_arrays(const py::handle& points, const py::handle& intensity,
   if (!labels.is_none()) {
     const py::array l = numeric_array(labels, "labels");
     require_shape(l, width, height, organized, 0, "labels");
-    if (l.dtype().kind() == 'f') throw std::invalid_argument("labels must be integers");
-    const CArray<std::int64_t> values = CArray<std::int64_t>::ensure(l);
-    const std::int64_t* data64 = values.data();
-    const auto n = static_cast<std::size_t>(values.size());
-    if (std::any_of(data64, data64 + n,
-                    [](std::int64_t x) { return x < INT_MIN || x > INT_MAX; })) {
-      throw std::invalid_argument("labels must fit in 32-bit integers");
-    }
+    const CArray<std::int64_t> values = int32_values(l, "labels");
     cloud.add_label();
-    copy_rows(data64, cloud.label);
+    copy_rows(values.data(), cloud.label);
   }
 }
 
@@ -253,17 +264,11 @@ LabelImage labels_from_array(const py::handle& array, const char* name) {
     throw std::invalid_argument(std::string(name) + " must be a 2D label image (H, W), got " +
                                 shape_text(a));
   }
-  if (a.dtype().kind() == 'f') throw std::invalid_argument(std::string(name) + " must be integers");
   const int height = checked_size(a.shape(0), name);
   const int width = checked_size(a.shape(1), name);
-  const CArray<std::int64_t> values = CArray<std::int64_t>::ensure(a);
-  const std::int64_t* data = values.data();
-  const auto n = static_cast<std::size_t>(values.size());
-  if (std::any_of(data, data + n, [](std::int64_t x) { return x < INT_MIN || x > INT_MAX; })) {
-    throw std::invalid_argument(std::string(name) + " must fit in 32-bit integers");
-  }
+  const CArray<std::int64_t> values = int32_values(a, name);
   LabelImage labels(width, height);
-  copy_rows(data, labels);
+  copy_rows(values.data(), labels);
   return labels;
 }
 

@@ -42,25 +42,34 @@ is no point; intensity (H, W) / (N,), colors uint8 (H, W, 3) / (N, 3) and labels
              return cloud_from_arrays(points, intensity, colors, labels);
            }),
            "points"_a, "intensity"_a = py::none(), "colors"_a = py::none(), "labels"_a = py::none())
-      .def_property_readonly("points", [](const OrganizedCloud& c) { return points_array(c); })
-      .def_property_readonly("intensity",
-                             [](const OrganizedCloud& c) -> py::object {
-                               if (!c.has_intensity()) return py::none();
-                               return plane_array(c.intensity, c.is_organized());
-                             })
-      .def_property_readonly("colors",
-                             [](const OrganizedCloud& c) -> py::object {
-                               if (!c.has_rgb()) return py::none();
-                               return colors_array(c);
-                             })
-      .def_property_readonly("labels",
-                             [](const OrganizedCloud& c) -> py::object {
-                               if (!c.has_label()) return py::none();
-                               return plane_array(c.label, c.is_organized());
-                             })
-      .def_property_readonly("width", &OrganizedCloud::width)
-      .def_property_readonly("height", &OrganizedCloud::height)
-      .def_property_readonly("is_organized", &OrganizedCloud::is_organized)
+      .def_property_readonly(
+          "points", [](const OrganizedCloud& c) { return points_array(c); },
+          "float32 (H, W, 3) or (N, 3) [m], NaN where there is no point (a new copy each time)")
+      .def_property_readonly(
+          "intensity",
+          [](const OrganizedCloud& c) -> py::object {
+            if (!c.has_intensity()) return py::none();
+            return plane_array(c.intensity, c.is_organized());
+          },
+          "float32 (H, W) or (N,), or None (a copy)")
+      .def_property_readonly(
+          "colors",
+          [](const OrganizedCloud& c) -> py::object {
+            if (!c.has_rgb()) return py::none();
+            return colors_array(c);
+          },
+          "uint8 (H, W, 3) or (N, 3), or None (a copy)")
+      .def_property_readonly(
+          "labels",
+          [](const OrganizedCloud& c) -> py::object {
+            if (!c.has_label()) return py::none();
+            return plane_array(c.label, c.is_organized());
+          },
+          "int32 (H, W) or (N,), or None (a copy)")
+      .def_property_readonly("width", &OrganizedCloud::width, "columns (points when unorganized)")
+      .def_property_readonly("height", &OrganizedCloud::height, "rows (1 when unorganized)")
+      .def_property_readonly("is_organized", &OrganizedCloud::is_organized,
+                             "True for a grid of at least 2 rows")
       .def("count_valid", &OrganizedCloud::count_valid, "points with finite x, y and z")
       .def("__repr__", [](const OrganizedCloud& c) {
         return "<rangeseg.Cloud " + std::to_string(c.width()) + " x " + std::to_string(c.height()) +

@@ -51,7 +51,7 @@ std::string non_finite_key(const py::dict& config, const std::string& prefix) {
 std::string config_json(const py::dict& config) {
   const py::cpp_function plain([](const py::object& value) -> py::object {
     if (py::hasattr(value, "item")) return value.attr("item")();  // np.int64, np.float32, ...
-    throw py::type_error("config values must be numbers, booleans, strings or dicts, got " +
+    throw py::type_error("values must be numbers, booleans, strings or dicts, got " +
                          std::string(py::str(py::type::of(value).attr("__name__"))));
   });
   try {
@@ -59,6 +59,9 @@ std::string config_json(const py::dict& config) {
         .attr("dumps")(config, "allow_nan"_a = false, "default"_a = plain)
         .cast<std::string>();
   } catch (const py::error_already_set& e) {
+    if (e.matches(PyExc_TypeError)) {
+      throw std::invalid_argument("config: " + std::string(py::str(e.value())));
+    }
     if (!e.matches(PyExc_ValueError)) throw;
     const std::string key = non_finite_key(config, "");
     if (!key.empty()) {
@@ -87,6 +90,9 @@ PipelineSettings settings_from(const std::string& preset, const std::optional<st
   if (model) s.segmentation.model = region_model_from_string(*model);
   if (smooth) s.smooth = *smooth;
   if (track) s.track = *track;
+  if (threads < 1 || threads > 256) {
+    throw std::invalid_argument("threads must be 1..256, got " + std::to_string(threads));
+  }
   s.threads = threads;
   validate(s);
   return s;
@@ -102,11 +108,19 @@ void check_depth_shape(const py::array& a) {
   }
 }
 
+void check_fx(double fx) {
+  if (!(fx >= 0) || !std::isfinite(fx)) {
+    throw std::invalid_argument("fx must be >= 0 pixels and finite (0 = unknown), got " +
+                                std::to_string(fx));
+  }
+}
+
 class PyPipeline {
  public:
   explicit PyPipeline(const PipelineSettings& settings) : pipeline_(settings) {}
 
   Result process(const OrganizedCloud& cloud, double fx) {
+    check_fx(fx);
     return run([] {}, [&] { pipeline_.process(cloud, fx); });
   }
 
@@ -114,7 +128,17 @@ class PyPipeline {
   /// filled under the mutex, as another thread's frame may be reading it.
   Result process(const py::handle& points, const py::handle& intensity, const py::handle& colors,
                  double fx) {
-    return run([&] { cloud_from_arrays(points, intensity, colors, py::none(), input_); },
+    check_fx(fx);
+    // NumPy reads array-likes (their __array__ may run any Python code, even this pipeline)
+    // before the mutex is taken; under it only the copy into the input buffer remains.
+    const auto array_or_none = [](const py::handle& h, const char* name) -> py::object {
+      if (h.is_none()) return py::none();
+      return numeric_array(h, name);
+    };
+    const py::object p = numeric_array(points, "points");
+    const py::object i = array_or_none(intensity, "intensity");
+    const py::object c = array_or_none(colors, "colors");
+    return run([&] { cloud_from_arrays(p, i, c, py::none(), input_); },
                [&] { pipeline_.process(input_, fx); });
   }
 
@@ -130,8 +154,9 @@ class PyPipeline {
     // Integers of any dtype in 0..65535 take the uint16 path, so that they give its result.
     py::array raw = a;
     if (kind != 'f' && !a.dtype().is(py::dtype::of<std::uint16_t>())) {
-      const bool fits = py::int_(a.attr("min")()).cast<long long>() >= 0 &&
-                        py::int_(a.attr("max")()).cast<long long>() <= 65535;
+      // Compared in NumPy: a uint64 beyond 2^63 does not fit a C++ long long.
+      const bool fits = !py::bool_(a.attr("__lt__")(0).attr("any")()) &&
+                        !py::bool_(a.attr("__gt__")(65535).attr("any")());
       if (fits) raw = a.attr("astype")(py::dtype::of<std::uint16_t>());
     }
     if (raw.dtype().is(py::dtype::of<std::uint16_t>())) {
@@ -230,9 +255,11 @@ void bind_pipeline(py::module_& m) {
                     "polygon for plane segments (point lists as NumPy arrays), and track_id "
                     "when the pipeline tracks segments")
       .def_readonly("times", &Result::times, "milliseconds per stage of this frame")
-      .def_readonly("width", &Result::width)
-      .def_readonly("height", &Result::height)
-      .def_readonly("organized", &Result::organized)
+      .def_readonly("width", &Result::width,
+                    "columns of the frame (points of an unorganized cloud)")
+      .def_readonly("height", &Result::height, "rows of the frame (1 for an unorganized cloud)")
+      .def_readonly("organized", &Result::organized,
+                    "True for a grid's results (H, W, ...), False for per-point ones (N, ...)")
       .def("__repr__", [](const Result& r) {
         return "<rangeseg.Result " + std::to_string(r.width) + " x " + std::to_string(r.height) +
                ": " + std::to_string(py::len(r.segments)) + " segments>";
@@ -302,13 +329,21 @@ pixels): integers in raw units (0 or negative = no measurement, depth_scale metr
 per unit, default 0.001), or floats in metres (NaN or <= 0 = no measurement;
 depth_scale default 1). width and height, when not 0, must be the image's (as in
 read_camera_json's dict: process_depth(depth, **camera)). Returns a Result.)")
-      .def_property_readonly("threads", [](const PyPipeline& p) { return p.settings().threads; })
-      .def_property_readonly("model",
-                             [](const PyPipeline& p) {
-                               return std::string(to_string(p.settings().segmentation.model));
-                             })
-      .def_property_readonly("smooth", [](const PyPipeline& p) { return p.settings().smooth; })
-      .def_property_readonly("track", [](const PyPipeline& p) { return p.settings().track; })
+      .def_property_readonly(
+          "threads", [](const PyPipeline& p) { return p.settings().threads; },
+          "threads inside a frame")
+      .def_property_readonly(
+          "model",
+          [](const PyPipeline& p) {
+            return std::string(to_string(p.settings().segmentation.model));
+          },
+          "the region model: plane, smooth, incremental_plane or auto")
+      .def_property_readonly(
+          "smooth", [](const PyPipeline& p) { return p.settings().smooth; },
+          "whether the bilateral filter runs")
+      .def_property_readonly(
+          "track", [](const PyPipeline& p) { return p.settings().track; },
+          "whether segments get track ids across frames")
       .def("reset_tracks", &PyPipeline::reset_tracks,
            "forget the previous frame's segments: the next frame starts new tracks (e.g. at a "
            "cut in a sequence)")

@@ -337,6 +337,32 @@ class BadInput(unittest.TestCase):
                                 np.zeros((2, 2)), np.zeros((2, 2), int))
         self.assert_raises_with(ValueError, "shape (3, 2) but ground_truth (2, 2)", rangeseg.evaluate,
                                 np.zeros((2, 2), int), np.zeros((3, 2), int))
+        # uint64 beyond 2^63 would wrap to negative int64 values if cast before the check.
+        huge = np.full((4, 5), 2**64 - 1, np.uint64)
+        self.assert_raises_with(ValueError, "labels must fit in 32-bit integers", rangeseg.Cloud,
+                                points, labels=huge)
+        self.assert_raises_with(ValueError, "ground_truth must fit in 32-bit integers", rangeseg.evaluate,
+                                huge, np.zeros((4, 5), np.int32))
+        self.assert_raises_with(ValueError, "fx must be >= 0 pixels and finite", p.process, points,
+                                fx=float("nan"))
+        self.assert_raises_with(ValueError, "got -1", p.process, rangeseg.Cloud(points), fx=-1)
+
+    def test_huge_integer_depths_are_far_points_not_a_cast_error(self):
+        z = np.full((24, 32), 1500, np.uint64)
+        z[:, 16:] = 2**64 - 1  # no uint16, no int64: the raw-units path, not a failed cast
+        result = rangeseg.Pipeline().process_depth(z, fx=26.25, fy=26.25, cx=15.5, cy=11.5)
+        self.assertAlmostEqual(float(np.nanmin(result.points[:, :16, 2])), 1.5, places=2)
+
+    def test_an_array_like_that_runs_the_pipeline_while_read_does_not_deadlock(self):
+        p = rangeseg.Pipeline()
+        points = Inputs.step_points(None)
+
+        class Reentrant:
+            def __array__(self, dtype=None, copy=None):
+                p.process(points)  # NumPy reads the argument before the pipeline is locked
+                return points
+
+        self.assertEqual(len(p.process(Reentrant()).segments), len(p.process(points).segments))
 
     def test_bad_settings_name_the_setting(self):
         self.assert_raises_with(ValueError, "valid", rangeseg.Pipeline, preset="kinnect")
@@ -351,6 +377,9 @@ class BadInput(unittest.TestCase):
         self.assert_raises_with(ValueError, "key 'tracking.min_overlap' must be a finite", rangeseg.Pipeline,
                                 config={"tracking": {"min_overlap": np.float32("inf")}})
         self.assert_raises_with(ValueError, "a dict or the path", rangeseg.Pipeline, config=3)
+        self.assert_raises_with(ValueError, "config: values must be numbers", rangeseg.Pipeline,
+                                config={"segmentation": {"min_region_size": {1}}})
+        self.assert_raises_with(ValueError, "threads must be 1..256, got 0", rangeseg.Pipeline, threads=0)
         # A file's errors name the file.
         with tempfile.TemporaryDirectory() as tmp:
             path = os.path.join(tmp, "params.json")
