@@ -9,6 +9,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <utility>
 
 #include "arrays.hpp"
@@ -121,7 +122,7 @@ class PyPipeline {
 
   Result process(const OrganizedCloud& cloud, double fx) {
     check_fx(fx);
-    return run([] {}, [&] { pipeline_.process(cloud, fx); });
+    return run(nullptr, [&] { pipeline_.process(cloud, fx); });
   }
 
   /// NumPy points into the pipeline's own input cloud, which keeps its memory between frames;
@@ -165,7 +166,7 @@ class PyPipeline {
       const View<const std::uint16_t> view{d.data(), static_cast<int>(d.shape(1)),
                                            static_cast<int>(d.shape(0)), d.shape(1)};
       const double scale = depth_scale.value_or(0.001);
-      return run([] {}, [&] { pipeline_.process(view, camera, scale); });
+      return run(nullptr, [&] { pipeline_.process(view, camera, scale); });
     }
     // Floats in metres (times depth_scale), other integers (negative: no measurement) in raw
     // units.
@@ -174,7 +175,7 @@ class PyPipeline {
         kind == 'f' && scale == 1.0 ? py::object(a) : a.attr("__mul__")(scale));
     const View<const float> view{d.data(), static_cast<int>(d.shape(1)),
                                  static_cast<int>(d.shape(0)), d.shape(1)};
-    return run([] {}, [&] { pipeline_.process(view, camera); });
+    return run(nullptr, [&] { pipeline_.process(view, camera); });
   }
 
   const PipelineSettings& settings() const { return pipeline_.settings(); }
@@ -186,16 +187,19 @@ class PyPipeline {
 
  private:
   /// Runs a frame without the GIL (other Python threads go on), one at a time: `prepare` (with
-  /// the GIL, e.g. to read NumPy arrays into the pipeline's buffers), `frame`, and the copies of
-  /// its results, all before the next frame may start. The GIL is released before the mutex is
-  /// taken: a thread that waits for the mutex must not hold the GIL that its holder needs.
+  /// the GIL, e.g. to copy NumPy arrays into the pipeline's buffers; nullptr for none), `frame`,
+  /// and the copies of its results, all before the next frame may start. The GIL is released before
+  /// the mutex is taken: a thread that waits for the mutex must not hold the GIL that its holder
+  /// needs.
   template <class Prepare, class Frame>
   Result run(Prepare&& prepare, Frame&& frame) {
     std::optional<Result> out;
     {
       const py::gil_scoped_release release;
       const std::lock_guard lock(mutex_);
-      {
+      // Without a `prepare` the GIL is not taken back here: with a busy Python thread beside,
+      // each acquisition may wait for its switch interval (5 ms).
+      if constexpr (!std::is_null_pointer_v<std::decay_t<Prepare>>) {
         const py::gil_scoped_acquire acquire;
         prepare();
       }
