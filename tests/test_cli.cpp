@@ -455,6 +455,9 @@ TEST(Cli, SynthRendersTheKinectAtAnotherResolution) {
   ASSERT_EQ(synth.code, 0) << synth.out;
   const CliResult info = run("info " + (dir / "scene" / "cloud.pcd").string());
   EXPECT_NE(info.out.find("320 x 240"), std::string::npos) << info.out;
+  // An organized cloud names no camera: info tells the pixel angle to set for this one.
+  EXPECT_NE(info.out.find("\"smoothing\": {\"pixel_angle\": 0.00380952}"), std::string::npos)
+      << info.out;
   const nlohmann::json camera = read_json(dir / "scene" / "camera.json");
   EXPECT_EQ(camera["width"], 320);
   EXPECT_EQ(camera["intrinsic_matrix"][0].get<double>(), 262.5);

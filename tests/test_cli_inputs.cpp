@@ -83,6 +83,32 @@ TEST(CliInputs, SmoothIterationsFilterAnAbwImage) {
       << "--iterations 2 wrote the unfiltered points";
 }
 
+// demo scores a SegComp image as eval does: a .gt-seg's labels 1 and 2 are unlabelled pixels,
+// not regions (abw.test.0 has 27 regions and both values).
+TEST(CliInputs, DemoScoresASegcompImageAsEvalDoes) {
+  RANGESEG_REQUIRE_DATA("segcomp_abw/abw.test.0.range");
+  RANGESEG_SKIP_ACCURACY_UNDER_SANITIZERS();
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_demo_segcomp");
+  const CliResult demo = run("demo --input " + data_file.string() + " -o " + dir.string());
+  ASSERT_EQ(demo.code, 0) << demo.out;
+  const std::size_t at = demo.out.find("vs ground truth (T = 0.8): ");
+  ASSERT_NE(at, std::string::npos) << demo.out;
+  fs::path gt = data_file;
+  gt.replace_extension(".gt-seg");
+  const CliResult eval = run("eval " + gt.string() + " " +
+                             (dir / "segmentation" / "labels.png").string() + " --json " +
+                             (dir / "eval.json").string());
+  ASSERT_EQ(eval.code, 0) << eval.out;
+  std::ifstream json_file(dir / "eval.json");
+  const std::string json((std::istreambuf_iterator<char>(json_file)),
+                         std::istreambuf_iterator<char>());
+  const std::size_t key = json.find("\"gt_regions\"");
+  ASSERT_NE(key, std::string::npos) << json;
+  const int regions = std::stoi(json.substr(json.find(':', key) + 1));
+  EXPECT_EQ(regions, 27);
+  EXPECT_TRUE(contains(demo.out, " of " + std::to_string(regions) + " regions correct")) << demo.out;
+}
+
 TEST(CliInputs, NegativeIterationsAreRejected) {
   const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_negative");
   const fs::path pcd = write_small_pcd(dir);
@@ -308,6 +334,7 @@ TEST(CliInputs, NoiseSkipsABadFrameAmongSeveral) {
   EXPECT_TRUE(contains(r.out, "skipped")) << r.out;
   EXPECT_TRUE(contains(r.out, "b.xyz")) << r.out;
   EXPECT_TRUE(contains(r.out, "sigma(z)")) << r.out;
+  EXPECT_TRUE(contains(r.out, "1 frame(s) (1 skipped),")) << r.out;  // the frames used
   const CliResult alone = run("noise " + (dir / "frames" / "b.xyz").string());
   EXPECT_EQ(alone.code, 2) << alone.out;
 }

@@ -128,7 +128,8 @@ void run_demo(const DemoOptions& o) {
   print_surface_types(pipeline.segmentation());
   if (!in.ground_truth.empty()) {
     const eval::EvalResult r =
-        eval::evaluate(in.ground_truth, pipeline.segmentation().labels, {.tolerance = 0.8});
+        eval::evaluate(in.ground_truth, pipeline.segmentation().labels,
+                       {.tolerance = 0.8, .min_gt_label = in.ground_truth_min_label});
     std::printf(
         "vs ground truth (T = 0.8): %d of %d regions correct, %d over, %d under, %d missed, %d "
         "noise\n",

@@ -346,7 +346,7 @@ void add_eval_synth(CLI::App& app) {
       "stages on it, as `segment` does for such a cloud (PipelineSettings::restore_grid)");
   cmd->add_option("-o,--output", o->out_dir,
                   "Also write each seed's results and ground_truth.png into DIR/<scene><seed>/ "
-                  "(with --unorganized: labels.png only)");
+                  "(with --unorganized: labels.png and ground_truth.png)");
   cmd->add_option("--json", o->json, "Write the scores per seed and in total to this JSON file");
   cmd->footer(
       "The same scores as `rangeseg synth --scene S --seed N --noise X [--camera C] -o D`, "

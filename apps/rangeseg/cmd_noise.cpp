@@ -55,9 +55,8 @@ void run_noise(const NoiseOptions& o) {
   try {
     e = estimator.estimate();
   } catch (const std::runtime_error& error) {
-    const std::string files = list.frames.size() == 1
-                                  ? list.frames.front().path
-                                  : std::to_string(list.frames.size()) + " frames";
+    const std::string files = list.frames.size() == 1 ? list.frames.front().path
+                                                      : std::to_string(used) + " frames";
     throw std::runtime_error(files + ": " + error.what());
   }
   const nlohmann::json config = {{"noise", noise_json(e.noise)}};
@@ -74,8 +73,10 @@ void run_noise(const NoiseOptions& o) {
     std::printf("%s\n", out.dump(2).c_str());
     return;
   }
-  std::printf("%zu frame(s), %zu blocks of %dx%d pixels used\n", list.frames.size(), e.blocks_used,
-              o.settings.block, o.settings.block);
+  const std::size_t skipped = list.frames.size() - used;
+  std::printf("%zu frame(s)%s, %zu blocks of %dx%d pixels used\n", used,
+              skipped > 0 ? (" (" + std::to_string(skipped) + " skipped)").c_str() : "",
+              e.blocks_used, o.settings.block, o.settings.block);
   std::printf("%10s %12s %12s %8s\n", "depth [m]", "sigma [mm]", "model [mm]", "blocks");
   for (const auto& b : e.bins) {
     std::printf("%10.2f %12.2f %12.2f %8d\n", b.z, 1e3 * b.sigma, 1e3 * e.noise.sigma(b.z),

@@ -89,7 +89,7 @@ void add_settings_options(CLI::App& cmd, std::string& model, std::string& preset
       "max_distance, eps_theta, jump_sigmas, by_direction, balanced), smooth (true/false), "
       "restore_grid (true/false: an unorganized cloud on a camera's pixel grid runs on "
       "that grid), track (true/false: segment tracks across frames) and tracking "
-      "(min_overlap, max_normal_angle); `rangeseg settings` prints them all");
+      "(min_overlap, max_normal_angle, max_distance); `rangeseg settings` prints them all");
   cmd.add_flag("--no-smooth", no_smooth, "Skip the bilateral filter");
 }
 
@@ -137,8 +137,10 @@ void add_segment(CLI::App& app) {
       "cy = 239.5.\ncloud.pcd holds the processed (smoothed) points, organized as the input, with "
       "normal_x normal_y normal_z curvature, label and rgb (the label's colour); it takes ~0.15 "
       "s and ~20 MB more for a 640x480 frame.\nAn unorganized "
-      "cloud (a PCD of height 1) is segmented over the k nearest neighbours of each point "
-      "(--config \"rings\") with --model plane, smooth or auto; its folder holds segments.json, "
+      "cloud (a PCD of height 1) is segmented on the pixel grid its points lie on when they "
+      "come from a camera's image (the grid's size and focal lengths are printed), else over "
+      "the k nearest neighbours of each point (--config \"rings\"; \"restore_grid\": false "
+      "always), with --model plane, smooth or auto; its folder holds segments.json, "
       "polygons.obj and cloud.pcd.\nFiles of an earlier run in the output folder that this run "
       "does not write are removed.\nExit codes: 0 = done (a batch with at least "
       "one frame written; failed frames are listed), 2 = bad arguments, unreadable single input, "

@@ -190,7 +190,10 @@ LoadedInput load_input(const InputOptions& o) {
     in.sensor_preset = abw ? "abw" : "perceptron";
     std::filesystem::path gt = o.path;
     gt.replace_extension(".gt-seg");
-    if (std::filesystem::exists(gt)) in.ground_truth = io::read_segcomp_gt(gt.string());
+    if (std::filesystem::exists(gt)) {
+      in.ground_truth = io::read_segcomp_gt(gt.string());
+      in.ground_truth_min_label = 10;
+    }
   } else {
     throw std::runtime_error(o.path + ": unsupported file type '" + ext +
                              "' (expected .pcd, .ply, .png, .range, .xyz, .xyzn, .xyzrgb or .pts)");

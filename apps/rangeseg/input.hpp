@@ -33,6 +33,9 @@ struct LoadedInput {
   /// fx of the camera of a depth image [pixel] (for the smoothing's pixel angle), else 0
   double camera_fx = 0;
   LabelImage ground_truth;  ///< from a SegComp .gt-seg beside a .range, or a PCD label field
+  /// The smallest label of `ground_truth` that is a region (a .gt-seg's 1 and 2 are unlabelled
+  /// pixels: 10).
+  int ground_truth_min_label = 1;
   /// The preset of the sensor when the file tells it (SegComp images: "abw" or "perceptron"),
   /// else empty.
   std::string sensor_preset;
