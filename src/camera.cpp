@@ -1,10 +1,13 @@
 #include "rangeseg/camera.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
+
+#include "detail/fit_camera.hpp"
 
 namespace rangeseg {
 
@@ -154,6 +157,12 @@ OrganizedCloud depth_to_cloud(View<const std::uint16_t> depth, const CameraIntri
 bool fit_intrinsics(const OrganizedCloud& cloud, CameraIntrinsics& camera, double tolerance,
                     double* max_error) {
   require_consistent(cloud, "fit_intrinsics");
+  return detail::fit_intrinsics_every(cloud, 1, camera, tolerance, max_error);
+}
+
+bool detail::fit_intrinsics_every(const OrganizedCloud& cloud, int step, CameraIntrinsics& camera,
+                                  double tolerance, double* max_error) {
+  assert(step >= 1);
   if (max_error != nullptr) *max_error = std::numeric_limits<double>::infinity();
   // Per axis, t = x / z (or y / z) against the pixel coordinate s: t = a s + b, so that
   // f = 1 / a and c = -b / a. Sums in double, about the first sample to keep them well scaled.
@@ -181,8 +190,8 @@ bool fit_intrinsics(const OrganizedCloud& cloud, CameraIntrinsics& camera, doubl
       return std::isfinite(f) && std::isfinite(c);
     }
   } along_u, along_v;
-  for (int v = 0; v < cloud.height(); ++v) {
-    for (int u = 0; u < cloud.width(); ++u) {
+  for (int v = 0; v < cloud.height(); v += step) {
+    for (int u = 0; u < cloud.width(); u += step) {
       if (!cloud.valid(u, v) || !(cloud.z(u, v) > 0)) continue;
       const double z = cloud.z(u, v);
       along_u.add(u, cloud.x(u, v) / z);
@@ -194,8 +203,8 @@ bool fit_intrinsics(const OrganizedCloud& cloud, CameraIntrinsics& camera, doubl
   fitted.width = cloud.width();
   fitted.height = cloud.height();
   double worst = 0;
-  for (int v = 0; v < cloud.height(); ++v) {
-    for (int u = 0; u < cloud.width(); ++u) {
+  for (int v = 0; v < cloud.height(); v += step) {
+    for (int u = 0; u < cloud.width(); u += step) {
       if (!cloud.valid(u, v) || !(cloud.z(u, v) > 0)) continue;
       const double z = cloud.z(u, v);
       const double du = fitted.fx * cloud.x(u, v) / z + fitted.cx - u;

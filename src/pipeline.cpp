@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "detail/fit_camera.hpp"
 #include "detail/gather_points.hpp"
 #include "detail/row_bands.hpp"
 #include "segmentation/internal.hpp"
@@ -27,6 +28,12 @@ constexpr int kMeshBandRows = 64;
 /// smoothing then take tens of microseconds, as long as handing a band to another core
 /// (measured at 160x120 on a 2-core VM: 2 threads slower than 1) [pixels].
 constexpr long kMinPixelsForThreads = 1L << 16;
+
+/// The camera of an organized cloud is fitted to every 8th row and column of frames of at least
+/// this many pixels (4800 points at 640x480, ~0.04 ms), to all points of smaller ones [pixels].
+constexpr long kMinPixelsForFitSample = 1L << 16;
+/// How far [pixel] a point may lie off its pixel under the fitted camera (as fit_intrinsics).
+constexpr double kFitTolerance = 0.05;
 
 double ms_since(Clock::time_point& start) {
   const Clock::time_point now = Clock::now();
@@ -305,7 +312,16 @@ void Pipeline::process_grid(const OrganizedCloud& cloud) {
     times_.normals += ms_since(t);
   }
   if (settings_.smooth) {
-    smoother_.set_camera_fx(camera_fx_);
+    // An organized cloud names no camera: where the points are a pinhole camera's, the
+    // smoothing takes the focal length fitted to them (a 320x240 stream's rays are twice as far
+    // apart as a 640x480 one's); a scanner's grid keeps kDefaultPixelAngle.
+    double fx = camera_fx_;
+    if (!(fx > 0) && !(settings_.smoothing.pixel_angle > 0)) {
+      CameraIntrinsics fitted;
+      const int step = static_cast<long>(cloud.width()) * height >= kMinPixelsForFitSample ? 8 : 1;
+      fx = detail::fit_intrinsics_every(cloud, step, fitted, kFitTolerance) ? fitted.fx : 0;
+    }
+    smoother_.set_camera_fx(fx);
     if (pool != nullptr) {
       smoother_.run(cloud, mesh_, raw_normals_, smoothed_cloud_, smoothed_normals_, *pool);
     } else {

@@ -455,8 +455,10 @@ TEST(Cli, SynthRendersTheKinectAtAnotherResolution) {
   ASSERT_EQ(synth.code, 0) << synth.out;
   const CliResult info = run("info " + (dir / "scene" / "cloud.pcd").string());
   EXPECT_NE(info.out.find("320 x 240"), std::string::npos) << info.out;
-  // An organized cloud names no camera: info tells the pixel angle to set for this one.
-  EXPECT_NE(info.out.find("\"smoothing\": {\"pixel_angle\": 0.00380952}"), std::string::npos)
+  // An organized cloud names no camera: the one fitted to its points gives the pixel angle.
+  EXPECT_NE(info.out.find("fx 262.50 fy 262.50 cx 159.50 cy 119.50 (fitted to the points; the "
+                          "smoothing's pixel angle 1 / fx = 0.00380952 rad)"),
+            std::string::npos)
       << info.out;
   const nlohmann::json camera = read_json(dir / "scene" / "camera.json");
   EXPECT_EQ(camera["width"], 320);

@@ -95,9 +95,9 @@ TEST(CliInputs, DemoScoresASegcompImageAsEvalDoes) {
   ASSERT_NE(at, std::string::npos) << demo.out;
   fs::path gt = data_file;
   gt.replace_extension(".gt-seg");
-  const CliResult eval = run("eval " + gt.string() + " " +
-                             (dir / "segmentation" / "labels.png").string() + " --json " +
-                             (dir / "eval.json").string());
+  const CliResult eval =
+      run("eval " + gt.string() + " " + (dir / "segmentation" / "labels.png").string() +
+          " --json " + (dir / "eval.json").string());
   ASSERT_EQ(eval.code, 0) << eval.out;
   std::ifstream json_file(dir / "eval.json");
   const std::string json((std::istreambuf_iterator<char>(json_file)),
@@ -106,7 +106,8 @@ TEST(CliInputs, DemoScoresASegcompImageAsEvalDoes) {
   ASSERT_NE(key, std::string::npos) << json;
   const int regions = std::stoi(json.substr(json.find(':', key) + 1));
   EXPECT_EQ(regions, 27);
-  EXPECT_TRUE(contains(demo.out, " of " + std::to_string(regions) + " regions correct")) << demo.out;
+  EXPECT_TRUE(contains(demo.out, " of " + std::to_string(regions) + " regions correct"))
+      << demo.out;
 }
 
 TEST(CliInputs, NegativeIterationsAreRejected) {

@@ -224,9 +224,12 @@ void add_bench(CLI::App& app) {
     std::vector<SizeResult> results;
     for (const int k : scales_for(*o, in.cloud.width(), in.cloud.height())) {
       PipelineSettings scaled = settings;
-      // Every k-th pixel: neighbouring rays are k times further apart.
-      scaled.smoothing.pixel_angle =
-          pixel_angle_for(settings.smoothing, in.camera_fx) * static_cast<float>(k);
+      // Every k-th pixel: neighbouring rays are k times further apart. Without an angle or a
+      // camera the pipeline fits the camera to each frame's points, as for a user's cloud.
+      if (settings.smoothing.pixel_angle > 0 || in.camera_fx > 0) {
+        scaled.smoothing.pixel_angle =
+            pixel_angle_for(settings.smoothing, in.camera_fx) * static_cast<float>(k);
+      }
       SizeResult r = k == 1 ? measure(in.cloud, scaled, o->repeat, o->threads)
                             : measure(downsample(in.cloud, k), scaled, o->repeat, o->threads);
       r.scale = k;

@@ -1,4 +1,3 @@
-#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -8,7 +7,6 @@
 #include "rangeseg/camera.hpp"
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/pixel_grid.hpp"
-#include "rangeseg/smoothing.hpp"
 
 namespace rangeseg::cli {
 
@@ -36,25 +34,19 @@ void add_info(CLI::App& app) {
                                           "this sensor's frame");
     }
     if (in.cloud.is_organized() && s.valid > 0) {
-      // The smoothing's pixel angle should be 1 / fx, which an organized cloud does not state:
-      // the commands take the default's Kinect at 640x480 unless told.
+      // The smoothing's pixel angle is 1 / fx of this camera, which the pipeline fits as here.
       CameraIntrinsics camera;
       if (fit_intrinsics(in.cloud, camera)) {
         const double angle = 1.0 / camera.fx;
-        const char* smoothing =
-            in.camera_fx > 0 ? "the smoothing's pixel angle is 1 / fx = %.6g rad"
-            : std::fabs(angle / kDefaultPixelAngle - 1) > 1e-3
-                ? "smoothed with a pixel angle of 1 / 525 rad unless --config sets "
-                  "\"smoothing\": {\"pixel_angle\": %.6g}"
-                : "the smoothing's default pixel angle 1 / 525 rad is its 1 / fx = %.6g rad";
-        char note[200];
-        std::snprintf(note, sizeof note, smoothing, angle);
-        std::printf("camera:   fx %.2f fy %.2f cx %.2f cy %.2f (fitted to the points; %s)\n",
-                    camera.fx, camera.fy, camera.cx, camera.cy, note);
+        std::printf(
+            "camera:   fx %.2f fy %.2f cx %.2f cy %.2f (fitted to the points; the smoothing's "
+            "pixel angle 1 / fx = %.6g rad)\n",
+            camera.fx, camera.fy, camera.cx, camera.cy, angle);
       } else {
         std::printf(
             "camera:   none fits (not a pinhole camera's image: a scanner's grid, or "
-            "points moved out of the camera's frame)\n");
+            "points moved out of the camera's frame; the smoothing's pixel angle is then 1 / 525 "
+            "rad unless the config sets \"smoothing\": {\"pixel_angle\": ...})\n");
       }
     }
     if (!in.cloud.is_organized()) {

@@ -55,8 +55,8 @@ void run_noise(const NoiseOptions& o) {
   try {
     e = estimator.estimate();
   } catch (const std::runtime_error& error) {
-    const std::string files = list.frames.size() == 1 ? list.frames.front().path
-                                                      : std::to_string(used) + " frames";
+    const std::string files =
+        list.frames.size() == 1 ? list.frames.front().path : std::to_string(used) + " frames";
     throw std::runtime_error(files + ": " + error.what());
   }
   const nlohmann::json config = {{"noise", noise_json(e.noise)}};

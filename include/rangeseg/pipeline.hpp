@@ -112,8 +112,10 @@ class Pipeline {
   /// nanoflann's pool of 8 KB malloc blocks.
   /// `camera_fx` [pixel]: the focal length of the camera an organized cloud was computed with,
   /// when known (e.g. from a depth image), for the smoothing's pixel angle (1 / fx) when
-  /// SmoothingSettings::pixel_angle is 0; 0 = unknown (kDefaultPixelAngle). Throws
-  /// std::invalid_argument for a negative or non-finite camera_fx.
+  /// SmoothingSettings::pixel_angle is 0; 0 = unknown: the pinhole camera fitted to every 8th
+  /// row and column of the points (fit_intrinsics; ~0.04 ms at 640x480), else, when they are no
+  /// such camera's (a scanner's grid), kDefaultPixelAngle. Throws std::invalid_argument for a
+  /// negative or non-finite camera_fx.
   void process(const OrganizedCloud& cloud, double camera_fx = 0);
   /// The pipeline reads a cloud in place (cloud() is the caller's without smoothing): a
   /// temporary would be gone before its results are read. Keep the cloud in a variable.

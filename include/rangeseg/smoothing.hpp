@@ -63,8 +63,8 @@ struct SmoothingSettings {
   float distance_scale = 1.5f;  ///< k_d: s_d in units of the expected ring edge length [1]
   /// angle between neighbouring pixel rays [rad]; 0 (the default) = 1 / fx of the frame's
   /// camera when the caller knows it (Smoother::set_camera_fx; Pipeline: the intrinsics of a
-  /// depth image, the pixel grid of an unorganized cloud), else kDefaultPixelAngle. Set it for
-  /// an organized cloud of another camera or resolution, or a scanner's grid.
+  /// depth image, the pixel grid of an unorganized cloud, the pinhole camera fitted to an
+  /// organized cloud's points), else kDefaultPixelAngle. Set it for a scanner's grid.
   float pixel_angle = 0.0f;
   SensorNoise noise{};  ///< sigma(z) of the sensor (see sensor.hpp)
 

@@ -317,7 +317,8 @@ count as none too); an organized cloud has at least 2 rows. intensity (H, W) or 
 of colors (uint8 0..255 or floats 0..1, the points' shape), feeds the smoothing's
 intensity term. fx [pixel]: the focal length of the camera of organized points, when known,
 for the smoothing's pixel angle 1 / fx (unless the settings give smoothing.pixel_angle;
-0 = unknown: 1 / 525, a Kinect at 640 x 480). Returns a Result.)")
+0 = unknown: the pinhole camera fitted to the points, else 1 / 525, a Kinect at 640 x 480).
+Returns a Result.)")
       .def(
           "process_depth",
           [](PyPipeline& p, const py::object& depth, double fx, double fy, double cx, double cy,

@@ -865,7 +865,12 @@ class PrimitivePass {
       }
       s_.segments[j] = seg;
     }
+    // The two lists trade places every frame: each keeps the larger capacity, so that a frame
+    // with more segments than the last one in its role does not allocate once a stream has run.
+    const std::size_t capacity = std::max(out_.segments.capacity(), s_.segments.capacity());
     out_.segments.swap(s_.segments);
+    out_.segments.reserve(capacity);
+    s_.segments.reserve(capacity);
   }
 
   const Frame& f_;
