@@ -3,6 +3,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <climits>
 #include <cmath>
 #include <mutex>
@@ -11,6 +12,7 @@
 #include <string>
 #include <type_traits>
 #include <utility>
+#include <vector>
 
 #include "arrays.hpp"
 #include "bindings.hpp"
@@ -116,6 +118,27 @@ void check_fx(double fx) {
   }
 }
 
+/// Float depth is taken as metres: a UserWarning when the median of every 8th row and column's
+/// valid values lies beyond any depth sensor's range (millimetres given without depth_scale).
+void warn_if_not_metres(const View<const float>& depth) {
+  constexpr float kFarthest = 100.0f;  // [m]
+  std::vector<float> sample;
+  for (int v = 0; v < depth.height; v += 8) {
+    const float* row = depth.row(v);
+    for (int u = 0; u < depth.width; u += 8) {
+      if (std::isfinite(row[u]) && row[u] > 0) sample.push_back(row[u]);
+    }
+  }
+  if (sample.empty()) return;
+  const auto middle = sample.begin() + static_cast<std::ptrdiff_t>(sample.size() / 2);
+  std::nth_element(sample.begin(), middle, sample.end());
+  if (*middle <= kFarthest) return;
+  const std::string message = "depth: floats are taken as metres, and their median is " +
+                              std::to_string(*middle) +
+                              " m; for millimetres pass depth_scale=0.001";
+  if (PyErr_WarnEx(PyExc_UserWarning, message.c_str(), 1) != 0) throw py::error_already_set();
+}
+
 class PyPipeline {
  public:
   explicit PyPipeline(const PipelineSettings& settings) : pipeline_(settings) {}
@@ -175,6 +198,7 @@ class PyPipeline {
         kind == 'f' && scale == 1.0 ? py::object(a) : a.attr("__mul__")(scale));
     const View<const float> view{d.data(), static_cast<int>(d.shape(1)),
                                  static_cast<int>(d.shape(0)), d.shape(1)};
+    if (kind == 'f' && !depth_scale) warn_if_not_metres(view);
     return run(nullptr, [&] { pipeline_.process(view, camera); });
   }
 
@@ -265,8 +289,12 @@ void bind_pipeline(py::module_& m) {
       .def_readonly("organized", &Result::organized,
                     "True for a grid's results (H, W, ...), False for per-point ones (N, ...)")
       .def("__repr__", [](const Result& r) {
-        return "<rangeseg.Result " + std::to_string(r.width) + " x " + std::to_string(r.height) +
-               ": " + std::to_string(py::len(r.segments)) + " segments>";
+        // The arrays' shape, as NumPy prints it: (H, W) of a grid, (N,) of points.
+        const std::string shape =
+            r.organized ? "(" + std::to_string(r.height) + ", " + std::to_string(r.width) + ")"
+                        : "(" + std::to_string(r.width) + ",)";
+        return "<rangeseg.Result " + shape + ": " + std::to_string(py::len(r.segments)) +
+               " segments>";
       });
 
   py::class_<PyPipeline>(
@@ -332,8 +360,9 @@ Returns a Result.)")
           R"(Processes a depth image (H, W) seen by a pinhole camera (fx, fy, cx, cy in
 pixels): integers in raw units (0 or negative = no measurement, depth_scale metres
 per unit, default 0.001), or floats in metres (NaN or <= 0 = no measurement;
-depth_scale default 1). width and height, when not 0, must be the image's (as in
-read_camera_json's dict: process_depth(depth, **camera)). Returns a Result.)")
+depth_scale default 1; without depth_scale, a UserWarning when their median is beyond
+100 m: millimetres, most likely). width and height, when not 0, must be the image's (as in
+read_camera's dict: process_depth(depth, **camera)). Returns a Result.)")
       .def_property_readonly(
           "threads", [](const PyPipeline& p) { return p.settings().threads; },
           "threads inside a frame")

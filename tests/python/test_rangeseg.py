@@ -12,6 +12,7 @@ import pathlib
 import tempfile
 import threading
 import unittest
+import warnings
 
 import numpy as np
 
@@ -346,6 +347,17 @@ class BadInput(unittest.TestCase):
         self.assert_raises_with(ValueError, "fx must be >= 0 pixels and finite", p.process, points,
                                 fx=float("nan"))
         self.assert_raises_with(ValueError, "got -1", p.process, rangeseg.Cloud(points), fx=-1)
+
+    def test_float_millimetres_without_a_scale_warn(self):
+        z = np.full((24, 32), 1500.0)  # millimetres, taken as metres
+        p = rangeseg.Pipeline()
+        with self.assertWarnsRegex(UserWarning, "depth_scale=0.001"):
+            p.process_depth(z, fx=26.25, fy=26.25, cx=15.5, cy=11.5)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            p.process_depth(z / 1000, fx=26.25, fy=26.25, cx=15.5, cy=11.5)  # metres
+            result = p.process_depth(z, fx=26.25, fy=26.25, cx=15.5, cy=11.5, depth_scale=0.001)
+        self.assertEqual(repr(result), "<rangeseg.Result (24, 32): %d segments>" % len(result.segments))
 
     def test_huge_integer_depths_are_far_points_not_a_cast_error(self):
         z = np.full((24, 32), 1500, np.uint64)
