@@ -508,7 +508,11 @@ TEST(Pipeline, RejectsInvalidStageSettingsBeforeAnyFrame) {
   segmentation.segmentation.min_region_size = 0;
   PipelineSettings rings;
   rings.rings.k = 0;
-  for (const PipelineSettings& s : {mesh, smoothing, segmentation, rings}) {
+  PipelineSettings polygon;  // these two were only refused at the first frame
+  polygon.polygon.simplify_tolerance = -1;
+  PipelineSettings normals;
+  normals.normals.viewpoint[1] = NAN;
+  for (const PipelineSettings& s : {mesh, smoothing, segmentation, rings, polygon, normals}) {
     EXPECT_THROW(validate(s), std::invalid_argument);
     EXPECT_THROW(Pipeline{s}, std::invalid_argument);
   }

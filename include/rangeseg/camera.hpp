@@ -36,7 +36,8 @@ void depth_to_cloud(View<const std::uint16_t> depth, const CameraIntrinsics& cam
 
 /// A depth image in metres (e.g. a ROS 32FC1 image) to a cloud, reusing `cloud` as above; NaN,
 /// infinite and non-positive depths are no measurement. Throws std::invalid_argument for invalid
-/// intrinsics.
+/// intrinsics, a camera width / height other than the image's, or a view with no data, fewer
+/// than 1 column or 2 rows.
 void depth_to_cloud(View<const float> depth, const CameraIntrinsics& camera, OrganizedCloud& cloud);
 
 /// Rows [row_begin, row_end) of the conversions above into `cloud`, which must already have the
@@ -58,7 +59,8 @@ bool fit_intrinsics(const OrganizedCloud& cloud, CameraIntrinsics& camera, doubl
                     double* max_error = nullptr);
 
 /// Converts the z plane of an organized cloud back to raw depth units (rounded; 0 where the
-/// point is invalid, z <= 0, or z / depth_scale does not fit in 16 bits).
+/// point is invalid, z <= 0, or z / depth_scale does not fit in 16 bits). Throws
+/// std::invalid_argument for depth_scale <= 0 or non-finite, or an inconsistent cloud.
 DepthImage cloud_to_depth(const OrganizedCloud& cloud, double depth_scale = 0.001);
 
 }  // namespace rangeseg

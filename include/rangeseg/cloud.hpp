@@ -36,7 +36,9 @@ struct OrganizedCloud {
 
   int width() const { return z.width(); }
   int height() const { return z.height(); }
-  std::size_t size() const { return static_cast<std::size_t>(width()) * height(); }
+  std::size_t size() const {
+    return static_cast<std::size_t>(width()) * static_cast<std::size_t>(height());
+  }
   bool empty() const { return size() == 0; }
   bool is_organized() const { return height() > 1; }
   bool has_intensity() const { return !intensity.empty(); }
@@ -69,7 +71,8 @@ void require_organized(const OrganizedCloud& cloud, const char* what);
 /// Every `factor`-th pixel along both axes: pixel (u, v) of the result is pixel
 /// (factor * u, factor * v) of `cloud`, with the optional planes that `cloud` has. The result is
 /// ceil(width / factor) x ceil(height / factor) pixels; its angular pixel spacing is `factor`
-/// times the input's. Defined in src/cloud_ops.cpp. Throws std::invalid_argument if factor < 1.
+/// times the input's. Defined in src/cloud_ops.cpp. Throws std::invalid_argument if factor < 1 or
+/// the cloud is inconsistent.
 OrganizedCloud downsample(const OrganizedCloud& cloud, int factor);
 
 /// The valid points of `cloud` as an unorganized cloud (height 1) with the optional planes that

@@ -21,10 +21,14 @@ struct RgbImage {
   static RgbImage black(int width, int height);
 
   std::uint8_t* pixel(int x, int y) {
-    return rgb.data() + (static_cast<std::size_t>(y) * width + x) * 3;
+    return rgb.data() + (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
+                         static_cast<std::size_t>(x)) *
+                            3;
   }
   const std::uint8_t* pixel(int x, int y) const {
-    return rgb.data() + (static_cast<std::size_t>(y) * width + x) * 3;
+    return rgb.data() + (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
+                         static_cast<std::size_t>(x)) *
+                            3;
   }
 };
 

@@ -96,7 +96,7 @@ struct PlaneParams {
 /// indexed by label (size = max label + 1; empty if there is none). The normal is unit length and
 /// oriented towards the sensor origin (offset >= 0). nullopt for labels with fewer than 3 valid
 /// points or whose points are (numerically) collinear. Throws std::invalid_argument if the sizes
-/// differ or min_label < 0.
+/// differ, min_label < 0, or a label exceeds 2^24 - 1.
 std::vector<std::optional<PlaneParams>> fit_planes(const OrganizedCloud& cloud,
                                                    const LabelImage& labels, int min_label);
 

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <string_view>
 #include <vector>
@@ -55,7 +56,7 @@ const char* to_string(MeshType type);
 ///   ~4.5 s r / f = 34 mm at 4 m is below the 1.4 sigma = 36 mm of the difference of two Kinect
 ///   depths there, plus disparity quantisation steps of z^2 / (8 b f) = 5 cm), so a third of the
 ///   edges of a fronto-parallel plane at 4 m were cut. The gate keeps steps up to
-///   3 sqrt(2) sigma(z): 8 mm at 1 m, 26 mm at 2 m, 64 mm at 3 m, 110 mm at 4 m (which also
+///   3 sqrt(2) sigma(z): 8 mm at 1 m, 26 mm at 2 m, 60 mm at 3 m, 110 mm at 4 m (which also
 ///   covers two quantisation steps); 0.3 % of noise-only steps exceed it. Depth jumps smaller
 ///   than that are not cut: they cannot be told from noise edge by edge. jump_sigmas = 0
 ///   disables the gate (the paper's pure angle test).

@@ -27,7 +27,9 @@ struct NormalSettings {
 };
 
 /// Vertex normal = normalised sum of the unnormalised (area-weighted) face normals of the faces
-/// around the vertex (paper, eq. 2), oriented towards the viewpoint, plus curvature.
+/// around the vertex (paper, eq. 2), oriented towards the viewpoint, plus curvature. Throws
+/// std::invalid_argument for an unorganized or inconsistent cloud, a mesh of another size, or a
+/// non-finite viewpoint.
 void compute_normals(const OrganizedCloud& cloud, const Mesh& mesh, const NormalSettings& settings,
                      NormalMap& out);
 inline NormalMap compute_normals(const OrganizedCloud& cloud, const Mesh& mesh,

@@ -37,7 +37,7 @@ struct PipelineSettings {
   /// Frames under 65536 pixels always run on one thread (a hand-off costs as much as their
   /// work). While `process` runs, idle workers spin between the stages' bands instead of
   /// sleeping (ThreadPool::KeepAwake), so they occupy their cores for the whole frame; between
-  /// frames they sleep. 1..256.
+  /// frames they sleep. 1..256 [threads], default 1.
   int threads = 1;
   /// Unorganized clouds (height 1) only: the k-nearest-neighbour rings that stand in for the
   /// mesh (see unorganized.hpp); `mesh`, `polygon` and the grid-only segmentation settings are
@@ -64,8 +64,10 @@ void set_noise(PipelineSettings& settings, const SensorNoise& noise);
 /// Settings for a sensor: "kinect" (structured light, also PrimeSense), "abw"
 /// (SegComp ABW scanner in metres), "laser", "perceptron" (SegComp's Perceptron laser) or
 /// "ideal" (noise-free or simulated depth: no smoothing; see `preset` in segmentation.hpp). Sets
-/// the noise model of every stage and the angular pixel spacing. Throws std::invalid_argument for
-/// other names, listing the valid ones.
+/// the noise model of every stage and the segmentation's preset; "laser" and "perceptron" also
+/// set their scanners' pixel angle (the others leave 0: from the camera), "abw" turns the
+/// smoothing off and sets mesh.jump_sigmas = 10. Throws std::invalid_argument for other names,
+/// listing the valid ones.
 PipelineSettings pipeline_preset(std::string_view sensor);
 
 /// Wall-clock time of each stage of the last frame [ms].
@@ -79,8 +81,9 @@ struct StageTimes {
 };
 
 /// Throws std::invalid_argument naming the field and its value for settings a Pipeline rejects:
-/// threads outside [1, 256], or mesh, smoothing, segmentation or ring settings that their stage
-/// rejects (`validate` of each), or invalid tracking settings.
+/// threads outside [1, 256], a non-finite normals viewpoint, or mesh, smoothing, segmentation,
+/// polygon or ring settings that their stage rejects (`validate` of each), or invalid tracking
+/// settings.
 void validate(const PipelineSettings& settings);
 
 /// Runs the stages on frame after frame. It owns every intermediate buffer and keeps it, so

@@ -67,6 +67,10 @@ struct PolygonSettings {
   std::array<float, 3> viewpoint{0.0f, 0.0f, 0.0f};
 };
 
+/// Throws std::invalid_argument, with the values, unless the tolerances and min_loop_pixels are
+/// finite and >= 0 and the viewpoint is finite.
+void validate(const PolygonSettings& settings);
+
 /// One closed loop, vertices [first, first + count) of the PolygonSet point arrays, without
 /// repeating the first vertex at the end. Outer loops run counter-clockwise in the plane frame
 /// (positive area), holes clockwise.
@@ -139,7 +143,8 @@ class PolygonExtractor {
   PolygonExtractor& operator=(PolygonExtractor&&) noexcept;
 
   /// `cloud` is the cloud the segmentation was computed on (e.g. Pipeline::cloud()), `mesh` its
-  /// mesh. Throws std::invalid_argument for mismatched sizes or invalid settings.
+  /// mesh. Throws std::invalid_argument for mismatched sizes, invalid settings, or a label that
+  /// names no segment.
   void extract(const OrganizedCloud& cloud, const Mesh& mesh, const Segmentation& segmentation,
                const PolygonSettings& settings, PolygonSet& out);
   /// The polygons of an unorganized cloud over its k-nearest-neighbour rings, without a mesh:
@@ -158,14 +163,15 @@ class PolygonExtractor {
   std::unique_ptr<RingScratch, RingScratchDeleter> ring_scratch_;
 };
 
-/// One-shot extraction (allocates its scratch buffers).
+/// One-shot extraction (allocates its scratch buffers); throws as PolygonExtractor::extract.
 PolygonSet extract_polygons(const OrganizedCloud& cloud, const Mesh& mesh,
                             const Segmentation& segmentation, const PolygonSettings& settings = {});
 
 /// The pixel coordinates of loop `loop` (closed = the caller passes closed=true to
 /// draw_polyline), into `out` (reused); empty when the set has no pixels (an unorganized cloud).
 void loop_pixels(const PolygonSet& polygons, int loop, std::vector<std::array<float, 2>>& out);
-/// The same for the convex hull of segment `segment` (index into PolygonSet::segments).
+/// The same for the convex hull of segment `segment` (index into PolygonSet::segments). Both
+/// throw std::invalid_argument for an index out of range.
 void hull_pixels(const PolygonSet& polygons, int segment, std::vector<std::array<float, 2>>& out);
 
 /// Convex hull of 2D points (Andrew's monotone chain), counter-clockwise, without collinear

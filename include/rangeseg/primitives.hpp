@@ -33,13 +33,13 @@ struct CylinderFit {
 
 struct PrimitiveFitSettings {
   /// Gauss-Newton (Levenberg-Marquardt) refinement steps of the geometric distance (0 = the
-  /// closed-form initial estimate only).
+  /// closed-form initial estimate only) [iterations], default 15.
   int max_iterations = 15;
   /// Refits on the points within 10 robust standard deviations (1.4826 x the median absolute
   /// residual) of the least-squares fit, that bound fixed, until they stay the same, at most
   /// this many times (0 = least squares over all points). Points of a neighbouring surface that
   /// a segment took along its border (a lid's rim on a cylinder) then do not move the fit; the
-  /// reported `rms` is still over all points.
+  /// reported `rms` is still over all points [refits], default 5.
   int outlier_refits = 5;
 };
 

@@ -88,7 +88,7 @@ struct SegmentationSettings {
   /// pixels wide where 1-ring normals (and smoothing) mix both surfaces, at creases and
   /// occlusion boundaries; regions seeded there are slivers, which post-processing dissolves
   /// again (on a 640x480 Kinect frame hundreds of them). A face narrower than 2r + 1 pixels
-  /// between labelled regions gets no pixel seed [lattice steps] (0 = no such test).
+  /// between labelled regions gets no pixel seed [lattice steps] (0..32; 0 = no such test).
   int seed_clearance = 3;
   /// plane: grow over 8x8-vertex cells first (cf. CAPE): a cell whose points and normals pass
   /// the region tests as a whole (from its moments) joins as a unit, the rest of the region is

@@ -10,7 +10,7 @@ namespace rangeseg {
 struct OrganizedCloud;
 
 /// Axial (depth) noise of the sensor, sigma(z) = a + b (z - z0)^2 [m] at depth z [m]. The
-/// default is the structured-light (Kinect / PrimeSense) model of Khoshelham & Elberink (2012);
+/// default is the structured-light (Kinect / PrimeSense) model of Nguyen et al. (2012);
 /// `PipelineSettings` presets set it for other sensors.
 struct SensorNoise {
   double a = 0.0012;  ///< [m]
@@ -36,7 +36,7 @@ struct NoiseEstimateSettings {
   double quantile = 0.25;
   /// Depth bins grow geometrically, each spanning this factor in depth (dimensionless, > 1).
   double bin_ratio = 1.15;
-  /// Bins with fewer usable blocks are not used for the fit (>= 1).
+  /// Bins with fewer usable blocks are not used for the fit (>= 1) [blocks], default 12.
   int min_blocks_per_bin = 12;
 };
 

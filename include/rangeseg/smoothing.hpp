@@ -14,6 +14,15 @@
 
 namespace rangeseg {
 
+/// The pixel angle when neither the settings nor the caller give one: 1 / 525 rad, a Kinect
+/// (or any PrimeSense camera) at 640 x 480.
+inline constexpr float kDefaultPixelAngle = 1.0f / 525.0f;
+
+struct SmoothingSettings;
+/// The angle between neighbouring pixel rays the filter uses [rad]: settings.pixel_angle when
+/// it is > 0, else 1 / camera_fx when camera_fx [pixel] > 0, else kDefaultPixelAngle.
+float pixel_angle_for(const SmoothingSettings& settings, double camera_fx);
+
 /// Settings of the bilateral filter (paper, eqs. 3 and 4). Each pixel i is replaced by the
 /// weighted mean over itself (weight 1; including the centre is the usual bilateral filter and
 /// keeps every denominator >= 1) and its mesh 1-ring N_i (`Mesh::edges`), with
@@ -44,17 +53,9 @@ namespace rangeseg {
 /// cut by the mesh stay sharp. The exponential is evaluated with a polynomial approximation
 /// (relative error < 5e-5); weights below exp(-30) are treated as 0. Depths z are taken
 /// relative to `viewpoint`.
-/// The pixel angle when neither the settings nor the caller give one: 1 / 525 rad, a Kinect
-/// (or any PrimeSense camera) at 640 x 480.
-inline constexpr float kDefaultPixelAngle = 1.0f / 525.0f;
-
-struct SmoothingSettings;
-/// The angle between neighbouring pixel rays the filter uses [rad]: settings.pixel_angle when
-/// it is > 0, else 1 / camera_fx when camera_fx [pixel] > 0, else kDefaultPixelAngle.
-float pixel_angle_for(const SmoothingSettings& settings, double camera_fx);
-
 struct SmoothingSettings {
-  /// Filter passes; each reads the previous pass's points and normals, the mesh stays the input's.
+  /// Filter passes [passes]; each reads the previous pass's points and normals, the mesh stays
+  /// the input's.
   /// 3 passes (the default) halve point and normal errors on planes with Kinect noise from 1 to
   /// 4 m. 0 = the input unchanged.
   int iterations = 3;
@@ -90,8 +91,8 @@ struct SmoothingSettings {
   std::array<float, 3> viewpoint{0.0f, 0.0f, 0.0f};  ///< sensor origin [m], camera frame
 };
 
-/// Throws std::invalid_argument naming the field for a non-positive scale or iteration count
-/// below 0, or a non-finite value.
+/// Throws std::invalid_argument naming the field for a non-positive scale or noise.a, an
+/// iteration count, noise.b, pixel_angle or intensity_range below 0, or a non-finite value.
 void validate(const SmoothingSettings& settings);
 
 /// Output of the convenience overload of smooth().

@@ -29,7 +29,7 @@ struct Surface {
   /// seen from (outwards for solids, into the room for room walls), i.e. towards the camera
   /// whenever the face is visible.
   Vec3 normal{};
-  double offset = 0;
+  double offset = 0;  ///< plane: d of n.x + d = 0 [m]
   /// sphere: centre; cylinder: centre of the base cap (a point on the axis) [m].
   Vec3 centre{};
   /// cylinder: unit axis direction, from the base cap towards the top cap.
@@ -119,11 +119,11 @@ struct KinectModel {
   double sigma_quadratic = 0.0019;   ///< [1/m]
   double sigma_offset = 0.4;         ///< [m]
   double baseline = 0.075;           ///< projector-camera baseline b [m]; disparity = b fx / z
-  double subpixel = 8.0;             ///< disparity quantisation steps per pixel
+  double subpixel = 8.0;             ///< disparity quantisation steps per pixel [1/pixel]
   double min_range = 0.4;            ///< no measurement nearer than this [m]
   double max_range = 6.0;            ///< no measurement beyond this [m]
   double edge_relative_jump = 0.05;  ///< depth jump to a 4-neighbour counted as an edge, / z
-  double edge_sigmas = 4.0;          ///< ... or more than this many sigma(z), whichever is larger
+  double edge_sigmas = 4.0;          ///< ... or this many sigma(z) if larger [dimensionless]
   double edge_dropout = 0.5;         ///< probability that a pixel at a depth edge is dropped
   double random_dropout = 0.005;     ///< probability that any pixel is dropped
 };
@@ -141,7 +141,8 @@ struct RenderSettings {
   Noise noise = Noise::none;
   KinectModel kinect{};    ///< used when noise == Noise::kinect
   std::uint64_t seed = 1;  ///< noise and dropouts are a deterministic function of the seed
-  /// Pixels of surfaces with fewer visible pixels than this keep their points but get label 0.
+  /// Pixels of surfaces with fewer visible pixels than this keep their points but get label 0
+  /// [pixels].
   int min_surface_pixels = 0;
   /// Each 8-connected part of a surface in the noise-free image is its own ground-truth region:
   /// the largest part keeps the surface's label, the others get new labels after the scene's
@@ -183,7 +184,8 @@ Scene demo_scene();
 Scene random_scene(std::uint64_t seed, bool with_curved = false);
 
 /// A single plane filling the whole default view: at depth `distance` [m] on the optical axis,
-/// tilted by `tilt_rad` about the camera x axis (0 = fronto-parallel, |tilt| < ~1.0).
+/// tilted by `tilt_rad` about the camera x axis (0 = fronto-parallel). Throws
+/// std::invalid_argument unless distance > 0 and |tilt_rad| < 1.1 (both finite).
 Scene plane_scene(double distance, double tilt_rad = 0.0);
 
 }  // namespace rangeseg::synth

@@ -39,7 +39,8 @@ class ThreadPool {
   /// Calls fn(band, row_begin, row_end) for `threads()` disjoint bands covering rows [0, rows),
   /// concurrently; the first row of every non-empty band but the first is a multiple of `align`
   /// (>= 1), and bands may be empty. Returns when every band is done and rethrows the first
-  /// exception a band threw. Not reentrant: one call at a time per pool.
+  /// exception a band threw. Not reentrant: one call at a time per pool. Throws
+  /// std::invalid_argument for rows < 0 or align < 1.
   template <class F>
   void for_each_band(int rows, int align, F&& fn) {
     using Fn = std::remove_reference_t<F>;

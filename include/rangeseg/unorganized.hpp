@@ -37,7 +37,7 @@ struct RingSettings {
   int k = 12;                 ///< ring size: nearest neighbours per point [1], 2..64
   float max_distance = 0.0f;  ///< neighbours farther away are not in the ring [m]; 0 = no bound
   float eps_theta = 0.2182f;  ///< min angle between edge and viewing ray [rad] (12.5 deg); 0 = off
-  float jump_sigmas = 3.0f;   ///< range steps up to this many sigma of the difference are noise
+  float jump_sigmas = 3.0f;   ///< range steps up to this many sigma of the difference are noise [1]
   SensorNoise noise{};        ///< axial noise sigma(range) of the sensor [m]
   std::array<float, 3> viewpoint{0.0f, 0.0f, 0.0f};  ///< sensor origin [m], cloud frame
   /// true: the nearest neighbours by viewing direction from `viewpoint` (the points projected

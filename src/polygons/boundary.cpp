@@ -328,20 +328,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
   }
   // A label that names no segment would cut a hole in its neighbour's polygon.
   detail::require_labels_name_segments(segmentation, "PolygonExtractor::extract");
-  if (!(settings.simplify_tolerance >= 0) || !std::isfinite(settings.simplify_tolerance) ||
-      !(settings.simplify_tolerance_pixels >= 0) ||
-      !std::isfinite(settings.simplify_tolerance_pixels) || !(settings.min_loop_pixels >= 0) ||
-      !std::isfinite(settings.viewpoint[0]) || !std::isfinite(settings.viewpoint[1]) ||
-      !std::isfinite(settings.viewpoint[2])) {
-    throw std::invalid_argument(
-        "PolygonExtractor::extract: tolerances and min_loop_pixels must be finite and >= 0, "
-        "viewpoint finite; got simplify_tolerance " +
-        std::to_string(settings.simplify_tolerance) + ", simplify_tolerance_pixels " +
-        std::to_string(settings.simplify_tolerance_pixels) + ", min_loop_pixels " +
-        std::to_string(settings.min_loop_pixels) + ", viewpoint " +
-        std::to_string(settings.viewpoint[0]) + " " + std::to_string(settings.viewpoint[1]) + " " +
-        std::to_string(settings.viewpoint[2]));
-  }
+  validate(settings);
 
   Scratch& sc = *scratch_;
   out.clear();
@@ -694,6 +681,23 @@ PolygonSet extract_polygons(const OrganizedCloud& cloud, const Mesh& mesh,
   PolygonSet out;
   extractor.extract(cloud, mesh, segmentation, settings, out);
   return out;
+}
+
+void validate(const PolygonSettings& settings) {
+  if (!(settings.simplify_tolerance >= 0) || !std::isfinite(settings.simplify_tolerance) ||
+      !(settings.simplify_tolerance_pixels >= 0) ||
+      !std::isfinite(settings.simplify_tolerance_pixels) || !(settings.min_loop_pixels >= 0) ||
+      !std::isfinite(settings.viewpoint[0]) || !std::isfinite(settings.viewpoint[1]) ||
+      !std::isfinite(settings.viewpoint[2])) {
+    throw std::invalid_argument(
+        "PolygonSettings: tolerances and min_loop_pixels must be finite and >= 0, viewpoint "
+        "finite; got simplify_tolerance " +
+        std::to_string(settings.simplify_tolerance) + ", simplify_tolerance_pixels " +
+        std::to_string(settings.simplify_tolerance_pixels) + ", min_loop_pixels " +
+        std::to_string(settings.min_loop_pixels) + ", viewpoint " +
+        std::to_string(settings.viewpoint[0]) + " " + std::to_string(settings.viewpoint[1]) + " " +
+        std::to_string(settings.viewpoint[2]));
+  }
 }
 
 void loop_pixels(const PolygonSet& polygons, int loop, std::vector<std::array<float, 2>>& out) {

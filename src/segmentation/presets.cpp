@@ -11,8 +11,8 @@ SegmentationSettings preset(std::string_view name) {
   constexpr double deg = 3.14159265358979323846 / 180.0;
   SegmentationSettings s;
   if (name == "kinect") {
-    // Structured light, disparity noise: sigma grows quadratically with depth (Khoshelham &
-    // Elberink 2012). Raw 1-ring normals at 3-4 m are dominated by noise, so the angle test is
+    // Structured light, disparity noise: sigma grows quadratically with depth (Nguyen et al.
+    // 2012). Raw 1-ring normals at 3-4 m are dominated by noise, so the angle test is
     // loose and the depth-scaled distance test separates surfaces.
     s.noise = {.a = 0.0012, .b = 0.0019, .z0 = 0.4};
     s.max_normal_angle = 25 * deg;

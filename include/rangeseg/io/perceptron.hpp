@@ -55,7 +55,7 @@ Plane<std::uint16_t> decode_perceptron_range(const std::uint8_t* data, std::size
 /// SegComp tools mark none as missing). The USF model gives scanner coordinates X (left), Y (up)
 /// and Z (forward); this library's frame is x = -X, y = -Y, z = Z (a rotation by 180 degrees
 /// about the viewing axis), scaled by `metres_per_unit`. Throws std::invalid_argument for an
-/// empty image or a calibration with non-finite or non-positive lengths and fields.
+/// empty image or a calibration with a non-finite value or with delta or metres_per_unit <= 0.
 OrganizedCloud perceptron_range_to_cloud(View<const std::uint16_t> range,
                                          const PerceptronCalibration& calib = {});
 

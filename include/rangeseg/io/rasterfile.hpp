@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/image.hpp"
@@ -38,7 +39,7 @@ struct AbwCalibration {
   double offset = 771.016866;  ///< OFFSET [scanner units]
   double scal = 0.791686;      ///< SCAL [range value per scanner unit]
   double f = -1586.072821;     ///< F, focal length [pixel]; only |F| enters the formula
-  double c = 1.4508;           ///< C, aspect ratio of rows to columns
+  double c = 1.4508;           ///< C, aspect ratio of rows to columns [dimensionless]
 
   /// The calibration the SegComp tools use for an image file: the second set (OFFSET 785.410786,
   /// SCAL 0.773545, F -1610.981722) for abw.test.{0,19,21,25,27,28,29}, the default otherwise.

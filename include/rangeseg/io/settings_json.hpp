@@ -10,15 +10,18 @@
 namespace rangeseg::io {
 
 /// Applies a JSON object on top of `settings`. Every key is optional:
-///   {"smooth": bool, "restore_grid": bool,
+///   {"smooth": bool, "restore_grid": bool, "track": bool,
 ///    "noise": {"a", "b", "z0"} (SensorNoise, set in every stage: set_noise),
 ///    "mesh": {"type": "adaptive"|"quad"|"left"|"right", "eps_theta", "jump_sigmas",
 ///             "max_edge_a", "max_edge_b", "max_edge_c", "pixel_stride"},
-///    "smoothing": {SmoothingSettings' fields by name; "iterations" also turns the filter on
-///                  (> 0) or off (0) unless "smooth" is given},
-///    "segmentation": {SegmentationSettings' fields by name; "model": "plane"|"smooth"|
-///                     "incremental_plane"|"auto"},
-///    "rings": {"k", "max_distance", "eps_theta", "jump_sigmas", "by_direction", "balanced"}}
+///    "smoothing": {SmoothingSettings' fields by name but noise (top-level "noise") and
+///                  viewpoint; "iterations" also turns the filter on (> 0) or off (0) unless
+///                  "smooth" is given},
+///    "segmentation": {SegmentationSettings' fields by name but noise, coarse_cells and
+///                     compute_area; "model": "plane"|"smooth"|"incremental_plane"|"auto"},
+///    "rings": {"k", "max_distance", "eps_theta", "jump_sigmas", "by_direction", "balanced"},
+///    "tracking": {"min_overlap", "max_normal_angle", "max_distance"}}
+/// (`rangeseg settings` prints every key),
 /// with the units of the settings structs (metres, radians). Throws std::runtime_error naming
 /// `source` (a file name, or what the text came from) and the key for text that is not JSON,
 /// unknown keys, values of the wrong type or out of an integer's range, and values the library
