@@ -35,7 +35,8 @@ struct PlyMesh {
 /// of it, or an index is outside 0..vertex_count-1.
 std::vector<std::uint8_t> encode_ply(const PlyMesh& mesh);
 
-/// The encoding of encode_ply, streamed into an io::AtomicFile (never half-written).
+/// The encoding of encode_ply, streamed into an io::AtomicFile (never half-written). Throws as
+/// encode_ply, and std::runtime_error naming the file when it cannot be written.
 void write_ply(const std::string& path, const PlyMesh& mesh);
 
 /// What a PLY written element by element holds (PlyWriter).
@@ -140,7 +141,8 @@ std::vector<std::uint8_t> encode_ply_cloud(const OrganizedCloud& cloud,
                                            const std::array<double, 7>& viewpoint = {0, 0, 0, 1, 0,
                                                                                      0, 0});
 
-/// The encoding of encode_ply_cloud written atomically (never half-written).
+/// The encoding of encode_ply_cloud written atomically (never half-written). Throws as
+/// encode_ply_cloud, and std::runtime_error naming the file when it cannot be written.
 void write_ply_cloud(const std::string& path, const OrganizedCloud& cloud,
                      const std::array<double, 7>& viewpoint = {0, 0, 0, 1, 0, 0, 0});
 

@@ -24,14 +24,18 @@ DepthImage read_depth_png(const std::string& path);
 /// The decoder behind read_depth_png, on a PNG held in memory; `name` is used in error messages.
 DepthImage decode_depth_png(const std::uint8_t* data, std::size_t size, const std::string& name);
 
-/// Reads a 16-bit (or 8-bit) grayscale PNG as integer labels, 0 = none.
+/// Reads a 16-bit (or 8-bit) grayscale PNG as integer labels, 0 = none; throws
+/// std::runtime_error naming the file for any other PNG or an unreadable one.
 LabelImage read_label_png(const std::string& path);
 
-/// Encoders to an in-memory PNG file (used by the writers; exposed for tests and tools).
+/// Encoders to an in-memory PNG file (used by the writers; exposed for tests and tools). Throw
+/// std::invalid_argument for an empty image or an RGB buffer of another size than 3 w h, and
+/// std::runtime_error when libpng fails.
 std::vector<std::uint8_t> encode_depth_png(View<const std::uint16_t> depth);
 std::vector<std::uint8_t> encode_rgb_png(const RgbImage& image);
 
-/// Writes a 16-bit grayscale PNG (atomically, see io::write_file_atomic).
+/// Writes a 16-bit grayscale PNG (atomically, see io::write_file_atomic). Throws as the encoder,
+/// and std::runtime_error naming the file when it cannot be written.
 void write_depth_png(const std::string& path, View<const std::uint16_t> depth);
 
 /// Writes labels as a 16-bit grayscale PNG, 0 = none. Throws std::invalid_argument naming the

@@ -30,7 +30,9 @@ BytePlane decode_rasterfile(const std::uint8_t* data, std::size_t size, const st
 /// Encodes an 8-bit image as a standard (type 1) rasterfile without colour map.
 std::vector<std::uint8_t> encode_rasterfile(View<const std::uint8_t> image);
 
-/// Writes an 8-bit rasterfile atomically (e.g. SegComp machine segmentations, .ms-seg).
+/// Writes an 8-bit rasterfile atomically (e.g. SegComp machine segmentations, .ms-seg). Both
+/// throw std::invalid_argument for an empty or too large image; the writer std::runtime_error
+/// naming the file when it cannot be written.
 void write_rasterfile(const std::string& path, View<const std::uint8_t> image);
 
 /// Calibration of the ABW structured-light scanner from the SegComp tools (USF rangetocoords).
@@ -59,9 +61,12 @@ struct AbwCalibration {
 /// (a rotation by 180 degrees about x plus a shift along z) and a uniform scale, so planes stay
 /// planes and angles between them are preserved; the sensor is at the origin and z is the depth
 /// along the viewing direction (x = (c - 255) z / |F|, a pinhole with fx = |F|, fy = C |F|).
+/// Throws std::invalid_argument for a calibration with a non-finite value, scal or C <= 0, or
+/// F = 0.
 OrganizedCloud abw_range_to_cloud(View<const std::uint8_t> range, const AbwCalibration& calib);
 
-/// read_rasterfile + abw_range_to_cloud with AbwCalibration::for_image(path).
+/// read_rasterfile + abw_range_to_cloud with AbwCalibration::for_image(path). The readers throw
+/// std::runtime_error naming the file for an unreadable, truncated or malformed one.
 OrganizedCloud read_abw_range(const std::string& path);
 
 /// Reads a SegComp ground truth (.gt-seg) or machine segmentation rasterfile as labels, keeping
