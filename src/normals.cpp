@@ -93,9 +93,7 @@ void prepare_normals(const OrganizedCloud& cloud, const Mesh& mesh, const Normal
                                 ") does not fit the cloud " + std::to_string(width) + "x" +
                                 std::to_string(height));
   }
-  for (float p : settings.viewpoint) {
-    if (!std::isfinite(p)) throw std::invalid_argument("compute_normals: viewpoint must be finite");
-  }
+  validate(settings);
   // At stride 1 the sweep writes every pixel, so planes of the right size are not refilled;
   // otherwise the off-lattice pixels are NaN (no face).
   for (FloatPlane* plane : {&out.nx, &out.ny, &out.nz, &out.curvature}) {
@@ -226,6 +224,15 @@ void compute_normals_rows(const OrganizedCloud& cloud, const Mesh& mesh,
 }
 
 }  // namespace detail
+
+void validate(const NormalSettings& settings) {
+  for (const float p : settings.viewpoint) {
+    if (!std::isfinite(p)) {
+      throw std::invalid_argument("NormalSettings::viewpoint must be finite, got " +
+                                  std::to_string(p));
+    }
+  }
+}
 
 void compute_normals(const OrganizedCloud& cloud, const Mesh& mesh, const NormalSettings& settings,
                      NormalMap& out) {

@@ -79,12 +79,7 @@ void validate(const PipelineSettings& settings) {
                                 " must be in [1, 256]");
   }
   validate(settings.mesh);
-  for (const float p : settings.normals.viewpoint) {
-    if (!std::isfinite(p)) {
-      throw std::invalid_argument("NormalSettings::viewpoint must be finite, got " +
-                                  std::to_string(p));
-    }
-  }
+  validate(settings.normals);
   validate(settings.smoothing);
   validate(settings.segmentation);
   validate(settings.polygon);

@@ -26,6 +26,9 @@ struct NormalSettings {
   std::array<float, 3> viewpoint{0.0f, 0.0f, 0.0f};  ///< normals are flipped to face it [m]
 };
 
+/// Throws std::invalid_argument, with the value, for a non-finite viewpoint.
+void validate(const NormalSettings& settings);
+
 /// Vertex normal = normalised sum of the unnormalised (area-weighted) face normals of the faces
 /// around the vertex (paper, eq. 2), oriented towards the viewpoint, plus curvature. Throws
 /// std::invalid_argument for an unorganized or inconsistent cloud, a mesh of another size, or a

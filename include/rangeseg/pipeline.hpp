@@ -81,9 +81,8 @@ struct StageTimes {
 };
 
 /// Throws std::invalid_argument naming the field and its value for settings a Pipeline rejects:
-/// threads outside [1, 256], a non-finite normals viewpoint, or mesh, smoothing, segmentation,
-/// polygon or ring settings that their stage rejects (`validate` of each), or invalid tracking
-/// settings.
+/// threads outside [1, 256], or mesh, normal, smoothing, segmentation, polygon or ring settings
+/// that their stage rejects (`validate` of each), or invalid tracking settings.
 void validate(const PipelineSettings& settings);
 
 /// Runs the stages on frame after frame. It owns every intermediate buffer and keeps it, so
