@@ -24,8 +24,9 @@ namespace {
 
 void require_scale(double depth_scale) {
   if (!(depth_scale > 0) || !std::isfinite(depth_scale)) {
-    throw std::invalid_argument("depth_to_cloud: depth_scale must be > 0, got " +
-                                std::to_string(depth_scale));
+    throw std::invalid_argument(
+        "depth_to_cloud: depth_scale [m per unit] must be finite and > 0, got " +
+        std::to_string(depth_scale));
   }
 }
 
@@ -221,8 +222,9 @@ bool detail::fit_intrinsics_every(const OrganizedCloud& cloud, int step, CameraI
 DepthImage cloud_to_depth(const OrganizedCloud& cloud, double depth_scale) {
   require_consistent(cloud, "cloud_to_depth");
   if (!(depth_scale > 0) || !std::isfinite(depth_scale)) {
-    throw std::invalid_argument("cloud_to_depth: depth_scale must be > 0, got " +
-                                std::to_string(depth_scale));
+    throw std::invalid_argument(
+        "cloud_to_depth: depth_scale [m per unit] must be finite and > 0, got " +
+        std::to_string(depth_scale));
   }
   DepthImage depth(cloud.width(), cloud.height(), 0);
   for (int v = 0; v < cloud.height(); ++v) {

@@ -32,8 +32,6 @@ constexpr long kMinPixelsForThreads = 1L << 16;
 /// The camera of an organized cloud is fitted to every 8th row and column of frames of at least
 /// this many pixels (4800 points at 640x480, ~0.04 ms), to all points of smaller ones [pixels].
 constexpr long kMinPixelsForFitSample = 1L << 16;
-/// How far [pixel] a point may lie off its pixel under the fitted camera (as fit_intrinsics).
-constexpr double kFitTolerance = 0.05;
 
 double ms_since(Clock::time_point& start) {
   const Clock::time_point now = Clock::now();
@@ -321,7 +319,7 @@ void Pipeline::process_grid(const OrganizedCloud& cloud) {
     if (!(fx > 0) && !(settings_.smoothing.pixel_angle > 0)) {
       CameraIntrinsics fitted;
       const int step = static_cast<long>(cloud.width()) * height >= kMinPixelsForFitSample ? 8 : 1;
-      fx = detail::fit_intrinsics_every(cloud, step, fitted, kFitTolerance) ? fitted.fx : 0;
+      fx = detail::fit_intrinsics_every(cloud, step, fitted, kDefaultFitTolerance) ? fitted.fx : 0;
     }
     smoother_.set_camera_fx(fx);
     if (pool != nullptr) {

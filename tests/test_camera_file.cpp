@@ -116,6 +116,39 @@ TEST(CameraYaml, CalibrationFileAndRos1Message) {
   expect_camera(flat.intrinsics, {.fx = 600, .fy = 601, .cx = 320.5, .cy = 240.5});
 }
 
+TEST(CameraYaml, ProjectionMatrixIsTheRectifiedImagesCamera) {
+  // A calibration with distortion: P, the camera of the rectified image, is the depth images'
+  // (ROS's depth_image_proc takes P); K stays available for a warning.
+  const std::string with_p = std::string(kCalibrationFile) +
+                             "projection_matrix:\n  rows: 3\n  cols: 4\n"
+                             "  data: [560.0, 0, 318.0, 0, 0, 562.5, 237.0, 0, 0, 0, 1, 0]\n";
+  const io::CameraFile f = io::parse_camera_yaml(with_p, "ost.yaml");
+  expect_camera(f.intrinsics,
+                {.fx = 560, .fy = 562.5, .cx = 318, .cy = 237, .width = 640, .height = 480});
+  expect_camera(f.camera_matrix,
+                {.fx = 570.3, .fy = 571.1, .cx = 314.5, .cy = 235.5, .width = 640, .height = 480});
+  EXPECT_TRUE(f.projection_differs());
+
+  // A message's P equal to K (a RealSense) is no difference; a stereo right camera's Tx is
+  // its baseline, not an intrinsic.
+  const io::CameraFile same = io::parse_camera_yaml(kRos2Message, "info.yaml");
+  EXPECT_FALSE(same.projection_differs());
+  const io::CameraFile right = io::parse_camera_yaml(
+      "K: [285.0, 0.0, 160.5, 0.0, 286.0, 120.5, 0.0, 0.0, 1.0]\n"
+      "P: [285.0, 0.0, 160.5, -21.4, 0.0, 286.0, 120.5, 0.0, 0.0, 0.0, 1.0, 0.0]\n",
+      "right.yaml");
+  EXPECT_FALSE(right.projection_differs());
+  EXPECT_EQ(right.intrinsics.fx, 285.0);
+
+  // A driver that does not rectify leaves P all zero: K is the camera.
+  const io::CameraFile zero_p = io::parse_camera_yaml(
+      "K: [285.0, 0.0, 160.5, 0.0, 286.0, 120.5, 0.0, 0.0, 1.0]\nP: [0, 0, 0, 0, 0, 0, 0, 0, 0, "
+      "0, 0, 0]\n",
+      "zero.yaml");
+  expect_camera(zero_p.intrinsics, {.fx = 285.0, .fy = 286.0, .cx = 160.5, .cy = 120.5});
+  EXPECT_FALSE(zero_p.projection_differs());
+}
+
 TEST(CameraYaml, BadFilesNameFileKeyAndValue) {
   const auto check = [](const std::string& text, const std::string& needle) {
     expect_runtime_error_with([&] { io::parse_camera_yaml(text, "cam.yaml"); }, "cam.yaml");
@@ -147,6 +180,16 @@ TEST(CameraYaml, BadFilesNameFileKeyAndValue) {
   check("fx: 1\nfy: 1\ncx: 1\n", "\"cy\"");
   check("fx: 1\nfy: [1]\ncx: 1\ncy: 1\n", "\"fy\"");
   check("k: [525, 0, 319.5, 0, 525, 239.5, 0, 0, 1]\nd: 0.1\n", "\"d\"");
+  check("k: [525, 0, 319.5, 0, 525, 239.5, 0, 0, 1]\np: [525, 0, 319.5, 0, 525, 239.5]\n",
+        "12 numbers");
+  check(
+      "k: [525, 0, 319.5, 0, 525, 239.5, 0, 0, 1]\n"
+      "p: [525, 0, 319.5, 0, 525, 0, 239.5, 0, 0, 0, 1, 0]\n",
+      "not a projection matrix");
+  check(
+      "k: [525, 0, 319.5, 0, 525, 239.5, 0, 0, 1]\n"
+      "p: [-525, 0, 319.5, 0, 0, 525, 239.5, 0, 0, 0, 1, 0]\n",
+      "fx");
 }
 
 TEST(CameraFile, ReadsYamlOrJsonByName) {

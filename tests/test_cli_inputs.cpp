@@ -1,5 +1,6 @@
 // The CLI's options on inputs and outputs: smoothing passes, output types, intrinsics files.
 #include <gtest/gtest.h>
+#include <png.h>
 
 #include <cmath>
 #include <cstdint>
@@ -398,4 +399,72 @@ TEST(CliInputs, RosCameraInfoYamlSegmentsAsTheJson) {
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_TRUE(contains(r.out, "bad.yaml")) << r.out;
   EXPECT_TRUE(contains(r.out, "9 numbers")) << r.out;
+
+  // A calibration's projection matrix P is the rectified images' camera (ROS's depth_image_proc
+  // takes P): it is used, and the note names both.
+  std::ofstream(dir / "with_p.yaml")
+      << "height: 120\nwidth: 160\nd: [0.1, 0.0, 0.0, 0.0, 0.0]\nk: " << k
+      << "\np: [131.0, 0.0, 80.5, 0.0, 0.0, 131.0, 60.0, 0.0, 0.0, 0.0, 1.0, 0.0]\n";
+  r = run("info " + a + " --intrinsics " + (dir / "with_p.yaml").string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(contains(r.out, "camera:   fx 131.00 fy 131.00 cx 80.50 cy 60.00")) << r.out;
+  EXPECT_TRUE(contains(r.out, "projection matrix P")) << r.out;
+  EXPECT_TRUE(contains(r.out, "K (fx 131.25, fy 131.50")) << r.out;
+}
+
+// A depth image without a camera, with one focal length, or whose depths are implausible for a
+// depth camera under the scale given is named on stderr; camera options on a point cloud too.
+TEST(CliInputs, DepthImageCameraAndScaleAreChecked) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_depth_checks");
+  rangeseg::DepthImage depth(64, 48, 0);
+  for (int v = 0; v < 48; ++v) {
+    for (int u = 0; u < 64; ++u) depth(u, v) = static_cast<std::uint16_t>(1500 + u);
+  }
+  const std::string png = (dir / "d.png").string();
+  rangeseg::io::write_depth_png(png, depth.view());
+  CliResult r = run("info " + png);
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(contains(r.out, "no camera given")) << r.out;
+  EXPECT_TRUE(contains(r.out, "the default, a Kinect's")) << r.out;
+  EXPECT_FALSE(contains(r.out, "is the scale right")) << r.out;
+  std::ofstream(dir / "camera.json") << R"({"fx": 60, "fy": 60, "cx": 31.5, "cy": 23.5})";
+  r = run("info " + png);
+  EXPECT_TRUE(contains(r.out, "camera.json lies beside it")) << r.out;
+
+  // One focal length is both (square pixels).
+  r = run("info " + png + " --fx 600");
+  EXPECT_TRUE(contains(r.out, "camera:   fx 600.00 fy 600.00")) << r.out;
+  EXPECT_FALSE(contains(r.out, "no camera given")) << r.out;
+  r = run("info " + png + " --fy 610");
+  EXPECT_TRUE(contains(r.out, "camera:   fx 610.00 fy 610.00")) << r.out;
+
+  // Millimetres taken as metres, and as tenths of a micrometre.
+  for (const char* scale : {"1", "0.00001"}) {
+    r = run("info " + png + " --fx 60 --depth-scale " + scale);
+    EXPECT_EQ(r.code, 0) << r.out;
+    EXPECT_TRUE(contains(r.out, "is the scale right")) << scale << r.out;
+  }
+  r = run("info " + png + " --fx 60 --depth-scale inf");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(contains(r.out, "finite number > 0")) << r.out;
+
+  // An 8-bit PNG (here by libpng's simplified API, as a picture would be written) is read, and
+  // named.
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  image.width = 8;
+  image.height = 8;
+  image.format = PNG_FORMAT_GRAY;
+  const std::vector<std::uint8_t> grey(64, 200);
+  const std::string eight = (dir / "eight.png").string();
+  ASSERT_TRUE(png_image_write_to_file(&image, eight.c_str(), 0, grey.data(), 0, nullptr));
+  r = run("info " + eight + " --fx 60");
+  EXPECT_TRUE(contains(r.out, "an 8-bit PNG")) << r.out;
+
+  const std::string pcd = (dir / "c.pcd").string();
+  r = run("convert " + png + " --fx 60 " + pcd);
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = run("info " + pcd + " --depth-scale 0.0001");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(contains(r.out, "apply to depth PNGs only")) << r.out;
 }

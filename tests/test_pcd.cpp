@@ -591,7 +591,7 @@ TEST(PcdHandWritten, TrailingBytesAfterBinaryDataAreIgnored) {
 // Bad input.
 
 TEST(PcdBadInput, HeaderProblems) {
-  expect_error(std::string(), "no DATA line");
+  expect_error(std::string(), "empty file (0 bytes)");
   expect_error(std::string("VERSION 0.7\nFIELDS x y z\nSIZE 4 4"),
                "no DATA line");  // truncated header
   expect_error(std::string(kXyzHeader), "no DATA line");

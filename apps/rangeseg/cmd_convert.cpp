@@ -21,11 +21,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// Largest distance [pixel] of a point from its pixel under the fitted camera for a cloud to
-/// count as a depth image: points computed from a depth image in float lie within ~2e-4 px of
-/// their pixel (a stereo camera's PCL cloud within 0.02 px), a laser scan's pixels by far more.
-constexpr double kPinholeTolerance = 0.05;
-
 struct ConvertOptions {
   InputOptions in;
   std::string out;
@@ -64,13 +59,13 @@ void convert(const ConvertOptions& o) {
     // A depth PNG keeps z only: x and y come back from its intrinsics, written beside it.
     CameraIntrinsics camera;
     double off = 0;
-    if (!fit_intrinsics(in.cloud, camera, kPinholeTolerance, &off)) {
+    if (!fit_intrinsics(in.cloud, camera, kDefaultFitTolerance, &off)) {
       char how[128] = "its points fit no pinhole camera";
       if (std::isfinite(off)) {
         std::snprintf(how, sizeof how,
                       "its points lie up to %.3g px off the pixels of the best-fitting pinhole "
                       "camera (at most %.2g)",
-                      off, kPinholeTolerance);
+                      off, kDefaultFitTolerance);
       }
       throw std::runtime_error(o.in.path + ": not a depth camera's image, " + how +
                                ": a depth PNG keeps only z, from which x and y could not be "

@@ -1,3 +1,5 @@
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -33,7 +35,13 @@ void add_info(CLI::App& app) {
                                         : "not applied: --apply-viewpoint moves the points into "
                                           "this sensor's frame");
     }
-    if (in.cloud.is_organized() && s.valid > 0) {
+    if (!in.camera_source.empty()) {
+      const CameraIntrinsics& c = in.camera;
+      std::printf(
+          "camera:   fx %.2f fy %.2f cx %.2f cy %.2f (%s; the smoothing's pixel angle 1 / fx = "
+          "%.6g rad)\n",
+          c.fx, c.fy, c.cx, c.cy, in.camera_source.c_str(), 1.0 / c.fx);
+    } else if (in.cloud.is_organized() && s.valid > 0) {
       // The smoothing's pixel angle is 1 / fx of this camera, which the pipeline fits as here.
       CameraIntrinsics camera;
       if (fit_intrinsics(in.cloud, camera)) {
@@ -48,6 +56,20 @@ void add_info(CLI::App& app) {
             "points moved out of the camera's frame; the smoothing's pixel angle is then 1 / 525 "
             "rad unless the config sets \"smoothing\": {\"pixel_angle\": ...})\n");
       }
+    }
+    if (!in.cloud.is_organized() && s.valid > 0) {
+      // A scan all around its sensor (a spinning lidar) has no depth axis: its range does.
+      double low = INFINITY, high = 0;
+      const float *xs = in.cloud.x.row(0), *ys = in.cloud.y.row(0), *zs = in.cloud.z.row(0);
+      for (int i = 0; i < in.cloud.width(); ++i) {
+        const double x = xs[i], y = ys[i], z = zs[i];
+        const double r = std::sqrt(x * x + y * y + z * z);
+        if (!std::isfinite(r)) continue;
+        low = std::min(low, r);
+        high = std::max(high, r);
+      }
+      std::printf("range:    %.4f .. %.4f %s from the sensor (the origin)\n", low, high,
+                  in.units.c_str());
     }
     if (!in.cloud.is_organized()) {
       PixelGrid grid;

@@ -36,10 +36,14 @@ void add_input_options(CLI::App& cmd, InputOptions& o, bool positional) {
                      "Camera intrinsics for depth PNGs: JSON (Open3D camera_*.json layout, or "
                      "{fx, fy, cx, cy}) or ROS camera_info YAML (.yaml: a calibration file or a "
                      "CameraInfo message); its width and height, when given, must be the PNG's");
-  CLI::Option* fx =
-      cmd.add_option("--fx", o.fx, "Focal length x [pixel] for depth PNGs")->capture_default_str();
-  CLI::Option* fy =
-      cmd.add_option("--fy", o.fy, "Focal length y [pixel] for depth PNGs")->capture_default_str();
+  CLI::Option* fx = cmd.add_option("--fx", o.fx,
+                                   "Focal length x [pixel] for depth PNGs (default --fy when "
+                                   "given, else 525, a Kinect's)")
+                        ->each([&o](const std::string&) { o.fx_given = true; });
+  CLI::Option* fy = cmd.add_option("--fy", o.fy,
+                                   "Focal length y [pixel] for depth PNGs (default --fx when "
+                                   "given, else 525)")
+                        ->each([&o](const std::string&) { o.fy_given = true; });
   CLI::Option* cx =
       cmd.add_option("--cx", o.cx, "Principal point x [pixel] for depth PNGs (default (width-1)/2)")
           ->each([&o](const std::string&) { o.cx_given = true; });
@@ -55,8 +59,18 @@ void add_input_options(CLI::App& cmd, InputOptions& o, bool positional) {
                "taken as stored, in the sensor's frame (PCL's OpenNI grabber writes VIEWPOINT 0 "
                "0 0 0 1 0 0 for such points)");
   cmd.add_option("--depth-scale", o.depth_scale,
-                 "Metres per depth PNG unit (0.001 = millimetres; TUM sequences: 0.0002)")
+                 "Metres per depth PNG unit (0.001 = millimetres; RealSense D400 at its "
+                 "default 0.1 mm: 0.0001; TUM sequences: 0.0002)")
       ->capture_default_str()
+      ->check(CLI::Validator(
+          [](const std::string& text) {
+            double value = 0;
+            const bool number = CLI::detail::lexical_cast(text, value);
+            return number && std::isfinite(value) && value > 0
+                       ? std::string()
+                       : "must be a finite number > 0 [m per unit], got " + text;
+          },
+          "SCALE", "finite, > 0"))
       ->each([&o](const std::string&) { o.depth_scale_given = true; });
 }
 
@@ -82,16 +96,32 @@ void warn_distortion(const std::string& path, const io::CameraFile& file) {
                coefficients.c_str());
 }
 
+void note_projection(const std::string& path, const io::CameraFile& file) {
+  static std::mutex mutex;
+  static std::set<std::string> noted;
+  const std::lock_guard lock(mutex);
+  if (!noted.insert(path).second) return;
+  const CameraIntrinsics& p = file.intrinsics;
+  const CameraIntrinsics& k = file.camera_matrix;
+  std::fprintf(stderr,
+               "rangeseg: %s: the projection matrix P (fx %.2f, fy %.2f, cx %.2f, cy %.2f) is "
+               "the camera of the depth images, as for ROS's depth_image_proc: they are taken "
+               "as rectified; K (fx %.2f, fy %.2f, cx %.2f, cy %.2f) is the raw image's\n",
+               path.c_str(), p.fx, p.fy, p.cx, p.cy, k.fx, k.fy, k.cx, k.cy);
+}
+
 }  // namespace
 
 CameraIntrinsics intrinsics_for(const InputOptions& o, int width, int height) {
   if (!o.intrinsics.empty()) {
     const io::CameraFile file = io::read_camera_file(o.intrinsics);
     if (file.distorted()) warn_distortion(o.intrinsics, file);
+    if (file.projection_differs()) note_projection(o.intrinsics, file);
     return file.intrinsics;
   }
-  CameraIntrinsics cam{.fx = o.fx,
-                       .fy = o.fy,
+  // Square pixels unless both are given: one focal length alone is the camera's.
+  CameraIntrinsics cam{.fx = o.fx_given || !o.fy_given ? o.fx : o.fy,
+                       .fy = o.fy_given || !o.fx_given ? o.fy : o.fx,
                        .cx = o.cx_given ? o.cx : (width - 1) / 2.0,
                        .cy = o.cy_given ? o.cy : (height - 1) / 2.0,
                        .width = width,
@@ -127,8 +157,75 @@ void take_viewpoint(LoadedInput& in, const std::array<double, 7>& p, const Input
 
 }  // namespace
 
+namespace {
+
+// Once per process: a batch's frames share their options and may load on several threads.
+void warn_once(std::once_flag& flag, const std::string& message) {
+  std::call_once(flag, [&] { std::fprintf(stderr, "rangeseg: %s\n", message.c_str()); });
+}
+
+bool camera_options_given(const InputOptions& o) {
+  return !o.intrinsics.empty() || o.fx_given || o.fy_given || o.cx_given || o.cy_given;
+}
+
+// A depth image's camera and scale, when nothing named them or they are implausible.
+void check_depth_image(const InputOptions& o, const OrganizedCloud& cloud, bool eight_bit) {
+  if (!camera_options_given(o) && !o.camera_by_convention) {
+    static std::once_flag flag;
+    std::string beside;
+    const std::filesystem::path folder = std::filesystem::path(o.path).parent_path();
+    std::error_code ec;
+    for (const auto& e : std::filesystem::directory_iterator(
+             folder.empty() ? std::filesystem::path(".") : folder, ec)) {
+      const std::string ext = io::extension(e.path().string());
+      if (ext == ".json" || ext == ".yaml" || ext == ".yml") {
+        beside = " (" + e.path().string() + " lies beside it: pass it with --intrinsics)";
+        break;
+      }
+    }
+    warn_once(flag, "note: " + o.path +
+                        ": no camera given (--intrinsics, --fx/--fy): depth PNGs are taken as a "
+                        "Kinect's, fx = fy = 525 px, the principal point at the centre" +
+                        beside);
+  }
+  if (eight_bit) {
+    static std::once_flag flag;
+    warn_once(flag, "warning: " + o.path +
+                        ": an 8-bit PNG, read as depth in units of --depth-scale (0..255); a "
+                        "depth camera writes 16-bit PNGs: is it a picture or a mask?");
+  }
+  // The median depth of the valid pixels: a depth camera sees 0.1-20 m.
+  std::vector<float> z;
+  const int step = std::max(1, cloud.height() / 64);
+  for (int v = 0; v < cloud.height(); v += step) {
+    const float* row = cloud.z.row(v);
+    for (int u = 0; u < cloud.width(); u += step) {
+      if (std::isfinite(row[u]) && row[u] > 0) z.push_back(row[u]);
+    }
+  }
+  if (z.empty()) return;
+  std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(z.size() / 2), z.end());
+  const double median = z[z.size() / 2];
+  if (median > 0.02 && median < 200) return;
+  static std::once_flag flag;
+  char text[96];
+  std::snprintf(text, sizeof text, "the median depth is %.4g m with --depth-scale %g m/unit",
+                median, o.depth_scale);
+  warn_once(flag, "warning: " + o.path + ": " + text +
+                      ": is the scale right? (0.001 for millimetres, 0.0001 for a RealSense "
+                      "D400's default 0.1 mm units, 0.0002 for TUM)");
+}
+
+}  // namespace
+
 LoadedInput load_input(const InputOptions& o) {
   LoadedInput in;
+  if (io::extension(o.path) != ".png" && (camera_options_given(o) || o.depth_scale_given)) {
+    static std::once_flag flag;
+    warn_once(flag, "warning: " + o.path +
+                        ": --intrinsics, --fx, --fy, --cx, --cy and --depth-scale apply to "
+                        "depth PNGs only: this file's points are used as they are");
+  }
   const std::string ext = io::extension(o.path);
   if (ext == ".pcd") {
     io::PcdInfo info;
@@ -139,17 +236,24 @@ LoadedInput load_input(const InputOptions& o) {
     if (in.cloud.has_label()) in.ground_truth = in.cloud.label;
     if (info.moved_from_sensor()) take_viewpoint(in, info.viewpoint, o, "VIEWPOINT");
   } else if (ext == ".png") {
-    const DepthImage depth = io::read_depth_png(o.path);
+    bool eight_bit = false;
+    const DepthImage depth = io::read_depth_png(o.path, &eight_bit);
     const CameraIntrinsics cam = intrinsics_for(o, depth.width(), depth.height());
     try {
       in.cloud = depth_to_cloud(depth.view(), cam, o.depth_scale);
       in.camera_fx = cam.fx;
+      in.camera = cam;
+      in.camera_source = !o.intrinsics.empty()     ? o.intrinsics
+                         : camera_options_given(o) ? "--fx / --fy / --cx / --cy"
+                         : o.camera_by_convention  ? "TUM RGB-D's"
+                                                   : "the default, a Kinect's";
     } catch (const std::invalid_argument& e) {
       // e.g. intrinsics of another image size (depth_to_cloud checks them)
       throw std::runtime_error(o.path + (o.intrinsics.empty() ? "" : " with " + o.intrinsics) +
                                ": " + e.what());
     }
-    in.format = "16-bit depth PNG";
+    check_depth_image(o, in.cloud, eight_bit);
+    in.format = eight_bit ? "8-bit depth PNG" : "16-bit depth PNG";
     in.fields = "depth (scale " + std::to_string(o.depth_scale) + " m/unit)";
   } else if (ext == ".ply") {
     io::PlyCloudInfo info;
@@ -357,6 +461,7 @@ FrameList gather_frames(const std::vector<std::string>& inputs, const InputOptio
   // colour camera by the factory calibration): fx = fy = 525, cx = 319.5, cy = 239.5, which are
   // the defaults of InputOptions at 640x480, and 5000 depth units per metre.
   if (tum && !base.depth_scale_given) list.options.depth_scale = kTumDepthScale;
+  if (tum) list.options.camera_by_convention = true;
   // Unique folder names in input order: the second "a" becomes "a_2".
   std::map<std::string, int> seen;
   for (FrameSource& f : list.frames) {

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "rangeseg/camera.hpp"
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/image.hpp"
 
@@ -17,9 +18,12 @@ struct InputOptions {
   std::string path;
   std::string intrinsics;  ///< camera file for depth PNGs (io::read_camera_file)
   double fx = 525, fy = 525, cx = 319.5, cy = 239.5;
-  bool cx_given = false, cy_given = false;
+  bool fx_given = false, fy_given = false, cx_given = false, cy_given = false;
   double depth_scale = 0.001;  ///< metres per raw depth unit
   bool depth_scale_given = false;
+  /// The camera and depth scale are the input's documented ones (a TUM sequence), so a depth
+  /// PNG without a camera gets no note about the default camera.
+  bool camera_by_convention = false;
   /// Move a PCD's points into the frame of the sensor its VIEWPOINT names (off by default:
   /// PCL's OpenNI grabber writes VIEWPOINT 0 0 0 0 1 0 0 for points in the camera's frame).
   bool apply_viewpoint = false;
@@ -32,6 +36,10 @@ struct LoadedInput {
   std::string units = "m";
   /// fx of the camera of a depth image [pixel] (for the smoothing's pixel angle), else 0
   double camera_fx = 0;
+  CameraIntrinsics camera;  ///< a depth image's camera, else zeros
+  /// Where a depth image's camera came from (a file's name, "--fx / --fy", "TUM's", or the
+  /// default), else empty.
+  std::string camera_source;
   LabelImage ground_truth;  ///< from a SegComp .gt-seg beside a .range, or a PCD label field
   /// The smallest label of `ground_truth` that is a region (a .gt-seg's 1 and 2 are unlabelled
   /// pixels: 10).

@@ -48,6 +48,12 @@ void depth_to_cloud_rows(View<const std::uint16_t> depth, const CameraIntrinsics
 void depth_to_cloud_rows(View<const float> depth, const CameraIntrinsics& camera,
                          OrganizedCloud& cloud, int row_begin, int row_end);
 
+/// How far [pixel] a point may lie off its pixel under a fitted pinhole camera before the fit is
+/// refused: points computed from a depth image in float lie within ~2e-4 pixel of their pixel
+/// (PCL's stereo frame table_scene_mug_stereo_textured within 0.02), a laser scanner's grid or an
+/// uncorrected lens far beyond it.
+inline constexpr double kDefaultFitTolerance = 0.05;
+
 /// The pinhole intrinsics of an organized cloud computed from a depth image: the least-squares
 /// fx, cx of x / z = (u - cx) / fx over its valid points with z > 0, and fy, cy alike, with width
 /// and height the cloud's. Returns false when there are fewer than two distinct columns or rows
@@ -55,8 +61,8 @@ void depth_to_cloud_rows(View<const float> depth, const CameraIntrinsics& camera
 /// fitted camera (a laser scanner's grid, a cloud transformed out of the camera's frame, a
 /// stereo camera's sub-pixel points). `max_error`, when given, receives that largest deviation
 /// [pixel] (infinity when nothing was fitted).
-bool fit_intrinsics(const OrganizedCloud& cloud, CameraIntrinsics& camera, double tolerance = 0.05,
-                    double* max_error = nullptr);
+bool fit_intrinsics(const OrganizedCloud& cloud, CameraIntrinsics& camera,
+                    double tolerance = kDefaultFitTolerance, double* max_error = nullptr);
 
 /// Converts the z plane of an organized cloud back to raw depth units (rounded; 0 where the
 /// point is invalid, z <= 0, or z / depth_scale does not fit in 16 bits). Throws

@@ -122,13 +122,24 @@ height are 0 when the file does not give them.)");
             throw py::error_already_set();
           }
         }
+        if (camera.projection_differs()) {
+          const std::string message =
+              path +
+              ": the projection matrix P is taken as the depth image's camera (the "
+              "rectified image's, as for ROS's depth_image_proc), not K";
+          if (PyErr_WarnEx(PyExc_UserWarning, message.c_str(), 1) != 0) {
+            throw py::error_already_set();
+          }
+        }
         return camera_dict(camera.intrinsics);
       },
       "path"_a,
       R"(Pinhole intrinsics from a camera file as a dict, the keywords of
 Pipeline.process_depth: JSON as read_camera_json reads it, or ROS camera_info YAML (.yaml /
 .yml: a camera_calibration file, or a CameraInfo message as `ros2 topic echo --once` prints
-it). A lens distortion the file states is not applied; a UserWarning says so.)");
+it; its projection matrix P, the rectified image's camera, when it gives one, else K). A
+lens distortion the file states is not applied; a UserWarning says so, and when P is not
+K.)");
 }
 
 }  // namespace rangeseg::python

@@ -123,6 +123,30 @@ CameraIntrinsics from_k(const std::vector<double>& k, const std::string& key,
   return {.fx = k[0], .fy = k[4], .cx = k[2], .cy = k[5]};
 }
 
+// ROS's projection matrix, the camera of the rectified image: row-major 3x4
+// [fx', 0, cx', Tx, 0, fy', cy', Ty, 0, 0, 1, 0]; false when it is all zero (drivers that do
+// not rectify leave it so).
+bool from_p(const std::vector<double>& p, const std::string& key, const std::string& name,
+            CameraIntrinsics& camera) {
+  if (p.size() != 12) {
+    fail(name, "key \"" + key + "\" must hold 12 numbers (3x4, row-major), got " +
+                   std::to_string(p.size()));
+  }
+  if (std::all_of(p.begin(), p.end(), [](double x) { return x == 0; })) return false;
+  if (p[1] != 0 || p[4] != 0 || p[8] != 0 || p[9] != 0 || p[10] != 1 || p[11] != 0) {
+    std::string text;
+    for (const double x : p) text += (text.empty() ? "" : ", ") + std::to_string(x);
+    fail(name, "key \"" + key + "\" [" + text +
+                   "] is not a projection matrix [fx, 0, cx, Tx, 0, fy, cy, Ty, 0, 0, 1, 0] "
+                   "(row-major, no skew)");
+  }
+  camera.fx = p[0];
+  camera.cx = p[2];
+  camera.fy = p[5];
+  camera.cy = p[6];
+  return true;
+}
+
 // The first YAML document of `text` (ROS's echo ends a message with `---`, and
 // `ros2 topic echo` without --once prints one after another), with an error for the one input
 // on which Debian 12's yaml-cpp 0.7 never returns (it allocates until memory runs out): a
@@ -174,6 +198,11 @@ bool CameraFile::distorted() const {
   return std::any_of(distortion.begin(), distortion.end(), [](double d) { return d != 0; });
 }
 
+bool CameraFile::projection_differs() const {
+  return intrinsics.fx != camera_matrix.fx || intrinsics.fy != camera_matrix.fy ||
+         intrinsics.cx != camera_matrix.cx || intrinsics.cy != camera_matrix.cy;
+}
+
 CameraFile parse_camera_yaml(const std::string& text, const std::string& name) {
   YAML::Node root;
   try {
@@ -191,6 +220,9 @@ CameraFile parse_camera_yaml(const std::string& text, const std::string& name) {
     camera.width = size_value(root, key == "camera_matrix" ? "image_width" : "width", name);
     camera.height = size_value(root, key == "camera_matrix" ? "image_height" : "height", name);
     refuse_binning_and_roi(root, camera, name);
+    file.camera_matrix = camera;
+    const char* const p_key = key == "camera_matrix" ? "projection_matrix" : key == "k" ? "p" : "P";
+    if (const YAML::Node p = root[p_key]) from_p(matrix(p, p_key, name), p_key, name, camera);
   } else if (root["fx"]) {
     for (const auto& [key_name, value] : {std::pair{"fx", &camera.fx},
                                           {"fy", &camera.fy},
@@ -202,6 +234,7 @@ CameraFile parse_camera_yaml(const std::string& text, const std::string& name) {
     }
     camera.width = size_value(root, "width", name);
     camera.height = size_value(root, "height", name);
+    file.camera_matrix = camera;
   } else {
     fail(name,
          "no camera matrix: expected \"camera_matrix\" (a ROS calibration file), \"k\" or "
@@ -228,6 +261,7 @@ CameraFile read_camera_file(const std::string& path) {
   if (ext == ".yaml" || ext == ".yml") return parse_camera_yaml(text, path);
   CameraFile file;
   file.intrinsics = parse_camera_json(text, path);
+  file.camera_matrix = file.intrinsics;
   return file;
 }
 

@@ -507,6 +507,7 @@ const Field* used_field(const Header& h, std::string_view field_name, const std:
 OrganizedCloud parse_pcd(const std::uint8_t* data, std::size_t size, const std::string& name,
                          PcdInfo* info) {
   if (data == nullptr && size != 0) throw std::invalid_argument(name + ": parse_pcd: null data");
+  if (size == 0) fail(name, "empty file (0 bytes)");
   const Header h = parse_header(data, size, name);
 
   const Field* fx = used_field(h, "x", name);

@@ -89,11 +89,12 @@ std::string colour_type_name(int colour_type) {
 
 // Decodes an 8- or 16-bit grayscale PNG into `out` (resized), widening 8-bit values.
 template <class T>
-void decode_gray(const std::uint8_t* data, std::size_t size, const std::string& name,
-                 Plane<T>& out) {
+void decode_gray(const std::uint8_t* data, std::size_t size, const std::string& name, Plane<T>& out,
+                 bool* eight_bit = nullptr) {
   const auto fail = [&](const std::string& why) -> std::runtime_error {
     return std::runtime_error("PNG '" + name + "': " + why);
   };
+  if (size == 0) throw fail("empty file (0 bytes)");
   if (data == nullptr || size < 8 || png_sig_cmp(data, 0, 8) != 0) {
     throw fail("not a PNG file (bad signature)");
   }
@@ -144,6 +145,7 @@ void decode_gray(const std::uint8_t* data, std::size_t size, const std::string& 
                std::to_string(header.height) + " is empty or larger than the limit of " +
                std::to_string(kMaxPngPixels) + " pixels");
   }
+  if (eight_bit != nullptr) *eight_bit = header.bit_depth == 8;
   const std::size_t bytes_per_sample = header.bit_depth / 8;
   const std::size_t row_bytes = header.width * bytes_per_sample;
   // Deflate cannot compress better than 1032:1, so a header promising more filtered image bytes
@@ -259,15 +261,16 @@ std::vector<std::uint8_t> encode_gray16(View<const std::uint16_t> image) {
 
 }  // namespace
 
-DepthImage decode_depth_png(const std::uint8_t* data, std::size_t size, const std::string& name) {
+DepthImage decode_depth_png(const std::uint8_t* data, std::size_t size, const std::string& name,
+                            bool* eight_bit) {
   DepthImage image;
-  decode_gray(data, size, name, image);
+  decode_gray(data, size, name, image, eight_bit);
   return image;
 }
 
-DepthImage read_depth_png(const std::string& path) {
+DepthImage read_depth_png(const std::string& path, bool* eight_bit) {
   const std::vector<std::uint8_t> bytes = read_file(path);
-  return decode_depth_png(bytes.data(), bytes.size(), path);
+  return decode_depth_png(bytes.data(), bytes.size(), path, eight_bit);
 }
 
 LabelImage read_label_png(const std::string& path) {

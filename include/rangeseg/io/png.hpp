@@ -18,11 +18,13 @@ inline constexpr std::uint64_t kMaxPngPixels = std::uint64_t{1} << 28;
 /// Reads a grayscale PNG as raw depth (e.g. millimetres, 0 = no measurement). 16-bit gray is
 /// read as is; 8-bit gray is widened (value kept, 0..255). Any other colour type or bit depth
 /// (RGB, palette, gray+alpha, 1/2/4-bit gray) throws std::runtime_error naming the file, as do
-/// unreadable, truncated or corrupt files.
-DepthImage read_depth_png(const std::string& path);
+/// unreadable, truncated, corrupt or empty files. `eight_bit`, when given, is set to whether the
+/// file was 8-bit (a depth camera writes 16 bits; 8 bits is more often a picture or a mask).
+DepthImage read_depth_png(const std::string& path, bool* eight_bit = nullptr);
 
 /// The decoder behind read_depth_png, on a PNG held in memory; `name` is used in error messages.
-DepthImage decode_depth_png(const std::uint8_t* data, std::size_t size, const std::string& name);
+DepthImage decode_depth_png(const std::uint8_t* data, std::size_t size, const std::string& name,
+                            bool* eight_bit = nullptr);
 
 /// Reads a 16-bit (or 8-bit) grayscale PNG as integer labels, 0 = none; throws
 /// std::runtime_error naming the file for any other PNG or an unreadable one.
