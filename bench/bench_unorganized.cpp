@@ -83,13 +83,13 @@ void BM_RingOrder(benchmark::State& state) {
   for (auto _ : state) {
     unorganized::spatial_order(shuffled, f.settings.rings, order);
     unorganized::gather(shuffled, order.order, ordered);
-    unorganized::rings_to_input_order(f.rings, order.order, back);
+    unorganized::rings_to_input_order(f.rings, order, back);
     unorganized::to_input_order(f.normals, order);
     unorganized::to_input_order(f.smoothed_normals, order);
     for (FloatPlane* p : {&f.smoothed.x, &f.smoothed.y, &f.smoothed.z}) {
-      unorganized::to_input_order(*p, order.order, order.floats);
+      unorganized::to_input_order(*p, order, order.floats);
     }
-    unorganized::to_input_order(f.segmentation.labels, order.order, order.ints);
+    unorganized::to_input_order(f.segmentation.labels, order, order.ints);
     benchmark::DoNotOptimize(back.neighbours.data());
   }
   report_points(state, f);

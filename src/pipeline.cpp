@@ -147,17 +147,17 @@ void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
     polygons_ = PolygonSet{};
   }
   tracker_.reset();  // labels per point of a cloud over rings are no pixels to match
-  unorganized::rings_to_input_order(ordered_rings_, order.order, rings_);
+  unorganized::rings_to_input_order(ordered_rings_, order, rings_);
   unorganized::to_input_order(raw_normals_, order);
   if (settings_.smooth) {
     unorganized::to_input_order(smoothed_normals_, order);
     for (FloatPlane* p : {&smoothed_cloud_.x, &smoothed_cloud_.y, &smoothed_cloud_.z}) {
-      unorganized::to_input_order(*p, order.order, order.floats);
+      unorganized::to_input_order(*p, order, order.floats);
     }
     detail::copy_optional_planes(cloud, smoothed_cloud_);
   }
   if (settings_.segment) {
-    unorganized::to_input_order(segmentation_.labels, order.order, order.ints);
+    unorganized::to_input_order(segmentation_.labels, order, order.ints);
   }
   times_.input += ms_since(t);
   times_.total = std::chrono::duration<double, std::milli>(Clock::now() - start).count();

@@ -19,6 +19,7 @@
 #include "rangeseg/camera.hpp"
 #include "rangeseg/colorize.hpp"
 #include "rangeseg/io/pcd.hpp"
+#include "rangeseg/sensor.hpp"
 #include "rangeseg/synth.hpp"
 #include "test_util.hpp"
 
@@ -234,10 +235,22 @@ TEST(CliUnorganized, SmoothWritesPointsWithNormals) {
   EXPECT_NE(info.fields_summary.find("normal_x normal_y normal_z curvature"), std::string::npos)
       << info.fields_summary;
   ASSERT_EQ(smoothed.size(), input.size());
-  // The Kinect preset's filter moves the noisy points.
+  // The Kinect preset's filter moves the noisy points along their rays, by at most sigma per
+  // pass. Points inside a terrace of the disparity quantisation stay (measured: 12573 of
+  // 18934): their ring is flat, and so is the plane they are moved to.
   std::size_t moved = 0;
-  for (int i = 0; i < input.width(); ++i) moved += smoothed.z(i, 0) != input.z(i, 0) ? 1 : 0;
-  EXPECT_GT(moved, input.size() / 2);
+  double most = 0;  // [sigma]
+  const rangeseg::SensorNoise kinect{};
+  for (int i = 0; i < input.width(); ++i) {
+    moved += smoothed.z(i, 0) != input.z(i, 0) ? 1 : 0;
+    const double r = std::hypot(input.x(i, 0), input.y(i, 0), input.z(i, 0));
+    const double d = std::hypot(smoothed.x(i, 0) - input.x(i, 0), smoothed.y(i, 0) - input.y(i, 0),
+                                smoothed.z(i, 0) - input.z(i, 0));
+    most = std::max(most, d / kinect.sigma(r));
+  }
+  EXPECT_GT(moved, input.size() / 5);
+  // sigma at each pass's range, which moves with the point (3.03 here).
+  EXPECT_LE(most, 3.2);
   rangeseg::test::expect_unit_normals(dir / "smoothed.pcd", input.size(), input.size());
 }
 

@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <iterator>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -116,6 +117,31 @@ TEST(Ply, AtomicFileWithoutCommitLeavesNothing) {
   EXPECT_EQ(io::read_file(path).size(), 3u);
   EXPECT_THROW(file.commit(), std::runtime_error);
   EXPECT_THROW(file.write("x", 1), std::runtime_error);
+}
+
+// What a signal handler calls: the temporaries being written go, committed files stay, and a
+// file whose temporary went cannot be committed.
+TEST(Ply, RemoveTemporaryFilesRemovesOnlyUncommittedTemporaries) {
+  const auto dir = test::scratch_dir("ply_atomic_signal");
+  const std::string done = (dir / "done.ply").string();
+  io::write_file_atomic(done, std::string("abc"));
+  io::AtomicFile open_a((dir / "a.ply").string());
+  io::AtomicFile open_b((dir / "b.ply").string());
+  open_a.write("ply\n", 4);
+  const auto count = [&] {
+    return std::distance(std::filesystem::directory_iterator(dir),
+                         std::filesystem::directory_iterator());
+  };
+  EXPECT_EQ(count(), 3);
+  io::remove_temporary_files();
+  EXPECT_EQ(count(), 1);
+  EXPECT_EQ(io::read_file(done).size(), 3u);
+  EXPECT_THROW(open_a.commit(), std::runtime_error);
+  // Their slots are free again: a new file is tracked, and removed by the next call.
+  io::AtomicFile next((dir / "c.ply").string());
+  EXPECT_EQ(count(), 2);
+  io::remove_temporary_files();
+  EXPECT_EQ(count(), 1);
 }
 
 TEST(Ply, HeaderAndBinaryLayoutAreExactlyAsDocumented) {

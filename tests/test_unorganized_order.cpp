@@ -127,8 +127,8 @@ TEST(SpatialOrder, GatherAndBackRestoreEveryPlane) {
     ASSERT_EQ(ordered.label(static_cast<int>(t), 0), i);
     ASSERT_TRUE(same_float(ordered.z(static_cast<int>(t), 0), cloud.z(i, 0)));
   }
-  unorganized::to_input_order(ordered.intensity, o.order, o.floats);
-  unorganized::to_input_order(ordered.label, o.order, o.ints);
+  unorganized::to_input_order(ordered.intensity, o, o.floats);
+  unorganized::to_input_order(ordered.label, o, o.ints);
   for (int i = 0; i < cloud.width(); ++i) {
     ASSERT_EQ(ordered.label(i, 0), i);
     ASSERT_EQ(ordered.intensity(i, 0), static_cast<float>(i));
@@ -136,7 +136,7 @@ TEST(SpatialOrder, GatherAndBackRestoreEveryPlane) {
   // Rings in the order point at the same points once back in input order.
   const PointRings rings = build_rings(ordered);
   PointRings back;
-  unorganized::rings_to_input_order(rings, o.order, back);
+  unorganized::rings_to_input_order(rings, o, back);
   const PointRings direct = build_rings(cloud);
   ASSERT_EQ(back.size(), direct.size());
   std::size_t differing = 0;
@@ -250,6 +250,55 @@ TEST(RingPipeline, CloudsWithoutEnoughValidPointsGiveEmptyResultsInInputOrder) {
     EXPECT_EQ(pipeline.segmentation().labels.width(), 0);
   } catch (const std::invalid_argument& e) {
     std::printf("  empty cloud: %s\n", e.what());
+  }
+}
+
+// A merged or tiled cloud's exact copies of points: the stages run on the distinct points, and
+// each copy takes its original's results, so that the copies change nothing.
+TEST(RingPipeline, ExactCopiesOfPointsTakeTheirOriginalsResults) {
+  const synth::Rendering r = qvga_boxes_scene(4);
+  const Unorganized u = shuffled(r.cloud, 4);
+  const int n = u.cloud.width();
+  // Every point three times: the cloud, then the cloud twice more.
+  OrganizedCloud tripled(3 * n, 1);
+  for (int i = 0; i < 3 * n; ++i) {
+    tripled.x(i, 0) = u.cloud.x(i % n, 0);
+    tripled.y(i, 0) = u.cloud.y(i % n, 0);
+    tripled.z(i, 0) = u.cloud.z(i % n, 0);
+  }
+  unorganized::SpatialOrder o;
+  unorganized::spatial_order(tripled, RingSettings{}, o);
+  EXPECT_EQ(o.order.size(), static_cast<std::size_t>(n));
+  EXPECT_EQ(o.copies.size(), static_cast<std::size_t>(2 * n));
+  for (std::size_t c = 0; c < o.copies.size(); ++c) {
+    ASSERT_EQ(o.copied[c], o.copies[c] % n) << c;
+  }
+
+  PipelineSettings settings = test::ring_preset("kinect");
+  settings.restore_grid = false;
+  Pipeline single(settings), copies(settings);
+  single.process(u.cloud);
+  copies.process(tripled);
+  const auto& a = single.segmentation();
+  const auto& b = copies.segmentation();
+  ASSERT_EQ(b.labels.width(), 3 * n);
+  ASSERT_GE(a.segments.size(), 5u);
+  ASSERT_EQ(a.segments.size(), b.segments.size());
+  for (int i = 0; i < 3 * n; ++i) {
+    ASSERT_EQ(b.labels(i, 0), a.labels(i % n, 0)) << i;
+    ASSERT_TRUE(same_float(copies.cloud().z(i, 0), single.cloud().z(i % n, 0))) << i;
+    ASSERT_TRUE(same_float(copies.normals().nx(i, 0), single.normals().nx(i % n, 0))) << i;
+    ASSERT_EQ(copies.rings().count[static_cast<std::size_t>(i)],
+              single.rings().count[static_cast<std::size_t>(i % n)]);
+  }
+  for (std::size_t s = 0; s < a.segments.size(); ++s) {
+    EXPECT_EQ(a.segments[s].pixel_count, b.segments[s].pixel_count);
+    EXPECT_EQ(a.segments[s].area_m2, b.segments[s].area_m2);
+  }
+  // A copy's ring is its original's: no edge of length 0.
+  for (const std::int32_t j : copies.rings().ring(static_cast<std::size_t>(n))) {
+    EXPECT_LT(j, n) << "a ring holds a copy";
+    EXPECT_NE(j, 0) << "a copy's ring holds its original";
   }
 }
 

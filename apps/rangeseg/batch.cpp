@@ -143,6 +143,19 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
   // Tracked segments need the frames in order, on one pipeline: the threads then work inside
   // each frame.
   const bool track = settings.settings_for(resolve_preset(settings.preset, "")).track;
+  for (std::size_t i = 1; track && i < n; ++i) {
+    // A shell's glob sorts frame10 before frame2; tracks would then jump back and forth.
+    const std::string& before = list.frames[i - 1].path;
+    const std::string& after = list.frames[i].path;
+    if (natural_less(after, before)) {
+      std::fprintf(stderr,
+                   "rangeseg: warning: --track runs the frames in the order given, and %s comes "
+                   "before %s (a folder runs in natural order: give the folder, or sort the "
+                   "list with `ls -v`)\n",
+                   before.c_str(), after.c_str());
+      break;
+    }
+  }
   const int frame_threads = track ? std::max(options.threads, 1) : 1;
   const std::size_t threads =
       track ? 1
@@ -222,6 +235,18 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
       // Of the frames segmented: failures are often cut short by a bad header.
       {"frames_per_second", wall_s > 0 ? static_cast<double>(ok) / wall_s : 0.0},
       {"median_ms", medians},
+      // How depth PNGs among the frames became points.
+      {"depth_png",
+       {{"depth_scale_m_per_unit", list.options.depth_scale},
+        {"camera",
+         !list.options.intrinsics.empty() ? list.options.intrinsics
+         : list.options.fx_given || list.options.fy_given
+             ? "--fx / --fy: fx " +
+                   std::to_string(list.options.fx_given ? list.options.fx : list.options.fy) +
+                   ", fy " +
+                   std::to_string(list.options.fy_given ? list.options.fy : list.options.fx)
+         : list.options.camera_by_convention ? std::string("TUM RGB-D's, fx = fy = 525")
+                                             : std::string("the default, fx = fy = 525")}}},
       {"failures", failures},
       {"per_frame", frames}};
   write_json((out_dir / "summary.json").string(), summary);

@@ -461,7 +461,15 @@ FrameList gather_frames(const std::vector<std::string>& inputs, const InputOptio
   // colour camera by the factory calibration): fx = fy = 525, cx = 319.5, cy = 239.5, which are
   // the defaults of InputOptions at 640x480, and 5000 depth units per metre.
   if (tum && !base.depth_scale_given) list.options.depth_scale = kTumDepthScale;
-  if (tum) list.options.camera_by_convention = true;
+  if (tum) {
+    list.options.camera_by_convention = !camera_options_given(base);
+    std::fprintf(stderr, "rangeseg: a TUM RGB-D sequence: depth in units of %g m%s, %s\n",
+                 list.options.depth_scale,
+                 base.depth_scale_given ? " (--depth-scale)" : " (TUM's 5000 per metre)",
+                 camera_options_given(base) ? "the camera given"
+                                            : "the camera TUM documents (fx = fy = 525 px, cx "
+                                              "319.5, cy 239.5 at 640 x 480)");
+  }
   // Unique folder names in input order: the second "a" becomes "a_2".
   std::map<std::string, int> seen;
   for (FrameSource& f : list.frames) {

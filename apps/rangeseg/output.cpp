@@ -94,7 +94,8 @@ void ProgressBar::advance(const std::string& item) {
   } else if (const std::size_t tenth = done_ * 10 / std::max<std::size_t>(total_, 1);
              tenth > last_line_ || done_ == total_) {
     last_line_ = tenth;
-    std::fprintf(stderr, "rangeseg: %zu/%zu frames processed\n", done_, total_);
+    std::fprintf(stderr, "rangeseg: %zu/%zu frames processed (last: %s)\n", done_, total_,
+                 item.c_str());
   }
 }
 

@@ -1,8 +1,12 @@
 #include "segment_output.hpp"
 
+#include <signal.h>
+
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
@@ -196,6 +200,31 @@ std::string joined(const std::vector<std::string>& paths) {
 
 void remove_earlier_results(const std::filesystem::path& dir,
                             const std::vector<std::string>& written) {
+  // Temporaries of a run that was killed (SIGKILL, a power cut: no handler ran): NAME.tmp.PID of
+  // a process that no longer runs.
+  std::error_code error;
+  for (const auto& entry : std::filesystem::directory_iterator(dir, error)) {
+    const std::string name = entry.path().filename().string();
+    const std::size_t mark = name.rfind(".tmp.");
+    if (mark == std::string::npos ||
+        std::find_if(kFolderFiles.begin(), kFolderFiles.end(), [&](const char* f) {
+          return name.compare(0, mark, f) == 0 && std::strlen(f) == mark;
+        }) == kFolderFiles.end()) {
+      continue;
+    }
+    const std::string pid_text = name.substr(mark + 5);
+    if (pid_text.empty() || pid_text.size() > 9 ||
+        pid_text.find_first_not_of("0123456789") != std::string::npos) {
+      continue;
+    }
+    const auto pid = static_cast<pid_t>(std::stol(pid_text));
+    if (::kill(pid, 0) == 0 || errno != ESRCH) continue;  // its writer may still run
+    std::error_code removed;
+    if (std::filesystem::remove(entry.path(), removed)) {
+      std::fprintf(stderr, "rangeseg: removed %s, left by an interrupted run\n",
+                   entry.path().c_str());
+    }
+  }
   for (const char* name : kFolderFiles) {
     const std::filesystem::path path = dir / name;
     if (std::find(written.begin(), written.end(), path.string()) != written.end()) continue;

@@ -154,6 +154,12 @@ double point_area(const OrganizedCloud& cloud, const PointRings& rings, std::siz
 /// the expected ring edge length at p_i measured instead of taken from the pixel angle: the RMS
 /// distance from p_i to its ring, so s_d(i)^2 = distance_scale^2 * mean(|q_j - p_i|^2) and
 /// s_n(i) = normal_scale * max(1, sigma(r_i) / rms distance). `pixel_angle` is not used.
+/// With move_along_ray, p_i moves along its viewing ray to where the ray meets the plane through
+/// the weighted mean normal to the filtered normal (the mean's projection onto the ray where the
+/// ray runs within 5 degrees of that plane): a ring need not lie around its point, as a
+/// lidar's scan lines lie further apart than its points, and on a slanted surface projecting
+/// the mean onto the ray would move the point off it. A pass moves a point by at most sigma(r_i),
+/// the depth noise at its range.
 /// Optional planes are copied unchanged; points without a ring keep their values.
 /// Throws std::invalid_argument for invalid settings, size mismatches, or when an output
 /// object is the corresponding input.

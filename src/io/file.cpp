@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <cstdio>
@@ -35,10 +36,56 @@ std::vector<std::uint8_t> read_file(const std::string& path, std::uint64_t max_b
   return bytes;
 }
 
+namespace {
+
+// The temporaries being written, for remove_temporary_files(), which a signal handler calls:
+// fixed storage and lock-free atomics only. A slot is 0 (free), 1 (being filled or emptied) or
+// 2 (holds a path).
+constexpr int kTemporarySlots = 64;
+constexpr std::size_t kMaxTemporaryPath = 1024;
+struct TemporarySlot {
+  std::atomic<int> state{0};
+  char path[kMaxTemporaryPath];
+};
+TemporarySlot g_temporaries[kTemporarySlots];
+static_assert(std::atomic<int>::is_always_lock_free);
+
+int register_temporary(const std::string& path) {
+  if (path.size() >= kMaxTemporaryPath) return -1;
+  for (int i = 0; i < kTemporarySlots; ++i) {
+    int expected = 0;
+    if (g_temporaries[i].state.compare_exchange_strong(expected, 1)) {
+      std::memcpy(g_temporaries[i].path, path.c_str(), path.size() + 1);
+      g_temporaries[i].state.store(2);
+      return i;
+    }
+  }
+  return -1;
+}
+
+void release_temporary(int& slot) {
+  if (slot >= 0) g_temporaries[slot].state.store(0);
+  slot = -1;
+}
+
+}  // namespace
+
+void remove_temporary_files() noexcept {
+  for (TemporarySlot& slot : g_temporaries) {
+    int expected = 2;
+    if (slot.state.compare_exchange_strong(expected, 1)) {
+      ::unlink(slot.path);
+      slot.state.store(0);
+    }
+  }
+}
+
 AtomicFile::AtomicFile(std::string path)
     : path_(std::move(path)), tmp_(path_ + ".tmp." + std::to_string(::getpid())) {
+  slot_ = register_temporary(tmp_);
   file_ = std::fopen(tmp_.c_str(), "wb");
   if (file_ == nullptr) {
+    release_temporary(slot_);
     throw std::runtime_error(path_ + ": cannot create: " + std::strerror(errno));
   }
 }
@@ -48,6 +95,7 @@ AtomicFile::~AtomicFile() {
     std::fclose(file_);
     std::remove(tmp_.c_str());
   }
+  release_temporary(slot_);
 }
 
 void AtomicFile::write(const void* bytes, std::size_t size) {
@@ -63,11 +111,15 @@ void AtomicFile::commit() {
   file_ = nullptr;
   if (!closed) {
     std::remove(tmp_.c_str());
+    release_temporary(slot_);
     throw std::runtime_error(path_ + ": write error (disk full?)");
   }
-  if (std::rename(tmp_.c_str(), path_.c_str()) != 0) {
-    const int err = errno;
-    std::remove(tmp_.c_str());
+  // Released after the rename: a signal in between removes a name that no longer exists.
+  const bool renamed = std::rename(tmp_.c_str(), path_.c_str()) == 0;
+  const int err = errno;
+  if (!renamed) std::remove(tmp_.c_str());
+  release_temporary(slot_);
+  if (!renamed) {
     throw std::runtime_error(path_ + ": cannot rename temporary file: " + std::strerror(err));
   }
 }

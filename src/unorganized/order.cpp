@@ -39,15 +39,49 @@ std::uint32_t cell(float value, double low, double scale) {
 }
 
 template <class T>
-void plane_to_input_order(Plane<T>& plane, const std::vector<std::int32_t>& order,
-                          std::vector<T>& scratch) {
-  const std::size_t n = order.size();
+void plane_to_input_order(Plane<T>& plane, const SpatialOrder& o, std::vector<T>& scratch) {
+  const std::size_t n = o.order.size();
   if (n == 0) return;
   assert(plane.height() == 1 && static_cast<std::size_t>(plane.width()) == n);
   if (scratch.size() < n) scratch.resize(n);
+  std::copy(plane.row(0), plane.row(0) + n, scratch.data());
+  if (o.total != n) plane.resize(static_cast<int>(o.total), 1);
   T* row = plane.row(0);
-  std::copy(row, row + n, scratch.data());
-  for (std::size_t t = 0; t < n; ++t) row[order[t]] = scratch[t];
+  for (std::size_t t = 0; t < n; ++t) row[o.order[t]] = scratch[t];
+  for (std::size_t c = 0; c < o.copies.size(); ++c) row[o.copies[c]] = row[o.copied[c]];
+}
+
+bool same_point(const OrganizedCloud& cloud, std::int32_t a, std::int32_t b) {
+  const int w = cloud.width();
+  const auto at = [&](const FloatPlane& p, std::int32_t i) { return p.row(i / w)[i % w]; };
+  return at(cloud.x, a) == at(cloud.x, b) && at(cloud.y, a) == at(cloud.y, b) &&
+         at(cloud.z, a) == at(cloud.z, b);
+}
+
+/// Moves the valid points in o.order[0, valid) that equal an earlier one of the same key (copies
+/// share their key) to o.copies; returns how many stay.
+std::size_t take_out_copies(const OrganizedCloud& cloud, SpatialOrder& o, std::size_t valid) {
+  o.copies.clear();
+  o.copied.clear();
+  std::size_t kept = 0;
+  for (std::size_t run = 0; run < valid;) {
+    std::size_t end = run + 1;
+    while (end < valid && o.keys[end] == o.keys[run]) ++end;
+    const std::size_t first = kept;
+    for (std::size_t t = run; t < end; ++t) {
+      const std::int32_t i = o.order[t];
+      std::size_t s = first;
+      while (s < kept && !same_point(cloud, o.order[s], i)) ++s;
+      if (s < kept) {
+        o.copies.push_back(i);
+        o.copied.push_back(o.order[s]);
+      } else {
+        o.order[kept++] = i;
+      }
+    }
+    run = end;
+  }
+  return kept;
 }
 
 }  // namespace
@@ -92,6 +126,8 @@ void spatial_order(const OrganizedCloud& cloud, const RingSettings& settings, Sp
                 spread_bits(cell(c[2], low[2], scale[2])) << 2;
   }
   detail::radix_sort_by_key(o.order, o.keys, o.order_tmp, o.keys_tmp);
+  o.total = n;
+  o.order.resize(take_out_copies(cloud, o, valid));
   for (int v = 0; v < cloud.height(); ++v) {
     const float* x = cloud.x.row(v);
     const float* y = cloud.y.row(v);
@@ -109,16 +145,16 @@ void gather(const OrganizedCloud& cloud, const std::vector<std::int32_t>& order,
   detail::gather_points(cloud, std::span<const std::int32_t>(order), out);
 }
 
-void rings_to_input_order(const PointRings& ordered, const std::vector<std::int32_t>& order,
-                          PointRings& out) {
+void rings_to_input_order(const PointRings& ordered, const SpatialOrder& o, PointRings& out) {
+  const std::vector<std::int32_t>& order = o.order;
   const std::size_t n = ordered.size();
   assert(order.size() == n);
   const auto k = static_cast<std::size_t>(ordered.k);
   out.k = ordered.k;
   out.by_direction = ordered.by_direction;
   out.viewpoint = ordered.viewpoint;
-  out.neighbours.resize(n * k);
-  out.count.resize(n);
+  out.neighbours.resize(o.total * k);
+  out.count.resize(o.total);
   for (std::size_t t = 0; t < n; ++t) {
     const auto i = static_cast<std::size_t>(order[t]);
     const std::uint8_t count = ordered.count[t];
@@ -129,21 +165,25 @@ void rings_to_input_order(const PointRings& ordered, const std::vector<std::int3
     for (; j < count; ++j) to[j] = order[static_cast<std::size_t>(from[j])];
     for (; j < k; ++j) to[j] = -1;
   }
+  for (std::size_t c = 0; c < o.copies.size(); ++c) {
+    const auto i = static_cast<std::size_t>(o.copies[c]);
+    const auto from = static_cast<std::size_t>(o.copied[c]);
+    out.count[i] = out.count[from];
+    std::copy_n(out.neighbours.data() + from * k, k, out.neighbours.data() + i * k);
+  }
 }
 
-void to_input_order(FloatPlane& plane, const std::vector<std::int32_t>& order,
-                    std::vector<float>& scratch) {
-  plane_to_input_order(plane, order, scratch);
+void to_input_order(FloatPlane& plane, const SpatialOrder& o, std::vector<float>& scratch) {
+  plane_to_input_order(plane, o, scratch);
 }
 
-void to_input_order(LabelImage& plane, const std::vector<std::int32_t>& order,
-                    std::vector<std::int32_t>& scratch) {
-  plane_to_input_order(plane, order, scratch);
+void to_input_order(LabelImage& plane, const SpatialOrder& o, std::vector<std::int32_t>& scratch) {
+  plane_to_input_order(plane, o, scratch);
 }
 
 void to_input_order(NormalMap& normals, SpatialOrder& o) {
   for (FloatPlane* p : {&normals.nx, &normals.ny, &normals.nz, &normals.curvature}) {
-    if (!p->empty()) to_input_order(*p, o.order, o.floats);
+    if (!p->empty()) to_input_order(*p, o, o.floats);
   }
 }
 

@@ -16,6 +16,16 @@ using unorganized::at;
 
 using unorganized::Scales;
 
+/// Below this |cos| between a viewing ray and the filtered normal (85 deg off the normal) a
+/// point moves to the weighted mean's projection onto its ray instead of the ray's
+/// intersection with the mean's tangent plane, which runs away at grazing incidence [1].
+constexpr double kMinRayCosine = 0.087;
+/// How far a pass may move a point along its ray, in units of the depth noise sigma at its
+/// range (SmoothingSettings::noise) [1]: three passes (the default) up to 3 sigma. Without a
+/// bound, a 16-beam lidar's walls, whose rings span scan lines 0.35 m apart, moved by up to
+/// 0.9 m.
+constexpr double kMaxMoveSigmas = 1.0;
+
 /// Grey values in ring order (intensity, else from RGB), or empty when the cloud has neither,
 /// and c_I: the setting, or max - min over the valid points.
 void grey_values(const OrganizedCloud& cloud, const SmoothingSettings& s,
@@ -99,26 +109,40 @@ void one_pass(const PointRings& rings, const SmoothingSettings& s, const std::ve
         }
       }
       for (double& c : sp) c /= total;
+      const double sn_norm = std::sqrt(sn[0] * sn[0] + sn[1] * sn[1] + sn[2] * sn[2]);
       float* po = xyz_out.data() + 3 * i;
       if (s.move_along_ray) {
-        // The weighted mean projected onto the viewing ray through p.
         const double r[3] = {double{p[0]} - s.viewpoint[0], double{p[1]} - s.viewpoint[1],
                              double{p[2]} - s.viewpoint[2]};
+        const double m[3] = {sp[0] - s.viewpoint[0], sp[1] - s.viewpoint[1],
+                             sp[2] - s.viewpoint[2]};
         const double r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-        const double t = r2 > 0
-                             ? ((sp[0] - s.viewpoint[0]) * r[0] + (sp[1] - s.viewpoint[1]) * r[1] +
-                                (sp[2] - s.viewpoint[2]) * r[2]) /
-                                   r2
-                             : 1.0;
+        // Where the viewing ray meets the plane through the weighted mean, normal to the
+        // filtered normal. A ring need not lie around its point (the scan lines of a lidar are
+        // further apart than its points), and the mean's offset across the ray would turn, on a
+        // slanted surface, into a move off it if the mean were projected onto the ray, as
+        // where the ray runs within kMinRayCosine of the plane, or without a normal.
+        double t = 1.0;
+        const double rn =
+            normal_i && sn_norm > 0 ? (r[0] * sn[0] + r[1] * sn[1] + r[2] * sn[2]) / sn_norm : 0;
+        if (r2 > 0 && std::fabs(rn) > kMinRayCosine * std::sqrt(r2)) {
+          t = (m[0] * sn[0] + m[1] * sn[1] + m[2] * sn[2]) / sn_norm / rn;
+        } else if (r2 > 0) {
+          t = (m[0] * r[0] + m[1] * r[1] + m[2] * r[2]) / r2;
+        }
+        if (r2 > 0) {
+          // A filter of noise moves a point by a few sigma at most; more is another surface's
+          // pull (a ring across an edge the normals do not show).
+          const double range = std::sqrt(r2);
+          const double limit = kMaxMoveSigmas * s.noise.sigma(range) / range;
+          t = std::clamp(t, 1.0 - limit, 1.0 + limit);
+        }
         for (int c = 0; c < 3; ++c) po[c] = static_cast<float>(s.viewpoint[c] + t * r[c]);
       } else {
         for (int c = 0; c < 3; ++c) po[c] = static_cast<float>(sp[c]);
       }
-      if (normal_i) {
-        const double norm = std::sqrt(sn[0] * sn[0] + sn[1] * sn[1] + sn[2] * sn[2]);
-        if (norm > 0) {
-          for (int c = 0; c < 3; ++c) n_out[3 * i + c] = static_cast<float>(sn[c] / norm);
-        }
+      if (normal_i && sn_norm > 0) {
+        for (int c = 0; c < 3; ++c) n_out[3 * i + c] = static_cast<float>(sn[c] / sn_norm);
       }
     }
   });

@@ -42,6 +42,12 @@ else()
   message(FATAL_ERROR "pkg-config or the installed rangeseg.pc not found")
 endif()
 
+# The build folder itself as the package, without an install.
+run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/consumer -B ${WORK_DIR}/build_tree -Drangeseg_DIR=${BUILD_DIR}
+    -DCMAKE_BUILD_TYPE=Release -DMY_APP_SOURCE=${WORK_DIR}/my_app.cpp)
+run(${CMAKE_COMMAND} --build ${WORK_DIR}/build_tree --target consumer)
+run(${WORK_DIR}/build_tree/consumer)
+
 set(data ${SOURCE_DIR}/../shared/data)
 if(EXISTS ${data}/kinect/grabber_frame0.pcd AND EXISTS ${data}/depth_png/00000.png)
   run(${WORK_DIR}/build/my_app ${data}/kinect/grabber_frame0.pcd ${data}/depth_png/00000.png

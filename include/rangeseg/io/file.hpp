@@ -31,7 +31,13 @@ class AtomicFile {
  private:
   std::string path_, tmp_;
   std::FILE* file_ = nullptr;
+  int slot_ = -1;  ///< its entry in the table remove_temporary_files() reads, or -1
 };
+
+/// Removes the temporaries of every AtomicFile of this process not yet committed or destroyed
+/// (up to 64 at once; more are not tracked). Async-signal-safe: for a program's SIGINT / SIGTERM
+/// handler, so that an interrupted run leaves no temporary behind.
+void remove_temporary_files() noexcept;
 
 /// Writes `bytes` to a temporary file beside `path`, then renames it over `path`, so a reader
 /// never sees a half-written file. Throws std::runtime_error naming the file on failure and
