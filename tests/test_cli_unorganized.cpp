@@ -224,6 +224,33 @@ TEST(CliUnorganized, BatchMixesOrganizedAndUnorganizedFrames) {
   EXPECT_NE(error.find("plane, smooth or auto"), std::string::npos) << error;
 }
 
+// A cloud in millimetres, and one in map coordinates far from the origin (as float: steps of
+// 0.5 m at 5000 km), are named on stderr; a cloud in metres near its sensor is not.
+TEST(CliUnorganized, CloudsInMillimetresOrFarFromTheOriginAreNamed) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_unorganized_scale");
+  const auto write = [&](const std::string& name, double scale, double offset) {
+    std::ofstream out(dir / name);
+    out.precision(12);
+    std::mt19937 random(3);
+    std::uniform_real_distribution<double> along(-1.0, 1.0);
+    for (int i = 0; i < 500; ++i) {
+      out << offset + scale * along(random) << ' ' << offset + scale * along(random) << ' '
+          << scale * 2.0 << '\n';
+    }
+    return (dir / name).string();
+  };
+  CliResult r = run("info " + write("metres.xyz", 1.0, 0.0));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(r.out.find("warning"), std::string::npos) << r.out;
+  r = run("info " + write("millimetres.xyz", 1000.0, 0.0));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("scale it by 0.001"), std::string::npos) << r.out;
+  r = run("info " + write("utm.xyz", 1.0, 5.0e6));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("subtract a UTM offset"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("millimetres"), std::string::npos) << r.out;
+}
+
 TEST(CliUnorganized, SmoothWritesPointsWithNormals) {
   const fs::path dir = rangeseg::test::scratch_dir("cli_unorganized_smooth");
   const OrganizedCloud input = write_unorganized(dir / "scan.pcd");

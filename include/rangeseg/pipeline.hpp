@@ -72,6 +72,7 @@ PipelineSettings pipeline_preset(std::string_view sensor);
 
 /// Wall-clock time of each stage of the last frame [ms].
 struct StageTimes {
+  /// `mesh`: for an unorganized cloud over rings, building the rings.
   double mesh = 0, normals = 0, smoothing = 0, segmentation = 0, polygons = 0, total = 0;
   /// Depth image to points (the depth-image `process`); for an unorganized cloud, the moves
   /// into spatial order and back. Part of total.

@@ -249,9 +249,14 @@ class PyPipeline {
     r.labels = plane_array(seg.labels, organized);
     r.segments = segments_list(seg, &pipeline_.polygons());
     const StageTimes& t = pipeline_.times();
-    r.times = py::dict("input"_a = t.input, "mesh"_a = t.mesh, "normals"_a = t.normals,
-                       "smoothing"_a = t.smoothing, "segmentation"_a = t.segmentation,
-                       "polygons"_a = t.polygons, "tracking"_a = t.tracking, "total"_a = t.total);
+    r.times = py::dict("input"_a = t.input, "normals"_a = t.normals, "smoothing"_a = t.smoothing,
+                       "segmentation"_a = t.segmentation, "polygons"_a = t.polygons,
+                       "tracking"_a = t.tracking, "total"_a = t.total);
+    // As the command line names them: an unorganized cloud off any pixel grid has rings, and
+    // its `input` is the moves into spatial order and back.
+    const bool over_rings = !organized && !pipeline_.pixel_grid().found();
+    r.times[over_rings ? "rings" : "mesh"] = t.mesh;
+    if (over_rings) r.times["order"] = r.times.attr("pop")("input");
     return r;
   }
 
@@ -282,7 +287,11 @@ void bind_pipeline(py::module_& m) {
                     "(normal . x + offset = 0, metres), rms_residual, grazing, surface, "
                     "polygon for plane segments (point lists as NumPy arrays), and track_id "
                     "when the pipeline tracks segments")
-      .def_readonly("times", &Result::times, "milliseconds per stage of this frame")
+      .def_readonly("times", &Result::times,
+                    "milliseconds per stage of this frame: input, mesh, normals, smoothing, "
+                    "segmentation, polygons, tracking, total; for an unorganized cloud over "
+                    "rings order and rings in place of input and mesh, as the command line "
+                    "prints them")
       .def_readonly("width", &Result::width,
                     "columns of the frame (points of an unorganized cloud)")
       .def_readonly("height", &Result::height, "rows of the frame (1 for an unorganized cloud)")

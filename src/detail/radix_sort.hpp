@@ -11,6 +11,8 @@
 #include <type_traits>
 #include <vector>
 
+#include "detail/headroom.hpp"
+
 namespace rangeseg::detail {
 
 /// An unsigned key whose order is the order of the float values (NaN excluded); -0 and +0 map
@@ -38,8 +40,8 @@ void radix_sort_by_key(std::vector<std::int32_t>& items, std::vector<Key>& keys,
   assert(items.size() == keys.size());
   const std::size_t n = items.size();
   if (n < 2) return;
-  if (item_tmp.size() < n) item_tmp.resize(n);
-  if (key_tmp.size() < n) key_tmp.resize(n);
+  if (item_tmp.size() < n) resize_with_headroom(item_tmp, n);
+  if (key_tmp.size() < n) resize_with_headroom(key_tmp, n);
   constexpr int kBits = 11;
   constexpr std::uint32_t kDigits = 1u << kBits;
   std::int32_t* from_items = items.data();

@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "detail/headroom.hpp"
 #include "detail/segment_labels.hpp"
 #include "detail/simd.hpp"
 #include "polygons/internal.hpp"
@@ -236,8 +237,8 @@ namespace {
 // grid loops' edges span at most pixel_stride rows. The result equals the pairwise test.
 void find_parents(PolygonExtractor::Scratch& sc, std::size_t n_outer) {
   const std::size_t nq = sc.queries.size();
-  sc.query_x2.resize(nq);
-  sc.query_y2.resize(nq);
+  detail::resize_with_headroom(sc.query_x2, nq);
+  detail::resize_with_headroom(sc.query_y2, nq);
   int y2_min = std::numeric_limits<int>::max(), y2_max = std::numeric_limits<int>::min();
   for (std::size_t q = 0; q < nq; ++q) {
     const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.queries[q])];
@@ -248,18 +249,18 @@ void find_parents(PolygonExtractor::Scratch& sc, std::size_t n_outer) {
     y2_max = std::max(y2_max, sc.query_y2[q]);
   }
   const std::size_t rows = static_cast<std::size_t>(y2_max - y2_min) + 1;
-  sc.row_start.assign(rows + 1, 0);
+  detail::assign_with_headroom(sc.row_start, rows + 1, 0);
   for (std::size_t q = 0; q < nq; ++q) {
     ++sc.row_start[static_cast<std::size_t>(sc.query_y2[q] - y2_min) + 1];
   }
   for (std::size_t i = 0; i < rows; ++i) sc.row_start[i + 1] += sc.row_start[i];
-  sc.row_queries.resize(nq);
+  detail::resize_with_headroom(sc.row_queries, nq);
   sc.touched.assign(sc.row_start.begin(), sc.row_start.end() - 1);  // fill cursors
   for (std::size_t q = 0; q < nq; ++q) {
     sc.row_queries[static_cast<std::size_t>(
         sc.touched[static_cast<std::size_t>(sc.query_y2[q] - y2_min)]++)] = static_cast<int>(q);
   }
-  sc.parity.assign(nq, 0);
+  detail::assign_with_headroom(sc.parity, nq, 0);
   for (std::size_t k = n_outer; k-- > 0;) {
     const int outer = sc.kept[k];
     const RawLoop& o = sc.raw[static_cast<std::size_t>(outer)];
@@ -338,8 +339,8 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
 
   // --- which segments ---
   const std::size_t n_labels = segmentation.segments.size() + 1;
-  sc.enabled.assign(n_labels, 0);
-  sc.seg_of_label.assign(n_labels, -1);
+  detail::assign_with_headroom(sc.enabled, n_labels, 0);
+  detail::assign_with_headroom(sc.seg_of_label, n_labels, -1);
   for (const Segment& seg : segmentation.segments) {
     if (seg.label < 1 || static_cast<std::size_t>(seg.label) >= n_labels) continue;
     if (settings.planes_only && !is_plane(seg)) continue;
@@ -382,7 +383,8 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       edge_masks, sc.pos.row(0), stride, s, sc.starts, sc.trace_steps, sc.walk, sc.stack,
       [&](const std::int32_t* idx, int n) {
         const std::size_t first = sc.raw_uv.size();
-        sc.raw_uv.resize(first + static_cast<std::size_t>(n));  // capacity only grows
+        detail::resize_with_headroom(sc.raw_uv,
+                                     first + static_cast<std::size_t>(n));  // capacity only grows
         sc.raw_idx.insert(sc.raw_idx.end(), idx, idx + n);
         std::array<std::int32_t, 2>* uv = sc.raw_uv.data() + first;
         // One pass: pixel coordinates, bounding box and the shoelace sum (image, y down:
@@ -418,11 +420,11 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
 
   // --- group raw loops by segment (counting sort keeps the tracing order) ---
   const std::size_t n_segs = out.segments.size();
-  sc.outer_rank.resize(sc.raw.size());
-  sc.bucket_start.assign(n_segs + 1, 0);
+  detail::resize_with_headroom(sc.outer_rank, sc.raw.size());
+  detail::assign_with_headroom(sc.bucket_start, n_segs + 1, 0);
   for (const RawLoop& r : sc.raw) ++sc.bucket_start[static_cast<std::size_t>(r.seg) + 1];
   for (std::size_t i = 0; i < n_segs; ++i) sc.bucket_start[i + 1] += sc.bucket_start[i];
-  sc.bucket_loops.resize(sc.raw.size());
+  detail::resize_with_headroom(sc.bucket_loops, sc.raw.size());
   {
     sc.kept.assign(sc.bucket_start.begin(), sc.bucket_start.end() - 1);  // fill cursors
     for (std::size_t i = 0; i < sc.raw.size(); ++i) {
@@ -481,7 +483,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
     if (!sc.queries.empty()) find_parents(sc, n_outer);
     // Output order: the holes of each outer loop in turn, in tracing order (a counting sort by
     // the parent's rank keeps the order of the bucket, which is the tracing order).
-    sc.hole_count.assign(n_outer + 1, 0);
+    detail::assign_with_headroom(sc.hole_count, n_outer + 1, 0);
     for (int b = b0; b < b1; ++b) {
       const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.bucket_loops[b])];
       if (r.area_px >= 0 || -r.area_px < settings.min_loop_pixels || r.parent < 0) continue;
@@ -489,7 +491,8 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
                       1];
     }
     for (std::size_t k = 0; k < n_outer; ++k) sc.hole_count[k + 1] += sc.hole_count[k];
-    sc.kept.resize(n_outer + static_cast<std::size_t>(sc.hole_count[n_outer]));
+    detail::resize_with_headroom(sc.kept,
+                                 n_outer + static_cast<std::size_t>(sc.hole_count[n_outer]));
     for (int b = b0; b < b1; ++b) {
       const int li = sc.bucket_loops[b];
       const RawLoop& r = sc.raw[static_cast<std::size_t>(li)];
@@ -509,7 +512,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       n_points += static_cast<std::size_t>(sc.raw[static_cast<std::size_t>(li)].count);
     }
     sc.xy_first.push_back(static_cast<int>(n_points));
-    sc.xy.resize(2 * n_points);  // capacity only grows
+    detail::resize_with_headroom(sc.xy, 2 * n_points);  // capacity only grows
     for (std::size_t k = 0; k < sc.kept.size(); ++k) {
       const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.kept[k])];
       project(cloud, sc.raw_uv.data() + r.first, r.count, pr,
@@ -519,9 +522,9 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
     // Simplify; loops that cross another loop (or themselves) get half the tolerance, and after a
     // few halvings stay unsimplified (the mesh boundary is simple).
     const std::size_t nk = sc.kept.size();
-    sc.tolerance.resize(nk);
-    sc.raw_area.resize(nk);
-    sc.raw_perimeter.resize(nk);
+    detail::resize_with_headroom(sc.tolerance, nk);
+    detail::resize_with_headroom(sc.raw_area, nk);
+    detail::resize_with_headroom(sc.raw_perimeter, nk);
     for (std::size_t k = 0; k < nk; ++k) {
       const int n = sc.xy_first[k + 1] - sc.xy_first[k];
       polygons_detail::area_perimeter(xy_point(sc.xy.data(), sc.xy_first[k]), n, sc.raw_area[k],
@@ -536,8 +539,8 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       for (std::size_t k = 0; k < nk; ++k) {
         sc.keep_first_next.push_back(static_cast<int>(sc.keep_next.size()));
         if (attempt > 0 && !sc.bad[k]) {
-          sc.keep_next.insert(sc.keep_next.end(), sc.keep.begin() + sc.keep_first[k],
-                              sc.keep.begin() + sc.keep_first[k + 1]);
+          detail::append_with_headroom(sc.keep_next, sc.keep.begin() + sc.keep_first[k],
+                                       sc.keep.begin() + sc.keep_first[k + 1]);
           continue;
         }
         const int n = sc.xy_first[k + 1] - sc.xy_first[k];
@@ -571,7 +574,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       // After the first check only pairs with a loop simplified again can newly touch: a pair of
       // unchanged loops that touched marked both, and they changed, unless already unsimplified.
       sc.changed.assign(sc.bad.begin(), sc.bad.end());
-      sc.bad.assign(nk, 0);
+      detail::assign_with_headroom(sc.bad, nk, 0);
       if (!polygons_detail::mark_crossings(sc.edges, sc.bad,
                                            attempt > 0 ? sc.changed.data() : nullptr)) {
         break;
@@ -633,7 +636,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       polygons_detail::hull_candidates(xy, sc.xy_first[n_outer], sc.hull_order);
       const int n_pts = static_cast<int>(sc.hull_order.size());
       polygons_detail::sort_points_xy(xy, sc.hull_order, sc.hull_sort);
-      sc.hull_xy.resize(2 * static_cast<std::size_t>(n_pts));
+      detail::resize_with_headroom(sc.hull_xy, 2 * static_cast<std::size_t>(n_pts));
       for (int i = 0; i < n_pts; ++i) {
         const int o = sc.hull_order[static_cast<std::size_t>(i)];
         const double* pt = xy_point(xy, o);

@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cstring>
 
+#include "detail/headroom.hpp"
 #include "detail/simd.hpp"
 #include "polygons/internal.hpp"
 
@@ -76,7 +77,7 @@ void masks_scalar(View<const std::int32_t> labels, View<const std::uint8_t> face
   const auto enabled = [en, n_labels](std::int32_t l) {
     return static_cast<std::size_t>(static_cast<std::uint32_t>(l)) < n_labels && en[l];
   };
-  scratch.sides.assign(2 * static_cast<std::size_t>(width), 0);
+  detail::assign_with_headroom(scratch.sides, 2 * static_cast<std::size_t>(width), 0);
   std::uint8_t* cur = scratch.sides.data();
   std::uint8_t* prev = cur + width;
   const int last_u = (width - 1) / s * s;
@@ -342,7 +343,7 @@ RANGESEG_SIMD_AVX2_TARGET void masks_avx2(View<const std::int32_t> labels,
                                           std::ptrdiff_t stride, std::vector<std::int32_t>& starts,
                                           BoundaryMaskScratch& scratch) {
   const int width = labels.width, height = labels.height;
-  scratch.label_map.resize(n_labels + 1);
+  detail::resize_with_headroom(scratch.label_map, n_labels + 1);
   for (std::size_t l = 0; l < n_labels; ++l) {
     scratch.label_map[l] = en[l] ? static_cast<std::int32_t>(l) : 0;
   }
@@ -350,8 +351,8 @@ RANGESEG_SIMD_AVX2_TARGET void masks_avx2(View<const std::int32_t> labels,
   // Label rows with kChunk + 1 zeros after them; cell rows with a zero before and kChunk after.
   const std::size_t label_len = static_cast<std::size_t>(width) + kChunk + 16;
   const std::size_t side_len = static_cast<std::size_t>(width) + 2 * std::size_t{kChunk};
-  scratch.labels16.assign(2 * label_len, 0);
-  scratch.sides.assign(2 * side_len + kChunk, 0);
+  detail::assign_with_headroom(scratch.labels16, 2 * label_len, 0);
+  detail::assign_with_headroom(scratch.sides, 2 * side_len + kChunk, 0);
   std::uint16_t* e0 = scratch.labels16.data();
   std::uint16_t* e1 = e0 + label_len;
   std::uint8_t* prev = scratch.sides.data() + kChunk;

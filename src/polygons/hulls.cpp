@@ -16,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "detail/headroom.hpp"
 #include "detail/simd.hpp"
 #include "polygons/internal.hpp"
 #include "rangeseg/polygons.hpp"
@@ -257,7 +258,7 @@ void polygons_detail::outline_raster(std::vector<std::uint8_t>& occ, int cols, i
   out.tolerance.clear();
   // Closing with a 3x3 square: dilate into tmp, erode back into occ.
   std::vector<std::uint8_t>& tmp = out.tmp;
-  tmp.assign(occ.size(), 0);
+  detail::assign_with_headroom(tmp, occ.size(), 0);
   for (int j = 1; j + 1 < rows; ++j) {
     for (int i = 1; i + 1 < cols; ++i) {
       std::uint8_t any = 0;
@@ -335,7 +336,7 @@ void polygons_detail::outline_raster(std::vector<std::uint8_t>& occ, int cols, i
     out.raw_count.push_back(loop_first[k + 1] - loop_first[k]);
   }
   std::vector<double>& tol = out.tolerance;
-  tol.assign(n_loops, tolerance);
+  detail::assign_with_headroom(tol, n_loops, tolerance);
   std::vector<int>& keep = out.keep;
   std::vector<int>& keep_first = out.keep_first;
   std::vector<std::array<int, 2>>& dp_stack = out.dp_stack;
@@ -366,7 +367,7 @@ void polygons_detail::outline_raster(std::vector<std::uint8_t>& occ, int cols, i
       e.id0 = std::llround((e.x0 - x0) / h) * (vh + 1) + std::llround((e.y0 - y0) / h);
       e.id1 = std::llround((e.x1 - x0) / h) * (vh + 1) + std::llround((e.y1 - y0) / h);
     }
-    bad.assign(n_loops, 0);
+    detail::assign_with_headroom(bad, n_loops, 0);
     if (!mark_crossings(edges, bad) || attempt >= 5) break;
     for (std::size_t k = 0; k < n_loops; ++k) {
       if (bad[k]) tol[k] = attempt >= 4 ? 0.0 : 0.5 * tol[k];

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "detail/headroom.hpp"
 #include "detail/radix_sort.hpp"
 #include "detail/simd.hpp"
 #include "polygons/internal.hpp"
@@ -256,8 +257,8 @@ struct EdgeSortScratch {
 void sort_edges(std::vector<CheckEdge>& edges) {
   thread_local EdgeSortScratch sc;
   const std::size_t n = edges.size();
-  sc.order.resize(n);
-  sc.keys.resize(n);
+  detail::resize_with_headroom(sc.order, n);
+  detail::resize_with_headroom(sc.keys, n);
   for (std::size_t i = 0; i < n; ++i) {
     CheckEdge& e = edges[i];
     if (e.x0 > e.x1) {
@@ -269,7 +270,7 @@ void sort_edges(std::vector<CheckEdge>& edges) {
     sc.keys[i] = detail::double_order_key(e.x0);
   }
   detail::radix_sort_by_key(sc.order, sc.keys, sc.order_tmp, sc.keys_tmp);
-  sc.sorted.resize(n);
+  detail::resize_with_headroom(sc.sorted, n);
   for (std::size_t i = 0; i < n; ++i) sc.sorted[i] = edges[static_cast<std::size_t>(sc.order[i])];
   edges.swap(sc.sorted);
   share_capacity(edges, sc.sorted);
@@ -334,8 +335,8 @@ bool mark_crossings(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& ba
   const auto cell = [side](double t) {  // NaN and out-of-range values are clamped first
     return !(t > 0) ? 0 : t >= side - 1 ? side - 1 : static_cast<int>(t);
   };
-  grid.cells.resize(4 * n);
-  grid.start.assign(static_cast<std::size_t>(side) * side + 1, 0);
+  detail::resize_with_headroom(grid.cells, 4 * n);
+  detail::assign_with_headroom(grid.start, static_cast<std::size_t>(side) * side + 1, 0);
   const auto cell_index = [side](int cx, int cy) {
     return static_cast<std::size_t>(cy) * static_cast<std::size_t>(side) +
            static_cast<std::size_t>(cx);
@@ -353,7 +354,7 @@ bool mark_crossings(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& ba
     }
   }
   for (std::size_t k = 1; k < grid.start.size(); ++k) grid.start[k] += grid.start[k - 1];
-  grid.items.resize(static_cast<std::size_t>(grid.start.back()));
+  detail::resize_with_headroom(grid.items, static_cast<std::size_t>(grid.start.back()));
   for (std::size_t i = 0; i < n; ++i) {
     const std::int32_t* const c = grid.cells.data() + 4 * i;
     for (int cy = c[2]; cy <= c[3]; ++cy) {
@@ -401,7 +402,7 @@ void sort_points_xy(const double* xy, std::vector<int>& order, PointSortScratch&
     std::sort(order.begin(), order.end(), less);
     return;
   }
-  sc.keys.resize(n);
+  detail::resize_with_headroom(sc.keys, n);
   for (std::size_t i = 0; i < n; ++i) {
     sc.keys[i] = detail::double_order_key(xy_point(xy, order[i])[0]);
   }
@@ -437,7 +438,7 @@ void monotone_chain_sorted(const double* xy, int n, std::vector<int>& hull) {
     const double *po = xy_point(xy, o), *pa = xy_point(xy, a), *pb = xy_point(xy, b);
     return cross(po[0], po[1], pa[0], pa[1], pb[0], pb[1]);
   };
-  hull.resize(2 * static_cast<std::size_t>(n) + 1);
+  detail::resize_with_headroom(hull, 2 * static_cast<std::size_t>(n) + 1);
   std::size_t k = 0;
   for (int i = 0; i < n; ++i) {  // lower chain
     while (k >= 2 && turn(hull[k - 2], hull[k - 1], i) <= 0) --k;
@@ -447,7 +448,7 @@ void monotone_chain_sorted(const double* xy, int n, std::vector<int>& hull) {
     while (static_cast<int>(k) >= t && turn(hull[k - 2], hull[k - 1], i) <= 0) --k;
     hull[k++] = i;
   }
-  hull.resize(k > 1 ? k - 1 : k);  // the last point repeats the first
+  detail::resize_with_headroom(hull, k > 1 ? k - 1 : k);  // the last point repeats the first
 }
 
 }  // namespace rangeseg::polygons_detail

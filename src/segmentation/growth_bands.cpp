@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <memory>
 
+#include "detail/headroom.hpp"
 #include "segmentation/internal.hpp"
 
 namespace rangeseg::seg {
@@ -77,7 +78,7 @@ void join_growth_bands(const Frame& f, Segmenter::Scratch& s) {
   s.regions.resize(1);
   for (int b = 0; b < bands; ++b) {
     const auto& regions = s.growth[b]->regions;
-    s.regions.insert(s.regions.end(), regions.begin() + 1, regions.end());
+    detail::append_with_headroom(s.regions, regions.begin() + 1, regions.end());
   }
   for_each_band(s, bands, 1, [&](int, int b_begin, int b_end) {
     for (int b = std::max(b_begin, 1); b < b_end; ++b) {

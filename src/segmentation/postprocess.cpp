@@ -18,6 +18,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "detail/headroom.hpp"
 #include "detail/simd.hpp"
 #include "detail/sort_distinct.hpp"
 #include "segmentation/internal.hpp"
@@ -424,7 +425,7 @@ void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
   s.border_regions = s.regions.size();
   for (int band = 1; band < band_count(s); ++band) {
     const auto& pairs = s.band_adjacency[static_cast<std::size_t>(band)];
-    s.adjacency.insert(s.adjacency.end(), pairs.begin(), pairs.end());
+    detail::append_with_headroom(s.adjacency, pairs.begin(), pairs.end());
   }
   detail::sort_distinct(s.adjacency, s.adjacency_table);
 

@@ -14,6 +14,7 @@
 #include <emmintrin.h>
 #endif
 
+#include "detail/headroom.hpp"
 #include "detail/radix_sort.hpp"
 #include "segmentation/internal.hpp"
 
@@ -370,7 +371,7 @@ void grow_cells(const Frame& f, Model& model, Segmenter::Scratch& s, std::int32_
       }
     }
     grow_pixels(f, model, label, queue, 0, ptail, s.queue.size(), &s.marked, touched);
-    s.rejected.insert(s.rejected.end(), s.marked.begin(), s.marked.end());
+    detail::append_with_headroom(s.rejected, s.marked.begin(), s.marked.end());
     s.regions.push_back(model.stats());
   }
 }

@@ -14,6 +14,7 @@
 #include <emmintrin.h>
 #endif
 
+#include "detail/headroom.hpp"
 #include "detail/segment_labels.hpp"
 #include "segmentation/internal.hpp"
 #include "segmentation/primitive_internal.hpp"
@@ -279,7 +280,7 @@ void collect_seeds(const Frame& f, const SegmentationSettings& settings, Segment
     }
     s.bucket_start[b + 1] = at;
   }
-  s.seeds.resize(static_cast<std::size_t>(s.bucket_start[kSeedBuckets]));
+  detail::resize_with_headroom(s.seeds, static_cast<std::size_t>(s.bucket_start[kSeedBuckets]));
   for_each_band(s, static_cast<int>(bands), 1, [&](int, int band_begin, int band_end) {
     for (auto band = static_cast<std::size_t>(band_begin);
          band < static_cast<std::size_t>(band_end); ++band) {

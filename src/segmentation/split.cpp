@@ -11,6 +11,7 @@
 #include <span>
 #include <vector>
 
+#include "detail/headroom.hpp"
 #include "segmentation/internal.hpp"
 
 namespace rangeseg::seg {
@@ -116,7 +117,7 @@ class Splitter {
     for (std::size_t j = 0; j < count; j += step) samples.push_back(points[j]);
     // The samples' coordinates and weights 1 / sigma(z)^2, contiguous for the iterations.
     auto& xyzw = s_.split_xyzw;
-    xyzw.resize(4 * samples.size());
+    detail::resize_with_headroom(xyzw, 4 * samples.size());
     for (std::size_t j = 0; j < samples.size(); ++j) {
       const std::int32_t i = samples[j];
       const double sigma = settings_.noise.sigma(depth({f_.x[i], f_.y[i], f_.z[i]}));
@@ -465,7 +466,7 @@ void split_unexplained_planes(const Frame& f, const SegmentationSettings& settin
     start[c + 1] = start[c] + static_cast<std::size_t>(s.regions[candidates[c]].count);
   }
   auto& pixels = s.split_pixels;
-  pixels.resize(start.back());
+  detail::resize_with_headroom(pixels, start.back());
   auto& fill = s.split_fill;
   fill.assign(start.begin(), start.end() - 1);
   // Every raw label to its root's candidate (labels after small-region removal are kept ones or

@@ -164,6 +164,15 @@ class Inputs(unittest.TestCase):
         back = np.empty_like(result.labels)
         back[order] = result.labels
         np.testing.assert_array_equal(back, organized.labels[valid])
+        # Put back on their pixel grid, they ran the grid's stages; off it, over rings, whose
+        # times are named as the command line names them.
+        self.assertIn("mesh", result.times)
+        jittered = flat + np.random.default_rng(4).normal(0.0, 1e-3, flat.shape)
+        over_rings = rangeseg.Pipeline(preset="ideal").process(jittered).times
+        self.assertIn("rings", over_rings)
+        self.assertIn("order", over_rings)
+        self.assertNotIn("mesh", over_rings)
+        self.assertNotIn("input", over_rings)
 
     def test_float64_lists_and_clouds_give_the_float32_result(self):
         points = self.step_points()
