@@ -1,6 +1,7 @@
 // A depth camera loop: 16-bit depth frames (millimetres) and the camera intrinsics in, planes
-// out, one Pipeline reused for every frame (it owns all buffers, so frames after the first
-// allocate nothing), with segment tracks: a surface keeps its track id from frame to frame.
+// out, one Pipeline reused for every frame (it owns all buffers: a frame allocates only when it
+// needs more room than every frame before, and the stream settles), with segment tracks: a
+// surface keeps its track id from frame to frame.
 //
 //   rangeseg_example_depth_stream [frames] [threads]
 //
@@ -16,9 +17,27 @@
 #include <rangeseg/pipeline.hpp>
 #include <rangeseg/synth.hpp>
 
+namespace {
+
+// A whole positive number, or the usage.
+int count_argument(const char* text, const char* name) {
+  char* end = nullptr;
+  const long value = std::strtol(text, &end, 10);
+  if (end == text || *end != '\0' || value < 1 || value > 1000000) {
+    std::fprintf(stderr,
+                 "usage: rangeseg_example_depth_stream [frames] [threads]: %s must be "
+                 "a whole number >= 1, got '%s'\n",
+                 name, text);
+    std::exit(2);
+  }
+  return static_cast<int>(value);
+}
+
+}  // namespace
+
 int main(int argc, char** argv) try {
-  const int frames = argc > 1 ? std::atoi(argv[1]) : 10;
-  const int threads = argc > 2 ? std::atoi(argv[2]) : 1;
+  const int frames = argc > 1 ? count_argument(argv[1], "frames") : 10;
+  const int threads = argc > 2 ? count_argument(argv[2], "threads") : 1;
   const rangeseg::synth::Scene scene = rangeseg::synth::demo_scene();
   const rangeseg::CameraIntrinsics camera{
       .fx = 525, .fy = 525, .cx = 319.5, .cy = 239.5, .width = 640, .height = 480};

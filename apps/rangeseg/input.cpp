@@ -35,7 +35,9 @@ void add_input_options(CLI::App& cmd, InputOptions& o, bool positional) {
       cmd.add_option("--intrinsics", o.intrinsics,
                      "Camera intrinsics for depth PNGs: JSON (Open3D camera_*.json layout, or "
                      "{fx, fy, cx, cy}) or ROS camera_info YAML (.yaml: a calibration file or a "
-                     "CameraInfo message); its width and height, when given, must be the PNG's");
+                     "CameraInfo message; its projection matrix P, the rectified image's camera, "
+                     "when it gives one, else K); its width and height, when given, must be the "
+                     "PNG's");
   CLI::Option* fx = cmd.add_option("--fx", o.fx,
                                    "Focal length x [pixel] for depth PNGs (default --fy when "
                                    "given, else 525, a Kinect's)")
