@@ -409,7 +409,7 @@ TEST(PlyCloud, MalformedFilesGiveErrorsNamingTheFileAndTheProblem) {
            "1\n",
        "names vertex 1"},
       {"data context", ascii + "element vertex 1\n" + xyz + "end_header\n1 2 x\n",
-       "(in element \"vertex\")"},
+       "(line 8, element \"vertex\")"},
       {"extra value", ascii + "element vertex 2\n" + xyz + "end_header\n1 2 3 4\n5 6 7\n",
        "more values on a line"},
       {"empty", "", "the file is empty"},

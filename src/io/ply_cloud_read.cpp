@@ -336,8 +336,16 @@ class DataReader {
     }
   }
 
+  // The element, and the line of a text file (counted only for the message) or the byte.
   std::string where() const {
-    return element_ == nullptr ? std::string() : " (in element " + quoted(*element_) + ")";
+    std::string at;
+    if (format_ == Format::ascii) {
+      const std::size_t end = std::min(pos_, size_);
+      at = "line " + std::to_string(std::count(data_, data_ + end, '\n') + 1);
+    } else {
+      at = "byte " + std::to_string(pos_);
+    }
+    return " (" + at + (element_ == nullptr ? "" : ", element " + quoted(*element_)) + ")";
   }
 
   const std::uint8_t* data_;
