@@ -251,6 +251,29 @@ TEST(CliUnorganized, CloudsInMillimetresOrFarFromTheOriginAreNamed) {
   EXPECT_EQ(r.out.find("millimetres"), std::string::npos) << r.out;
 }
 
+// `--preset auto` takes a cloud whose points surround its sensor for a laser scanner's (a
+// spinning lidar), and one in front of it for a camera's.
+TEST(CliUnorganized, AutoPresetTellsAScanAroundTheSensor) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_unorganized_surround");
+  const auto write = [&](const std::string& name, double max_azimuth) {
+    std::ofstream out(dir / name);
+    std::mt19937 random(5);
+    std::uniform_real_distribution<double> azimuth(-max_azimuth, max_azimuth), height(-1, 1);
+    for (int i = 0; i < 2000; ++i) {  // a cylinder wall of radius 4 m about the y axis
+      const double a = azimuth(random);
+      out << 4 * std::sin(a) << ' ' << height(random) << ' ' << 4 * std::cos(a) << '\n';
+    }
+    return (dir / name).string();
+  };
+  const CliResult around =
+      run("segment " + write("around.xyz", 3.14159) + " -o " + (dir / "a").string());
+  ASSERT_EQ(around.code, 0) << around.out;
+  EXPECT_NE(around.out.find("preset laser"), std::string::npos) << around.out;
+  const CliResult ahead = run("segment " + write("ahead.xyz", 0.5) + " -o " + (dir / "b").string());
+  ASSERT_EQ(ahead.code, 0) << ahead.out;
+  EXPECT_NE(ahead.out.find("preset kinect"), std::string::npos) << ahead.out;
+}
+
 TEST(CliUnorganized, SmoothWritesPointsWithNormals) {
   const fs::path dir = rangeseg::test::scratch_dir("cli_unorganized_smooth");
   const OrganizedCloud input = write_unorganized(dir / "scan.pcd");

@@ -69,7 +69,8 @@ std::string resolve_preset(const std::string& preset, const std::string& sensor_
 const char* const kAutoPresetHelp =
     "Sensor preset: kinect, abw, laser, perceptron (SegComp Perceptron images), ideal "
     "(noise-free or simulated depth), or auto: abw or perceptron for SegComp images (.range), "
-    "kinect for any other input";
+    "laser for an unorganized cloud whose points surround the sensor (a spinning lidar's "
+    "scan), kinect for any other input";
 
 void add_settings_options(CLI::App& cmd, std::string& model, std::string& preset,
                           std::string& config, bool& no_smooth, bool auto_preset) {
