@@ -693,6 +693,13 @@ TEST(CliBatch, DirectorySkipsACorruptFrameAndCountsIt) {
     EXPECT_EQ(f["segments"].get<std::size_t>(), seg["segments"].size());
   }
 
+  // --strict: one failed frame makes the batch exit with 2; the others are written all the same.
+  const CliResult strict =
+      run("segment " + (dir / "in").string() + " -o " + (dir / "strict").string() + " --strict");
+  EXPECT_EQ(strict.code, 2) << strict.out;
+  EXPECT_EQ(read_json(dir / "strict" / "summary.json")["succeeded"],
+            summary["succeeded"].get<int>());
+
   // Nothing readable: exit code 2, but the failures are still listed.
   fs::create_directories(dir / "bad");
   write_truncated_pcd(dir / "bad" / "x.pcd");

@@ -27,6 +27,7 @@ struct SegmentOptions {
   bool no_mesh = false;
   bool cloud = false;
   bool track = false;
+  bool strict = false;
 };
 
 }  // namespace
@@ -126,6 +127,9 @@ void add_segment(CLI::App& app) {
                 "(segments.json: track_id; the pictures, mesh.ply and cloud.pcd coloured by "
                 "track); the frames then run one after another in input order, --threads "
                 "inside each frame (also config key \"track\")");
+  cmd->add_flag("--strict", o->strict,
+                "A batch exits with code 2 when any frame failed (by default only when none "
+                "succeeded; the failures are listed either way)");
   cmd->add_flag("--no-mesh", o->no_mesh, "Do not write mesh.ply");
   cmd->add_flag("--cloud", o->cloud,
                 "Also write cloud.pcd for an organized input: the smoothed points, organized as "
@@ -145,7 +149,7 @@ void add_segment(CLI::App& app) {
       "polygons.obj and cloud.pcd.\nFiles of an earlier run in the output folder that this run "
       "does not write are removed.\nExit codes: 0 = done (a batch with at least "
       "one frame written; failed frames are listed), 2 = bad arguments, unreadable single input, "
-      "or no frame of a batch succeeded.");
+      "or no frame of a batch succeeded (with --strict: any frame failed).");
   cmd->callback([o] {
     const auto settings_for = [o](const std::string& preset) {
       PipelineSettings s = settings_from(preset, o->model, o->config, o->no_smooth);
@@ -161,7 +165,7 @@ void add_segment(CLI::App& app) {
                         {.out_dir = o->out_dir,
                          .files = {.mesh = !o->no_mesh, .cloud = o->cloud},
                          .threads = o->threads});
-      if (ok == 0) set_exit_code(kExitInput);
+      if (ok == 0 || (o->strict && ok < frames.frames.size())) set_exit_code(kExitInput);
       return;
     }
     o->in.path = o->inputs.front();
