@@ -6,7 +6,10 @@
 //   rangeseg_example_depth_stream [frames] [threads]
 //
 // The frames are rendered from the built-in demo scene with a new noise seed each, the view
-// panning by 2 pixels per frame, standing in for a sensor driver.
+// panning by 2 pixels per frame, standing in for a sensor driver. The results (segments,
+// polygons) are the pipeline's and stay valid until the next process(): copy what a node keeps
+// or publishes later.
+#include <array>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -15,6 +18,7 @@
 
 #include <rangeseg/camera.hpp>
 #include <rangeseg/pipeline.hpp>
+#include <rangeseg/polygons.hpp>
 #include <rangeseg/synth.hpp>
 
 namespace {
@@ -74,6 +78,15 @@ int main(int argc, char** argv) try {
     if (largest != nullptr) {
       std::printf(", largest: track %u, %.2f m^2, normal (%+.2f %+.2f %+.2f)", largest->track_id,
                   largest->area_m2, largest->normal[0], largest->normal[1], largest->normal[2]);
+      // Its outline: the polygons name segments by label (the frame's), tracks by track_id.
+      const rangeseg::PolygonSet& polygons = pipeline.polygons();
+      for (const rangeseg::SegmentPolygons& p : polygons.segments) {
+        if (p.label != largest->label) continue;
+        const rangeseg::PolygonLoop& outer = polygons.loops[static_cast<std::size_t>(p.first_loop)];
+        const std::array<float, 3>& v = polygons.points3d[static_cast<std::size_t>(outer.first)];
+        std::printf(", outline %d vertices from (%+.2f %+.2f %+.2f) m", outer.count, v[0], v[1],
+                    v[2]);
+      }
     }
     std::printf("\n");
     if (s.segments.empty()) return 1;
