@@ -253,6 +253,29 @@ TEST(RingPipeline, CloudsWithoutEnoughValidPointsGiveEmptyResultsInInputOrder) {
   }
 }
 
+// Points on one viewing ray share their key by direction; among 200000 of them (each given
+// twice, alternately) the copies are found by sorting, not pair by pair, and each original is
+// the first of its equal points in input order.
+TEST(SpatialOrder, CopiesAmongManyPointsOnOneRay) {
+  constexpr int n = 100000;
+  OrganizedCloud ray(2 * n, 1);
+  for (int i = 0; i < 2 * n; ++i) {
+    const float t = 1.0f + 1e-4f * static_cast<float>(i / 2);
+    ray.x(i, 0) = 0.5f * t;
+    ray.y(i, 0) = 0.25f * t;
+    ray.z(i, 0) = t;
+  }
+  unorganized::SpatialOrder o;
+  unorganized::spatial_order(ray, RingSettings{}, o);
+  ASSERT_EQ(o.copies.size(), static_cast<std::size_t>(n));
+  EXPECT_EQ(o.order.size(), static_cast<std::size_t>(n));
+  for (std::size_t c = 0; c < o.copies.size(); ++c) {
+    ASSERT_EQ(o.copies[c] % 2, 1) << c;
+    ASSERT_EQ(o.copied[c], o.copies[c] - 1) << c;
+  }
+  for (const std::int32_t i : o.order) ASSERT_EQ(i % 2, 0);
+}
+
 // A merged or tiled cloud's exact copies of points: the stages run on the distinct points, and
 // each copy takes its original's results, so that the copies change nothing.
 TEST(RingPipeline, ExactCopiesOfPointsTakeTheirOriginalsResults) {

@@ -4,6 +4,7 @@
 #include "unorganized/order.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cassert>
 #include <cmath>
 #include <cstddef>
@@ -58,6 +59,37 @@ bool same_point(const OrganizedCloud& cloud, std::int32_t a, std::int32_t b) {
          at(cloud.z, a) == at(cloud.z, b);
 }
 
+/// Runs of equal keys longer than this are searched for copies by sorting, not pair by pair
+/// (many points on one viewing ray share a key by direction).
+constexpr std::size_t kLongRun = 32;
+
+/// The copies in the long run o.order[run, end) (by position, then input index, so that the
+/// first of equal points is the original), appended to o.copies / o.copied; `scratch` holds
+/// the sorted run.
+void copies_in_long_run(const OrganizedCloud& cloud, SpatialOrder& o, std::size_t run,
+                        std::size_t end, std::vector<std::int32_t>& scratch) {
+  const int w = cloud.width();
+  const auto point = [&](std::int32_t i) {
+    return std::array<float, 3>{cloud.x.row(i / w)[i % w], cloud.y.row(i / w)[i % w],
+                                cloud.z.row(i / w)[i % w]};
+  };
+  scratch.assign(o.order.begin() + static_cast<std::ptrdiff_t>(run),
+                 o.order.begin() + static_cast<std::ptrdiff_t>(end));
+  std::sort(scratch.begin(), scratch.end(), [&](std::int32_t a, std::int32_t b) {
+    const auto pa = point(a), pb = point(b);
+    return pa != pb ? pa < pb : a < b;
+  });
+  std::size_t original = 0;
+  for (std::size_t j = 1; j < scratch.size(); ++j) {
+    if (!same_point(cloud, scratch[j], scratch[original])) {
+      original = j;
+      continue;
+    }
+    o.copies.push_back(scratch[j]);
+    o.copied.push_back(scratch[original]);
+  }
+}
+
 /// Moves the valid points in o.order[0, valid) that equal an earlier one of the same key (copies
 /// share their key) to o.copies; returns how many stay.
 std::size_t take_out_copies(const OrganizedCloud& cloud, SpatialOrder& o, std::size_t valid) {
@@ -67,6 +99,19 @@ std::size_t take_out_copies(const OrganizedCloud& cloud, SpatialOrder& o, std::s
   for (std::size_t run = 0; run < valid;) {
     std::size_t end = run + 1;
     while (end < valid && o.keys[end] == o.keys[run]) ++end;
+    if (end - run > kLongRun) {
+      const std::size_t before = o.copies.size();
+      copies_in_long_run(cloud, o, run, end, o.order_tmp);
+      // The run's copies, by input index, to leave them out of the run in its order.
+      std::vector<std::int32_t>& gone = o.order_tmp;
+      gone.assign(o.copies.begin() + static_cast<std::ptrdiff_t>(before), o.copies.end());
+      std::sort(gone.begin(), gone.end());
+      for (std::size_t t = run; t < end; ++t) {
+        if (!std::binary_search(gone.begin(), gone.end(), o.order[t])) o.order[kept++] = o.order[t];
+      }
+      run = end;
+      continue;
+    }
     const std::size_t first = kept;
     for (std::size_t t = run; t < end; ++t) {
       const std::int32_t i = o.order[t];
