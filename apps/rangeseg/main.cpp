@@ -22,8 +22,9 @@ extern "C" void remove_temporaries_and_exit(int signal) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  for (const int signal : {SIGINT, SIGTERM, SIGHUP})
+  for (const int signal : {SIGINT, SIGTERM, SIGHUP}) {
     std::signal(signal, remove_temporaries_and_exit);
+  }
   try {
     CLI::App app{"rangeseg: fast range image meshing, smoothing and segmentation"};
     app.require_subcommand(1);
