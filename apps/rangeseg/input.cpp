@@ -169,8 +169,10 @@ constexpr std::size_t kMinPointsToSurround = 100;
 constexpr double kFarMedianRange = 500;
 
 // Once per process: a batch's frames share their options and may load on several threads.
-void warn_once(std::once_flag& flag, const std::string& message) {
-  std::call_once(flag, [&] { std::fprintf(stderr, "rangeseg: %s\n", message.c_str()); });
+// `message` runs only for the one that prints.
+template <class Message>
+void warn_once(std::once_flag& flag, const Message& message) {
+  std::call_once(flag, [&] { std::fprintf(stderr, "rangeseg: %s\n", message().c_str()); });
 }
 
 bool camera_options_given(const InputOptions& o) {
@@ -181,29 +183,34 @@ bool camera_options_given(const InputOptions& o) {
 void check_depth_image(const InputOptions& o, const OrganizedCloud& cloud, bool eight_bit) {
   if (!camera_options_given(o) && !o.camera_by_convention) {
     static std::once_flag flag;
-    std::string beside;
-    const std::filesystem::path folder = std::filesystem::path(o.path).parent_path();
-    std::error_code ec;
-    for (const auto& e : std::filesystem::directory_iterator(
-             folder.empty() ? std::filesystem::path(".") : folder, ec)) {
-      const std::string ext = io::extension(e.path().string());
-      if (ext == ".json" || ext == ".yaml" || ext == ".yml") {
-        beside = " (" + e.path().string() + " lies beside it: pass it with --intrinsics)";
-        break;
+    warn_once(flag, [&] {
+      std::string beside;
+      const std::filesystem::path folder = std::filesystem::path(o.path).parent_path();
+      std::error_code ec;
+      for (const auto& e : std::filesystem::directory_iterator(
+               folder.empty() ? std::filesystem::path(".") : folder, ec)) {
+        const std::string ext = io::extension(e.path().string());
+        if (ext == ".json" || ext == ".yaml" || ext == ".yml") {
+          beside = " (" + e.path().string() + " lies beside it: pass it with --intrinsics)";
+          break;
+        }
       }
-    }
-    warn_once(flag, "note: " + o.path +
-                        ": no camera given (--intrinsics, --fx/--fy): depth PNGs are taken as a "
-                        "Kinect's, fx = fy = 525 px, the principal point at the centre" +
-                        beside);
+      return "note: " + o.path +
+             ": no camera given (--intrinsics, --fx/--fy): depth PNGs are taken as a Kinect's, "
+             "fx = fy = 525 px, the principal point at the centre" +
+             beside;
+    });
   }
   if (eight_bit) {
     static std::once_flag flag;
-    warn_once(flag, "warning: " + o.path +
-                        ": an 8-bit PNG, read as depth in units of --depth-scale (0..255); a "
-                        "depth camera writes 16-bit PNGs: is it a picture or a mask?");
+    warn_once(flag, [&] {
+      return "warning: " + o.path +
+             ": an 8-bit PNG, read as depth in units of --depth-scale (0..255); a depth camera "
+             "writes 16-bit PNGs: is it a picture or a mask?";
+    });
   }
-  // The median depth of the valid pixels: a depth camera sees 0.1-20 m.
+  // The median depth of the valid pixels, against ten times the range of depth cameras
+  // (0.2-20 m) either way.
   std::vector<float> z;
   const int step = std::max(1, cloud.height() / 64);
   for (int v = 0; v < cloud.height(); v += step) {
@@ -217,12 +224,14 @@ void check_depth_image(const InputOptions& o, const OrganizedCloud& cloud, bool 
   const double median = z[z.size() / 2];
   if (median > 0.02 && median < 200) return;
   static std::once_flag flag;
-  char text[96];
-  std::snprintf(text, sizeof text, "the median depth is %.4g m with --depth-scale %g m/unit",
-                median, o.depth_scale);
-  warn_once(flag, "warning: " + o.path + ": " + text +
-                      ": is the scale right? (0.001 for millimetres, 0.0001 for a RealSense "
-                      "D400's default 0.1 mm units, 0.0002 for TUM)");
+  warn_once(flag, [&] {
+    char text[96];
+    std::snprintf(text, sizeof text, "the median depth is %.4g m with --depth-scale %g m/unit",
+                  median, o.depth_scale);
+    return "warning: " + o.path + ": " + text +
+           ": is the scale right? (0.001 for millimetres, 0.0001 for a RealSense D400's default "
+           "0.1 mm units, 0.0002 for TUM)";
+  });
 }
 
 // Points in millimetres, or far from the origin (a georeferenced scan's UTM coordinates, which
@@ -257,7 +266,7 @@ void check_cloud_scale(const std::string& path, const OrganizedCloud& cloud) {
                   "coordinates up to %.6g m, where float points lie %.3g m apart: move the "
                   "origin near the sensor (e.g. subtract a UTM offset) before saving",
                   largest, std::nextafter(static_cast<float>(largest), INFINITY) - largest);
-    warn_once(flag, "warning: " + path + ": " + text);
+    warn_once(flag, [&] { return "warning: " + path + ": " + text; });
     return;
   }
   if (range.empty()) return;
@@ -270,7 +279,7 @@ void check_cloud_scale(const std::string& path, const OrganizedCloud& cloud) {
                   "the points' median distance from the sensor is %.4g m: rangeseg reads "
                   "metres (a cloud in millimetres: scale it by 0.001)",
                   median);
-    warn_once(flag, "warning: " + path + ": " + text);
+    warn_once(flag, [&] { return "warning: " + path + ": " + text; });
   }
 }
 
@@ -299,9 +308,11 @@ LoadedInput load_input(const InputOptions& o) {
   LoadedInput in;
   if (io::extension(o.path) != ".png" && (camera_options_given(o) || o.depth_scale_given)) {
     static std::once_flag flag;
-    warn_once(flag, "warning: " + o.path +
-                        ": --intrinsics, --fx, --fy, --cx, --cy and --depth-scale apply to "
-                        "depth PNGs only: this file's points are used as they are");
+    warn_once(flag, [&] {
+      return "warning: " + o.path +
+             ": --intrinsics, --fx, --fy, --cx, --cy and --depth-scale apply to depth PNGs "
+             "only: this file's points are used as they are";
+    });
   }
   const std::string ext = io::extension(o.path);
   if (ext == ".pcd") {
