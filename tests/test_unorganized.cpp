@@ -955,6 +955,34 @@ TEST(RingSmoothing, LidarScanLinesStayOnTheirPlanes) {
   EXPECT_LE(most_moved, settings.smoothing.iterations + 1e-3);
 }
 
+// A lidar's rings span scan lines far apart, and the ellipses that share out a plane's area
+// among its points overlap: the pipeline gives a plane over rings the area of their union, its
+// polygon's, which cannot exceed the polygon's convex hull.
+TEST(RingSegmentation, PlaneAreasOfALidarScanAreTheirPolygons) {
+  const LidarRoom room;
+  Pipeline pipeline(test::ring_preset("laser"));
+  pipeline.process(room.cloud);
+  const Segmentation& seg = pipeline.segmentation();
+  double ellipses = 0, polygons = 0;
+  int planes = 0;
+  for (const SegmentPolygons& sp : pipeline.polygons().segments) {
+    const Segment& s = seg.segments[static_cast<std::size_t>(sp.label - 1)];
+    if (s.kind != SurfaceKind::plane) continue;
+    ++planes;
+    EXPECT_EQ(s.area_m2, sp.area) << s.label;
+    EXPECT_LE(s.area_m2, sp.hull_area * (1 + 1e-9)) << s.label;
+    for (int i = 0; i < seg.labels.width(); ++i) {
+      if (seg.labels(i, 0) == s.label)
+        ellipses += point_area(pipeline.cloud(), pipeline.rings(), static_cast<std::size_t>(i));
+    }
+    polygons += sp.area;
+  }
+  std::printf("  lidar room: %d planes, %.1f m^2 of polygons, %.1f m^2 of ring ellipses\n", planes,
+              polygons, ellipses);
+  EXPECT_GE(planes, 4);
+  EXPECT_GT(ellipses, 1.3 * polygons);  // what the ellipses' sum would have said
+}
+
 TEST(RingSmoothing, IterationsZeroCopiesAndOutputMustNotBeInput) {
   Points points = random_view([](double, double) { return 1.5; }, 2000, 1.0, 14);
   points[5] = {NAN, NAN, NAN};

@@ -220,7 +220,9 @@ struct Segment {
   int label = 0;  ///< value in Segmentation::labels, 1..N
   SegmentModel model = SegmentModel::plane;
   int pixel_count = 0;  ///< [pixels]
-  double area_m2 = 0;   ///< sum of the mesh face areas split among vertices (see grazing) [m^2]
+  /// sum of the mesh face areas split among vertices (see grazing); over rings see
+  /// unorganized.hpp's `segment` [m^2]
+  double area_m2 = 0;
   std::array<double, 3> centroid{};  ///< [m], camera frame
   std::array<double, 3> normal{};    ///< unit, facing the camera (normal . centroid <= 0)
   double offset = 0;                 ///< normal . x + offset = 0 [m], offset >= 0
