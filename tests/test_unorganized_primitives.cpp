@@ -26,8 +26,10 @@ struct RingRun {
   test::Unorganized u;
   Segmentation seg;
   LabelImage grid;  ///< the segments' labels put back on the rendering's pixels
-  /// Per segment: the sum of point_area over its points (the pipeline's cloud and rings).
+  /// Per segment: the sum of point_area over its points (the pipeline's cloud and rings) ...
   std::vector<double> point_areas;
+  /// ... and the area of its polygon (-1 without one).
+  std::vector<double> polygon_areas;
 };
 
 RingRun run(const synth::Scene& scene, synth::Noise noise, const char* preset, RegionModel model,
@@ -47,6 +49,10 @@ RingRun run(const synth::Scene& scene, synth::Noise noise, const char* preset, R
       out.point_areas[static_cast<std::size_t>(l - 1)] +=
           point_area(pipeline.cloud(), pipeline.rings(), static_cast<std::size_t>(i));
     }
+  }
+  out.polygon_areas.assign(out.seg.segments.size(), -1.0);
+  for (const SegmentPolygons& sp : pipeline.polygons().segments) {
+    out.polygon_areas[static_cast<std::size_t>(sp.label - 1)] = sp.area;
   }
   out.grid = test::to_grid(out.seg.labels, out.u, out.r.cloud.width(), out.r.cloud.height());
   return out;
@@ -113,7 +119,12 @@ void check_segments(const RingRun& r) {
   }
   // The primitive pass joins and relabels segments; their areas are summed again. A plane found
   // seen at grazing incidence counts each point's patch of the plane, not its ring's (a line).
+  // A plane with a polygon takes the polygon's area (the union of the points' footprints).
   for (std::size_t j = 0; j < r.point_areas.size(); ++j) {
+    if (r.seg.segments[j].kind == SurfaceKind::plane && r.polygon_areas[j] >= 0) {
+      EXPECT_EQ(r.seg.segments[j].area_m2, r.polygon_areas[j]) << j + 1;
+      continue;
+    }
     if (r.seg.segments[j].grazing) {
       EXPECT_GT(r.seg.segments[j].area_m2, r.point_areas[j]) << j + 1;
       continue;
