@@ -167,6 +167,11 @@ void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
   }
   if (settings_.segment) {
     unorganized::to_input_order(segmentation_.labels, order, order.ints);
+    // A segment's points count its copies too, as its labels do.
+    for (const std::int32_t copy : order.copies) {
+      const std::int32_t label = segmentation_.labels.row(0)[copy];
+      if (label > 0) ++segmentation_.segments[static_cast<std::size_t>(label - 1)].pixel_count;
+    }
   }
   times_.input += ms_since(t);
   times_.total = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
