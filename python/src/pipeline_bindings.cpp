@@ -139,6 +139,31 @@ void warn_if_not_metres(const View<const float>& depth) {
   if (PyErr_WarnEx(PyExc_UserWarning, message.c_str(), 1) != 0) throw py::error_already_set();
 }
 
+/// Depth in integer units: a UserWarning when the median of every 8th row and column's valid
+/// values, times `scale`, lies beyond any depth sensor's range either way (a wrong depth_scale:
+/// metres per unit given for millimetres, or a RealSense's 0.1 mm units taken as millimetres
+/// does not show, but 1.0 or 1e-6 does).
+void warn_if_scale_implausible(const View<const std::uint16_t>& depth, double scale) {
+  constexpr double kFarthest = 100.0, kNearest = 0.02;  // [m]
+  std::vector<std::uint16_t> sample;
+  for (int v = 0; v < depth.height; v += 8) {
+    const std::uint16_t* row = depth.row(v);
+    for (int u = 0; u < depth.width; u += 8) {
+      if (row[u] > 0) sample.push_back(row[u]);
+    }
+  }
+  if (sample.empty()) return;
+  const auto middle = sample.begin() + static_cast<std::ptrdiff_t>(sample.size() / 2);
+  std::nth_element(sample.begin(), middle, sample.end());
+  const double median = *middle * scale;
+  if (median >= kNearest && median <= kFarthest) return;
+  const std::string message = "depth: the median depth is " + std::to_string(median) +
+                              " m with depth_scale=" + std::to_string(scale) +
+                              " m per unit; is the scale right? (0.001 for millimetres, 0.0001 "
+                              "for a RealSense D400's default 0.1 mm units)";
+  if (PyErr_WarnEx(PyExc_UserWarning, message.c_str(), 1) != 0) throw py::error_already_set();
+}
+
 class PyPipeline {
  public:
   explicit PyPipeline(const PipelineSettings& settings) : pipeline_(settings) {}
@@ -189,6 +214,7 @@ class PyPipeline {
       const View<const std::uint16_t> view{d.data(), static_cast<int>(d.shape(1)),
                                            static_cast<int>(d.shape(0)), d.shape(1)};
       const double scale = depth_scale.value_or(0.001);
+      warn_if_scale_implausible(view, scale);
       return run(nullptr, [&] { pipeline_.process(view, camera, scale); });
     }
     // Floats in metres (times depth_scale), other integers (negative: no measurement) in raw

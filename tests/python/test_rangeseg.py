@@ -368,6 +368,18 @@ class BadInput(unittest.TestCase):
             result = p.process_depth(z, fx=26.25, fy=26.25, cx=15.5, cy=11.5, depth_scale=0.001)
         self.assertEqual(repr(result), "<rangeseg.Result (24, 32): %d segments>" % len(result.segments))
 
+    def test_an_implausible_integer_depth_scale_warns(self):
+        z = np.full((24, 32), 1500, np.uint16)  # millimetres
+        p = rangeseg.Pipeline()
+        camera = dict(fx=26.25, fy=26.25, cx=15.5, cy=11.5)
+        for scale in (1.0, 1e-6):  # metres per unit, micrometres: 1500 m, 1.5 mm
+            with self.assertWarnsRegex(UserWarning, "is the scale right"):
+                p.process_depth(z, depth_scale=scale, **camera)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            p.process_depth(z, **camera)  # the default 0.001
+            p.process_depth(z, depth_scale=0.0001, **camera)  # a RealSense's 0.1 mm: 0.15 m
+
     def test_huge_integer_depths_are_far_points_not_a_cast_error(self):
         z = np.full((24, 32), 1500, np.uint64)
         z[:, 16:] = 2**64 - 1  # no uint16, no int64: the raw-units path, not a failed cast
