@@ -139,7 +139,7 @@ void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
       polygon_extractor_.extract(points, ordered_rings_, segmentation_, settings_.polygon,
                                  polygons_);
       // A point's share of a plane over rings is an ellipse holding its ring; where rings span
-      // scan lines far apart (a lidar's) the ellipses overlap, and their sum was up to 2.3
+      // scan lines far apart (a lidar's) the ellipses overlap, and their sum was 2.3-2.7
       // times the plane's visible area. The polygon outlines their union.
       if (settings_.segmentation.compute_area) {
         for (const SegmentPolygons& sp : polygons_.segments) {

@@ -836,6 +836,10 @@ TEST(CliBatch, TumSequenceUsesTimestampsAndFiveThousandUnitsPerMetre) {
   const auto summary = read_json(dir / "out" / "summary.json");
   EXPECT_EQ(summary["frames"], 3);
   EXPECT_EQ(summary["succeeded"], 2);
+  // How the depth became points: TUM's scale, the camera the options gave.
+  EXPECT_DOUBLE_EQ(summary["depth_png"]["depth_scale_m_per_unit"].get<double>(), 1.0 / 5000.0);
+  EXPECT_EQ(summary["depth_png"]["camera"], "--fx / --fy / --cx / --cy");
+  EXPECT_EQ(summary["depth_png"]["fx"].get<double>(), 131.25);
 }
 
 TEST(CliBatch, TwoThreadsWriteTheSameBytesAsOne) {

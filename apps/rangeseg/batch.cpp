@@ -225,6 +225,14 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
   for (const char* stage : kStages) {
     if (per_stage.contains(stage)) medians[stage] = median(per_stage[stage]);
   }
+  // How depth PNGs among the frames became points (the focal lengths when no file gives them).
+  nlohmann::json depth_png{{"depth_scale_m_per_unit", list.options.depth_scale},
+                           {"camera", camera_source(list.options)}};
+  if (list.options.intrinsics.empty()) {
+    const auto [fx, fy] = focal_lengths(list.options);
+    depth_png["fx"] = fx;
+    depth_png["fy"] = fy;
+  }
   const nlohmann::json summary{
       {"frames", n},
       {"succeeded", ok},
@@ -235,18 +243,7 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
       // Of the frames segmented: failures are often cut short by a bad header.
       {"frames_per_second", wall_s > 0 ? static_cast<double>(ok) / wall_s : 0.0},
       {"median_ms", medians},
-      // How depth PNGs among the frames became points.
-      {"depth_png",
-       {{"depth_scale_m_per_unit", list.options.depth_scale},
-        {"camera",
-         !list.options.intrinsics.empty() ? list.options.intrinsics
-         : list.options.fx_given || list.options.fy_given
-             ? "--fx / --fy: fx " +
-                   std::to_string(list.options.fx_given ? list.options.fx : list.options.fy) +
-                   ", fy " +
-                   std::to_string(list.options.fy_given ? list.options.fy : list.options.fx)
-         : list.options.camera_by_convention ? std::string("TUM RGB-D's, fx = fy = 525")
-                                             : std::string("the default, fx = fy = 525")}}},
+      {"depth_png", depth_png},
       {"failures", failures},
       {"per_frame", frames}};
   write_json((out_dir / "summary.json").string(), summary);

@@ -112,7 +112,22 @@ void note_projection(const std::string& path, const io::CameraFile& file) {
                path.c_str(), p.fx, p.fy, p.cx, p.cy, k.fx, k.fy, k.cx, k.cy);
 }
 
+bool camera_options_given(const InputOptions& o) {
+  return !o.intrinsics.empty() || o.fx_given || o.fy_given || o.cx_given || o.cy_given;
+}
+
 }  // namespace
+
+std::pair<double, double> focal_lengths(const InputOptions& o) {
+  // Square pixels unless both are given: one focal length alone is the camera's.
+  return {o.fx_given || !o.fy_given ? o.fx : o.fy, o.fy_given || !o.fx_given ? o.fy : o.fx};
+}
+
+std::string camera_source(const InputOptions& o) {
+  if (!o.intrinsics.empty()) return o.intrinsics;
+  if (camera_options_given(o)) return "--fx / --fy / --cx / --cy";
+  return o.camera_by_convention ? "TUM RGB-D's" : "the default, a Kinect's";
+}
 
 CameraIntrinsics intrinsics_for(const InputOptions& o, int width, int height) {
   if (!o.intrinsics.empty()) {
@@ -121,9 +136,9 @@ CameraIntrinsics intrinsics_for(const InputOptions& o, int width, int height) {
     if (file.projection_differs()) note_projection(o.intrinsics, file);
     return file.intrinsics;
   }
-  // Square pixels unless both are given: one focal length alone is the camera's.
-  CameraIntrinsics cam{.fx = o.fx_given || !o.fy_given ? o.fx : o.fy,
-                       .fy = o.fy_given || !o.fx_given ? o.fy : o.fx,
+  const auto [fx, fy] = focal_lengths(o);
+  CameraIntrinsics cam{.fx = fx,
+                       .fy = fy,
                        .cx = o.cx_given ? o.cx : (width - 1) / 2.0,
                        .cy = o.cy_given ? o.cy : (height - 1) / 2.0,
                        .width = width,
@@ -175,8 +190,12 @@ void warn_once(std::once_flag& flag, const Message& message) {
   std::call_once(flag, [&] { std::fprintf(stderr, "rangeseg: %s\n", message().c_str()); });
 }
 
-bool camera_options_given(const InputOptions& o) {
-  return !o.intrinsics.empty() || o.fx_given || o.fy_given || o.cx_given || o.cy_given;
+/// The median of `values` (reordered), NaN for none.
+double median_of(std::vector<float>& values) {
+  if (values.empty()) return std::nan("");
+  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
 }
 
 // A depth image's camera and scale, when nothing named them or they are implausible.
@@ -219,10 +238,8 @@ void check_depth_image(const InputOptions& o, const OrganizedCloud& cloud, bool 
       if (std::isfinite(row[u]) && row[u] > 0) z.push_back(row[u]);
     }
   }
-  if (z.empty()) return;
-  std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(z.size() / 2), z.end());
-  const double median = z[z.size() / 2];
-  if (median > 0.02 && median < 200) return;
+  const double median = median_of(z);
+  if (std::isnan(median) || (median > 0.02 && median < 200)) return;
   static std::once_flag flag;
   warn_once(flag, [&] {
     char text[96];
@@ -269,10 +286,7 @@ void check_cloud_scale(const std::string& path, const OrganizedCloud& cloud) {
     warn_once(flag, [&] { return "warning: " + path + ": " + text; });
     return;
   }
-  if (range.empty()) return;
-  std::nth_element(range.begin(), range.begin() + static_cast<std::ptrdiff_t>(range.size() / 2),
-                   range.end());
-  if (const double median = range[range.size() / 2]; median > kFarMedianRange) {
+  if (const double median = median_of(range); median > kFarMedianRange) {
     static std::once_flag flag;
     char text[160];
     std::snprintf(text, sizeof text,
@@ -331,10 +345,7 @@ LoadedInput load_input(const InputOptions& o) {
       in.cloud = depth_to_cloud(depth.view(), cam, o.depth_scale);
       in.camera_fx = cam.fx;
       in.camera = cam;
-      in.camera_source = !o.intrinsics.empty()     ? o.intrinsics
-                         : camera_options_given(o) ? "--fx / --fy / --cx / --cy"
-                         : o.camera_by_convention  ? "TUM RGB-D's"
-                                                   : "the default, a Kinect's";
+      in.camera_source = camera_source(o);
     } catch (const std::invalid_argument& e) {
       // e.g. intrinsics of another image size (depth_to_cloud checks them)
       throw std::runtime_error(o.path + (o.intrinsics.empty() ? "" : " with " + o.intrinsics) +

@@ -6,6 +6,7 @@
 #include <array>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "rangeseg/camera.hpp"
@@ -56,6 +57,12 @@ struct LoadedInput {
 };
 
 void add_input_options(CLI::App& cmd, InputOptions& opts, bool positional = true);
+
+/// The focal lengths (fx, fy) [pixel] the options give a depth PNG: one given alone is both.
+std::pair<double, double> focal_lengths(const InputOptions& opts);
+/// Where a depth PNG's camera comes from: the camera file, the options, TUM's convention or the
+/// default.
+std::string camera_source(const InputOptions& opts);
 LoadedInput load_input(const InputOptions& opts);
 
 /// Throws std::invalid_argument naming `path` and `extensions` unless `path` ends in one of them

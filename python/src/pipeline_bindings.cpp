@@ -118,50 +118,48 @@ void check_fx(double fx) {
   }
 }
 
-/// Float depth is taken as metres: a UserWarning when the median of every 8th row and column's
-/// valid values lies beyond any depth sensor's range (millimetres given without depth_scale).
-void warn_if_not_metres(const View<const float>& depth) {
-  constexpr float kFarthest = 100.0f;  // [m]
-  std::vector<float> sample;
+/// The median of the valid (finite, > 0) values of every 8th row and column, NaN without any.
+template <class T>
+double sampled_median(const View<const T>& depth) {
+  std::vector<T> sample;
   for (int v = 0; v < depth.height; v += 8) {
-    const float* row = depth.row(v);
+    const T* row = depth.row(v);
     for (int u = 0; u < depth.width; u += 8) {
       if (std::isfinite(row[u]) && row[u] > 0) sample.push_back(row[u]);
     }
   }
-  if (sample.empty()) return;
+  if (sample.empty()) return std::nan("");
   const auto middle = sample.begin() + static_cast<std::ptrdiff_t>(sample.size() / 2);
   std::nth_element(sample.begin(), middle, sample.end());
-  if (*middle <= kFarthest) return;
-  const std::string message = "depth: floats are taken as metres, and their median is " +
-                              std::to_string(*middle) +
-                              " m; for millimetres pass depth_scale=0.001";
+  return static_cast<double>(*middle);
+}
+
+void user_warning(const std::string& message) {
   if (PyErr_WarnEx(PyExc_UserWarning, message.c_str(), 1) != 0) throw py::error_already_set();
 }
 
-/// Depth in integer units: a UserWarning when the median of every 8th row and column's valid
-/// values, times `scale`, lies beyond any depth sensor's range either way (a wrong depth_scale:
-/// metres per unit given for millimetres, or a RealSense's 0.1 mm units taken as millimetres
-/// does not show, but 1.0 or 1e-6 does).
+/// Depth beyond this median lies beyond any depth sensor's range [m].
+constexpr double kFarthestMedian = 100.0;
+
+/// Float depth is taken as metres: a UserWarning when its sampled median lies beyond any depth
+/// sensor's range (millimetres given without depth_scale).
+void warn_if_not_metres(const View<const float>& depth) {
+  const double median = sampled_median(depth);
+  if (!(median > kFarthestMedian)) return;
+  user_warning("depth: floats are taken as metres, and their median is " + std::to_string(median) +
+               " m; for millimetres pass depth_scale=0.001");
+}
+
+/// Integer depth: a UserWarning when its sampled median times `scale` lies outside 0.02-100 m
+/// (a depth_scale of 1 given for millimetres, or of 1e-6).
 void warn_if_scale_implausible(const View<const std::uint16_t>& depth, double scale) {
-  constexpr double kFarthest = 100.0, kNearest = 0.02;  // [m]
-  std::vector<std::uint16_t> sample;
-  for (int v = 0; v < depth.height; v += 8) {
-    const std::uint16_t* row = depth.row(v);
-    for (int u = 0; u < depth.width; u += 8) {
-      if (row[u] > 0) sample.push_back(row[u]);
-    }
-  }
-  if (sample.empty()) return;
-  const auto middle = sample.begin() + static_cast<std::ptrdiff_t>(sample.size() / 2);
-  std::nth_element(sample.begin(), middle, sample.end());
-  const double median = *middle * scale;
-  if (median >= kNearest && median <= kFarthest) return;
-  const std::string message = "depth: the median depth is " + std::to_string(median) +
-                              " m with depth_scale=" + std::to_string(scale) +
-                              " m per unit; is the scale right? (0.001 for millimetres, 0.0001 "
-                              "for a RealSense D400's default 0.1 mm units)";
-  if (PyErr_WarnEx(PyExc_UserWarning, message.c_str(), 1) != 0) throw py::error_already_set();
+  constexpr double kNearestMedian = 0.02;  // [m]
+  const double median = sampled_median(depth) * scale;
+  if (std::isnan(median) || (median >= kNearestMedian && median <= kFarthestMedian)) return;
+  user_warning("depth: the median depth is " + std::to_string(median) +
+               " m with depth_scale=" + std::to_string(scale) +
+               " m per unit; is the scale right? (0.001 for millimetres, 0.0001 for a RealSense "
+               "D400's default 0.1 mm units)");
 }
 
 class PyPipeline {

@@ -124,15 +124,15 @@ CameraIntrinsics from_k(const std::vector<double>& k, const std::string& key,
 }
 
 // ROS's projection matrix, the camera of the rectified image: row-major 3x4
-// [fx', 0, cx', Tx, 0, fy', cy', Ty, 0, 0, 1, 0]; false when it is all zero (drivers that do
-// not rectify leave it so).
-bool from_p(const std::vector<double>& p, const std::string& key, const std::string& name,
+// [fx', 0, cx', Tx, 0, fy', cy', Ty, 0, 0, 1, 0], into `camera`; an all-zero P (drivers that do
+// not rectify leave it so) leaves `camera` as it is.
+void from_p(const std::vector<double>& p, const std::string& key, const std::string& name,
             CameraIntrinsics& camera) {
   if (p.size() != 12) {
     fail(name, "key \"" + key + "\" must hold 12 numbers (3x4, row-major), got " +
                    std::to_string(p.size()));
   }
-  if (std::all_of(p.begin(), p.end(), [](double x) { return x == 0; })) return false;
+  if (std::all_of(p.begin(), p.end(), [](double x) { return x == 0; })) return;
   if (p[1] != 0 || p[4] != 0 || p[8] != 0 || p[9] != 0 || p[10] != 1 || p[11] != 0) {
     std::string text;
     for (const double x : p) text += (text.empty() ? "" : ", ") + std::to_string(x);
@@ -144,7 +144,6 @@ bool from_p(const std::vector<double>& p, const std::string& key, const std::str
   camera.cx = p[2];
   camera.fy = p[5];
   camera.cy = p[6];
-  return true;
 }
 
 // The first YAML document of `text` (ROS's echo ends a message with `---`, and

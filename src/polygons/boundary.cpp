@@ -383,8 +383,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       edge_masks, sc.pos.row(0), stride, s, sc.starts, sc.trace_steps, sc.walk, sc.stack,
       [&](const std::int32_t* idx, int n) {
         const std::size_t first = sc.raw_uv.size();
-        detail::resize_with_headroom(sc.raw_uv,
-                                     first + static_cast<std::size_t>(n));  // capacity only grows
+        detail::resize_with_headroom(sc.raw_uv, first + static_cast<std::size_t>(n));
         sc.raw_idx.insert(sc.raw_idx.end(), idx, idx + n);
         std::array<std::int32_t, 2>* uv = sc.raw_uv.data() + first;
         // One pass: pixel coordinates, bounding box and the shoelace sum (image, y down:
@@ -512,7 +511,7 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
       n_points += static_cast<std::size_t>(sc.raw[static_cast<std::size_t>(li)].count);
     }
     sc.xy_first.push_back(static_cast<int>(n_points));
-    detail::resize_with_headroom(sc.xy, 2 * n_points);  // capacity only grows
+    detail::resize_with_headroom(sc.xy, 2 * n_points);
     for (std::size_t k = 0; k < sc.kept.size(); ++k) {
       const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.kept[k])];
       project(cloud, sc.raw_uv.data() + r.first, r.count, pr,

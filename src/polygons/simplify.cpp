@@ -448,7 +448,7 @@ void monotone_chain_sorted(const double* xy, int n, std::vector<int>& hull) {
     while (static_cast<int>(k) >= t && turn(hull[k - 2], hull[k - 1], i) <= 0) --k;
     hull[k++] = i;
   }
-  detail::resize_with_headroom(hull, k > 1 ? k - 1 : k);  // the last point repeats the first
+  hull.resize(k > 1 ? k - 1 : k);  // the last point repeats the first
 }
 
 }  // namespace rangeseg::polygons_detail

@@ -52,11 +52,14 @@ void plane_to_input_order(Plane<T>& plane, const SpatialOrder& o, std::vector<T>
   for (std::size_t c = 0; c < o.copies.size(); ++c) row[o.copies[c]] = row[o.copied[c]];
 }
 
+/// Point i = v * width + u of `cloud`.
+std::array<float, 3> point_at(const OrganizedCloud& cloud, std::int32_t i) {
+  const int w = cloud.width(), u = i % w, v = i / w;
+  return {cloud.x.row(v)[u], cloud.y.row(v)[u], cloud.z.row(v)[u]};
+}
+
 bool same_point(const OrganizedCloud& cloud, std::int32_t a, std::int32_t b) {
-  const int w = cloud.width();
-  const auto at = [&](const FloatPlane& p, std::int32_t i) { return p.row(i / w)[i % w]; };
-  return at(cloud.x, a) == at(cloud.x, b) && at(cloud.y, a) == at(cloud.y, b) &&
-         at(cloud.z, a) == at(cloud.z, b);
+  return point_at(cloud, a) == point_at(cloud, b);
 }
 
 /// Runs of equal keys longer than this are searched for copies by sorting, not pair by pair
@@ -68,15 +71,10 @@ constexpr std::size_t kLongRun = 32;
 /// the sorted run.
 void copies_in_long_run(const OrganizedCloud& cloud, SpatialOrder& o, std::size_t run,
                         std::size_t end, std::vector<std::int32_t>& scratch) {
-  const int w = cloud.width();
-  const auto point = [&](std::int32_t i) {
-    return std::array<float, 3>{cloud.x.row(i / w)[i % w], cloud.y.row(i / w)[i % w],
-                                cloud.z.row(i / w)[i % w]};
-  };
   scratch.assign(o.order.begin() + static_cast<std::ptrdiff_t>(run),
                  o.order.begin() + static_cast<std::ptrdiff_t>(end));
   std::sort(scratch.begin(), scratch.end(), [&](std::int32_t a, std::int32_t b) {
-    const auto pa = point(a), pb = point(b);
+    const auto pa = point_at(cloud, a), pb = point_at(cloud, b);
     return pa != pb ? pa < pb : a < b;
   });
   std::size_t original = 0;

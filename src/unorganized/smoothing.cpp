@@ -117,23 +117,21 @@ void one_pass(const PointRings& rings, const SmoothingSettings& s, const std::ve
         const double m[3] = {sp[0] - s.viewpoint[0], sp[1] - s.viewpoint[1],
                              sp[2] - s.viewpoint[2]};
         const double r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-        // Where the viewing ray meets the plane through the weighted mean, normal to the
-        // filtered normal. A ring need not lie around its point (the scan lines of a lidar are
-        // further apart than its points), and the mean's offset across the ray would turn, on a
-        // slanted surface, into a move off it if the mean were projected onto the ray, as
-        // where the ray runs within kMinRayCosine of the plane, or without a normal.
+        const double range = std::sqrt(r2);
         double t = 1.0;
-        const double rn =
-            normal_i && sn_norm > 0 ? (r[0] * sn[0] + r[1] * sn[1] + r[2] * sn[2]) / sn_norm : 0;
-        if (r2 > 0 && std::fabs(rn) > kMinRayCosine * std::sqrt(r2)) {
-          t = (m[0] * sn[0] + m[1] * sn[1] + m[2] * sn[2]) / sn_norm / rn;
-        } else if (r2 > 0) {
-          t = (m[0] * r[0] + m[1] * r[1] + m[2] * r[2]) / r2;
-        }
-        if (r2 > 0) {
+        if (range > 0) {
+          // Where the ray meets the plane through the weighted mean, normal to the filtered
+          // normal. A ring need not lie around its point (a lidar's scan lines lie further apart
+          // than its points): projected onto the ray, the mean's offset across it would move the
+          // point off a slanted surface. Without a normal, or where the ray runs within
+          // kMinRayCosine of that plane, the mean is projected all the same.
+          const double rn =
+              normal_i && sn_norm > 0 ? (r[0] * sn[0] + r[1] * sn[1] + r[2] * sn[2]) / sn_norm : 0;
+          t = std::fabs(rn) > kMinRayCosine * range
+                  ? (m[0] * sn[0] + m[1] * sn[1] + m[2] * sn[2]) / sn_norm / rn
+                  : (m[0] * r[0] + m[1] * r[1] + m[2] * r[2]) / r2;
           // A filter of noise moves a point by a few sigma at most; more is another surface's
           // pull (a ring across an edge the normals do not show).
-          const double range = std::sqrt(r2);
           const double limit = kMaxMoveSigmas * s.noise.sigma(range) / range;
           t = std::clamp(t, 1.0 - limit, 1.0 + limit);
         }
