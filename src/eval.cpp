@@ -12,6 +12,7 @@
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
 #include <unordered_set>
 
 namespace rangeseg::eval {
@@ -342,8 +343,125 @@ EvalResult evaluate(const LabelImage& ground_truth, const LabelImage& machine,
 
 // ---------------------------------------------------------------------------------------------
 
+namespace {
+
+/// Moments about a label's first point, which keeps the covariance free of cancellation at
+/// large depth.
+struct Moments {
+  std::int64_t n = 0;
+  double ref[3] = {0, 0, 0};
+  double s[3] = {0, 0, 0};
+  double ss[6] = {0, 0, 0, 0, 0, 0};  // xx xy xz yy yz zz
+
+  void add(double x, double y, double z) {
+    if (n == 0) {
+      ref[0] = x;
+      ref[1] = y;
+      ref[2] = z;
+    }
+    const double d0 = x - ref[0], d1 = y - ref[1], d2 = z - ref[2];
+    ++n;
+    s[0] += d0;
+    s[1] += d1;
+    s[2] += d2;
+    ss[0] += d0 * d0;
+    ss[1] += d0 * d1;
+    ss[2] += d0 * d2;
+    ss[3] += d1 * d1;
+    ss[4] += d1 * d2;
+    ss[5] += d2 * d2;
+  }
+
+  /// The least-squares plane, its normal facing the sensor origin; nullopt for fewer than 3
+  /// points or points on (nearly) one line.
+  std::optional<PlaneParams> fit() const {
+    if (n < 3) return std::nullopt;
+    const double inv_n = 1.0 / static_cast<double>(n);
+    const Eigen::Vector3d mean(s[0] * inv_n, s[1] * inv_n, s[2] * inv_n);
+    Eigen::Matrix3d cov;
+    cov << ss[0], ss[1], ss[2], ss[1], ss[3], ss[4], ss[2], ss[4], ss[5];
+    cov = cov * inv_n - mean * mean.transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(cov);
+    const Eigen::Vector3d& lambda = solver.eigenvalues();  // ascending
+    if (!(lambda(2) > 0.0) || lambda(1) <= 1e-12 * lambda(2)) return std::nullopt;
+    Eigen::Vector3d normal = solver.eigenvectors().col(0).normalized();
+    const Eigen::Vector3d centroid = Eigen::Vector3d(ref[0], ref[1], ref[2]) + mean;
+    double offset = -normal.dot(centroid);
+    if (offset < 0.0) {
+      normal = -normal;
+      offset = -offset;
+    }
+    return PlaneParams{{normal(0), normal(1), normal(2)}, offset};
+  }
+};
+
+/// Sets kept[i] = 1 for the pixels index[i] (y * width + x, ascending) in their label's largest
+/// 4-connected part among the indexed pixels, 0 for the others.
+void keep_largest_parts(const LabelImage& labels, const std::vector<std::size_t>& index,
+                        std::vector<std::uint8_t>& kept) {
+  const auto width = static_cast<std::size_t>(labels.width());
+  const auto height = static_cast<std::size_t>(labels.height());
+  constexpr std::int32_t kNone = -1;
+  std::vector<std::int32_t> slot(width * height, kNone);  // pixel -> position in index
+  for (std::size_t i = 0; i < index.size(); ++i) slot[index[i]] = static_cast<std::int32_t>(i);
+  const auto label_at = [&](std::size_t pixel) {
+    return labels(static_cast<int>(pixel % width), static_cast<int>(pixel / width));
+  };
+  std::vector<std::int32_t> part(index.size(), kNone);
+  std::vector<std::int64_t> part_size;
+  std::vector<std::size_t> stack;
+  for (std::size_t i = 0; i < index.size(); ++i) {
+    if (part[i] != kNone) continue;
+    const auto id = static_cast<std::int32_t>(part_size.size());
+    const std::int32_t label = label_at(index[i]);
+    std::int64_t size = 0;
+    part[i] = id;
+    stack.assign(1, i);
+    while (!stack.empty()) {
+      const std::size_t j = stack.back();
+      stack.pop_back();
+      ++size;
+      const std::size_t x = index[j] % width, y = index[j] / width;
+      const std::size_t next[4] = {
+          x > 0 ? index[j] - 1 : index[j], x + 1 < width ? index[j] + 1 : index[j],
+          y > 0 ? index[j] - width : index[j], y + 1 < height ? index[j] + width : index[j]};
+      for (const std::size_t q : next) {
+        const std::int32_t k = slot[q];
+        if (k == kNone || part[static_cast<std::size_t>(k)] != kNone) continue;
+        if (label_at(q) != label) continue;
+        part[static_cast<std::size_t>(k)] = id;
+        stack.push_back(static_cast<std::size_t>(k));
+      }
+    }
+    part_size.push_back(size);
+  }
+  // The largest part of each label: compare every part with the best one seen for its label.
+  std::unordered_map<std::int32_t, std::int32_t> best;  // label -> part
+  for (std::size_t i = 0; i < index.size(); ++i) {
+    const std::int32_t label = label_at(index[i]);
+    auto [it, inserted] = best.try_emplace(label, part[i]);
+    if (!inserted && part_size[static_cast<std::size_t>(part[i])] >
+                         part_size[static_cast<std::size_t>(it->second)]) {
+      it->second = part[i];
+    }
+  }
+  for (std::size_t i = 0; i < index.size(); ++i) {
+    const std::int32_t label = label_at(index[i]);
+    kept[i] = static_cast<std::uint8_t>(best[label] == part[i]);
+  }
+}
+
+/// The distances a robust refit keeps never go below this [m]: noise-free points lie on their
+/// plane to float rounding, where the median distance is no measure of spread.
+constexpr double kMinTrimDistance = 1e-4;
+/// Refits of a robust fit at most; it stops earlier when the kept points no longer change.
+constexpr int kMaxTrimRounds = 5;
+
+}  // namespace
+
 std::vector<std::optional<PlaneParams>> fit_planes(const OrganizedCloud& cloud,
-                                                   const LabelImage& labels, int min_label) {
+                                                   const LabelImage& labels, int min_label,
+                                                   double trim_sigmas) {
   require_consistent(cloud, "eval::fit_planes");
   if (cloud.width() != labels.width() || cloud.height() != labels.height()) {
     throw std::invalid_argument("eval::fit_planes: cloud is " +
@@ -353,6 +471,10 @@ std::vector<std::optional<PlaneParams>> fit_planes(const OrganizedCloud& cloud,
   if (min_label < 0) {
     throw std::invalid_argument("eval::fit_planes: min_label must be >= 0, got " +
                                 std::to_string(min_label));
+  }
+  if (!(trim_sigmas >= 0.0) || !std::isfinite(trim_sigmas)) {
+    throw std::invalid_argument("eval::fit_planes: trim_sigmas must be finite and >= 0, got " +
+                                std::to_string(trim_sigmas));
   }
   const int width = labels.width(), height = labels.height();
   std::int32_t max_label = -1;
@@ -369,66 +491,88 @@ std::vector<std::optional<PlaneParams>> fit_planes(const OrganizedCloud& cloud,
   std::vector<std::optional<PlaneParams>> planes;
   if (max_label < min_label) return planes;
   planes.resize(static_cast<std::size_t>(max_label) + 1);
+  const std::size_t label_count = static_cast<std::size_t>(max_label - min_label) + 1;
 
-  // Moments about the label's first point, which keeps the covariance free of cancellation at
-  // large depth.
-  struct Moments {
-    std::int64_t n = 0;
-    double ref[3] = {0, 0, 0};
-    double s[3] = {0, 0, 0};
-    double ss[6] = {0, 0, 0, 0, 0, 0};  // xx xy xz yy yz zz
-  };
-  std::vector<Moments> moments(static_cast<std::size_t>(max_label - min_label) + 1);
+  // The pixels that enter the fit: labelled, valid and (robust fit) near their label's plane.
+  std::vector<std::size_t> index;  // per fitted pixel: y * width + x
   for (int y = 0; y < height; ++y) {
     const std::int32_t* l_row = labels.row(y);
     const float* px = cloud.x.row(y);
     const float* py = cloud.y.row(y);
     const float* pz = cloud.z.row(y);
     for (int x = 0; x < width; ++x) {
-      const std::int32_t l = l_row[x];
-      if (l < min_label) continue;
+      if (l_row[x] < min_label) continue;
       if (!std::isfinite(px[x]) || !std::isfinite(py[x]) || !std::isfinite(pz[x])) continue;
-      Moments& m = moments[static_cast<std::size_t>(l - min_label)];
-      if (m.n == 0) {
-        m.ref[0] = px[x];
-        m.ref[1] = py[x];
-        m.ref[2] = pz[x];
-      }
-      const double d0 = px[x] - m.ref[0], d1 = py[x] - m.ref[1], d2 = pz[x] - m.ref[2];
-      ++m.n;
-      m.s[0] += d0;
-      m.s[1] += d1;
-      m.s[2] += d2;
-      m.ss[0] += d0 * d0;
-      m.ss[1] += d0 * d1;
-      m.ss[2] += d0 * d2;
-      m.ss[3] += d1 * d1;
-      m.ss[4] += d1 * d2;
-      m.ss[5] += d2 * d2;
+      index.push_back(static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
+                      static_cast<std::size_t>(x));
     }
   }
-
-  for (std::size_t k = 0; k < moments.size(); ++k) {
-    const Moments& m = moments[k];
-    if (m.n < 3) continue;
-    const double inv_n = 1.0 / static_cast<double>(m.n);
-    const Eigen::Vector3d mean(m.s[0] * inv_n, m.s[1] * inv_n, m.s[2] * inv_n);
-    Eigen::Matrix3d cov;
-    cov << m.ss[0], m.ss[1], m.ss[2], m.ss[1], m.ss[3], m.ss[4], m.ss[2], m.ss[4], m.ss[5];
-    cov = cov * inv_n - mean * mean.transpose();
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(cov);
-    const Eigen::Vector3d& lambda = solver.eigenvalues();  // ascending
-    // Points on (nearly) one line or one point do not define a plane.
-    if (!(lambda(2) > 0.0) || lambda(1) <= 1e-12 * lambda(2)) continue;
-    Eigen::Vector3d normal = solver.eigenvectors().col(0).normalized();
-    const Eigen::Vector3d centroid = Eigen::Vector3d(m.ref[0], m.ref[1], m.ref[2]) + mean;
-    double offset = -normal.dot(centroid);
-    if (offset < 0.0) {
-      normal = -normal;
-      offset = -offset;
+  // A robust fit starts from each label's largest 4-connected part: a stray pixel far from its
+  // region would otherwise pull the first plane through itself (a thin strip's plane turns about
+  // the strip's axis), and then it lies near that plane.
+  std::vector<std::uint8_t> kept(index.size(), 1);
+  if (trim_sigmas > 0.0) keep_largest_parts(labels, index, kept);
+  std::vector<Moments> moments;
+  const auto fit_kept = [&] {
+    moments.assign(label_count, Moments{});
+    for (std::size_t i = 0; i < index.size(); ++i) {
+      if (kept[i] == 0) continue;
+      const auto x = static_cast<int>(index[i] % static_cast<std::size_t>(width));
+      const auto y = static_cast<int>(index[i] / static_cast<std::size_t>(width));
+      moments[static_cast<std::size_t>(labels(x, y) - min_label)].add(cloud.x(x, y), cloud.y(x, y),
+                                                                      cloud.z(x, y));
     }
-    planes[k + static_cast<std::size_t>(min_label)] =
-        PlaneParams{{normal(0), normal(1), normal(2)}, offset};
+    for (std::size_t k = 0; k < label_count; ++k) {
+      planes[k + static_cast<std::size_t>(min_label)] = moments[k].fit();
+    }
+  };
+  fit_kept();
+  if (trim_sigmas == 0.0) return planes;
+
+  // Robust refits: the distances of every pixel of a label to its plane, grouped by label
+  // (counting sort), give each label's median distance and so its bound.
+  std::vector<double> distance(index.size(), 0.0);
+  std::vector<std::size_t> first(label_count + 1, 0);
+  std::vector<double> grouped(index.size());
+  std::vector<double> bound(label_count, 0.0);
+  for (int round = 0; round < kMaxTrimRounds; ++round) {
+    std::fill(first.begin(), first.end(), 0);
+    for (std::size_t i = 0; i < index.size(); ++i) {
+      const auto x = static_cast<int>(index[i] % static_cast<std::size_t>(width));
+      const auto y = static_cast<int>(index[i] / static_cast<std::size_t>(width));
+      const std::int32_t l = labels(x, y);
+      const std::optional<PlaneParams>& p = planes[static_cast<std::size_t>(l)];
+      distance[i] = p ? std::fabs(p->normal[0] * cloud.x(x, y) + p->normal[1] * cloud.y(x, y) +
+                                  p->normal[2] * cloud.z(x, y) + p->offset)
+                      : 0.0;
+      ++first[static_cast<std::size_t>(l - min_label) + 1];
+    }
+    for (std::size_t k = 0; k < label_count; ++k) first[k + 1] += first[k];
+    std::vector<std::size_t> fill(first.begin(), first.end() - 1);
+    for (std::size_t i = 0; i < index.size(); ++i) {
+      const auto x = static_cast<int>(index[i] % static_cast<std::size_t>(width));
+      const auto y = static_cast<int>(index[i] / static_cast<std::size_t>(width));
+      grouped[fill[static_cast<std::size_t>(labels(x, y) - min_label)]++] = distance[i];
+    }
+    for (std::size_t k = 0; k < label_count; ++k) {
+      const auto begin = grouped.begin() + static_cast<std::ptrdiff_t>(first[k]);
+      const auto end = grouped.begin() + static_cast<std::ptrdiff_t>(first[k + 1]);
+      if (begin == end) continue;
+      const auto middle = begin + (end - begin) / 2;
+      std::nth_element(begin, middle, end);
+      bound[k] = std::max(kMinTrimDistance, trim_sigmas * 1.4826 * *middle);
+    }
+    bool changed = false;
+    for (std::size_t i = 0; i < index.size(); ++i) {
+      const auto x = static_cast<int>(index[i] % static_cast<std::size_t>(width));
+      const auto y = static_cast<int>(index[i] / static_cast<std::size_t>(width));
+      const auto keep = static_cast<std::uint8_t>(
+          distance[i] <= bound[static_cast<std::size_t>(labels(x, y) - min_label)]);
+      changed = changed || keep != kept[i];
+      kept[i] = keep;
+    }
+    if (!changed) break;
+    fit_kept();
   }
   return planes;
 }

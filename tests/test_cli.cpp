@@ -148,6 +148,26 @@ TEST(Cli, SynthSegmentEvalRoundTrip) {
   EXPECT_EQ(bad_gt.code, 2);
   EXPECT_NE(bad_gt.out.find("huge_label.pcd against"), std::string::npos) << bad_gt.out;
   EXPECT_NE(bad_gt.out.find("2000000000"), std::string::npos) << bad_gt.out;
+  // An unsigned label from 2^31 on (kept bit for bit, negative as int32) is refused, not
+  // scored as unlabelled.
+  labelled.label(3, 3) = static_cast<std::int32_t>(3000000000U);
+  const fs::path unsigned_label = dir / "unsigned_label.pcd";
+  rangeseg::io::write_pcd(unsigned_label.string(), labelled);
+  const CliResult bad_ms =
+      run("eval " + (dir / "scene" / "labels.png").string() + " " + unsigned_label.string());
+  EXPECT_EQ(bad_ms.code, 2);
+  EXPECT_TRUE(rangeseg::test::contains(bad_ms.out, "unsigned_label.pcd: label 3000000000"))
+      << bad_ms.out;
+  // --min-gt-label: ground-truth labels below it are no region.
+  const int all_regions = report["gt_regions"].get<int>();
+  const CliResult without_first =
+      run(eval_args + " --min-gt-label 2 --json " + (dir / "eval2.json").string());
+  ASSERT_EQ(without_first.code, 0) << without_first.out;
+  EXPECT_TRUE(rangeseg::test::contains(without_first.out, "labels >= 2 are regions"))
+      << without_first.out;
+  const auto report2 = nlohmann::json::parse(read_text(dir / "eval2.json"));
+  EXPECT_EQ(report2["gt_regions"].get<int>(), all_regions - 1);
+  EXPECT_EQ(report2["min_gt_label"].get<int>(), 2);
 
   // The depth PNG with the camera file gives the same grid as the PCD.
   const CliResult info = run("info " + (dir / "scene" / "depth.png").string() + " --intrinsics " +
@@ -600,6 +620,38 @@ TEST(Cli, SegcompEvaluationRuns) {
   EXPECT_NE(r.out.find("abw.test.3.gt-seg"), std::string::npos);
 }
 
+// eval-segcomp over several T, with JSON: the counts at each T, and the angle error with the
+// ground truth's planes fitted robustly (abw.test.0 labels one pixel of another surface with a
+// thin strip's label: plain least squares tilts that plane by 68 deg and the image's error is
+// 5.99 deg).
+TEST(Cli, SegcompOverSeveralTolerancesWithJson) {
+  RANGESEG_REQUIRE_DATA("segcomp_abw/abw.test.0.range");
+  RANGESEG_SKIP_ACCURACY_UNDER_SANITIZERS();
+  const fs::path dir = rangeseg::test::scratch_dir("cli_segcomp_sweep");
+  fs::create_directories(dir / "images");
+  for (const char* ext : {".range", ".gt-seg"}) {
+    fs::create_symlink(data_file.parent_path() / (std::string("abw.test.0") + ext),
+                       dir / "images" / (std::string("abw.test.0") + ext));
+  }
+  const CliResult r = run("eval-segcomp " + (dir / "images").string() + " --T 0.8,0.95 --json " +
+                          (dir / "scores.json").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(rangeseg::test::contains(r.out, "averages per image over T")) << r.out;
+  const auto j = nlohmann::json::parse(read_text(dir / "scores.json"));
+  ASSERT_EQ(j["averages"].size(), 2U);
+  ASSERT_EQ(j["images"].size(), 1U);
+  const auto& at = j["images"][0]["results"];
+  ASSERT_EQ(at.size(), 2U);
+  EXPECT_EQ(at[0]["T"], 0.8);
+  EXPECT_EQ(at[1]["T"], 0.95);
+  EXPECT_EQ(at[0]["gt_regions"], 27);
+  EXPECT_LE(at[1]["correct"].get<int>(), at[0]["correct"].get<int>());
+  EXPECT_GE(at[0]["correct"].get<int>(), 20);
+  ASSERT_GT(at[0]["angle_pairs"].get<int>(), 20);
+  EXPECT_LT(at[0]["angle_mean_deg"].get<double>(), 1.0);
+  EXPECT_EQ(j["averages"][0]["mean_correct"], at[0]["correct"]);
+}
+
 TEST(Cli, ConfigFileOverridesAndRejectsUnknownKeys) {
   const fs::path dir = rangeseg::test::scratch_dir("cli_config");
   ASSERT_EQ(run("synth -o " + dir.string() + " --noise none --scene boxes --seed 2").code, 0);
@@ -898,6 +950,14 @@ TEST(CliBatch, TrackedSequenceKeepsIdsAndColoursAcrossFrames) {
   }
   EXPECT_EQ(read_text(dir / "out" / "1" / "overlay.png"),
             read_text(dir / "out" / "10" / "overlay.png"));
+  // polygons.obj names each plane's object by its segment and its track.
+  const std::string obj = read_text(dir / "out" / "10" / "polygons.obj");
+  for (const auto& s : again) {
+    if (s["model"] != "plane") continue;
+    const std::string name = "o segment_" + std::to_string(s["id"].get<int>()) + "_track_" +
+                             std::to_string(s["track_id"].get<std::uint32_t>()) + "\n";
+    EXPECT_TRUE(rangeseg::test::contains(obj, name)) << name << obj;
+  }
   const auto summary = read_json(dir / "out" / "summary.json");
   ASSERT_EQ(summary["per_frame"].size(), 3U);
   EXPECT_EQ(summary["per_frame"][0]["name"], "1");
@@ -918,6 +978,8 @@ TEST(CliBatch, TrackedSequenceKeepsIdsAndColoursAcrossFrames) {
   ASSERT_EQ(run("segment " + (dir / "in").string() + " -o " + (dir / "plain").string()).code, 0);
   const auto plain = read_json(dir / "plain" / "1" / "segments.json");
   for (const auto& s : plain["segments"]) EXPECT_FALSE(s.contains("track_id"));
+  EXPECT_FALSE(
+      rangeseg::test::contains(read_text(dir / "plain" / "1" / "polygons.obj"), "_track_"));
   EXPECT_FALSE(read_json(dir / "plain" / "summary.json")["median_ms"].contains("tracking"));
 }
 

@@ -172,6 +172,7 @@ TEST(CliErrors, EvalWithoutPlanePairsPrintsNoNan) {
   EXPECT_FALSE(contains(r.out, "nan")) << r.out;
   std::istringstream lines(r.out);
   std::string line;
+  std::getline(lines, line);  // T and the ground truth's labels
   std::getline(lines, line);  // header
   std::getline(lines, line);
   EXPECT_EQ(line.substr(0, 10), "labels.png") << r.out;

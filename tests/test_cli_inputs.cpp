@@ -468,3 +468,36 @@ TEST(CliInputs, DepthImageCameraAndScaleAreChecked) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(contains(r.out, "apply to depth PNGs only")) << r.out;
 }
+
+// --preset auto on an organized grid that no pinhole camera explains (a scanner's: equal steps
+// in azimuth and elevation) notes that it took the kinect preset and names --preset laser; a
+// depth camera's grid gets no such note, nor does an explicit preset.
+TEST(CliInputs, AutoPresetNotesAScannersGrid) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_scanner_grid");
+  rangeseg::OrganizedCloud scan(80, 60);
+  constexpr double kStep = 0.01;  // [rad]
+  for (int v = 0; v < 60; ++v) {
+    for (int u = 0; u < 80; ++u) {
+      const double az = (u - 40) * kStep, el = (v - 30) * kStep;
+      const double d[3] = {std::sin(az) * std::cos(el), std::sin(el), std::cos(az) * std::cos(el)};
+      const double range = 2.0 / d[2];  // the wall z = 2 m
+      scan.x(u, v) = static_cast<float>(d[0] * range);
+      scan.y(u, v) = static_cast<float>(d[1] * range);
+      scan.z(u, v) = static_cast<float>(d[2] * range);
+    }
+  }
+  const fs::path scan_path = dir / "scan.pcd";
+  rangeseg::io::write_pcd(scan_path.string(), scan);
+  const CliResult noted = run("segment " + scan_path.string() + " -o " + (dir / "a").string());
+  ASSERT_EQ(noted.code, 0) << noted.out;
+  EXPECT_TRUE(contains(noted.out, "no pinhole camera explains this grid")) << noted.out;
+  EXPECT_TRUE(contains(noted.out, "--preset laser")) << noted.out;
+  const CliResult given =
+      run("segment " + scan_path.string() + " --preset kinect -o " + (dir / "b").string());
+  ASSERT_EQ(given.code, 0) << given.out;
+  EXPECT_FALSE(contains(given.out, "no pinhole camera")) << given.out;
+  const CliResult camera =
+      run("segment " + write_small_pcd(dir).string() + " -o " + (dir / "c").string());
+  ASSERT_EQ(camera.code, 0) << camera.out;
+  EXPECT_FALSE(contains(camera.out, "no pinhole camera")) << camera.out;
+}

@@ -52,6 +52,10 @@ TEST(CliPrimitives, AutoModelWritesSurfaceTypesAndParameters) {
       // The radius is one of the scene's cylinder radii within 1%.
       bool matched = false;
       for (const auto& gt : surfaces["surfaces"]) {
+        if (gt["type"] == "cylinder") {
+          EXPECT_EQ(gt["axis_point"].size(), 3u);
+          EXPECT_FALSE(gt.contains("centre"));
+        }
         if (gt["type"] == "cylinder" &&
             std::abs(gt["radius"].get<double>() - surface["radius"].get<double>()) <
                 0.01 * gt["radius"].get<double>()) {

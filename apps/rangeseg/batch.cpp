@@ -73,6 +73,7 @@ FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options
     InputOptions o = load_options;
     o.path = frame.path;
     const LoadedInput in = load_input(o);
+    note_auto_preset(preset, in, frame.path);
     r.preset = resolve_preset(preset, in.sensor_preset);
     if (sequence_preset != nullptr && sequence_preset->empty()) *sequence_preset = r.preset;
     if (sequence_preset != nullptr && *sequence_preset != r.preset) {

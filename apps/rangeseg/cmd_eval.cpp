@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <exception>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -38,6 +39,7 @@ struct GroundTruth {
   int min_label = 1;
   std::optional<OrganizedCloud> cloud;  ///< for plane fits, when the format brings points
   io::SegcompSensor sensor = io::SegcompSensor::abw;  ///< of a SegComp .range beside a .gt-seg
+  std::string range_error;  ///< why the .range beside a .gt-seg could not be read
 };
 
 /// A PCD or PLY with a label field: ground truth (e.g. an OSD scene) or a segmentation
@@ -48,6 +50,18 @@ OrganizedCloud read_labelled_cloud(const std::string& path) {
   if (!cloud.has_label()) {
     throw std::runtime_error(path + (ply ? ": the PLY file has no 'label' vertex property"
                                          : ": the PCD file has no 'label' field"));
+  }
+  // Unsigned labels from 2^31 on keep their bits in the int32 label plane (so that a PCD
+  // round-trips); scored, they would read as unlabelled.
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      const std::int32_t l = cloud.label(u, v);
+      if (l >= 0) continue;
+      throw std::runtime_error(path + ": label " + std::to_string(static_cast<std::uint32_t>(l)) +
+                               " (as unsigned; " + std::to_string(l) + " as signed) at point " +
+                               std::to_string(static_cast<std::int64_t>(v) * cloud.width() + u) +
+                               ": eval scores labels 0 (unlabelled) to 2147483647");
+    }
   }
   return cloud;
 }
@@ -60,7 +74,15 @@ GroundTruth load_ground_truth(const std::string& path) {
     gt.min_label = 10;
     fs::path range = path;
     range.replace_extension(".range");
-    if (fs::exists(range)) gt.cloud = io::read_segcomp_range(range.string(), &gt.sensor);
+    if (fs::exists(range)) {
+      // Only the angle error needs the points: a range image that cannot be read leaves the
+      // regions' scores.
+      try {
+        gt.cloud = io::read_segcomp_range(range.string(), &gt.sensor);
+      } catch (const std::exception& e) {
+        gt.range_error = e.what();
+      }
+    }
   } else if (ext == ".png") {
     gt.labels = io::read_label_png(path);
   } else if (ext == ".pcd" || ext == ".ply") {
@@ -130,7 +152,7 @@ eval::AngleStats angles_for(const eval::EvalResult& r, const GroundTruth& gt, co
                             const std::vector<int>& curved) {
   if (!gt.cloud) return {};
   std::vector<std::optional<eval::PlaneParams>> gt_planes =
-      eval::fit_planes(*gt.cloud, gt.labels, gt.min_label);
+      eval::fit_planes(*gt.cloud, gt.labels, gt.min_label, eval::kGroundTruthTrimSigmas);
   for (const int label : curved) {
     if (static_cast<std::size_t>(label) < gt_planes.size()) {
       gt_planes[static_cast<std::size_t>(label)].reset();
@@ -145,6 +167,7 @@ struct EvalOptions {
   std::string cloud;     ///< points for the angle error when the ground truth brings none
   std::string surfaces;  ///< synth's surfaces.json: curved regions left out of the angle error
   std::string json;
+  int min_gt_label = -1;  ///< -1: by format (10 for .gt-seg, else 1)
   bool regions = false;
 };
 
@@ -177,14 +200,14 @@ nlohmann::json regions_json(const std::vector<eval::RegionOutcome>& regions) {
   return list;
 }
 
-nlohmann::json result_json(const EvalOptions& o, const eval::EvalResult& r,
-                           const eval::AngleStats& a) {
-  const auto number_or_null = [](double x) {
-    return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);
-  };
-  return {{"ground_truth", o.gt},
-          {"segmentation", o.pred},
-          {"T", r.settings.tolerance},
+/// A number, or null for NaN (no pair of planes to measure).
+nlohmann::json number_or_null(double x) {
+  return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);
+}
+
+/// The counts and the angle error of one scored pair at one T.
+nlohmann::json scores_json(const eval::EvalResult& r, const eval::AngleStats& a) {
+  return {{"T", r.settings.tolerance},
           {"gt_regions", r.gt_regions},
           {"ms_regions", r.ms_regions},
           {"correct", r.correct},
@@ -194,9 +217,17 @@ nlohmann::json result_json(const EvalOptions& o, const eval::EvalResult& r,
           {"noise", r.noise},
           {"angle_pairs", a.pairs},
           {"angle_mean_deg", number_or_null(a.mean_deg)},
-          {"angle_std_deg", number_or_null(a.std_deg)},
-          {"gt", regions_json(r.gt)},
-          {"ms", regions_json(r.ms)}};
+          {"angle_std_deg", number_or_null(a.std_deg)}};
+}
+
+nlohmann::json result_json(const EvalOptions& o, const eval::EvalResult& r,
+                           const eval::AngleStats& a) {
+  nlohmann::json j = {{"ground_truth", o.gt}, {"segmentation", o.pred}};
+  j.update(scores_json(r, a));
+  j["min_gt_label"] = r.settings.min_gt_label;
+  j["gt"] = regions_json(r.gt);
+  j["ms"] = regions_json(r.ms);
+  return j;
 }
 
 struct SegcompOptions {
@@ -205,17 +236,23 @@ struct SegcompOptions {
   std::string preset = "auto";  ///< auto: abw or perceptron, by each image's scanner
   std::string model = "plane";
   std::string config;
-  double tolerance = 0.8;
+  std::vector<double> tolerances{0.8};  ///< the first is the per-image table's
+  std::string json;
   bool no_smooth = false;
 };
 
-/// SegComp .ms-seg: 8-bit rasterfile; labels above 255 cannot be stored and become 0.
+/// SegComp .ms-seg: 8-bit rasterfile, 0 = unlabelled. Throws std::runtime_error naming the file
+/// for a label above 255, which the format cannot store.
 void write_ms_seg(const std::string& path, const LabelImage& labels) {
   BytePlane raw(labels.width(), labels.height(), 0);
   for (int v = 0; v < labels.height(); ++v) {
     for (int u = 0; u < labels.width(); ++u) {
       const int l = labels(u, v);
-      raw(u, v) = static_cast<std::uint8_t>(l > 0 && l <= 255 ? l : 0);
+      if (l > 255) {
+        throw std::runtime_error(path + ": segment " + std::to_string(l) +
+                                 " does not fit SegComp's 8-bit .ms-seg (labels 1-255)");
+      }
+      raw(u, v) = static_cast<std::uint8_t>(l > 0 ? l : 0);
     }
   }
   io::write_rasterfile(path, raw.view());
@@ -265,8 +302,24 @@ std::vector<fs::path> segcomp_images(const std::string& dir) {
   return images;
 }
 
+/// The averages over images at one T, and the pooled angle error; also a JSON object.
+nlohmann::json summary_json(double tolerance, const eval::EvalSummary& s) {
+  return {{"T", tolerance},
+          {"images", s.images},
+          {"mean_gt_regions", number_or_null(s.mean_gt)},
+          {"mean_correct", number_or_null(s.mean_correct)},
+          {"mean_over", number_or_null(s.mean_over)},
+          {"mean_under", number_or_null(s.mean_under)},
+          {"mean_missed", number_or_null(s.mean_missed)},
+          {"mean_noise", number_or_null(s.mean_noise)},
+          {"angle_pairs", s.angle_pairs},
+          {"angle_mean_deg", number_or_null(s.mean_angle_deg)},
+          {"angle_std_deg", number_or_null(s.std_angle_deg)}};
+}
+
 void run_segcomp(const SegcompOptions& o) {
-  require_tolerance(o.tolerance);
+  if (o.tolerances.empty()) throw std::invalid_argument("--T: give at least one tolerance");
+  for (const double t : o.tolerances) require_tolerance(t);
   const std::vector<fs::path> images = segcomp_images(o.dir);
   // One pipeline per scanner: --preset, or (auto) the scanner's own preset.
   const auto pipeline_for = [&](io::SegcompSensor sensor) {
@@ -279,9 +332,12 @@ void run_segcomp(const SegcompOptions& o) {
     pipeline_for(sensor);
   }
   std::unique_ptr<Pipeline> pipelines[2];
-  std::vector<eval::EvalResult> results;
-  std::vector<eval::AngleStats> angles;
+  const std::size_t n_t = o.tolerances.size();
+  std::vector<std::vector<eval::EvalResult>> results(n_t);  // per T, per image scored
+  std::vector<std::vector<eval::AngleStats>> angles(n_t);
   std::vector<std::string> failures;
+  nlohmann::json image_list = nlohmann::json::array();
+  if (n_t > 1) std::printf("T = %.2f (the first of --T):\n", o.tolerances.front());
   print_eval_header();
   for (const fs::path& range : images) {
     try {
@@ -294,9 +350,12 @@ void run_segcomp(const SegcompOptions& o) {
       Pipeline& pipeline = *slot;
       pipeline.process(*gt.cloud);
       const LabelImage& ms = pipeline.segmentation().labels;
-      const eval::EvalResult r =
-          eval::evaluate(gt.labels, ms, {.tolerance = o.tolerance, .min_gt_label = 10});
-      const eval::AngleStats a = angles_for(r, gt, ms, {});
+      std::vector<eval::EvalResult> r(n_t);
+      std::vector<eval::AngleStats> a(n_t);
+      for (std::size_t t = 0; t < n_t; ++t) {
+        r[t] = eval::evaluate(gt.labels, ms, {.tolerance = o.tolerances[t], .min_gt_label = 10});
+        a[t] = angles_for(r[t], gt, ms, {});
+      }
       if (!o.out_dir.empty()) {
         const std::string stem = range.stem().string();
         const auto dir = ensure_dir(o.out_dir);
@@ -304,29 +363,62 @@ void run_segcomp(const SegcompOptions& o) {
         write_ms_nor((dir / (stem + ".ms-nor")).string(), pipeline.segmentation(), gt.sensor);
         write_segmentation_folder((dir / stem).string(), *gt.cloud, pipeline, {.mesh = false});
       }
-      print_eval_row(range.filename().string().c_str(), r, a);
-      results.push_back(r);
-      angles.push_back(a);
+      print_eval_row(range.filename().string().c_str(), r.front(), a.front());
+      nlohmann::json per_t = nlohmann::json::array();
+      for (std::size_t t = 0; t < n_t; ++t) {
+        results[t].push_back(r[t]);
+        angles[t].push_back(a[t]);
+        nlohmann::json item = scores_json(r[t], a[t]);
+        item["gt"] = regions_json(r[t].gt);
+        item["ms"] = regions_json(r[t].ms);
+        per_t.push_back(std::move(item));
+      }
+      image_list.push_back({{"image", range.filename().string()}, {"results", per_t}});
     } catch (const std::exception& e) {
       std::printf("%-22s skipped: %s\n", range.filename().string().c_str(), e.what());
       failures.push_back(e.what());
+      image_list.push_back({{"image", range.filename().string()}, {"error", e.what()}});
     }
   }
-  if (results.empty()) {
+  if (results.front().empty()) {
     throw std::runtime_error(o.dir + ": none of the " + std::to_string(images.size()) +
                              " images could be scored; the first failure: " + failures.front());
   }
   if (!failures.empty()) {
     std::printf("%zu of %zu images skipped (above); the averages are over the other %zu\n",
-                failures.size(), images.size(), results.size());
+                failures.size(), images.size(), results.front().size());
   }
-  const eval::EvalSummary s = eval::summarize(results, angles);
-  std::printf("%-22s %5.1f %5s %7.1f %5.1f %6.1f %6.1f %6.1f %9s\n", "average", s.mean_gt, "",
-              s.mean_correct, s.mean_over, s.mean_under, s.mean_missed, s.mean_noise,
-              angle_text(s.mean_angle_deg).c_str());
-  std::printf("correctly detected: %.1f%% of ground-truth regions (T = %.2f), angle error %s\n",
-              100.0 * s.mean_correct / s.mean_gt, o.tolerance,
-              angle_summary(s.mean_angle_deg, s.std_angle_deg).c_str());
+  nlohmann::json summaries = nlohmann::json::array();
+  for (std::size_t t = 0; t < n_t; ++t) {
+    const eval::EvalSummary s = eval::summarize(results[t], angles[t]);
+    summaries.push_back(summary_json(o.tolerances[t], s));
+    if (t == 0) {
+      std::printf("%-22s %5.1f %5s %7.1f %5.1f %6.1f %6.1f %6.1f %9s\n", "average", s.mean_gt, "",
+                  s.mean_correct, s.mean_over, s.mean_under, s.mean_missed, s.mean_noise,
+                  angle_text(s.mean_angle_deg).c_str());
+      std::printf(
+          "correctly detected: %.1f%% of ground-truth regions (T = %.2f), angle error %s (pooled "
+          "over the %d pairs of adjacent correctly detected planes)\n",
+          100.0 * s.mean_correct / s.mean_gt, o.tolerances[t],
+          angle_summary(s.mean_angle_deg, s.std_angle_deg).c_str(), s.angle_pairs);
+    }
+  }
+  if (n_t > 1) {
+    // Hoover et al. plot these averages over T (their figures 7-11).
+    std::printf("\naverages per image over T:\n%-6s %5s %7s %5s %6s %6s %6s %9s\n", "T", "GT",
+                "correct", "over", "under", "missed", "noise", "angle_deg");
+    for (std::size_t t = 0; t < n_t; ++t) {
+      const eval::EvalSummary s = eval::summarize(results[t], angles[t]);
+      std::printf("%-6.2f %5.1f %7.1f %5.1f %6.1f %6.1f %6.1f %9s\n", o.tolerances[t], s.mean_gt,
+                  s.mean_correct, s.mean_over, s.mean_under, s.mean_missed, s.mean_noise,
+                  angle_text(s.mean_angle_deg).c_str());
+    }
+  }
+  if (!o.json.empty()) {
+    write_json(
+        o.json,
+        {{"folder", o.dir}, {"min_gt_label", 10}, {"images", image_list}, {"averages", summaries}});
+  }
 }
 
 }  // namespace
@@ -351,12 +443,20 @@ void add_eval(CLI::App& app) {
                   "surfaces.json of `synth`: the angle error leaves out the spheres and cylinders "
                   "(as eval-synth does), whose fitted planes depend on which points a region "
                   "holds");
+  cmd->add_option("--min-gt-label", o->min_gt_label,
+                  "Ground-truth labels below this are no region (not scored): default 10 for a "
+                  ".gt-seg (SegComp reserves 0-9), 1 for the other formats (0 = unlabelled)")
+      ->check(CLI::Range(0, std::numeric_limits<int>::max()));
   cmd->add_flag("--regions", o->regions,
                 "Also list every region with its size, outcome and partner regions");
   cmd->add_option("--json", o->json, "Write the scores and per-region outcomes to this JSON file");
   cmd->callback([o] {
     require_tolerance(o->tolerance);
     GroundTruth gt = load_ground_truth(o->gt);
+    if (o->min_gt_label >= 0) gt.min_label = o->min_gt_label;
+    if (!gt.range_error.empty() && o->cloud.empty()) {
+      std::fprintf(stderr, "warning: no angle error: %s\n", gt.range_error.c_str());
+    }
     const std::vector<int> curved =
         o->surfaces.empty() ? std::vector<int>{} : curved_labels(o->surfaces);
     if (!o->cloud.empty()) {
@@ -387,6 +487,8 @@ void add_eval(CLI::App& app) {
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(o->gt + " against " + o->pred + ": " + e.what());
     }
+    std::printf("T = %.2f; ground-truth labels >= %d are regions\n", r.settings.tolerance,
+                r.settings.min_gt_label);
     print_eval_header();
     print_eval_row(fs::path(o->gt).filename().string().c_str(), r, a);
     if (o->regions) {
@@ -407,7 +509,15 @@ void add_eval(CLI::App& app) {
       ->required();
   seg->add_option("-o,--output", s->out_dir, "Also write .ms-seg files and result folders here");
   add_settings_options(*seg, s->model, s->preset, s->config, s->no_smooth, /*auto_preset=*/true);
-  add_tolerance_option(*seg, s->tolerance);
+  seg->add_option("--T", s->tolerances,
+                  "Overlap tolerance T of the SegComp protocol, 0.5 < T <= 1; a list (e.g. "
+                  "0.51,0.6,0.7,0.8,0.9,0.95) also prints the averages at each T, as Hoover et "
+                  "al. plot them; the per-image table is the first T's")
+      ->delimiter(',')
+      ->capture_default_str();
+  seg->add_option("--json", s->json,
+                  "Write every image's scores and region outcomes at each T, and the averages, "
+                  "to this JSON file");
   seg->callback([s] { run_segcomp(*s); });
 }
 

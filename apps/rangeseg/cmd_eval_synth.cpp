@@ -256,7 +256,7 @@ void run_eval_synth(const EvalSynthOptions& o) {
     // cylinder's region depends on which of its points the region holds (a thin strip of a far
     // cylinder, correct at T = 0.8, was 55 deg off), so pairs with a curved surface are left out.
     std::vector<std::optional<eval::PlaneParams>> gt_planes =
-        eval::fit_planes(scene.cloud, scene.labels, 1);
+        eval::fit_planes(scene.cloud, scene.labels, 1, eval::kGroundTruthTrimSigmas);
     for (std::size_t label = 1; label < gt_planes.size(); ++label) {
       if (scene.surfaces[label - 1].type != synth::SurfaceType::plane) gt_planes[label].reset();
     }

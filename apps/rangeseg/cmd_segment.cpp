@@ -170,6 +170,7 @@ void add_segment(CLI::App& app) {
     }
     o->in.path = o->inputs.front();
     const LoadedInput in = load_input(o->in);
+    note_auto_preset(o->preset, in, o->in.path);
     const std::string preset = resolve_preset(o->preset, in.sensor_preset);
     PipelineSettings settings = settings_for(preset);
     settings.threads = o->threads;

@@ -132,13 +132,15 @@ nlohmann::json surfaces_json(const synth::Rendering& r) {
     if (s.type == synth::SurfaceType::plane) {
       j["normal"] = s.normal;
       j["offset"] = s.offset;
+    } else if (s.type == synth::SurfaceType::cylinder) {
+      // Named as in segments.json: the axis starts at the base point and runs `extent` along it.
+      j["axis_point"] = s.centre;
+      j["axis"] = s.axis;
+      j["radius"] = s.radius;
+      j["extent"] = s.extent;
     } else {
       j["centre"] = s.centre;
       j["radius"] = s.radius;
-      if (s.type == synth::SurfaceType::cylinder) {
-        j["axis"] = s.axis;
-        j["extent"] = s.extent;
-      }
     }
     surfaces.push_back(std::move(j));
   }

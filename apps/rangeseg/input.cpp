@@ -318,6 +318,26 @@ bool surrounds_its_sensor(const OrganizedCloud& cloud) {
 
 }  // namespace
 
+void note_auto_preset(const std::string& preset_option, const LoadedInput& in,
+                      const std::string& path) {
+  if (preset_option != "auto" || !in.sensor_preset.empty() || !in.cloud.is_organized() ||
+      in.camera_fx > 0) {
+    return;
+  }
+  static std::once_flag checked;
+  std::call_once(checked, [&] {
+    CameraIntrinsics camera;
+    if (fit_intrinsics(in.cloud, camera)) return;
+    std::fprintf(stderr,
+                 "rangeseg: note: %s: no pinhole camera explains this grid (a scanner's, or "
+                 "points moved out of the camera's frame); --preset auto takes it for a depth "
+                 "camera's (kinect). For a laser scanner give --preset laser: its range noise at "
+                 "short range is above a depth camera's, and the kinect preset leaves much of "
+                 "such a scan unlabelled.\n",
+                 path.c_str());
+  });
+}
+
 LoadedInput load_input(const InputOptions& o) {
   LoadedInput in;
   if (io::extension(o.path) != ".png" && (camera_options_given(o) || o.depth_scale_given)) {

@@ -65,6 +65,13 @@ std::pair<double, double> focal_lengths(const InputOptions& opts);
 std::string camera_source(const InputOptions& opts);
 LoadedInput load_input(const InputOptions& opts);
 
+/// With --preset auto (`preset_option`), an organized cloud that no pinhole camera explains (a
+/// scanner's grid) takes the kinect preset, whose depth noise a laser scanner's exceeds at short
+/// range: a note, once per run, names --preset laser. Only the first organized point cloud of a
+/// run is checked.
+void note_auto_preset(const std::string& preset_option, const LoadedInput& in,
+                      const std::string& path);
+
 /// Throws std::invalid_argument naming `path` and `extensions` unless `path` ends in one of them
 /// (any case): `command` checks its outputs before any work, so that e.g. `-o x.ply` does not
 /// get PCD bytes.

@@ -250,7 +250,7 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
   if (!input.is_organized()) {
     write_json(file("segments.json"), segments_json(seg, &pipeline.polygons()));
     if (!pipeline.polygons().segments.empty()) {
-      write_polygons_obj(file("polygons.obj"), pipeline.polygons());
+      write_polygons_obj(file("polygons.obj"), pipeline.polygons(), &seg);
     }
     write_labelled_cloud(file("cloud.pcd"), pipeline, files.pose);
     remove_earlier_results(dir, written);
@@ -259,7 +259,7 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
   io::write_label_png(file("labels.png"), seg.labels);
   write_json(file("segments.json"), segments_json(seg, &pipeline.polygons()));
   if (!pipeline.polygons().segments.empty()) {
-    write_polygons_obj(file("polygons.obj"), pipeline.polygons());
+    write_polygons_obj(file("polygons.obj"), pipeline.polygons(), &seg);
   }
   LabelImage ids;
   const LabelImage& colour_by = colour_ids(seg, ids);

@@ -95,10 +95,25 @@ struct PlaneParams {
 /// Least-squares plane (PCA in double over the valid points) of every label >= `min_label`,
 /// indexed by label (size = max label + 1; empty if there is none). The normal is unit length and
 /// oriented towards the sensor origin (offset >= 0). nullopt for labels with fewer than 3 valid
-/// points or whose points are (numerically) collinear. Throws std::invalid_argument if the sizes
-/// differ, min_label < 0, or a label exceeds 2^24 - 1.
+/// points or whose points are (numerically) collinear.
+///
+/// With `trim_sigmas` > 0 the fit is robust to mislabelled points, as hand-drawn ground truth
+/// has (SegComp's ABW image 0 labels one pixel of another surface, 190 mm off, with a thin
+/// strip's label, and tilts its least-squares plane by 68 degrees): points farther from their
+/// label's plane than trim_sigmas x 1.4826 x the median distance (a robust sigma; at least 0.1
+/// mm) are left out and the plane refitted, until the points kept no longer change (at most 5
+/// refits). Fit ground truth so (kGroundTruthTrimSigmas); a segmentation's own planes are what
+/// it reports, fitted plainly.
+///
+/// Throws std::invalid_argument if the sizes differ, min_label < 0, trim_sigmas < 0 or not
+/// finite, or a label exceeds 2^24 - 1.
 std::vector<std::optional<PlaneParams>> fit_planes(const OrganizedCloud& cloud,
-                                                   const LabelImage& labels, int min_label);
+                                                   const LabelImage& labels, int min_label,
+                                                   double trim_sigmas = 0.0);
+
+/// The trim of ground-truth plane fits in `eval`, `eval-segcomp`, `eval-synth` and Python's
+/// `evaluate` (dimensionless, robust sigmas).
+inline constexpr double kGroundTruthTrimSigmas = 3.0;
 
 struct AngleSettings {
   /// GT regions are adjacent when a 4-neighbour pair of their pixels touches, or is separated by

@@ -205,9 +205,13 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
 
 /// Writes the polygons as a Wavefront OBJ: one object `segment_<label>` per segment with the
 /// simplified loop vertices (`v`, metres, camera frame) and the faces of
-/// `triangulate_polygons` (`f`), written atomically. Throws std::runtime_error naming the file.
-void write_polygons_obj(const std::string& path, const PolygonSet& polygons);
+/// `triangulate_polygons` (`f`), written atomically. Given the segmentation the polygons were
+/// traced from, a tracked segment's object is `segment_<label>_track_<Segment::track_id>`, so
+/// that a stream's planes keep one name from frame to frame. Throws std::runtime_error naming
+/// the file.
+void write_polygons_obj(const std::string& path, const PolygonSet& polygons,
+                        const Segmentation* segmentation = nullptr);
 /// The OBJ text of write_polygons_obj.
-std::string polygons_to_obj(const PolygonSet& polygons);
+std::string polygons_to_obj(const PolygonSet& polygons, const Segmentation* segmentation = nullptr);
 
 }  // namespace rangeseg

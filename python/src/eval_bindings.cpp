@@ -43,8 +43,9 @@ py::dict evaluate(const py::object& ground_truth, const py::object& segmentation
     const OrganizedCloud cloud =
         cloud_from_arrays(gt.height() >= 2 ? py::object(p) : p.attr("reshape")(-1, 3), py::none(),
                           py::none(), py::none());
-    const eval::AngleStats a = eval::angle_error(r, gt, eval::fit_planes(cloud, gt, min_gt_label),
-                                                 eval::fit_planes(cloud, ms, 1));
+    const eval::AngleStats a = eval::angle_error(
+        r, gt, eval::fit_planes(cloud, gt, min_gt_label, eval::kGroundTruthTrimSigmas),
+        eval::fit_planes(cloud, ms, 1));
     out["angle_pairs"] = a.pairs;
     out["angle_error_deg"] = a.mean_deg;
     out["angle_error_std_deg"] = a.std_deg;
@@ -63,7 +64,9 @@ no region (10 for SegComp .gt-seg images); segmentation labels <= 0 are unlabell
 Returns a dict: gt_regions, ms_regions, correct, over, under, missed, noise (counts at
 the overlap tolerance T = tolerance, 0.5 < T <= 1) and correct_pairs [(gt, ms)]; with
 the points (H, W, 3) also Hoover's angle error of adjacent correctly detected planes
-(angle_error_deg, its std, angle_pairs; NaN when there is no such pair).)");
+(angle_error_deg, its std, angle_pairs; NaN when there is no such pair), the ground truth's
+planes fitted robustly (points more than 3 robust sigmas off left out), the segmentation's
+plainly.)");
 }
 
 }  // namespace rangeseg::python

@@ -314,6 +314,15 @@ void separate_touching_vertices(const PolygonSet& polygons, std::vector<P2>& pts
   }
 }
 
+/// The track id of the segment labelled `label`, 0 when untracked or not found.
+std::uint32_t track_of(const Segmentation* segmentation, int label) {
+  if (segmentation == nullptr) return 0;
+  for (const Segment& s : segmentation->segments) {
+    if (s.label == label) return s.track_id;
+  }
+  return 0;
+}
+
 }  // namespace
 
 void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int, 3>>& triangles) {
@@ -440,7 +449,7 @@ void triangulate_polygons(const PolygonSet& polygons, std::vector<std::array<int
   });
 }
 
-std::string polygons_to_obj(const PolygonSet& polygons) {
+std::string polygons_to_obj(const PolygonSet& polygons, const Segmentation* segmentation) {
   std::vector<std::array<int, 3>> tris;
   triangulate_polygons(polygons, tris);
   std::string text =
@@ -450,7 +459,12 @@ std::string polygons_to_obj(const PolygonSet& polygons) {
   for (std::size_t si = 0; si < polygons.segments.size(); ++si) {
     const SegmentPolygons& sp = polygons.segments[si];
     if (sp.loop_count == 0) continue;
-    std::snprintf(line, sizeof line, "o segment_%d\n", sp.label);
+    const std::uint32_t track = track_of(segmentation, sp.label);
+    if (track != 0) {
+      std::snprintf(line, sizeof line, "o segment_%d_track_%u\n", sp.label, track);
+    } else {
+      std::snprintf(line, sizeof line, "o segment_%d\n", sp.label);
+    }
     text += line;
     const PolygonLoop& first = polygons.loops[static_cast<std::size_t>(sp.first_loop)];
     const PolygonLoop& last =
@@ -469,8 +483,9 @@ std::string polygons_to_obj(const PolygonSet& polygons) {
   return text;
 }
 
-void write_polygons_obj(const std::string& path, const PolygonSet& polygons) {
-  io::write_file_atomic(path, polygons_to_obj(polygons));
+void write_polygons_obj(const std::string& path, const PolygonSet& polygons,
+                        const Segmentation* segmentation) {
+  io::write_file_atomic(path, polygons_to_obj(polygons, segmentation));
 }
 
 }  // namespace rangeseg
