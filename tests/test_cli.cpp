@@ -634,7 +634,7 @@ TEST(Cli, SegcompOverSeveralTolerancesWithJson) {
                        dir / "images" / (std::string("abw.test.0") + ext));
   }
   const CliResult r = run("eval-segcomp " + (dir / "images").string() + " --T 0.8,0.95 --json " +
-                          (dir / "scores.json").string());
+                          (dir / "scores.json").string() + " -o " + (dir / "out").string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(rangeseg::test::contains(r.out, "averages per image over T")) << r.out;
   const auto j = nlohmann::json::parse(read_text(dir / "scores.json"));
@@ -650,6 +650,31 @@ TEST(Cli, SegcompOverSeveralTolerancesWithJson) {
   ASSERT_GT(at[0]["angle_pairs"].get<int>(), 20);
   EXPECT_LT(at[0]["angle_mean_deg"].get<double>(), 1.0);
   EXPECT_EQ(j["averages"][0]["mean_correct"], at[0]["correct"]);
+
+  // eval scores a .ms-seg with the normals of the .ms-nor beside it, as Hoover's tools do: the
+  // written ones give the same error, a .ms-nor whose normals all point one way another.
+  const std::string eval_args = "eval " + (dir / "images" / "abw.test.0.gt-seg").string() + " " +
+                                (dir / "out" / "abw.test.0.ms-seg").string() + " --json " +
+                                (dir / "eval.json").string();
+  const CliResult reported = run(eval_args);
+  ASSERT_EQ(reported.code, 0) << reported.out;
+  EXPECT_TRUE(rangeseg::test::contains(reported.out, ".ms-nor's normals")) << reported.out;
+  const auto e = nlohmann::json::parse(read_text(dir / "eval.json"));
+  EXPECT_EQ(e["machine_planes"], "ms-nor");
+  EXPECT_NEAR(e["angle_mean_deg"].get<double>(), at[0]["angle_mean_deg"].get<double>(), 0.05);
+  std::string flat;
+  std::istringstream lines(read_text(dir / "out" / "abw.test.0.ms-nor"));
+  for (std::string line; std::getline(lines, line);) {
+    flat += line.substr(0, line.find(' ')) + " 0 0 1\n";
+  }
+  std::ofstream(dir / "out" / "abw.test.0.ms-nor") << flat;
+  ASSERT_EQ(run(eval_args).code, 0);
+  EXPECT_GT(nlohmann::json::parse(read_text(dir / "eval.json"))["angle_mean_deg"].get<double>(),
+            10.0);
+  std::ofstream(dir / "out" / "abw.test.0.ms-nor") << "3 0 0 one\n";
+  const CliResult bad = run(eval_args);
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_TRUE(rangeseg::test::contains(bad.out, "abw.test.0.ms-nor:1:")) << bad.out;
 }
 
 TEST(Cli, ConfigFileOverridesAndRejectsUnknownKeys) {

@@ -1,6 +1,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -9,6 +10,7 @@
 #include <limits>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <system_error>
@@ -146,10 +148,66 @@ std::vector<int> curved_labels(const std::string& path) {
   return curved;
 }
 
+using PlaneTable = std::vector<std::optional<eval::PlaneParams>>;
+
+/// The planes a segmenter reported in the .ms-nor beside a .ms-seg (`ms_path`), as Hoover's tools
+/// score them: a line "label nx ny nz" per region, the unit normal in the SegComp axes of
+/// `sensor` (write_ms_nor's), each plane through its region's centroid in `cloud`. nullopt when
+/// there is no such file. Throws std::runtime_error naming the file and line for a line that is
+/// not a label 1-255 and a finite, non-zero normal.
+std::optional<PlaneTable> reported_planes(const std::string& ms_path, const LabelImage& ms,
+                                          const OrganizedCloud& cloud, io::SegcompSensor sensor) {
+  fs::path nor = ms_path;
+  nor.replace_extension(".ms-nor");
+  if (io::extension(ms_path) != ".ms-seg" || !fs::exists(nor)) return std::nullopt;
+  const std::vector<std::uint8_t> bytes = io::read_file(nor.string(), 1 << 20);
+  std::istringstream text(std::string(bytes.begin(), bytes.end()));
+  PlaneTable planes(256);
+  std::array<std::array<double, 4>, 256> sums{};  // x, y, z, count per label
+  for (int v = 0; v < ms.height(); ++v) {
+    for (int u = 0; u < ms.width(); ++u) {
+      const std::int32_t l = ms(u, v);
+      const float x = cloud.x(u, v), y = cloud.y(u, v), z = cloud.z(u, v);
+      if (l < 1 || l > 255 || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) continue;
+      auto& sum = sums[static_cast<std::size_t>(l)];
+      sum[0] += x;
+      sum[1] += y;
+      sum[2] += z;
+      sum[3] += 1;
+    }
+  }
+  const bool abw = sensor == io::SegcompSensor::abw;
+  std::string line;
+  for (int number = 1; std::getline(text, line); ++number) {
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    std::istringstream fields(line);
+    long label = 0;
+    double n[3] = {0, 0, 0};
+    std::string rest;
+    const bool parsed =
+        static_cast<bool>(fields >> label >> n[0] >> n[1] >> n[2]) && !(fields >> rest);
+    if (!parsed || label < 1 || label > 255 || !std::isfinite(n[0]) || !std::isfinite(n[1]) ||
+        !std::isfinite(n[2]) || n[0] * n[0] + n[1] * n[1] + n[2] * n[2] == 0.0) {
+      throw std::runtime_error(nor.string() + ":" + std::to_string(number) +
+                               ": expected 'label nx ny nz' with a label 1-255 and a non-zero "
+                               "normal, got '" +
+                               line + "'");
+    }
+    const auto& sum = sums[static_cast<std::size_t>(label)];
+    if (sum[3] == 0) continue;  // a region with no valid point has no plane to place
+    // SegComp's axes: ABW x right, y up, z towards the sensor; Perceptron x left, y up, z away.
+    const std::array<double, 3> normal{abw ? n[0] : -n[0], -n[1], abw ? -n[2] : n[2]};
+    const double offset = -(normal[0] * sum[0] + normal[1] * sum[1] + normal[2] * sum[2]) / sum[3];
+    planes[static_cast<std::size_t>(label)] = eval::PlaneParams{normal, offset};
+  }
+  return planes;
+}
+
 /// Hoover's angle measure over the planes: ground-truth regions listed in `curved` have no plane
-/// (their least-squares plane depends on which of their points a region holds).
+/// (their least-squares plane depends on which of their points a region holds). The machine's
+/// planes are `reported` ones when given, else fitted to its regions' points.
 eval::AngleStats angles_for(const eval::EvalResult& r, const GroundTruth& gt, const LabelImage& ms,
-                            const std::vector<int>& curved) {
+                            const std::vector<int>& curved, const PlaneTable* reported = nullptr) {
   if (!gt.cloud) return {};
   std::vector<std::optional<eval::PlaneParams>> gt_planes =
       eval::fit_planes(*gt.cloud, gt.labels, gt.min_label, eval::kGroundTruthTrimSigmas);
@@ -158,7 +216,8 @@ eval::AngleStats angles_for(const eval::EvalResult& r, const GroundTruth& gt, co
       gt_planes[static_cast<std::size_t>(label)].reset();
     }
   }
-  return eval::angle_error(r, gt.labels, gt_planes, eval::fit_planes(*gt.cloud, ms, 1));
+  return eval::angle_error(r, gt.labels, gt_planes,
+                           reported != nullptr ? *reported : eval::fit_planes(*gt.cloud, ms, 1));
 }
 
 struct EvalOptions {
@@ -478,24 +537,31 @@ void add_eval(CLI::App& app) {
                                ") " + std::to_string(gt.labels.width()) + "x" +
                                std::to_string(gt.labels.height()));
     }
+    const std::optional<PlaneTable> reported =
+        gt.cloud ? reported_planes(o->pred, ms, *gt.cloud, gt.sensor) : std::nullopt;
     // The library's checks (label ranges, ...) name no file: say which pair was scored.
     eval::EvalResult r;
     eval::AngleStats a;
     try {
       r = eval::evaluate(gt.labels, ms, {.tolerance = o->tolerance, .min_gt_label = gt.min_label});
-      a = angles_for(r, gt, ms, curved);
+      a = angles_for(r, gt, ms, curved, reported ? &*reported : nullptr);
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(o->gt + " against " + o->pred + ": " + e.what());
     }
-    std::printf("T = %.2f; ground-truth labels >= %d are regions\n", r.settings.tolerance,
-                r.settings.min_gt_label);
+    std::printf("T = %.2f; ground-truth labels >= %d are regions%s\n", r.settings.tolerance,
+                r.settings.min_gt_label,
+                reported ? "; the machine's planes: its .ms-nor's normals" : "");
     print_eval_header();
     print_eval_row(fs::path(o->gt).filename().string().c_str(), r, a);
     if (o->regions) {
       print_regions("ground-truth", r.gt);
       print_regions("machine", r.ms);
     }
-    if (!o->json.empty()) write_json(o->json, result_json(*o, r, a));
+    if (!o->json.empty()) {
+      nlohmann::json j = result_json(*o, r, a);
+      j["machine_planes"] = reported ? "ms-nor" : "fitted";
+      write_json(o->json, j);
+    }
   });
 
   auto s = std::make_shared<SegcompOptions>();
