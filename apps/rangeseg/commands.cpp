@@ -18,6 +18,7 @@ void register_commands(CLI::App& app) {
   add_segment(app);
   add_smooth(app);
   add_eval(app);
+  add_eval_segcomp(app);
   add_eval_synth(app);
   add_bench(app);
   add_settings(app);

@@ -24,6 +24,7 @@ void add_segment(CLI::App& app);
 void add_bench(CLI::App& app);
 void add_smooth(CLI::App& app);
 void add_eval(CLI::App& app);
+void add_eval_segcomp(CLI::App& app);
 void add_eval_synth(CLI::App& app);
 void add_settings(CLI::App& app);
 
