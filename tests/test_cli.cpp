@@ -650,6 +650,10 @@ TEST(Cli, SegcompOverSeveralTolerancesWithJson) {
   ASSERT_GT(at[0]["angle_pairs"].get<int>(), 20);
   EXPECT_LT(at[0]["angle_mean_deg"].get<double>(), 1.0);
   EXPECT_EQ(j["averages"][0]["mean_correct"], at[0]["correct"]);
+  // Every segment is counted: on ground-truth regions, or outside them.
+  const auto segments = read_json(dir / "out" / "abw.test.0" / "segments.json")["segments"];
+  EXPECT_EQ(at[0]["ms_regions"].get<std::size_t>() + at[0]["ms_regions_outside"].get<std::size_t>(),
+            segments.size());
 
   // eval scores a .ms-seg with the normals of the .ms-nor beside it, as Hoover's tools do: the
   // written ones give the same error, a .ms-nor whose normals all point one way another.

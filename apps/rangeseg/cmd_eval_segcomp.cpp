@@ -233,7 +233,8 @@ void add_eval_segcomp(CLI::App& app) {
                   "Folder with SegComp images and ground truth, e.g. abw.test.N.range and "
                   "abw.test.N.gt-seg")
       ->required();
-  seg->add_option("-o,--output", s->out_dir, "Also write .ms-seg files and result folders here");
+  seg->add_option("-o,--output", s->out_dir,
+                  "Also write .ms-seg and .ms-nor files and result folders here");
   add_settings_options(*seg, s->model, s->preset, s->config, s->no_smooth, /*auto_preset=*/true);
   seg->add_option("--T", s->tolerances,
                   "Overlap tolerance T of the SegComp protocol, 0.5 < T <= 1; a list (e.g. "

@@ -351,7 +351,7 @@ void add_eval_synth(CLI::App& app) {
   cmd->footer(
       "The same scores as `rangeseg synth --scene S --seed N --noise X [--camera C] -o D`, "
       "`rangeseg segment D/cloud.pcd -o R ...` and `rangeseg eval D/labels.png R/labels.png "
-      "--cloud D/cloud.pcd` "
+      "--cloud D/cloud.pcd --surfaces D/surfaces.json` "
       "for every seed. With --model auto it also reports how many sphere and cylinder regions "
       "are one segment of the right kind, and their radius and axis errors.");
   cmd->callback([o] { run_eval_synth(*o); });

@@ -207,6 +207,7 @@ nlohmann::json scores_json(const eval::EvalResult& r, const eval::AngleStats& a)
   return {{"T", r.settings.tolerance},
           {"gt_regions", r.gt_regions},
           {"ms_regions", r.ms_regions},
+          {"ms_regions_outside", r.ms_regions_outside},
           {"correct", r.correct},
           {"over", r.over},
           {"under", r.under},

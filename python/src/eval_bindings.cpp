@@ -29,9 +29,9 @@ py::dict evaluate(const py::object& ground_truth, const py::object& segmentation
   const eval::EvalSettings settings{.tolerance = tolerance, .min_gt_label = min_gt_label};
   const eval::EvalResult r = eval::evaluate(gt, ms, settings);
   py::dict out("tolerance"_a = tolerance, "gt_regions"_a = r.gt_regions,
-               "ms_regions"_a = r.ms_regions, "correct"_a = r.correct, "over"_a = r.over,
-               "under"_a = r.under, "missed"_a = r.missed, "noise"_a = r.noise,
-               "correct_pairs"_a = r.correct_pairs);
+               "ms_regions"_a = r.ms_regions, "ms_regions_outside"_a = r.ms_regions_outside,
+               "correct"_a = r.correct, "over"_a = r.over, "under"_a = r.under,
+               "missed"_a = r.missed, "noise"_a = r.noise, "correct_pairs"_a = r.correct_pairs);
   if (!points.is_none()) {
     const py::array p = numeric_array(points, "points");
     if (p.ndim() != 3 || p.shape(0) != gt.height() || p.shape(1) != gt.width() || p.shape(2) != 3) {
@@ -61,7 +61,8 @@ void bind_eval(py::module_& m) {
         R"(Scores a segmentation against ground truth by the SegComp protocol (Hoover et al.
 1996): two integer label images of one size. Ground-truth labels below min_gt_label are
 no region (10 for SegComp .gt-seg images); segmentation labels <= 0 are unlabelled.
-Returns a dict: gt_regions, ms_regions, correct, over, under, missed, noise (counts at
+Returns a dict: gt_regions, ms_regions (ms_regions_outside: those lying only on
+ground truth that is no region, counted nowhere else), correct, over, under, missed, noise (counts at
 the overlap tolerance T = tolerance, 0.5 < T <= 1) and correct_pairs [(gt, ms)]; with
 the points (H, W, 3) also Hoover's angle error of adjacent correctly detected planes
 (angle_error_deg, its std, angle_pairs; NaN when there is no such pair), the ground truth's

@@ -138,8 +138,9 @@ void user_warning(const std::string& message) {
   if (PyErr_WarnEx(PyExc_UserWarning, message.c_str(), 1) != 0) throw py::error_already_set();
 }
 
-/// Depth beyond this median lies beyond any depth sensor's range [m].
-constexpr double kFarthestMedian = 100.0;
+/// Depth beyond this median lies beyond any depth sensor's range [m]: ten times a depth camera's
+/// 20 m, as the command line's check.
+constexpr double kFarthestMedian = 200.0;
 
 /// Float depth is taken as metres: a UserWarning when its sampled median lies beyond any depth
 /// sensor's range (millimetres given without depth_scale).
@@ -150,7 +151,7 @@ void warn_if_not_metres(const View<const float>& depth) {
                " m; for millimetres pass depth_scale=0.001");
 }
 
-/// Integer depth: a UserWarning when its sampled median times `scale` lies outside 0.02-100 m
+/// Integer depth: a UserWarning when its sampled median times `scale` lies outside 0.02-200 m
 /// (a depth_scale of 1 given for millimetres, or of 1e-6).
 void warn_if_scale_implausible(const View<const std::uint16_t>& depth, double scale) {
   constexpr double kNearestMedian = 0.02;  // [m]
@@ -276,11 +277,11 @@ class PyPipeline {
     r.times = py::dict("input"_a = t.input, "normals"_a = t.normals, "smoothing"_a = t.smoothing,
                        "segmentation"_a = t.segmentation, "polygons"_a = t.polygons,
                        "tracking"_a = t.tracking, "total"_a = t.total);
-    // As the command line names them: an unorganized cloud off any pixel grid has rings, and
-    // its `input` is the moves into spatial order and back.
+    // As the command line names them: an unorganized cloud off any pixel grid has rings; an
+    // unorganized cloud's `input` is the moves onto its grid or into spatial order, and back.
     const bool over_rings = !organized && !pipeline_.pixel_grid().found();
     r.times[over_rings ? "rings" : "mesh"] = t.mesh;
-    if (over_rings) r.times["order"] = r.times.attr("pop")("input");
+    if (!organized) r.times["order"] = r.times.attr("pop")("input");
     return r;
   }
 
@@ -394,7 +395,7 @@ Returns a Result.)")
 pixels): integers in raw units (0 or negative = no measurement, depth_scale metres
 per unit, default 0.001), or floats in metres (NaN or <= 0 = no measurement;
 depth_scale default 1; without depth_scale, a UserWarning when their median is beyond
-100 m: millimetres, most likely). width and height, when not 0, must be the image's (as in
+200 m: millimetres, most likely). width and height, when not 0, must be the image's (as in
 read_camera's dict: process_depth(depth, **camera)). Returns a Result.)")
       .def_property_readonly(
           "threads", [](const PyPipeline& p) { return p.settings().threads; },

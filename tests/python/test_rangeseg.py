@@ -167,6 +167,8 @@ class Inputs(unittest.TestCase):
         # Put back on their pixel grid, they ran the grid's stages; off it, over rings, whose
         # times are named as the command line names them.
         self.assertIn("mesh", result.times)
+        self.assertIn("order", result.times)  # the moves onto the grid and back
+        self.assertNotIn("input", result.times)
         jittered = flat + np.random.default_rng(4).normal(0.0, 1e-3, flat.shape)
         over_rings = rangeseg.Pipeline(preset="ideal").process(jittered).times
         self.assertIn("rings", over_rings)
