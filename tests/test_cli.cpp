@@ -100,6 +100,7 @@ TEST(Cli, SynthSegmentEvalRoundTrip) {
   EXPECT_TRUE(fs::exists(dir / "seg" / "polygons.obj"));
   ASSERT_TRUE(first.contains("polygon")) << first.dump();
   EXPECT_GT(first["polygon"]["area_m2"].get<double>(), 0.0);
+  EXPECT_EQ(first["plane_group"], first["id"]);  // the largest segment leads its group
 
   const CliResult eval = run("eval " + (dir / "scene" / "labels.png").string() + " " +
                              (dir / "seg" / "labels.png").string());

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -290,3 +291,55 @@ TEST(SegmentationPostprocess, RealFrameInstructionSetsAgree) {
 }
 
 }  // namespace
+
+namespace {
+
+/// A plane segment of `pixels` points spread over `area` m^2 around `centroid`.
+rangeseg::Segment plane_segment(int label, std::array<double, 3> normal,
+                                std::array<double, 3> centroid, int pixels, double area,
+                                double rms = 0.001) {
+  const double length =
+      std::sqrt(normal[0] * normal[0] + normal[1] * normal[1] + normal[2] * normal[2]);
+  for (double& c : normal) c /= length;
+  rangeseg::Segment s;
+  s.label = label;
+  s.normal = normal;
+  s.centroid = centroid;
+  s.offset = -(normal[0] * centroid[0] + normal[1] * centroid[1] + normal[2] * centroid[2]);
+  s.pixel_count = pixels;
+  s.area_m2 = area;
+  s.rms_residual = rms;
+  s.surface_rms = rms;
+  return s;
+}
+
+}  // namespace
+
+// Coplanar groups: two pieces of one table on either side of a box are one group, as is a third
+// piece through another; a plane 3 cm above the table, a wall and a cylinder are not.
+TEST(CoplanarGroups, PiecesOfOnePlaneAreOneGroup) {
+  rangeseg::Segmentation seg;
+  const std::array<double, 3> up{0.0, -0.8, -0.6};  // a table seen from above, facing the camera
+  const auto on_table = [&](double x, double y, double lift) {
+    // The point of the table plane (through (0, 0, 1.5)) at x, y, moved `lift` along its normal.
+    const double z = 1.5 - (up[1] * y + up[0] * x) / up[2];
+    return std::array<double, 3>{x + lift * up[0], y + lift * up[1], z + lift * up[2]};
+  };
+  seg.segments.push_back(plane_segment(1, up, on_table(-0.3, 0.1, 0.0), 40000, 0.25));
+  seg.segments.push_back(plane_segment(2, up, on_table(0.35, 0.05, 0.0), 20000, 0.12));
+  seg.segments.push_back(plane_segment(3, up, on_table(0.3, 0.0, 0.03), 5000, 0.02));  // a box top
+  seg.segments.push_back(plane_segment(4, {0.0, 0.0, -1.0}, {0.0, -0.3, 2.5}, 3000, 0.2));
+  rangeseg::Segment cylinder = plane_segment(5, up, on_table(0.0, 0.2, 0.0), 2500, 0.01);
+  cylinder.kind = rangeseg::SurfaceKind::cylinder;
+  seg.segments.push_back(cylinder);
+  seg.segments.push_back(plane_segment(6, up, on_table(0.1, -0.2, 0.001), 900, 0.005));
+  const std::vector<int> groups = rangeseg::coplanar_groups(seg);
+  EXPECT_EQ(groups, (std::vector<int>{1, 1, 3, 4, 0, 1}));
+  // Tilted by 10 degrees about the x axis, piece 2 is another plane.
+  const double t = 10.0 * std::numbers::pi / 180.0;
+  const std::array<double, 3> tilted{0.0, up[1] * std::cos(t) - up[2] * std::sin(t),
+                                     up[1] * std::sin(t) + up[2] * std::cos(t)};
+  seg.segments[1] = plane_segment(2, tilted, seg.segments[1].centroid, 20000, 0.12);
+  EXPECT_EQ(rangeseg::coplanar_groups(seg)[1], 2);
+  EXPECT_THROW(rangeseg::coplanar_groups(seg, {.merge_angle = -1.0}), std::invalid_argument);
+}

@@ -146,7 +146,9 @@ RgbImage colorize_surface_types(const Segmentation& seg, RgbImage image) {
   return image;
 }
 
-nlohmann::json segments_json(const Segmentation& seg, const PolygonSet* polygons) {
+nlohmann::json segments_json(const Segmentation& seg, const PolygonSet* polygons,
+                             const SegmentationSettings& settings) {
+  const std::vector<int> groups = coplanar_groups(seg, settings);
   std::vector<const SegmentPolygons*> by_label(seg.segments.size() + 1, nullptr);
   if (polygons != nullptr) {
     for (const SegmentPolygons& sp : polygons->segments) {
@@ -171,6 +173,9 @@ nlohmann::json segments_json(const Segmentation& seg, const PolygonSet* polygons
                  {"rms_residual", s.rms_residual},
                  {"grazing", s.grazing},
                  {"surface", surface_json(s)}});
+    if (const int group = groups[static_cast<std::size_t>(s.label - 1)]; group != 0) {
+      item["plane_group"] = group;
+    }
     if (s.track_id != 0) item["track_id"] = s.track_id;
   }
   return {{"plane_equation", "normal . x + offset = 0, camera frame, metres"},
@@ -248,7 +253,8 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
   };
   const Segmentation& seg = pipeline.segmentation();
   if (!input.is_organized()) {
-    write_json(file("segments.json"), segments_json(seg, &pipeline.polygons()));
+    write_json(file("segments.json"),
+               segments_json(seg, &pipeline.polygons(), pipeline.settings().segmentation));
     if (!pipeline.polygons().segments.empty()) {
       write_polygons_obj(file("polygons.obj"), pipeline.polygons(), &seg);
     }
@@ -257,7 +263,8 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
     return joined(written);
   }
   io::write_label_png(file("labels.png"), seg.labels);
-  write_json(file("segments.json"), segments_json(seg, &pipeline.polygons()));
+  write_json(file("segments.json"),
+             segments_json(seg, &pipeline.polygons(), pipeline.settings().segmentation));
   if (!pipeline.polygons().segments.empty()) {
     write_polygons_obj(file("polygons.obj"), pipeline.polygons(), &seg);
   }

@@ -14,8 +14,10 @@
 
 namespace rangeseg::cli {
 
-/// segments.json: every segment, with its polygons when `polygons` is given.
-nlohmann::json segments_json(const Segmentation& segmentation, const PolygonSet* polygons);
+/// segments.json: every segment, with its polygons when `polygons` is given, and a plane's
+/// coplanar group (coplanar_groups under `settings`).
+nlohmann::json segments_json(const Segmentation& segmentation, const PolygonSet* polygons,
+                             const SegmentationSettings& settings);
 
 /// The segments coloured by surface type (planes grey, cylinders blue, spheres red, smooth
 /// green): `shaded` = colorize_labels(segmentation.labels, &input), recoloured with its shading.

@@ -314,6 +314,19 @@ inline bool is_plane(const Segment& segment) {
   return segment.kind == SurfaceKind::plane && segment.model != RegionModel::smooth;
 }
 
+/// Groups of coplanar plane segments: per segment (index label - 1) the label of the largest
+/// segment whose plane it shares, directly or through others, or 0 for a segment that is no
+/// plane (is_plane). Segments are connected regions, so one surface that an object cuts apart
+/// (a table seen on both sides of a box) is several segments of one group, as are two box tops
+/// at one height. Two planes are one when their normals agree within `merge_angle` plus
+/// `merge_distance_sigmas` standard errors of both normals and each centroid lies on the other
+/// plane within `merge_distance_sigmas` times the noise sigma at its range, widened by the
+/// other normal's error over the distance between the centroids. A normal's standard error is
+/// max(rms_residual, sigma) / sqrt(pixel_count * area_m2 / (4 pi)), a disc's spread of that
+/// area. O(segments^2); throws std::invalid_argument for invalid settings.
+std::vector<int> coplanar_groups(const Segmentation& segmentation,
+                                 const SegmentationSettings& settings = {});
+
 /// Throws std::invalid_argument naming the field and its value for settings `segment` rejects
 /// (e.g. min_region_size below 1, angles outside their ranges, a non-finite noise model).
 void validate(const SegmentationSettings& settings);

@@ -272,7 +272,7 @@ class PyPipeline {
     r.raw_normals = normals_array(pipeline_.raw_normals(), organized);
     r.curvature = plane_array(normals.curvature, organized);
     r.labels = plane_array(seg.labels, organized);
-    r.segments = segments_list(seg, &pipeline_.polygons());
+    r.segments = segments_list(seg, &pipeline_.polygons(), pipeline_.settings().segmentation);
     const StageTimes& t = pipeline_.times();
     r.times = py::dict("input"_a = t.input, "normals"_a = t.normals, "smoothing"_a = t.smoothing,
                        "segmentation"_a = t.segmentation, "polygons"_a = t.polygons,

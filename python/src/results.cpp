@@ -58,7 +58,9 @@ py::dict surface_dict(const Segment& s) {
 
 }  // namespace
 
-py::list segments_list(const Segmentation& segmentation, const PolygonSet* polygons) {
+py::list segments_list(const Segmentation& segmentation, const PolygonSet* polygons,
+                       const SegmentationSettings& settings) {
+  const std::vector<int> groups = coplanar_groups(segmentation, settings);
   std::vector<const SegmentPolygons*> by_label(segmentation.segments.size() + 1, nullptr);
   if (polygons != nullptr) {
     for (const SegmentPolygons& sp : polygons->segments) {
@@ -78,6 +80,9 @@ py::list segments_list(const Segmentation& segmentation, const PolygonSet* polyg
       d["polygon"] = polygon_dict(*polygons, *sp);
     }
     if (s.track_id != 0) d["track_id"] = s.track_id;
+    if (const int group = groups[static_cast<std::size_t>(s.label - 1)]; group != 0) {
+      d["plane_group"] = group;
+    }
     list.append(d);
   }
   return list;

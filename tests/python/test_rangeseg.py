@@ -491,6 +491,7 @@ class KinectFrame(unittest.TestCase):
         largest = result.segments[0]
         self.assertEqual(largest["surface"]["type"], "plane")
         self.assertGreater(largest["pixel_count"], 100000)
+        self.assertEqual(largest["plane_group"], largest["id"])  # the largest of its group
         t = result.times
         stages = t["input"] + t["mesh"] + t["normals"] + t["smoothing"] + t["segmentation"] + t["polygons"]
         self.assertLessEqual(stages, t["total"] * 1.001)
