@@ -17,6 +17,7 @@
 #include "commands.hpp"
 #include "eval_common.hpp"
 #include "eval_table.hpp"
+#include "input.hpp"
 #include "names.hpp"
 #include "output.hpp"
 #include "rangeseg/eval.hpp"
