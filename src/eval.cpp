@@ -12,7 +12,6 @@
 #include <numbers>
 #include <stdexcept>
 #include <string>
-#include <unordered_map>
 #include <unordered_set>
 
 namespace rangeseg::eval {
@@ -395,25 +394,30 @@ struct Moments {
   }
 };
 
-/// Sets kept[i] = 1 for the pixels index[i] (y * width + x, ascending) in their label's largest
-/// 4-connected part among the indexed pixels, 0 for the others.
-void keep_largest_parts(const LabelImage& labels, const std::vector<std::size_t>& index,
-                        std::vector<std::uint8_t>& kept) {
-  const auto width = static_cast<std::size_t>(labels.width());
-  const auto height = static_cast<std::size_t>(labels.height());
+/// A valid labelled pixel of a plane fit.
+struct FitPoint {
+  std::size_t pixel;  ///< y * width + x
+  std::size_t slot;   ///< label - min_label
+  double p[3];        ///< [m]
+};
+
+/// Sets kept[i] = 1 for the points in their label's largest 4-connected part among `points`
+/// (ascending by pixel), 0 for the others.
+void keep_largest_parts(int width, int height, std::size_t label_count,
+                        const std::vector<FitPoint>& points, std::vector<std::uint8_t>& kept) {
+  const auto w = static_cast<std::size_t>(width);
+  const auto h = static_cast<std::size_t>(height);
   constexpr std::int32_t kNone = -1;
-  std::vector<std::int32_t> slot(width * height, kNone);  // pixel -> position in index
-  for (std::size_t i = 0; i < index.size(); ++i) slot[index[i]] = static_cast<std::int32_t>(i);
-  const auto label_at = [&](std::size_t pixel) {
-    return labels(static_cast<int>(pixel % width), static_cast<int>(pixel / width));
-  };
-  std::vector<std::int32_t> part(index.size(), kNone);
+  std::vector<std::int32_t> at(w * h, kNone);  // pixel -> position in points
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    at[points[i].pixel] = static_cast<std::int32_t>(i);
+  }
+  std::vector<std::int32_t> part(points.size(), kNone);
   std::vector<std::int64_t> part_size;
   std::vector<std::size_t> stack;
-  for (std::size_t i = 0; i < index.size(); ++i) {
+  for (std::size_t i = 0; i < points.size(); ++i) {
     if (part[i] != kNone) continue;
     const auto id = static_cast<std::int32_t>(part_size.size());
-    const std::int32_t label = label_at(index[i]);
     std::int64_t size = 0;
     part[i] = id;
     stack.assign(1, i);
@@ -421,33 +425,31 @@ void keep_largest_parts(const LabelImage& labels, const std::vector<std::size_t>
       const std::size_t j = stack.back();
       stack.pop_back();
       ++size;
-      const std::size_t x = index[j] % width, y = index[j] / width;
-      const std::size_t next[4] = {
-          x > 0 ? index[j] - 1 : index[j], x + 1 < width ? index[j] + 1 : index[j],
-          y > 0 ? index[j] - width : index[j], y + 1 < height ? index[j] + width : index[j]};
+      const std::size_t q0 = points[j].pixel, x = q0 % w, y = q0 / w;
+      const std::size_t next[4] = {x > 0 ? q0 - 1 : q0, x + 1 < w ? q0 + 1 : q0,
+                                   y > 0 ? q0 - w : q0, y + 1 < h ? q0 + w : q0};
       for (const std::size_t q : next) {
-        const std::int32_t k = slot[q];
-        if (k == kNone || part[static_cast<std::size_t>(k)] != kNone) continue;
-        if (label_at(q) != label) continue;
+        const std::int32_t k = at[q];
+        if (k == kNone || part[static_cast<std::size_t>(k)] != kNone ||
+            points[static_cast<std::size_t>(k)].slot != points[i].slot) {
+          continue;
+        }
         part[static_cast<std::size_t>(k)] = id;
         stack.push_back(static_cast<std::size_t>(k));
       }
     }
     part_size.push_back(size);
   }
-  // The largest part of each label: compare every part with the best one seen for its label.
-  std::unordered_map<std::int32_t, std::int32_t> best;  // label -> part
-  for (std::size_t i = 0; i < index.size(); ++i) {
-    const std::int32_t label = label_at(index[i]);
-    auto [it, inserted] = best.try_emplace(label, part[i]);
-    if (!inserted && part_size[static_cast<std::size_t>(part[i])] >
-                         part_size[static_cast<std::size_t>(it->second)]) {
-      it->second = part[i];
+  std::vector<std::int32_t> largest(label_count, kNone);  // per label its largest part
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    std::int32_t& best = largest[points[i].slot];
+    if (best == kNone ||
+        part_size[static_cast<std::size_t>(part[i])] > part_size[static_cast<std::size_t>(best)]) {
+      best = part[i];
     }
   }
-  for (std::size_t i = 0; i < index.size(); ++i) {
-    const std::int32_t label = label_at(index[i]);
-    kept[i] = static_cast<std::uint8_t>(best[label] == part[i]);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    kept[i] = static_cast<std::uint8_t>(largest[points[i].slot] == part[i]);
   }
 }
 
@@ -493,8 +495,8 @@ std::vector<std::optional<PlaneParams>> fit_planes(const OrganizedCloud& cloud,
   planes.resize(static_cast<std::size_t>(max_label) + 1);
   const std::size_t label_count = static_cast<std::size_t>(max_label - min_label) + 1;
 
-  // The pixels that enter the fit: labelled, valid and (robust fit) near their label's plane.
-  std::vector<std::size_t> index;  // per fitted pixel: y * width + x
+  // The points that enter the fit: labelled and valid (and, robust, near their label's plane).
+  std::vector<FitPoint> points;
   for (int y = 0; y < height; ++y) {
     const std::int32_t* l_row = labels.row(y);
     const float* px = cloud.x.row(y);
@@ -503,24 +505,22 @@ std::vector<std::optional<PlaneParams>> fit_planes(const OrganizedCloud& cloud,
     for (int x = 0; x < width; ++x) {
       if (l_row[x] < min_label) continue;
       if (!std::isfinite(px[x]) || !std::isfinite(py[x]) || !std::isfinite(pz[x])) continue;
-      index.push_back(static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
-                      static_cast<std::size_t>(x));
+      points.push_back({static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
+                            static_cast<std::size_t>(x),
+                        static_cast<std::size_t>(l_row[x] - min_label),
+                        {px[x], py[x], pz[x]}});
     }
   }
   // A robust fit starts from each label's largest 4-connected part: a stray pixel far from its
   // region would otherwise pull the first plane through itself (a thin strip's plane turns about
   // the strip's axis), and then it lies near that plane.
-  std::vector<std::uint8_t> kept(index.size(), 1);
-  if (trim_sigmas > 0.0) keep_largest_parts(labels, index, kept);
+  std::vector<std::uint8_t> kept(points.size(), 1);
+  if (trim_sigmas > 0.0) keep_largest_parts(width, height, label_count, points, kept);
   std::vector<Moments> moments;
   const auto fit_kept = [&] {
     moments.assign(label_count, Moments{});
-    for (std::size_t i = 0; i < index.size(); ++i) {
-      if (kept[i] == 0) continue;
-      const auto x = static_cast<int>(index[i] % static_cast<std::size_t>(width));
-      const auto y = static_cast<int>(index[i] / static_cast<std::size_t>(width));
-      moments[static_cast<std::size_t>(labels(x, y) - min_label)].add(cloud.x(x, y), cloud.y(x, y),
-                                                                      cloud.z(x, y));
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if (kept[i] != 0) moments[points[i].slot].add(points[i].p[0], points[i].p[1], points[i].p[2]);
     }
     for (std::size_t k = 0; k < label_count; ++k) {
       planes[k + static_cast<std::size_t>(min_label)] = moments[k].fit();
@@ -529,30 +529,25 @@ std::vector<std::optional<PlaneParams>> fit_planes(const OrganizedCloud& cloud,
   fit_kept();
   if (trim_sigmas == 0.0) return planes;
 
-  // Robust refits: the distances of every pixel of a label to its plane, grouped by label
+  // Robust refits: the distances of every point of a label to its plane, grouped by label
   // (counting sort), give each label's median distance and so its bound.
-  std::vector<double> distance(index.size(), 0.0);
+  std::vector<double> distance(points.size(), 0.0);
   std::vector<std::size_t> first(label_count + 1, 0);
-  std::vector<double> grouped(index.size());
+  for (const FitPoint& q : points) ++first[q.slot + 1];
+  for (std::size_t k = 0; k < label_count; ++k) first[k + 1] += first[k];
+  std::vector<std::size_t> fill(label_count);
+  std::vector<double> grouped(points.size());
   std::vector<double> bound(label_count, 0.0);
   for (int round = 0; round < kMaxTrimRounds; ++round) {
-    std::fill(first.begin(), first.end(), 0);
-    for (std::size_t i = 0; i < index.size(); ++i) {
-      const auto x = static_cast<int>(index[i] % static_cast<std::size_t>(width));
-      const auto y = static_cast<int>(index[i] / static_cast<std::size_t>(width));
-      const std::int32_t l = labels(x, y);
-      const std::optional<PlaneParams>& p = planes[static_cast<std::size_t>(l)];
-      distance[i] = p ? std::fabs(p->normal[0] * cloud.x(x, y) + p->normal[1] * cloud.y(x, y) +
-                                  p->normal[2] * cloud.z(x, y) + p->offset)
-                      : 0.0;
-      ++first[static_cast<std::size_t>(l - min_label) + 1];
-    }
-    for (std::size_t k = 0; k < label_count; ++k) first[k + 1] += first[k];
-    std::vector<std::size_t> fill(first.begin(), first.end() - 1);
-    for (std::size_t i = 0; i < index.size(); ++i) {
-      const auto x = static_cast<int>(index[i] % static_cast<std::size_t>(width));
-      const auto y = static_cast<int>(index[i] / static_cast<std::size_t>(width));
-      grouped[fill[static_cast<std::size_t>(labels(x, y) - min_label)]++] = distance[i];
+    std::copy(first.begin(), first.end() - 1, fill.begin());
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const FitPoint& q = points[i];
+      const std::optional<PlaneParams>& plane =
+          planes[q.slot + static_cast<std::size_t>(min_label)];
+      distance[i] = plane ? std::fabs(plane->normal[0] * q.p[0] + plane->normal[1] * q.p[1] +
+                                      plane->normal[2] * q.p[2] + plane->offset)
+                          : 0.0;
+      grouped[fill[q.slot]++] = distance[i];
     }
     for (std::size_t k = 0; k < label_count; ++k) {
       const auto begin = grouped.begin() + static_cast<std::ptrdiff_t>(first[k]);
@@ -563,11 +558,8 @@ std::vector<std::optional<PlaneParams>> fit_planes(const OrganizedCloud& cloud,
       bound[k] = std::max(kMinTrimDistance, trim_sigmas * 1.4826 * *middle);
     }
     bool changed = false;
-    for (std::size_t i = 0; i < index.size(); ++i) {
-      const auto x = static_cast<int>(index[i] % static_cast<std::size_t>(width));
-      const auto y = static_cast<int>(index[i] / static_cast<std::size_t>(width));
-      const auto keep = static_cast<std::uint8_t>(
-          distance[i] <= bound[static_cast<std::size_t>(labels(x, y) - min_label)]);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const auto keep = static_cast<std::uint8_t>(distance[i] <= bound[points[i].slot]);
       changed = changed || keep != kept[i];
       kept[i] = keep;
     }

@@ -125,7 +125,7 @@ void add_eval(CLI::App& app) {
     eval::AngleStats a;
     try {
       r = eval::evaluate(gt.labels, ms, {.tolerance = o->tolerance, .min_gt_label = gt.min_label});
-      a = angles_for(r, gt, ms, curved, reported ? &*reported : nullptr);
+      a = angles_for(r, gt, angle_planes(gt, ms, curved, reported ? &*reported : nullptr));
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(o->gt + " against " + o->pred + ": " + e.what());
     }

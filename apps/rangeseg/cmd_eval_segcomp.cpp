@@ -153,9 +153,10 @@ void run_segcomp(const SegcompOptions& o) {
       const LabelImage& ms = pipeline.segmentation().labels;
       std::vector<eval::EvalResult> r(n_t);
       std::vector<eval::AngleStats> a(n_t);
+      const AnglePlanes planes = angle_planes(gt, ms, {});  // once for every T
       for (std::size_t t = 0; t < n_t; ++t) {
         r[t] = eval::evaluate(gt.labels, ms, {.tolerance = o.tolerances[t], .min_gt_label = 10});
-        a[t] = angles_for(r[t], gt, ms, {});
+        a[t] = angles_for(r[t], gt, planes);
       }
       if (!o.out_dir.empty()) {
         const std::string stem = range.stem().string();
@@ -189,10 +190,12 @@ void run_segcomp(const SegcompOptions& o) {
     std::printf("%zu of %zu images skipped (above); the averages are over the other %zu\n",
                 failures.size(), images.size(), results.front().size());
   }
-  nlohmann::json summaries = nlohmann::json::array();
+  std::vector<eval::EvalSummary> summaries(n_t);
+  nlohmann::json summary_list = nlohmann::json::array();
   for (std::size_t t = 0; t < n_t; ++t) {
-    const eval::EvalSummary s = eval::summarize(results[t], angles[t]);
-    summaries.push_back(summary_json(o.tolerances[t], s));
+    summaries[t] = eval::summarize(results[t], angles[t]);
+    const eval::EvalSummary& s = summaries[t];
+    summary_list.push_back(summary_json(o.tolerances[t], s));
     if (t == 0) {
       std::printf("%-22s %5.1f %5s %7.1f %5.1f %6.1f %6.1f %6.1f %9s\n", "average", s.mean_gt, "",
                   s.mean_correct, s.mean_over, s.mean_under, s.mean_missed, s.mean_noise,
@@ -209,16 +212,17 @@ void run_segcomp(const SegcompOptions& o) {
     std::printf("\naverages per image over T:\n%-6s %5s %7s %5s %6s %6s %6s %9s\n", "T", "GT",
                 "correct", "over", "under", "missed", "noise", "angle_deg");
     for (std::size_t t = 0; t < n_t; ++t) {
-      const eval::EvalSummary s = eval::summarize(results[t], angles[t]);
+      const eval::EvalSummary& s = summaries[t];
       std::printf("%-6.2f %5.1f %7.1f %5.1f %6.1f %6.1f %6.1f %9s\n", o.tolerances[t], s.mean_gt,
                   s.mean_correct, s.mean_over, s.mean_under, s.mean_missed, s.mean_noise,
                   angle_text(s.mean_angle_deg).c_str());
     }
   }
   if (!o.json.empty()) {
-    write_json(
-        o.json,
-        {{"folder", o.dir}, {"min_gt_label", 10}, {"images", image_list}, {"averages", summaries}});
+    write_json(o.json, {{"folder", o.dir},
+                        {"min_gt_label", 10},
+                        {"images", image_list},
+                        {"averages", summary_list}});
   }
 }
 

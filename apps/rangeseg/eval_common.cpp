@@ -174,18 +174,24 @@ std::optional<PlaneTable> reported_planes(const std::string& ms_path, const Labe
   return planes;
 }
 
-eval::AngleStats angles_for(const eval::EvalResult& r, const GroundTruth& gt, const LabelImage& ms,
-                            const std::vector<int>& curved, const PlaneTable* reported) {
+AnglePlanes angle_planes(const GroundTruth& gt, const LabelImage& ms,
+                         const std::vector<int>& curved, const PlaneTable* reported) {
   if (!gt.cloud) return {};
-  std::vector<std::optional<eval::PlaneParams>> gt_planes =
-      eval::fit_planes(*gt.cloud, gt.labels, gt.min_label, eval::kGroundTruthTrimSigmas);
+  AnglePlanes planes;
+  planes.gt = eval::fit_planes(*gt.cloud, gt.labels, gt.min_label, eval::kGroundTruthTrimSigmas);
   for (const int label : curved) {
-    if (static_cast<std::size_t>(label) < gt_planes.size()) {
-      gt_planes[static_cast<std::size_t>(label)].reset();
+    if (static_cast<std::size_t>(label) < planes.gt.size()) {
+      planes.gt[static_cast<std::size_t>(label)].reset();
     }
   }
-  return eval::angle_error(r, gt.labels, gt_planes,
-                           reported != nullptr ? *reported : eval::fit_planes(*gt.cloud, ms, 1));
+  planes.ms = reported != nullptr ? *reported : eval::fit_planes(*gt.cloud, ms, 1);
+  return planes;
+}
+
+eval::AngleStats angles_for(const eval::EvalResult& r, const GroundTruth& gt,
+                            const AnglePlanes& planes) {
+  if (!gt.cloud) return {};
+  return eval::angle_error(r, gt.labels, planes.gt, planes.ms);
 }
 
 nlohmann::json number_or_null(double x) {

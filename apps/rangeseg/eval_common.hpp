@@ -45,11 +45,20 @@ using PlaneTable = std::vector<std::optional<eval::PlaneParams>>;
 std::optional<PlaneTable> reported_planes(const std::string& ms_path, const LabelImage& ms,
                                           const OrganizedCloud& cloud, io::SegcompSensor sensor);
 
-/// Hoover's angle measure over the planes: ground-truth regions listed in `curved` have no plane
-/// (their least-squares plane depends on which of their points a region holds). The machine's
-/// planes are `reported` ones when given, else fitted to its regions' points.
-eval::AngleStats angles_for(const eval::EvalResult& r, const GroundTruth& gt, const LabelImage& ms,
-                            const std::vector<int>& curved, const PlaneTable* reported = nullptr);
+/// The planes Hoover's angle measure compares, by label, which do not depend on T: the ground
+/// truth's fitted robustly, where regions listed in `curved` have none (their least-squares plane
+/// depends on which of their points a region holds); the machine's `reported` ones when given,
+/// else fitted to its regions' points. Empty when the ground truth brings no points.
+struct AnglePlanes {
+  PlaneTable gt, ms;
+};
+AnglePlanes angle_planes(const GroundTruth& gt, const LabelImage& ms,
+                         const std::vector<int>& curved, const PlaneTable* reported = nullptr);
+
+/// Hoover's angle measure of one scoring over `planes` (no pairs without the ground truth's
+/// points).
+eval::AngleStats angles_for(const eval::EvalResult& r, const GroundTruth& gt,
+                            const AnglePlanes& planes);
 
 /// A number, or null for NaN (no pair of planes to measure).
 nlohmann::json number_or_null(double x);

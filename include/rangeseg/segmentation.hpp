@@ -320,10 +320,12 @@ inline bool is_plane(const Segment& segment) {
 /// (a table seen on both sides of a box) is several segments of one group, as are two box tops
 /// at one height. Two planes are one when their normals agree within `merge_angle` plus
 /// `merge_distance_sigmas` standard errors of both normals and each centroid lies on the other
-/// plane within `merge_distance_sigmas` times the noise sigma at its range, widened by the
-/// other normal's error over the distance between the centroids. A normal's standard error is
-/// max(rms_residual, sigma) / sqrt(pixel_count * area_m2 / (4 pi)), a disc's spread of that
-/// area. O(segments^2); throws std::invalid_argument for invalid settings.
+/// plane within `merge_distance_sigmas` times the root sum of squares of its own scatter (the
+/// noise sigma at its range, or its rms_residual when larger: a large plane's fit also sees the
+/// sensor's bending), the other plane's rms_residual, and the other normal's error over the
+/// distance between the centroids. A normal's standard error is max(rms_residual, sigma) /
+/// sqrt(pixel_count * area_m2 / (4 pi)), a disc's spread of that area. O(segments^2); throws
+/// std::invalid_argument for invalid settings.
 std::vector<int> coplanar_groups(const Segmentation& segmentation,
                                  const SegmentationSettings& settings = {});
 

@@ -314,13 +314,14 @@ void separate_touching_vertices(const PolygonSet& polygons, std::vector<P2>& pts
   }
 }
 
-/// The track id of the segment labelled `label`, 0 when untracked or not found.
+/// The track id of the segment labelled `label` (segments[label - 1]), 0 when untracked or
+/// there is no such segment.
 std::uint32_t track_of(const Segmentation* segmentation, int label) {
-  if (segmentation == nullptr) return 0;
-  for (const Segment& s : segmentation->segments) {
-    if (s.label == label) return s.track_id;
+  if (segmentation == nullptr || label < 1 ||
+      static_cast<std::size_t>(label) > segmentation->segments.size()) {
+    return 0;
   }
-  return 0;
+  return segmentation->segments[static_cast<std::size_t>(label - 1)].track_id;
 }
 
 }  // namespace
