@@ -325,17 +325,23 @@ void Pipeline::process_grid(const OrganizedCloud& cloud) {
     }
     times_.normals += ms_since(t);
   }
-  if (settings_.smooth) {
-    // An organized cloud names no camera: where the points are a pinhole camera's, the
-    // smoothing takes the focal length fitted to them (a 320x240 stream's rays are twice as far
-    // apart as a 640x480 one's); a scanner's grid keeps kDefaultPixelAngle.
-    double fx = camera_fx_;
-    if (!(fx > 0) && !(settings_.smoothing.pixel_angle > 0)) {
+  // An organized cloud names no camera: where the points are a pinhole camera's, the smoothing
+  // and the minimum segment size take the focal length fitted to them (a 320x240 stream's rays
+  // are twice as far apart as a 640x480 one's); a scanner's grid has none (0). Fitted at most
+  // once per frame, and only when a setting asks for the camera.
+  double fitted_fx = -1;
+  const auto frame_fx = [&] {
+    if (camera_fx_ > 0) return camera_fx_;
+    if (fitted_fx < 0) {
       CameraIntrinsics fitted;
       const int step = static_cast<long>(cloud.width()) * height >= kMinPixelsForFitSample ? 8 : 1;
-      fx = detail::fit_intrinsics_every(cloud, step, fitted, kDefaultFitTolerance) ? fitted.fx : 0;
+      fitted_fx =
+          detail::fit_intrinsics_every(cloud, step, fitted, kDefaultFitTolerance) ? fitted.fx : 0;
     }
-    smoother_.set_camera_fx(fx);
+    return fitted_fx;
+  };
+  if (settings_.smooth) {
+    smoother_.set_camera_fx(settings_.smoothing.pixel_angle > 0 ? camera_fx_ : frame_fx());
     if (pool != nullptr) {
       smoother_.run(cloud, mesh_, raw_normals_, smoothed_cloud_, smoothed_normals_, *pool);
     } else {
@@ -351,6 +357,10 @@ void Pipeline::process_grid(const OrganizedCloud& cloud) {
                                  settings_.segmentation.model != RegionModel::automatic;
     SegmentationSettings segmentation = settings_.segmentation;
     if (areas_alongside) segmentation.compute_area = false;
+    if (segmentation.min_region_fx > 0) {
+      // Regions count lattice vertices, pixel_stride pixels apart.
+      segmentation.min_region_size = min_region_size_for(segmentation, frame_fx() / stride);
+    }
     if (pool != nullptr) {
       segmenter_.segment(this->cloud(), mesh_, normals(), segmentation, segmentation_, *pool);
     } else {

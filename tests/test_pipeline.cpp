@@ -65,6 +65,54 @@ synth::Rendering qvga(std::uint64_t seed) {
 }
 }  // namespace
 
+TEST(Pipeline, MinimumSegmentSizeIsASolidAngle) {
+  SegmentationSettings kinect = preset("kinect");
+  EXPECT_EQ(min_region_size_for(kinect, 525.0), 200);
+  EXPECT_EQ(min_region_size_for(kinect, 262.5), 50);
+  EXPECT_EQ(min_region_size_for(kinect, 1050.0), 200) << "a finer camera keeps the count";
+  EXPECT_EQ(min_region_size_for(kinect, 0.0), 200) << "unknown camera";
+  EXPECT_EQ(min_region_size_for(kinect, 131.25), 49) << "a pixel seed's window, not 12.5";
+  kinect.seed_clearance = 0;
+  EXPECT_EQ(min_region_size_for(kinect, 1.0), 1) << "never below 1";
+  kinect.seed_clearance = 3;
+  kinect.min_region_size = 20;
+  EXPECT_EQ(min_region_size_for(kinect, 262.5), 20) << "not above the size given";
+  EXPECT_EQ(min_region_size_for(kinect, 131.25), 20);
+  kinect.min_region_size = 200;
+  kinect.min_region_fx = 0;
+  EXPECT_EQ(min_region_size_for(kinect, 262.5), 200) << "the frame's own pixels";
+  EXPECT_EQ(min_region_size_for(preset("laser"), 262.5), 50) << "a scanner's grid";
+
+  // A 9 x 9 cm square 40 cm in front of a wall at 2 m: 18 x 18 pixels at 640x480, 9 x 9 at
+  // 320x240, below the 200 pixels of the preset there but above its 50.
+  const auto square_segment_pixels = [](int scale, double min_region_fx) {
+    const CameraIntrinsics camera{.fx = 525.0 / scale,
+                                  .fy = 525.0 / scale,
+                                  .cx = 319.5 / scale,
+                                  .cy = 239.5 / scale,
+                                  .width = 640 / scale,
+                                  .height = 480 / scale};
+    FloatPlane depth(camera.width, camera.height);
+    const int side = 18 / scale, u0 = 400 / scale, v0 = 100 / scale;
+    for (int v = 0; v < camera.height; ++v) {
+      for (int u = 0; u < camera.width; ++u) {
+        const bool square = u >= u0 && u < u0 + side && v >= v0 && v < v0 + side;
+        depth(u, v) = square ? 1.6f : 2.0f;
+      }
+    }
+    PipelineSettings settings = pipeline_preset("ideal");
+    settings.segmentation.min_region_size = 200;
+    settings.segmentation.min_region_fx = min_region_fx;
+    Pipeline pipeline(settings);
+    pipeline.process(depth.view(), camera);
+    const int label = pipeline.segmentation().labels(u0 + side / 2, v0 + side / 2);
+    return label > 0 ? pipeline.segmentation().segments[label - 1].pixel_count : 0;
+  };
+  EXPECT_GE(square_segment_pixels(1, 525.0), 16 * 16);
+  EXPECT_GE(square_segment_pixels(2, 525.0), 8 * 8) << "50 pixels at 320x240";
+  EXPECT_EQ(square_segment_pixels(2, 0.0), 0) << "200 of the frame's own pixels";
+}
+
 TEST(Pipeline, MatchesTheStagesCalledOneByOne) {
   const synth::Rendering r = qvga(5);
   PipelineSettings settings = pipeline_preset("kinect");
@@ -76,7 +124,11 @@ TEST(Pipeline, MatchesTheStagesCalledOneByOne) {
   const Mesh mesh = build_mesh(r.cloud, settings.mesh);
   const NormalMap normals = compute_normals(r.cloud, mesh, settings.normals);
   const SmoothedCloud smoothed = smooth(r.cloud, mesh, normals, settings.smoothing);
-  const Segmentation seg = segment(smoothed.cloud, mesh, smoothed.normals, settings.segmentation);
+  // Nor does it scale the minimum segment size to the camera's resolution.
+  SegmentationSettings at_qvga = settings.segmentation;
+  at_qvga.min_region_size = min_region_size_for(at_qvga, kQvgaCamera.fx);
+  ASSERT_EQ(at_qvga.min_region_size, 50);
+  const Segmentation seg = segment(smoothed.cloud, mesh, smoothed.normals, at_qvga);
 
   ASSERT_EQ(count_faces(pipeline.mesh()), count_faces(mesh));
   ASSERT_EQ(pipeline.segmentation().segments.size(), seg.segments.size());

@@ -220,6 +220,36 @@ TEST(Synth, KinectAxialNoiseMatchesSigma) {
   EXPECT_NEAR(kinect_sigma(model, 2.0), 0.0012 + 0.0019 * 1.6 * 1.6, 1e-15);
 }
 
+TEST(Synth, KinectDepthStepsAreTheSensorsAtAnyStreamSize) {
+  // A Kinect streaming 320x240 matches its pattern at 640x480: its disparity steps are 1/8 of a
+  // 525 px camera's pixel, half as large as 1/8 of the stream's 262.5 px pixel would be.
+  constexpr CameraIntrinsics qvga{
+      .fx = 262.5, .fy = 262.5, .cx = 159.5, .cy = 119.5, .width = 320, .height = 240};
+  const double bf8 = 8 * KinectModel{}.baseline * 525.0;
+  for (const double quantisation_fx : {525.0, 0.0}) {
+    const Rendering r = render(plane_scene(3.0), {.camera = qvga,
+                                                  .noise = Noise::kinect,
+                                                  .kinect = {.quantisation_fx = quantisation_fx},
+                                                  .seed = 4});
+    std::int64_t odd = 0, n = 0;
+    for (int v = 0; v < qvga.height; ++v) {
+      for (int u = 0; u < qvga.width; ++u) {
+        if (!r.cloud.valid(u, v)) continue;
+        const double steps = bf8 / r.cloud.z(u, v);
+        ASSERT_NEAR(steps, std::round(steps), 1e-3) << r.cloud.z(u, v);
+        odd += static_cast<std::int64_t>(std::round(steps)) % 2;
+        ++n;
+      }
+    }
+    ASSERT_GT(n, 70000);
+    if (quantisation_fx > 0) {
+      EXPECT_GT(odd, n / 4) << "steps of the 525 px sensor";
+    } else {
+      EXPECT_EQ(odd, 0) << "steps of the stream's 262.5 px pixels";
+    }
+  }
+}
+
 TEST(Synth, KinectNoiseOnTiltedPlaneScalesWithDepth) {
   // Residuals normalised by sigma(true depth) have unit RMS over a plane spanning 1.5 - 3 m.
   const Rendering clean = render(plane_scene(2.0, 0.6));

@@ -9,8 +9,21 @@
 #include "rangeseg/camera.hpp"
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/pixel_grid.hpp"
+#include "rangeseg/segmentation.hpp"
 
 namespace rangeseg::cli {
+namespace {
+
+/// The minimum segment size the kinect preset uses for a frame of this camera.
+void print_min_region_size(double fx) {
+  const SegmentationSettings kinect = preset("kinect");
+  std::printf(
+      "segments: at least %d pixels with the kinect preset (%d from fx %.0f on, the "
+      "same solid angle below)\n",
+      min_region_size_for(kinect, fx), kinect.min_region_size, kinect.min_region_fx);
+}
+
+}  // namespace
 
 void add_info(CLI::App& app) {
   auto opts = std::make_shared<InputOptions>();
@@ -41,6 +54,7 @@ void add_info(CLI::App& app) {
           "camera:   fx %.2f fy %.2f cx %.2f cy %.2f (%s; the smoothing's pixel angle 1 / fx = "
           "%.6g rad)\n",
           c.fx, c.fy, c.cx, c.cy, in.camera_source.c_str(), 1.0 / c.fx);
+      print_min_region_size(c.fx);
     } else if (in.cloud.is_organized() && s.valid > 0) {
       // The smoothing's pixel angle is 1 / fx of this camera, which the pipeline fits as here.
       CameraIntrinsics camera;
@@ -50,6 +64,7 @@ void add_info(CLI::App& app) {
             "camera:   fx %.2f fy %.2f cx %.2f cy %.2f (fitted to the points; the smoothing's "
             "pixel angle 1 / fx = %.6g rad)\n",
             camera.fx, camera.fy, camera.cx, camera.cy, angle);
+        print_min_region_size(camera.fx);
       } else {
         std::printf(
             "camera:   none fits (not a pinhole camera's image: a scanner's grid, or "

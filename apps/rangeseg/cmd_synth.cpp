@@ -154,8 +154,9 @@ void add_sensor_options(CLI::App& cmd, std::string& noise, std::string& camera) 
       ->capture_default_str();
   cmd.add_option("--camera", camera,
                  "kinect (640x480, f = 525 px), kinect:WIDTHxHEIGHT (its 57 deg field of view "
-                 "at another resolution, e.g. kinect:320x240 with f = 262.5 px) or perceptron "
-                 "(512x512 over 51.65 x 36.73 deg, SegComp's Perceptron laser)")
+                 "at another resolution, e.g. kinect:320x240 with f = 262.5 px; the kinect "
+                 "noise keeps the depth steps of the sensor's 525 px disparity image) or "
+                 "perceptron (512x512 over 51.65 x 36.73 deg, SegComp's Perceptron laser)")
       ->capture_default_str();
 }
 

@@ -115,10 +115,12 @@ class Pipeline {
   /// nanoflann's pool of 8 KB malloc blocks.
   /// `camera_fx` [pixel]: the focal length of the camera an organized cloud was computed with,
   /// when known (e.g. from a depth image), for the smoothing's pixel angle (1 / fx) when
-  /// SmoothingSettings::pixel_angle is 0; 0 = unknown: the pinhole camera fitted to every 8th
-  /// row and column of the points (fit_intrinsics; ~0.04 ms at 640x480), else, when they are no
-  /// such camera's (a scanner's grid), kDefaultPixelAngle. Throws std::invalid_argument for a
-  /// negative or non-finite camera_fx.
+  /// SmoothingSettings::pixel_angle is 0 and the minimum segment size when
+  /// SegmentationSettings::min_region_fx is not (min_region_size_for); 0 = unknown: the
+  /// pinhole camera fitted to every 8th row and column of the points (fit_intrinsics; ~0.04 ms
+  /// at 640x480), else, when they are no such camera's (a scanner's grid), kDefaultPixelAngle
+  /// and min_region_size as given. Throws std::invalid_argument for a negative or non-finite
+  /// camera_fx.
   void process(const OrganizedCloud& cloud, double camera_fx = 0);
   /// The pipeline reads a cloud in place (cloud() is the caller's without smoothing): a
   /// temporary would be gone before its results are read. Keep the cloud in a variable.
@@ -127,7 +129,8 @@ class Pipeline {
   /// Processes a depth image (raw units, 0 = no measurement, `depth_scale` metres per unit, e.g.
   /// 0.001 for millimetres) seen with `camera`: its points are computed (depth_to_cloud) into a
   /// cloud the pipeline owns, so a camera loop allocates nothing once its buffers fit; the
-  /// smoothing's pixel angle is 1 / camera.fx unless the settings give one. Throws
+  /// smoothing's pixel angle is 1 / camera.fx unless the settings give one, and the minimum
+  /// segment size is scaled to camera.fx (SegmentationSettings::min_region_fx). Throws
   /// std::invalid_argument for invalid intrinsics or depth_scale, or fewer than 2 rows.
   void process(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
                double depth_scale = 0.001);

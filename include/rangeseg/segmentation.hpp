@@ -119,6 +119,17 @@ struct SegmentationSettings {
   /// k-nearest-neighbour rings (plane model), a footprint is the median angle between a point
   /// and its nearest ring neighbour, seen from the origin.
   int min_region_size = 100;
+  /// The focal length of the camera whose pixels `min_region_size` counts [pixel]. Where a
+  /// Pipeline knows the frame's camera (a depth image's intrinsics, `process(cloud, camera_fx)`,
+  /// the pixel grid of an unorganized cloud, else the pinhole camera fitted to an organized
+  /// cloud's points) and it is coarser, it counts min_region_size_for(settings, fx /
+  /// pixel_stride) pixels, the same solid angle: 200 pixels of a 640x480 Kinect are 50 of its
+  /// 320x240 stream (49 at 160x120, see min_region_size_for), so that a smaller stream keeps
+  /// the objects the full one finds. A finer camera keeps min_region_size pixels. 0 =
+  /// min_region_size counts the frame's own pixels, as Segmenter and `segment` always do.
+  /// Presets kinect and ideal: 525 (a Kinect at 640x480); abw, laser and perceptron: 0 (their
+  /// scanners' own grids).
+  double min_region_fx = 525.0;
   /// plane: merge adjacent segments whose least-squares planes agree.
   bool merge_planes = true;
   /// Max angle between the normals of two planes to merge [rad] (5 deg).
@@ -328,6 +339,13 @@ inline bool is_plane(const Segment& segment) {
 /// std::invalid_argument for invalid settings.
 std::vector<int> coplanar_groups(const Segmentation& segmentation,
                                  const SegmentationSettings& settings = {});
+
+/// `min_region_size` for a frame of a camera with focal length `camera_fx` [pixel]: for a
+/// camera coarser than min_region_fx, min_region_size (camera_fx / min_region_fx)^2 rounded, but
+/// not below a pixel seed's window, (2 seed_clearance + 1)^2 pixels (49), where a region would be
+/// mostly the band that blurs its borders, unless min_region_size is smaller; min_region_size
+/// itself for a finer camera, or when min_region_fx or camera_fx is 0 (unknown).
+int min_region_size_for(const SegmentationSettings& settings, double camera_fx);
 
 /// Throws std::invalid_argument naming the field and its value for settings `segment` rejects
 /// (e.g. min_region_size below 1, angles outside their ranges, a non-finite noise model).

@@ -115,11 +115,15 @@ enum class Noise { none, kinect };
 
 /// Kinect-like structured-light sensor model (Khoshelham & Elberink 2012, Nguyen et al. 2012).
 struct KinectModel {
-  double sigma_base = 0.0012;        ///< sigma(z) = base + quadratic (z - offset)^2 [m]
-  double sigma_quadratic = 0.0019;   ///< [1/m]
-  double sigma_offset = 0.4;         ///< [m]
-  double baseline = 0.075;           ///< projector-camera baseline b [m]; disparity = b fx / z
-  double subpixel = 8.0;             ///< disparity quantisation steps per pixel [1/pixel]
+  double sigma_base = 0.0012;       ///< sigma(z) = base + quadratic (z - offset)^2 [m]
+  double sigma_quadratic = 0.0019;  ///< [1/m]
+  double sigma_offset = 0.4;        ///< [m]
+  double baseline = 0.075;          ///< projector-camera baseline b [m]; disparity = b fx / z
+  double subpixel = 8.0;            ///< disparity quantisation steps per pixel [1/pixel]
+  /// Focal length of the sensor's own disparity image, whose pixels the quantisation divides
+  /// [pixel]: a Kinect streaming 320x240 still matches its pattern at 640x480 (f = 525 px), so
+  /// its depth steps do not grow when the stream is smaller. 0 = the rendering camera's fx.
+  double quantisation_fx = 525.0;
   double min_range = 0.4;            ///< no measurement nearer than this [m]
   double max_range = 6.0;            ///< no measurement beyond this [m]
   double edge_relative_jump = 0.05;  ///< depth jump to a 4-neighbour counted as an edge, / z

@@ -114,6 +114,7 @@ void for_each_key(PipelineSettings& s, Visit&& visit) {
   visit("segmentation", "seed_clearance", g.seed_clearance);
   visit("segmentation", "growth_bands", g.growth_bands);
   visit("segmentation", "min_region_size", g.min_region_size);
+  visit("segmentation", "min_region_fx", g.min_region_fx);
   visit("segmentation", "merge_planes", g.merge_planes);
   visit("segmentation", "merge_angle", g.merge_angle);
   visit("segmentation", "merge_distance_sigmas", g.merge_distance_sigmas);

@@ -30,6 +30,7 @@ SegmentationSettings preset(std::string_view name) {
     s.max_normal_angle = 60 * deg;
     s.max_distance_sigmas = 3.0;
     s.min_region_size = 100;
+    s.min_region_fx = 0;  // the scanner's own grid
     // sigma (0.5 mm) is below the pixel footprint (0.7 mm): surfaces at grazing incidence lose
     // points to the mesh's depth-jump gate that lie on their plane within the noise.
     s.reassign_across_mesh_cuts = true;
@@ -41,6 +42,7 @@ SegmentationSettings preset(std::string_view name) {
     s.max_normal_angle = 20 * deg;
     s.max_distance_sigmas = 3.0;
     s.min_region_size = 50;  // scans are sparse (e.g. 361 columns)
+    s.min_region_fx = 0;     // counted on the scanner's own grid, whatever its angular step
     return s;
   }
   if (name == "perceptron") {

@@ -493,7 +493,9 @@ class PrimitivePass {
     auto& pairs = s_.narrow_pairs;
     std::sort(pairs.begin(), pairs.end());
     pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-    s_.tested_pairs.swap(pairs);
+    // Copied, not swapped: each buffer keeps the capacity of its own role, so that a frame with
+    // no more pairs than an earlier one allocates nothing, in whichever order frames come.
+    s_.tested_pairs.assign(pairs.begin(), pairs.end());
     pairs.clear();
     int joined = 0;
     for (const std::uint64_t key : s_.tested_pairs) {

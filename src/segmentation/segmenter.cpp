@@ -101,6 +101,8 @@ void validate(const SegmentationSettings& s) {
   require(s.max_curvature > 0, "max_curvature", s.max_curvature, "> 0");
   require(s.max_seed_curvature > 0, "max_seed_curvature", s.max_seed_curvature, "> 0");
   require(s.min_region_size >= 1, "min_region_size", s.min_region_size, ">= 1");
+  require(s.min_region_fx >= 0 && std::isfinite(s.min_region_fx), "min_region_fx", s.min_region_fx,
+          "finite and >= 0 pixels");
   require(s.seed_clearance >= 0 && s.seed_clearance <= 32, "seed_clearance", s.seed_clearance,
           "in [0, 32] lattice steps");
   require(s.growth_bands >= 1 && s.growth_bands <= 64, "growth_bands", s.growth_bands,
@@ -471,6 +473,20 @@ void Segmenter::compute_areas(const OrganizedCloud& cloud, const Mesh& mesh, Seg
 }
 
 void validate(const SegmentationSettings& settings) { seg::validate(settings); }
+
+int min_region_size_for(const SegmentationSettings& settings, double camera_fx) {
+  if (!(settings.min_region_fx > 0) || !(camera_fx > 0) || !std::isfinite(camera_fx)) {
+    return settings.min_region_size;
+  }
+  // A finer camera keeps the count: more pixels of one surface only make its fit surer.
+  const double ratio = std::min(camera_fx / settings.min_region_fx, 1.0);
+  const double scaled = std::round(settings.min_region_size * ratio * ratio);
+  // A region no larger than a pixel seed's window is mostly the band its borders blur.
+  const int window = (2 * settings.seed_clearance + 1) * (2 * settings.seed_clearance + 1);
+  const double floor = std::min(settings.min_region_size, window);
+  // A bound far beyond any frame's pixel count, so that the cast cannot overflow.
+  return static_cast<int>(std::clamp(scaled, std::max(floor, 1.0), 1e9));
+}
 
 void segment(const OrganizedCloud& cloud, const Mesh& mesh, const NormalMap& normals,
              const SegmentationSettings& settings, Segmentation& out) {

@@ -60,6 +60,7 @@ void validate(const KinectModel& m) {
   check(m.sigma_offset, true, "sigma_offset");
   check(m.baseline, m.baseline > 0, "baseline");
   check(m.subpixel, m.subpixel > 0, "subpixel");
+  check(m.quantisation_fx, m.quantisation_fx >= 0, "quantisation_fx");
   check(m.min_range, m.min_range >= 0, "min_range");
   check(m.max_range, m.max_range > m.min_range, "max_range");
   check(m.edge_relative_jump, m.edge_relative_jump >= 0, "edge_relative_jump");
@@ -80,7 +81,10 @@ void apply_kinect_noise(const KinectModel& model, const CameraIntrinsics& camera
                                 std::to_string(height));
   }
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  const double bf = model.baseline * camera.fx;  // disparity [pixel] = bf / z
+  // Disparity [pixel] = sensor_bf / z, in the pixels of the sensor's own disparity image, which
+  // the quantisation divides.
+  const double sensor_bf =
+      model.baseline * (model.quantisation_fx > 0 ? model.quantisation_fx : camera.fx);
 
   // Depth edges are found on the noise-free image, before anything is dropped.
   std::vector<std::uint8_t> edge(depth.size(), 0);
@@ -119,13 +123,13 @@ void apply_kinect_noise(const KinectModel& model, const CameraIntrinsics& camera
           (edge_row[u] && edge_draw < model.edge_dropout) || dropout_draw < model.random_dropout;
       if (!drop) {
         // Quantisation adds variance step^2 / 12; the Gaussian part supplies the rest.
-        const double step = z * z / (model.subpixel * bf);
+        const double step = z * z / (model.subpixel * sensor_bf);
         const double sigma = kinect_sigma(model, z);
         const double gaussian_variance = std::max(0.0, sigma * sigma - step * step / 12.0);
         const double noisy = z + std::sqrt(gaussian_variance) * gaussian;
-        const double disparity = std::round(model.subpixel * bf / noisy) / model.subpixel;
+        const double disparity = std::round(model.subpixel * sensor_bf / noisy) / model.subpixel;
         if (noisy > 0.0 && disparity > 0.0) {
-          z = bf / disparity;
+          z = sensor_bf / disparity;
           drop = z < model.min_range || z > model.max_range;
         } else {
           drop = true;

@@ -267,8 +267,9 @@ class Inputs(unittest.TestCase):
 
     def test_config_dict_and_file_set_the_same_settings(self):
         points = self.step_points()
-        # The left face of the step has 160 x 240 - 1600 = 36800 points, the right one 38400.
-        config = {"segmentation": {"min_region_size": 37500}}
+        # The left face of the step has 160 x 240 - 1600 = 36800 points, the right one 38400;
+        # min_region_fx 0 counts them in this grid's own pixels, whatever its camera.
+        config = {"segmentation": {"min_region_size": 37500, "min_region_fx": 0}}
         from_dict = rangeseg.Pipeline(preset="ideal", config=config).process(points)
         self.assertEqual([s["pixel_count"] for s in from_dict.segments], [160 * 240])
         with tempfile.TemporaryDirectory() as tmp:
