@@ -107,6 +107,15 @@ TEST(Cli, SynthSegmentEvalRoundTrip) {
                              (dir / "seg" / "labels.png").string());
   ASSERT_EQ(eval.code, 0) << eval.out;
   EXPECT_NE(eval.out.find("correct"), std::string::npos);
+  EXPECT_FALSE(rangeseg::test::contains(eval.out, "depth image")) << eval.out;
+  // The scene's depth PNG given as the segmentation is scored, with a warning.
+  const CliResult depth_as_labels = run("eval " + (dir / "scene" / "labels.png").string() + " " +
+                                        (dir / "scene" / "depth.png").string());
+  EXPECT_EQ(depth_as_labels.code, 0) << depth_as_labels.out;
+  EXPECT_TRUE(rangeseg::test::contains(depth_as_labels.out, "depth.png: its "))
+      << depth_as_labels.out;
+  EXPECT_TRUE(rangeseg::test::contains(depth_as_labels.out, "is it a depth image?"))
+      << depth_as_labels.out;
 
   // Per-region outcomes, the JSON report, and the angle error from the scene's points.
   const std::string eval_args = "eval " + (dir / "scene" / "labels.png").string() + " " +
@@ -495,8 +504,7 @@ TEST(Cli, SynthRendersTheKinectAtAnotherResolution) {
             std::string::npos)
       << info.out;
   // ... and the smallest segment: the solid angle of the preset's 200 pixels at fx 525.
-  EXPECT_NE(info.out.find("segments: at least 50 pixels with the kinect preset"),
-            std::string::npos)
+  EXPECT_NE(info.out.find("segments: at least 50 pixels with the kinect preset"), std::string::npos)
       << info.out;
   const nlohmann::json camera = read_json(dir / "scene" / "camera.json");
   EXPECT_EQ(camera["width"], 320);

@@ -1,14 +1,17 @@
 #include "eval_common.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <exception>
 #include <filesystem>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/pcd.hpp"
@@ -45,6 +48,35 @@ OrganizedCloud read_labelled_cloud(const std::string& path) {
   return cloud;
 }
 
+/// A 16-bit depth PNG read as labels (millimetres: no value below the sensor's minimum range of
+/// a few hundred, and a structured-light sensor's disparity steps leave gaps between the values)
+/// would be scored without a word; a segmentation numbers its regions from 1 (or 10, SegComp's).
+void warn_if_depth_like(const std::string& path, const LabelImage& labels) {
+  constexpr int kMinLowest = 256;           // no label below this
+  constexpr std::size_t kMinDistinct = 16;  // and many of them
+  std::vector<std::uint8_t> seen(65536, 0);
+  std::size_t distinct = 0;
+  int lowest = 65536, highest = 0;
+  for (int v = 0; v < labels.height(); ++v) {
+    for (int u = 0; u < labels.width(); ++u) {
+      const std::int32_t l = labels(u, v);
+      if (l <= 0 || l > 65535) continue;
+      std::uint8_t& s = seen[static_cast<std::size_t>(l)];
+      if (s != 0) continue;
+      s = 1;
+      ++distinct;
+      lowest = std::min(lowest, static_cast<int>(l));
+      highest = std::max(highest, static_cast<int>(l));
+    }
+  }
+  if (distinct >= kMinDistinct && lowest >= kMinLowest) {
+    std::fprintf(stderr,
+                 "rangeseg: warning: %s: its %zu labels run from %d to %d, none below %d: is it a "
+                 "depth image? (`segment` writes its labels to labels.png, numbered from 1)\n",
+                 path.c_str(), distinct, lowest, highest, kMinLowest);
+  }
+}
+
 }  // namespace
 
 GroundTruth load_ground_truth(const std::string& path) {
@@ -66,6 +98,7 @@ GroundTruth load_ground_truth(const std::string& path) {
     }
   } else if (ext == ".png") {
     gt.labels = io::read_label_png(path);
+    warn_if_depth_like(path, gt.labels);
   } else if (ext == ".pcd" || ext == ".ply") {
     OrganizedCloud cloud = read_labelled_cloud(path);
     gt.labels = cloud.label;
@@ -80,7 +113,11 @@ GroundTruth load_ground_truth(const std::string& path) {
 
 LabelImage load_machine(const std::string& path) {
   const std::string ext = io::extension(path);
-  if (ext == ".png") return io::read_label_png(path);
+  if (ext == ".png") {
+    LabelImage labels = io::read_label_png(path);
+    warn_if_depth_like(path, labels);
+    return labels;
+  }
   if (ext == ".pcd" || ext == ".ply") return std::move(read_labelled_cloud(path).label);
   if (ext == ".ms-seg") {
     const BytePlane raw = io::read_rasterfile(path);
