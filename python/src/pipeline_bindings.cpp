@@ -322,6 +322,27 @@ void bind_pipeline(py::module_& m) {
       .def_readonly("height", &Result::height, "rows of the frame (1 for an unorganized cloud)")
       .def_readonly("organized", &Result::organized,
                     "True for a grid's results (H, W, ...), False for per-point ones (N, ...)")
+      .def(py::pickle(
+          [](const Result& r) {
+            return py::make_tuple(r.width, r.height, r.organized, r.labels, r.points, r.normals,
+                                  r.raw_normals, r.curvature, r.segments, r.times);
+          },
+          [](const py::tuple& state) {
+            if (state.size() != 10) {
+              throw std::invalid_argument("rangeseg.Result: a pickled result has 10 fields, got " +
+                                          std::to_string(state.size()));
+            }
+            return Result{.width = state[0].cast<int>(),
+                          .height = state[1].cast<int>(),
+                          .organized = state[2].cast<bool>(),
+                          .labels = state[3],
+                          .points = state[4],
+                          .normals = state[5],
+                          .raw_normals = state[6],
+                          .curvature = state[7],
+                          .segments = state[8].cast<py::list>(),
+                          .times = state[9].cast<py::dict>()};
+          }))
       .def("__repr__", [](const Result& r) {
         // The arrays' shape, as NumPy prints it: (H, W) of a grid, (N,) of points.
         const std::string shape =
@@ -422,6 +443,22 @@ read_camera's dict: process_depth(depth, **camera)). Returns a Result.)")
           },
           "every setting as a dict with the keys of `config` (metres, radians): the preset's "
           "values with the config and keywords applied; a valid config itself")
+      // Pickled as its settings: the copy starts with empty buffers and no tracks.
+      .def(py::pickle(
+          [](const PyPipeline& p) {
+            return py::make_tuple(
+                py::module_::import("json").attr("loads")(io::settings_to_json(p.settings())),
+                p.settings().threads);
+          },
+          [](const py::tuple& state) {
+            if (state.size() != 2 || !py::isinstance<py::dict>(state[0])) {
+              throw std::invalid_argument(
+                  "rangeseg.Pipeline: a pickled pipeline is its settings dict and thread count");
+            }
+            return std::make_unique<PyPipeline>(settings_from("kinect", std::nullopt, std::nullopt,
+                                                              std::nullopt, state[1].cast<int>(),
+                                                              state[0]));
+          }))
       .def("__repr__", [](const PyPipeline& p) {
         const PipelineSettings& s = p.settings();
         return "<rangeseg.Pipeline model='" + std::string(to_string(s.segmentation.model)) +

@@ -6,9 +6,11 @@ command-line tool, RANGESEG_DATA (or ../shared/data beside the sources) the sens
 
 import json
 import math
+import multiprocessing
 import os
 import subprocess
 import pathlib
+import pickle
 import tempfile
 import threading
 import unittest
@@ -318,6 +320,40 @@ class Inputs(unittest.TestCase):
         pipeline = rangeseg.Pipeline()
         np.testing.assert_array_equal(pipeline.process_depth(depth, **camera).labels,
                                       pipeline.process_depth(depth, **HALF).labels)
+
+    def test_clouds_results_and_pipelines_pickle(self):
+        points = self.step_points()
+        colors = (np.indices(points.shape[:2]).sum(axis=0) % 256).astype(np.uint8)
+        colors = np.repeat(colors[..., None], 3, axis=-1)
+        labels = (points[..., 2] > 1.2).astype(np.int32)
+        for cloud in (rangeseg.Cloud(points, colors=colors, labels=labels),
+                      rangeseg.Cloud(points[np.isfinite(points[..., 2])])):
+            back = pickle.loads(pickle.dumps(cloud))
+            self.assertEqual((back.width, back.height), (cloud.width, cloud.height))
+            np.testing.assert_array_equal(back.points, cloud.points)
+            for name in ("intensity", "colors", "labels"):
+                if getattr(cloud, name) is None:
+                    self.assertIsNone(getattr(back, name))
+                else:
+                    np.testing.assert_array_equal(getattr(back, name), getattr(cloud, name))
+        pipeline = rangeseg.Pipeline(preset="ideal", model="auto", threads=2,
+                                     config={"segmentation": {"min_region_size": 300}})
+        copy = pickle.loads(pickle.dumps(pipeline))
+        self.assertEqual(copy.settings, pipeline.settings)
+        self.assertEqual((copy.model, copy.smooth, copy.threads), ("auto", False, 2))
+        result = pipeline.process(points)
+        back = pickle.loads(pickle.dumps(result))
+        np.testing.assert_array_equal(back.labels, result.labels)
+        np.testing.assert_array_equal(back.normals, result.normals)
+        self.assertEqual([s["pixel_count"] for s in back.segments],
+                         [s["pixel_count"] for s in result.segments])
+        self.assertEqual((back.width, back.height, back.organized), (320, 240, True))
+        # The copy segments as the original does, here in another process.
+        with multiprocessing.get_context("spawn").Pool(1) as pool:
+            remote = pool.apply(copy.process, (points,))
+        np.testing.assert_array_equal(remote.labels, result.labels)
+        with self.assertRaisesRegex(ValueError, "4 arrays"):
+            rangeseg.Cloud.__new__(rangeseg.Cloud).__setstate__((points,))
 
 class BadInput(unittest.TestCase):
     def assert_raises_with(self, error, text, call, *args, **kwargs):
