@@ -85,7 +85,7 @@ TEST(Pipeline, MinimumSegmentSizeIsASolidAngle) {
 
   // A 9 x 9 cm square 40 cm in front of a wall at 2 m: 18 x 18 pixels at 640x480, 9 x 9 at
   // 320x240, below the 200 pixels of the preset there but above its 50.
-  const auto square_segment_pixels = [](int scale, double min_region_fx) {
+  const auto square_segment_pixels = [](int scale, double min_region_fx, int pixel_stride = 1) {
     const CameraIntrinsics camera{.fx = 525.0 / scale,
                                   .fy = 525.0 / scale,
                                   .cx = 319.5 / scale,
@@ -103,14 +103,21 @@ TEST(Pipeline, MinimumSegmentSizeIsASolidAngle) {
     PipelineSettings settings = pipeline_preset("ideal");
     settings.segmentation.min_region_size = 200;
     settings.segmentation.min_region_fx = min_region_fx;
+    settings.mesh.pixel_stride = pixel_stride;
     Pipeline pipeline(settings);
     pipeline.process(depth.view(), camera);
-    const int label = pipeline.segmentation().labels(u0 + side / 2, v0 + side / 2);
+    // The square's centre, on the mesh's lattice (off it no pixel has a label).
+    const int u = (u0 + side / 2) / pixel_stride * pixel_stride;
+    const int v = (v0 + side / 2) / pixel_stride * pixel_stride;
+    const int label = pipeline.segmentation().labels(u, v);
     return label > 0 ? pipeline.segmentation().segments[label - 1].pixel_count : 0;
   };
   EXPECT_GE(square_segment_pixels(1, 525.0), 16 * 16);
   EXPECT_GE(square_segment_pixels(2, 525.0), 8 * 8) << "50 pixels at 320x240";
   EXPECT_EQ(square_segment_pixels(2, 0.0), 0) << "200 of the frame's own pixels";
+  // Every 2nd pixel of the 640x480 frame: regions count 9 x 9 lattice vertices, as at 320x240.
+  EXPECT_GE(square_segment_pixels(1, 525.0, 2), 8 * 8) << "50 lattice vertices";
+  EXPECT_EQ(square_segment_pixels(1, 0.0, 2), 0) << "200 lattice vertices";
 }
 
 TEST(Pipeline, MatchesTheStagesCalledOneByOne) {
