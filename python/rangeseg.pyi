@@ -41,6 +41,20 @@ class Cloud:
 class Result:
     """One frame's results (copies: they stay valid after the next frame)."""
 
+    def __init__(
+        self,
+        width: int,
+        height: int,
+        organized: bool,
+        labels: npt.ArrayLike,
+        points: npt.ArrayLike,
+        normals: npt.ArrayLike,
+        raw_normals: npt.ArrayLike,
+        curvature: npt.ArrayLike,
+        segments: list[dict[str, Any]],
+        times: dict[str, float],
+    ) -> None:
+        """A result from its fields, as pickle rebuilds one (Pipeline.process makes them)."""
     @property
     def points(self) -> npt.NDArray[np.float32]: ...
     @property

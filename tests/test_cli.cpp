@@ -116,6 +116,19 @@ TEST(Cli, SynthSegmentEvalRoundTrip) {
       << depth_as_labels.out;
   EXPECT_TRUE(rangeseg::test::contains(depth_as_labels.out, "is it a depth image?"))
       << depth_as_labels.out;
+  // Labels numbered from 1000 (class x 1000 + instance) are piecewise constant: no warning.
+  rangeseg::LabelImage from_1000 =
+      rangeseg::io::read_label_png((dir / "scene" / "labels.png").string());
+  for (int v = 0; v < from_1000.height(); ++v) {
+    for (int u = 0; u < from_1000.width(); ++u) {
+      if (from_1000(u, v) > 0) from_1000(u, v) += 1000;
+    }
+  }
+  rangeseg::io::write_label_png((dir / "labels_from_1000.png").string(), from_1000);
+  const CliResult shifted = run("eval " + (dir / "labels_from_1000.png").string() + " " +
+                                (dir / "seg" / "labels.png").string() + " --min-gt-label 1001");
+  EXPECT_EQ(shifted.code, 0) << shifted.out;
+  EXPECT_FALSE(rangeseg::test::contains(shifted.out, "depth image")) << shifted.out;
 
   // Per-region outcomes, the JSON report, and the angle error from the scene's points.
   const std::string eval_args = "eval " + (dir / "scene" / "labels.png").string() + " " +

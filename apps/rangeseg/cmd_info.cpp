@@ -70,6 +70,10 @@ void add_info(CLI::App& app) {
             "camera:   none fits (not a pinhole camera's image: a scanner's grid, or "
             "points moved out of the camera's frame; the smoothing's pixel angle is then 1 / 525 "
             "rad unless the config sets \"smoothing\": {\"pixel_angle\": ...})\n");
+        std::printf(
+            "segments: at least %d pixels with the kinect preset (no camera: the grid's own "
+            "pixels)\n",
+            preset("kinect").min_region_size);
       }
     }
     if (!in.cloud.is_organized() && s.valid > 0) {

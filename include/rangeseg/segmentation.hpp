@@ -126,7 +126,8 @@ struct SegmentationSettings {
   /// pixel_stride) pixels, the same solid angle: 200 pixels of a 640x480 Kinect are 50 of its
   /// 320x240 stream (49 at 160x120, see min_region_size_for), so that a smaller stream keeps
   /// the objects the full one finds. A finer camera keeps min_region_size pixels. 0 =
-  /// min_region_size counts the frame's own pixels, as Segmenter and `segment` always do.
+  /// min_region_size counts the frame's own pixels, as Segmenter and the free function `segment`
+  /// always do.
   /// Presets kinect and ideal: 525 (a Kinect at 640x480); abw, laser and perceptron: 0 (their
   /// scanners' own grids).
   double min_region_fx = 525.0;

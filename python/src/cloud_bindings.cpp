@@ -72,24 +72,21 @@ is no point; intensity (H, W) / (N,), colors uint8 (H, W, 3) / (N, 3) and labels
       .def_property_readonly("is_organized", &OrganizedCloud::is_organized,
                              "True for a grid of at least 2 rows")
       .def("count_valid", &OrganizedCloud::count_valid, "points with finite x, y and z")
-      // Pickled as its arrays (for multiprocessing, joblib, dask): the same cloud comes back.
-      .def(py::pickle(
-          [](const OrganizedCloud& c) {
-            const bool grid = c.is_organized();
-            const py::object none = py::none();
-            return py::make_tuple(
-                points_array(c),
-                c.has_intensity() ? py::object(plane_array(c.intensity, grid)) : none,
-                c.has_rgb() ? py::object(colors_array(c)) : none,
-                c.has_label() ? py::object(plane_array(c.label, grid)) : none);
-          },
-          [](const py::tuple& state) {
-            if (state.size() != 4) {
-              throw std::invalid_argument("rangeseg.Cloud: a pickled cloud is 4 arrays, got " +
-                                          std::to_string(state.size()));
-            }
-            return cloud_from_arrays(state[0], state[1], state[2], state[3]);
-          }))
+      // Pickled as the constructor's arrays (for multiprocessing, joblib, dask), with any
+      // pickle protocol: the same cloud comes back.
+      .def("__reduce__",
+           [](const py::object& self) {
+             const auto& c = self.cast<const OrganizedCloud&>();
+             const bool grid = c.is_organized();
+             const py::object none = py::none();
+             return py::make_tuple(
+                 self.attr("__class__"),
+                 py::make_tuple(
+                     points_array(c),
+                     c.has_intensity() ? py::object(plane_array(c.intensity, grid)) : none,
+                     c.has_rgb() ? py::object(colors_array(c)) : none,
+                     c.has_label() ? py::object(plane_array(c.label, grid)) : none));
+           })
       .def("__repr__", [](const OrganizedCloud& c) {
         return "<rangeseg.Cloud " + std::to_string(c.width()) + " x " + std::to_string(c.height()) +
                (c.is_organized() ? ", organized" : ", unorganized") + ", " +

@@ -322,27 +322,33 @@ void bind_pipeline(py::module_& m) {
       .def_readonly("height", &Result::height, "rows of the frame (1 for an unorganized cloud)")
       .def_readonly("organized", &Result::organized,
                     "True for a grid's results (H, W, ...), False for per-point ones (N, ...)")
-      .def(py::pickle(
-          [](const Result& r) {
-            return py::make_tuple(r.width, r.height, r.organized, r.labels, r.points, r.normals,
-                                  r.raw_normals, r.curvature, r.segments, r.times);
-          },
-          [](const py::tuple& state) {
-            if (state.size() != 10) {
-              throw std::invalid_argument("rangeseg.Result: a pickled result has 10 fields, got " +
-                                          std::to_string(state.size()));
-            }
-            return Result{.width = state[0].cast<int>(),
-                          .height = state[1].cast<int>(),
-                          .organized = state[2].cast<bool>(),
-                          .labels = state[3],
-                          .points = state[4],
-                          .normals = state[5],
-                          .raw_normals = state[6],
-                          .curvature = state[7],
-                          .segments = state[8].cast<py::list>(),
-                          .times = state[9].cast<py::dict>()};
-          }))
+      // Pickled as these fields (for multiprocessing, joblib, dask), with any pickle protocol.
+      .def(py::init([](int width, int height, bool organized, const py::object& labels,
+                       const py::object& points, const py::object& normals,
+                       const py::object& raw_normals, const py::object& curvature,
+                       const py::list& segments, const py::dict& times) {
+             return Result{.width = width,
+                           .height = height,
+                           .organized = organized,
+                           .labels = labels,
+                           .points = points,
+                           .normals = normals,
+                           .raw_normals = raw_normals,
+                           .curvature = curvature,
+                           .segments = segments,
+                           .times = times};
+           }),
+           "width"_a, "height"_a, "organized"_a, "labels"_a, "points"_a, "normals"_a,
+           "raw_normals"_a, "curvature"_a, "segments"_a, "times"_a,
+           "A result from its fields, as pickle rebuilds one (Pipeline.process makes them).")
+      .def("__reduce__",
+           [](const py::object& self) {
+             const auto& r = self.cast<const Result&>();
+             return py::make_tuple(
+                 self.attr("__class__"),
+                 py::make_tuple(r.width, r.height, r.organized, r.labels, r.points, r.normals,
+                                r.raw_normals, r.curvature, r.segments, r.times));
+           })
       .def("__repr__", [](const Result& r) {
         // The arrays' shape, as NumPy prints it: (H, W) of a grid, (N,) of points.
         const std::string shape =
@@ -399,9 +405,10 @@ point (0, 0, 0) that RealSense's SDK and many drivers write for a pixel without 
 count as none too); an organized cloud has at least 2 rows. intensity (H, W) or (N,), or else the brightness
 of colors (uint8 0..255 or floats 0..1, the points' shape), feeds the smoothing's
 intensity term. fx [pixel]: the focal length of the camera of organized points, when known,
-for the smoothing's pixel angle 1 / fx (unless the settings give smoothing.pixel_angle;
-0 = unknown: the pinhole camera fitted to the points, else 1 / 525, a Kinect at 640 x 480).
-Returns a Result.)")
+for the smoothing's pixel angle 1 / fx (unless the settings give smoothing.pixel_angle) and
+the smallest segment (segmentation.min_region_size pixels at min_region_fx, the same solid
+angle for a coarser camera); 0 = unknown: the pinhole camera fitted to the points, else
+1 / 525 (a Kinect at 640 x 480) and min_region_size as given. Returns a Result.)")
       .def(
           "process_depth",
           [](PyPipeline& p, const py::object& depth, double fx, double fy, double cx, double cy,
@@ -417,7 +424,8 @@ pixels): integers in raw units (0 or negative = no measurement, depth_scale metr
 per unit, default 0.001), or floats in metres (NaN or <= 0 = no measurement;
 depth_scale default 1; without depth_scale, a UserWarning when their median is beyond
 200 m: millimetres, most likely). width and height, when not 0, must be the image's (as in
-read_camera's dict: process_depth(depth, **camera)). Returns a Result.)")
+read_camera's dict: process_depth(depth, **camera)). fx also sets the smallest segment, as
+for process. Returns a Result.)")
       .def_property_readonly(
           "threads", [](const PyPipeline& p) { return p.settings().threads; },
           "threads inside a frame")
@@ -443,22 +451,18 @@ read_camera's dict: process_depth(depth, **camera)). Returns a Result.)")
           },
           "every setting as a dict with the keys of `config` (metres, radians): the preset's "
           "values with the config and keywords applied; a valid config itself")
-      // Pickled as its settings: the copy starts with empty buffers and no tracks.
-      .def(py::pickle(
-          [](const PyPipeline& p) {
-            return py::make_tuple(
-                py::module_::import("json").attr("loads")(io::settings_to_json(p.settings())),
-                p.settings().threads);
-          },
-          [](const py::tuple& state) {
-            if (state.size() != 2 || !py::isinstance<py::dict>(state[0])) {
-              throw std::invalid_argument(
-                  "rangeseg.Pipeline: a pickled pipeline is its settings dict and thread count");
-            }
-            return std::make_unique<PyPipeline>(settings_from("kinect", std::nullopt, std::nullopt,
-                                                              std::nullopt, state[1].cast<int>(),
-                                                              state[0]));
-          }))
+      // Pickled as the constructor's arguments, its settings as the config (for
+      // multiprocessing, joblib, dask), with any pickle protocol: the copy starts with empty
+      // buffers and no tracks.
+      .def("__reduce__",
+           [](const py::object& self) {
+             const auto& p = self.cast<const PyPipeline&>();
+             const py::object none = py::none();
+             return py::make_tuple(self.attr("__class__"),
+                                   py::make_tuple("kinect", none, none, none, p.settings().threads,
+                                                  py::module_::import("json").attr("loads")(
+                                                      io::settings_to_json(p.settings()))));
+           })
       .def("__repr__", [](const PyPipeline& p) {
         const PipelineSettings& s = p.settings();
         return "<rangeseg.Pipeline model='" + std::string(to_string(s.segmentation.model)) +

@@ -352,8 +352,10 @@ class Inputs(unittest.TestCase):
         with multiprocessing.get_context("spawn").Pool(1) as pool:
             remote = pool.apply(copy.process, (points,))
         np.testing.assert_array_equal(remote.labels, result.labels)
-        with self.assertRaisesRegex(ValueError, "4 arrays"):
-            rangeseg.Cloud.__new__(rangeseg.Cloud).__setstate__((points,))
+        # Every pickle protocol, the old text ones too.
+        for protocol in range(pickle.HIGHEST_PROTOCOL + 1):
+            for obj in (rangeseg.Cloud(points), result, pipeline):
+                self.assertEqual(type(pickle.loads(pickle.dumps(obj, protocol))), type(obj))
 
 class BadInput(unittest.TestCase):
     def assert_raises_with(self, error, text, call, *args, **kwargs):
