@@ -519,6 +519,10 @@ TEST(Cli, SynthRendersTheKinectAtAnotherResolution) {
   // ... and the smallest segment: the solid angle of the preset's 200 pixels at fx 525.
   EXPECT_NE(info.out.find("segments: at least 50 pixels with the kinect preset"), std::string::npos)
       << info.out;
+  const CliResult laser = run("info " + (dir / "scene" / "cloud.pcd").string() + " --preset laser");
+  EXPECT_TRUE(rangeseg::test::contains(
+      laser.out, "segments: at least 50 pixels with the laser preset (the grid's own pixels)"))
+      << laser.out;
   const nlohmann::json camera = read_json(dir / "scene" / "camera.json");
   EXPECT_EQ(camera["width"], 320);
   EXPECT_EQ(camera["intrinsic_matrix"][0].get<double>(), 262.5);
