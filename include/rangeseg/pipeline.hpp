@@ -117,10 +117,10 @@ class Pipeline {
   /// when known (e.g. from a depth image), for the smoothing's pixel angle (1 / fx) when
   /// SmoothingSettings::pixel_angle is 0 and the minimum segment size when
   /// SegmentationSettings::min_region_fx is not (min_region_size_for); 0 = unknown: the
-  /// pinhole camera fitted to every 8th row and column of the points (fit_intrinsics; ~0.04 ms
-  /// at 640x480), else, when they are no such camera's (a scanner's grid), kDefaultPixelAngle
-  /// and min_region_size as given. Throws std::invalid_argument for a negative or non-finite
-  /// camera_fx.
+  /// pinhole camera fitted to a sample of at least 4800 of the points (fit_intrinsics; every 8th
+  /// row and column at 640x480, ~0.04 ms), else, when they are no such camera's (a scanner's
+  /// grid), kDefaultPixelAngle and min_region_size as given. Throws std::invalid_argument for a
+  /// negative or non-finite camera_fx.
   void process(const OrganizedCloud& cloud, double camera_fx = 0);
   /// The pipeline reads a cloud in place (cloud() is the caller's without smoothing): a
   /// temporary would be gone before its results are read. Keep the cloud in a variable.
