@@ -689,6 +689,9 @@ TEST(Segmentation, PresetsAndValidation) {
   EXPECT_THROW(segment(cloud, mesh, normals, {.max_distance_sigmas = 0}, out),
                std::invalid_argument);
   EXPECT_THROW(segment(cloud, mesh, normals, {.min_region_size = 0}, out), std::invalid_argument);
+  EXPECT_THROW(segment(cloud, mesh, normals, {.min_region_fx = -525}, out), std::invalid_argument);
+  EXPECT_THROW(segment(cloud, mesh, normals, {.min_region_fx = INFINITY}, out),
+               std::invalid_argument);
   // A model cast from a number no model has would silently run as `plane`.
   EXPECT_THROW(segment(cloud, mesh, normals, {.model = static_cast<RegionModel>(9)}, out),
                std::invalid_argument);

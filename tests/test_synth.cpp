@@ -522,6 +522,10 @@ TEST(Synth, RejectsInvalidInput) {
   RenderSettings bad_noise{.noise = Noise::kinect};
   bad_noise.kinect.edge_dropout = 2.0;
   EXPECT_THROW(render(plane_scene(1.0), bad_noise), std::invalid_argument);
+  bad_noise.kinect = {.quantisation_fx = -525.0};
+  EXPECT_THROW(render(plane_scene(1.0), bad_noise), std::invalid_argument);
+  bad_noise.kinect = {.quantisation_fx = NAN};
+  EXPECT_THROW(render(plane_scene(1.0), bad_noise), std::invalid_argument);
 }
 
 }  // namespace
