@@ -667,3 +667,42 @@ TEST(Eval, OutcomeNames) {
 }
 
 }  // namespace
+
+namespace {
+
+// A tilted plane's depth in millimetres, z = base + slope (u + v) quantised to whole mm.
+LabelImage depth_mm(int base, double slope) {
+  LabelImage depth(64, 48, 0);
+  for (int v = 0; v < 48; ++v) {
+    for (int u = 0; u < 64; ++u) depth(u, v) = base + static_cast<int>(slope * (u + v));
+  }
+  return depth;
+}
+
+}  // namespace
+
+TEST(Eval, DepthImagesGivenAsLabelsAreTold) {
+  // A plane from 1 m, 3 mm deeper per pixel: every neighbour differs.
+  const DepthLikeness far = depth_likeness(depth_mm(1000, 3.0));
+  EXPECT_TRUE(far.likely);
+  EXPECT_EQ(far.lowest, 1000);
+  EXPECT_GT(far.changing_share, 0.9);
+  EXPECT_TRUE(depth_likeness(depth_mm(238, 0.5)).likely) << "238 mm: near, at half a mm a pixel";
+  // A frontal wall: one depth, one "label".
+  EXPECT_FALSE(depth_likeness(depth_mm(1000, 0.0)).likely);
+
+  // A segmentation: 8 x 6 blocks of 8 x 8 pixels, numbered from 1, then from 1001.
+  LabelImage blocks(64, 48, 0);
+  for (int v = 0; v < 48; ++v) {
+    for (int u = 0; u < 64; ++u) blocks(u, v) = 1 + u / 8 + 8 * (v / 8);
+  }
+  const DepthLikeness segmentation = depth_likeness(blocks);
+  EXPECT_FALSE(segmentation.likely);
+  EXPECT_EQ(segmentation.distinct, 48u);
+  EXPECT_NEAR(segmentation.changing_share, (7.0 * 48 + 5.0 * 64) / (63.0 * 48 + 47.0 * 64), 1e-12);
+  for (int v = 0; v < 48; ++v) {
+    for (int u = 0; u < 64; ++u) blocks(u, v) += 1000;
+  }
+  EXPECT_FALSE(depth_likeness(blocks).likely) << "piecewise constant, whatever the numbers";
+  EXPECT_FALSE(depth_likeness(LabelImage(64, 48, 0)).likely);
+}

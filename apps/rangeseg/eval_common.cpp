@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "rangeseg/eval.hpp"
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/io/ply.hpp"
@@ -48,42 +49,15 @@ OrganizedCloud read_labelled_cloud(const std::string& path) {
   return cloud;
 }
 
-/// A 16-bit depth PNG read as labels would be scored without a word. Depth is smooth, not
-/// piecewise constant: a Kinect's millimetres change between a third of neighbouring pixels
-/// (its disparity terraces), a segmentation's labels between a few percent (its borders). And
-/// no depth sensor measures below 100 mm, where a segmentation's labels start (at 1, or 10 for
-/// SegComp's).
+/// A 16-bit depth PNG read as labels would be scored without a word (eval::depth_likeness).
 void warn_if_depth_like(const std::string& path, const LabelImage& labels) {
-  constexpr int kMinLowest = 100;            // no label below this [depth: mm]
-  constexpr std::size_t kMinDistinct = 16;   // and many of them
-  constexpr double kMinChangingShare = 0.2;  // of the pairs of labelled 4-neighbours
-  std::vector<std::uint8_t> seen(65536, 0);
-  std::size_t distinct = 0, pairs = 0, changing = 0;
-  int lowest = 65536;
-  for (int v = 0; v < labels.height(); ++v) {
-    for (int u = 0; u < labels.width(); ++u) {
-      const std::int32_t l = labels(u, v);
-      if (l <= 0 || l > 65535) continue;
-      for (const std::int32_t n : {u + 1 < labels.width() ? labels(u + 1, v) : 0,
-                                   v + 1 < labels.height() ? labels(u, v + 1) : 0}) {
-        if (n <= 0) continue;
-        ++pairs;
-        changing += n != l;
-      }
-      std::uint8_t& s = seen[static_cast<std::size_t>(l)];
-      if (s != 0) continue;
-      s = 1;
-      ++distinct;
-      lowest = std::min(lowest, static_cast<int>(l));
-    }
-  }
-  const double share = pairs > 0 ? static_cast<double>(changing) / static_cast<double>(pairs) : 0;
-  if (distinct >= kMinDistinct && lowest >= kMinLowest && share >= kMinChangingShare) {
+  const eval::DepthLikeness d = eval::depth_likeness(labels);
+  if (d.likely) {
     std::fprintf(stderr,
                  "rangeseg: warning: %s: its %zu labels, none below %d, differ between %.0f%% of "
                  "neighbouring pixels (a segmentation's between a few percent): is it a depth "
                  "image? (`segment` writes its labels to labels.png)\n",
-                 path.c_str(), distinct, lowest, 100 * share);
+                 path.c_str(), d.distinct, d.lowest, 100 * d.changing_share);
   }
 }
 

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <utility>
@@ -85,6 +86,23 @@ struct EvalResult {
 /// be any int32 values (no dense label x label table).
 EvalResult evaluate(const LabelImage& ground_truth, const LabelImage& machine,
                     const EvalSettings& settings = {});
+
+/// How much a label image looks like a depth image (a 16-bit depth PNG in millimetres given as
+/// labels by mistake).
+struct DepthLikeness {
+  /// At least 16 distinct labels, none below 100 (no depth sensor measures nearer than 100 mm;
+  /// a segmentation numbers its regions from 1, SegComp's from 10), and labels that differ
+  /// between at least a fifth of the pairs of labelled 4-neighbours: depth is smooth, not
+  /// piecewise constant (a Kinect's millimetres change between a third of them, at its
+  /// disparity terraces; a segmentation's labels at its borders only, a few percent).
+  bool likely = false;
+  std::size_t distinct = 0;   ///< distinct labels in 1..65535
+  int lowest = 0;             ///< the smallest of them (0 when there is none)
+  double changing_share = 0;  ///< of the pairs of labelled 4-neighbours, those that differ
+};
+
+/// Labels <= 0 are unlabelled; labels above 65535 are left out. O(pixels).
+DepthLikeness depth_likeness(const LabelImage& labels);
 
 /// A plane n . p + offset = 0, p in metres; `normal` need not be unit length (it is normalised).
 struct PlaneParams {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "arrays.hpp"
 #include "bindings.hpp"
@@ -25,6 +26,17 @@ py::dict evaluate(const py::object& ground_truth, const py::object& segmentation
                                 ", " + std::to_string(ms.width()) + ") but ground_truth (" +
                                 std::to_string(gt.height()) + ", " + std::to_string(gt.width()) +
                                 ")");
+  }
+  // Depth in millimetres given as labels is scored, with a warning (eval::depth_likeness).
+  for (const auto& [labels, name] : {std::pair{&gt, "ground_truth"}, {&ms, "segmentation"}}) {
+    const eval::DepthLikeness d = eval::depth_likeness(*labels);
+    if (!d.likely) continue;
+    const std::string message =
+        std::string(name) + ": its " + std::to_string(d.distinct) + " labels, none below " +
+        std::to_string(d.lowest) + ", differ between " +
+        std::to_string(static_cast<int>(std::lround(100 * d.changing_share))) +
+        "% of neighbouring pixels (a segmentation's between a few percent): is it a depth image?";
+    if (PyErr_WarnEx(PyExc_UserWarning, message.c_str(), 1) != 0) throw py::error_already_set();
   }
   const eval::EvalSettings settings{.tolerance = tolerance, .min_gt_label = min_gt_label};
   const eval::EvalResult r = eval::evaluate(gt, ms, settings);
@@ -67,7 +79,8 @@ the overlap tolerance T = tolerance, 0.5 < T <= 1) and correct_pairs [(gt, ms)];
 the points (H, W, 3) also Hoover's angle error of adjacent correctly detected planes
 (angle_error_deg, its std, angle_pairs; NaN when there is no such pair), the ground truth's
 planes fitted robustly (points more than 3 robust sigmas off left out), the segmentation's
-plainly.)");
+plainly. A label image that looks like a depth image (no label below 100, and labels
+that change between a fifth or more of neighbouring pixels) gives a UserWarning.)");
 }
 
 }  // namespace rangeseg::python

@@ -409,6 +409,16 @@ class BadInput(unittest.TestCase):
             result = p.process_depth(z, fx=26.25, fy=26.25, cx=15.5, cy=11.5, depth_scale=0.001)
         self.assertEqual(repr(result), "<rangeseg.Result (24, 32): %d segments>" % len(result.segments))
 
+    def test_a_depth_image_given_as_labels_warns(self):
+        depth = np.nan_to_num(plane_depth([0.1, -0.6, -0.8], 1.4) * 1000).astype(np.int32)
+        labels = (depth > np.median(depth)).astype(np.int32) + 1
+        with self.assertWarnsRegex(UserWarning, "segmentation: its [0-9]+ labels, none below"):
+            scores = rangeseg.evaluate(labels, depth)
+        self.assertEqual(scores["correct"], 0)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # labels numbered from 1001 are labels
+            self.assertEqual(rangeseg.evaluate(labels, labels + 1000)["correct"], 2)
+
     def test_an_implausible_integer_depth_scale_warns(self):
         z = np.full((24, 32), 1500, np.uint16)  # millimetres
         p = rangeseg.Pipeline()
