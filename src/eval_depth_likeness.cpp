@@ -1,7 +1,9 @@
 // Whether a label image is a depth image given by mistake (see eval.hpp).
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "rangeseg/eval.hpp"
@@ -39,6 +41,14 @@ DepthLikeness depth_likeness(const LabelImage& labels) {
   d.likely =
       d.distinct >= kMinDistinct && d.lowest >= kMinLowest && d.changing_share >= kMinChangingShare;
   return d;
+}
+
+std::string describe(const DepthLikeness& likeness) {
+  return "its " + std::to_string(likeness.distinct) + " labels, none below " +
+         std::to_string(likeness.lowest) + ", differ between " +
+         std::to_string(std::lround(100 * likeness.changing_share)) +
+         "% of neighbouring pixels (a segmentation's between a few percent): is it a depth "
+         "image?";
 }
 
 }  // namespace rangeseg::eval

@@ -1,6 +1,5 @@
 #include "eval_common.hpp"
 
-#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -53,11 +52,8 @@ OrganizedCloud read_labelled_cloud(const std::string& path) {
 void warn_if_depth_like(const std::string& path, const LabelImage& labels) {
   const eval::DepthLikeness d = eval::depth_likeness(labels);
   if (d.likely) {
-    std::fprintf(stderr,
-                 "rangeseg: warning: %s: its %zu labels, none below %d, differ between %.0f%% of "
-                 "neighbouring pixels (a segmentation's between a few percent): is it a depth "
-                 "image? (`segment` writes its labels to labels.png)\n",
-                 path.c_str(), d.distinct, d.lowest, 100 * d.changing_share);
+    std::fprintf(stderr, "rangeseg: warning: %s: %s (`segment` writes its labels to labels.png)\n",
+                 path.c_str(), eval::describe(d).c_str());
   }
 }
 

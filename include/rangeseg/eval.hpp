@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -103,6 +104,9 @@ struct DepthLikeness {
 
 /// Labels <= 0 are unlabelled; labels above 65535 are left out. O(pixels).
 DepthLikeness depth_likeness(const LabelImage& labels);
+/// The evidence, for a warning: "its N labels, none below L, differ between P% of neighbouring
+/// pixels (a segmentation's between a few percent): is it a depth image?".
+std::string describe(const DepthLikeness& likeness);
 
 /// A plane n . p + offset = 0, p in metres; `normal` need not be unit length (it is normalised).
 struct PlaneParams {

@@ -31,11 +31,7 @@ py::dict evaluate(const py::object& ground_truth, const py::object& segmentation
   for (const auto& [labels, name] : {std::pair{&gt, "ground_truth"}, {&ms, "segmentation"}}) {
     const eval::DepthLikeness d = eval::depth_likeness(*labels);
     if (!d.likely) continue;
-    const std::string message =
-        std::string(name) + ": its " + std::to_string(d.distinct) + " labels, none below " +
-        std::to_string(d.lowest) + ", differ between " +
-        std::to_string(static_cast<int>(std::lround(100 * d.changing_share))) +
-        "% of neighbouring pixels (a segmentation's between a few percent): is it a depth image?";
+    const std::string message = std::string(name) + ": " + eval::describe(d);
     if (PyErr_WarnEx(PyExc_UserWarning, message.c_str(), 1) != 0) throw py::error_already_set();
   }
   const eval::EvalSettings settings{.tolerance = tolerance, .min_gt_label = min_gt_label};

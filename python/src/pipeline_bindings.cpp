@@ -75,6 +75,11 @@ std::string config_json(const py::dict& config) {
   }
 }
 
+/// Every setting as a dict with the keys of a config (`settings`, and what a pickle keeps).
+py::object settings_dict(const PipelineSettings& settings) {
+  return py::module_::import("json").attr("loads")(io::settings_to_json(settings));
+}
+
 PipelineSettings settings_from(const std::string& preset, const std::optional<std::string>& model,
                                std::optional<bool> smooth, std::optional<bool> track, int threads,
                                const py::handle& config) {
@@ -445,10 +450,7 @@ for process. Returns a Result.)")
            "forget the previous frame's segments: the next frame starts new tracks (e.g. at a "
            "cut in a sequence)")
       .def_property_readonly(
-          "settings",
-          [](const PyPipeline& p) {
-            return py::module_::import("json").attr("loads")(io::settings_to_json(p.settings()));
-          },
+          "settings", [](const PyPipeline& p) { return settings_dict(p.settings()); },
           "every setting as a dict with the keys of `config` (metres, radians): the preset's "
           "values with the config and keywords applied; a valid config itself")
       // Pickled as the constructor's arguments, its settings as the config (for
@@ -460,8 +462,7 @@ for process. Returns a Result.)")
              const py::object none = py::none();
              return py::make_tuple(self.attr("__class__"),
                                    py::make_tuple("kinect", none, none, none, p.settings().threads,
-                                                  py::module_::import("json").attr("loads")(
-                                                      io::settings_to_json(p.settings()))));
+                                                  settings_dict(p.settings())));
            })
       .def("__repr__", [](const PyPipeline& p) {
         const PipelineSettings& s = p.settings();
