@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <sstream>
 #include <string>
@@ -373,11 +374,25 @@ TEST(Polygons, SmallHolesAndFilters) {
   OrganizedCloud other = flat_cloud(10, 10, 1.0);
   EXPECT_THROW(extract_polygons(other, h.mesh, h.seg), std::invalid_argument);
   // A label that names no segment (it would cut a hole in its neighbour's polygon).
-  for (const std::int32_t bad : {99, -7}) {
+  const auto n = static_cast<std::int32_t>(h.seg.segments.size());
+  for (const std::int32_t bad : {n + 1, 99, -1, -7, std::numeric_limits<std::int32_t>::max(),
+                                 std::numeric_limits<std::int32_t>::min()}) {
     Segmentation labelled = h.seg;
     labelled.labels(labelled.labels.width() / 2, labelled.labels.height() / 2) = bad;
-    EXPECT_THROW(extract_polygons(h.cloud, h.mesh, labelled), std::invalid_argument) << bad;
+    try {
+      extract_polygons(h.cloud, h.mesh, labelled);
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const std::invalid_argument& e) {
+      const std::string expected = "label " + std::to_string(bad) + " in row " +
+                                   std::to_string(labelled.labels.height() / 2) +
+                                   " is not in [0, " + std::to_string(n) + "]";
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
   }
+  // The highest label names the last segment.
+  Segmentation last = h.seg;
+  last.labels(0, 0) = n;
+  EXPECT_NO_THROW(extract_polygons(h.cloud, h.mesh, last));
 }
 
 TEST(Polygons, PipelineSegmentationIsHandledAndExtractorReuseIsDeterministic) {
