@@ -20,6 +20,39 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+/// The points of a plane found seen at grazing incidence (Segment::grazing) that no mesh face
+/// reaches, whose 1-ring normal is NaN, take the plane's normal and curvature 0: on a box top a
+/// little below the sensor that is most of its points.
+void planes_give_faceless_points_normals(const Segmentation& segmentation, NormalMap& normals) {
+  const LabelImage& labels = segmentation.labels;
+  for (int v = 0; v < labels.height(); ++v) {
+    const std::int32_t* row = labels.row(v);
+    float* nx = normals.nx.row(v);
+    float* ny = normals.ny.row(v);
+    float* nz = normals.nz.row(v);
+    float* curvature = normals.curvature.row(v);
+    for (int u = 0; u < labels.width(); ++u) {
+      if (row[u] == 0 || !std::isnan(nz[u])) continue;
+      const Segment& segment = segmentation.segments[static_cast<std::size_t>(row[u] - 1)];
+      if (!segment.grazing) continue;
+      nx[u] = static_cast<float>(segment.normal[0]);
+      ny[u] = static_cast<float>(segment.normal[1]);
+      nz[u] = static_cast<float>(segment.normal[2]);
+      curvature[u] = 0.0f;
+    }
+  }
+}
+
+/// Each plane segment's area_m2 becomes its polygon's area (outer loops minus holes), which lies
+/// in its plane. The faces of the mesh or the rings' ellipses it replaces are tilted by the
+/// depth noise: the faces of a Kinect wall at 4-6 m summed to 1.22 times its area.
+void planes_take_polygon_areas(const PolygonSet& polygons, Segmentation& segmentation) {
+  for (const SegmentPolygons& sp : polygons.segments) {
+    Segment& segment = segmentation.segments[static_cast<std::size_t>(sp.label - 1)];
+    if (segment.kind == SurfaceKind::plane) segment.area_m2 = sp.area;
+  }
+}
+
 /// Rows per band of the interleaved mesh and normals: the cloud rows and mesh bits of a band
 /// (~0.6 MB at 640 columns) stay in a 1 MB L2 cache; each band recomputes one row of cells.
 constexpr int kMeshBandRows = 64;
@@ -143,12 +176,7 @@ void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
       // A point's share of a plane over rings is an ellipse holding its ring; where rings span
       // scan lines far apart (a lidar's) the ellipses overlap, and their sum was 2.3-2.7
       // times the plane's visible area. The polygon outlines their union.
-      if (settings_.segmentation.compute_area) {
-        for (const SegmentPolygons& sp : polygons_.segments) {
-          Segment& sgm = segmentation_.segments[static_cast<std::size_t>(sp.label - 1)];
-          if (sgm.kind == SurfaceKind::plane) sgm.area_m2 = sp.area;
-        }
-      }
+      if (settings_.segmentation.compute_area) planes_take_polygon_areas(polygons_, segmentation_);
       times_.polygons = ms_since(t);
     } else {
       polygons_ = PolygonSet{};
@@ -379,6 +407,8 @@ void Pipeline::process_grid(const OrganizedCloud& cloud) {
                                mesh_.width(), mesh_.height(), mesh_.pixel_stride,
                                mesh_.type == MeshType::quad, segmentation_.segments,
                                mesh_.faces.row(0), mesh_.edges.row(0));
+      planes_give_faceless_points_normals(segmentation_,
+                                          settings_.smooth ? smoothed_normals_ : raw_normals_);
     }
     times_.segmentation = ms_since(t);
     if (areas_alongside) {
@@ -392,9 +422,11 @@ void Pipeline::process_grid(const OrganizedCloud& cloud) {
           }
         }
       });
+      planes_take_polygon_areas(polygons_, segmentation_);
       times_.polygons = ms_since(t);
     } else if (settings_.polygons) {
       polygon_extractor_.extract(this->cloud(), mesh_, segmentation_, settings_.polygon, polygons_);
+      if (settings_.segmentation.compute_area) planes_take_polygon_areas(polygons_, segmentation_);
       times_.polygons = ms_since(t);
     } else {
       polygons_ = PolygonSet{};

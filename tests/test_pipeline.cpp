@@ -813,3 +813,87 @@ TEST(Pipeline, DamagedScenesWithRandomSettingsKeepTheInvariants) {
     }
   }
 }
+
+namespace rangeseg {
+namespace {
+
+/// The segment of `result` holding most pixels of the largest segment of `reference` (same
+/// size): the same surface in two renderings of one scene.
+const Segment& same_surface(const Segmentation& result, const Segmentation& reference) {
+  std::vector<int> hits(result.segments.size() + 1, 0);
+  for (int v = 0; v < reference.labels.height(); ++v) {
+    for (int u = 0; u < reference.labels.width(); ++u) {
+      if (reference.labels(u, v) == 1) ++hits[static_cast<std::size_t>(result.labels(u, v))];
+    }
+  }
+  hits[0] = 0;
+  const auto best = std::max_element(hits.begin(), hits.end()) - hits.begin();
+  return result.segments.at(static_cast<std::size_t>(best) - 1);
+}
+
+TEST(Pipeline, PlaneAreasAreTheirPolygonsAndNotInflatedByNoise) {
+  // The demo scene's back wall at 4-6 m: Kinect noise there (2.5-7 cm) tilts the mesh faces.
+  const synth::Scene scene = synth::demo_scene();
+  const OrganizedCloud noise_free = synth::render(scene, {.noise = synth::Noise::none}).cloud;
+  const OrganizedCloud kinect = synth::render(scene, {.noise = synth::Noise::kinect}).cloud;
+  Pipeline clean, noisy;
+  clean.process(noise_free);
+  noisy.process(kinect);
+  const Segment& truth = clean.segmentation().segments.at(0);
+  const Segment& wall = same_surface(noisy.segmentation(), clean.segmentation());
+  ASSERT_EQ(wall.kind, SurfaceKind::plane);
+  // Every plane's area is its polygon's.
+  for (const SegmentPolygons& sp : noisy.polygons().segments) {
+    const Segment& s = noisy.segmentation().segments[static_cast<std::size_t>(sp.label - 1)];
+    if (s.kind == SurfaceKind::plane) {
+      EXPECT_EQ(s.area_m2, sp.area) << s.label;
+    }
+  }
+  EXPECT_NEAR(wall.area_m2, truth.area_m2, 0.03 * truth.area_m2);
+  // The mesh faces it replaces sum to much more there.
+  Segmentation faces = noisy.segmentation();
+  Segmenter().compute_areas(noisy.cloud(), noisy.mesh(), faces);
+  const double face_area = faces.segments[static_cast<std::size_t>(wall.label - 1)].area_m2;
+  EXPECT_GT(face_area, 1.1 * truth.area_m2) << "the faces are no longer tilted by the noise?";
+  // Without polygons the area is the faces' sum.
+  Pipeline no_polygons({.polygons = false});
+  no_polygons.process(kinect);
+  EXPECT_EQ(same_surface(no_polygons.segmentation(), clean.segmentation()).area_m2, face_area);
+}
+
+TEST(Pipeline, PointsOfGrazingPlanesWithoutFacesTakeThePlanesNormal) {
+  // The demo scene's Kinect rendering has planes found at grazing incidence, where the mesh
+  // has few faces and most 1-ring normals are NaN.
+  const OrganizedCloud kinect =
+      synth::render(synth::demo_scene(), {.noise = synth::Noise::kinect}).cloud;
+  for (const bool smooth : {true, false}) {
+    Pipeline pipeline({.smooth = smooth});
+    pipeline.process(kinect);
+    const Segmentation& seg = pipeline.segmentation();
+    const NormalMap& normals = pipeline.normals();
+    int grazing_points = 0, filled = 0;
+    for (int v = 0; v < seg.labels.height(); ++v) {
+      for (int u = 0; u < seg.labels.width(); ++u) {
+        const std::int32_t l = seg.labels(u, v);
+        if (l == 0) continue;
+        const Segment& s = seg.segments[static_cast<std::size_t>(l - 1)];
+        if (!s.grazing) continue;
+        ++grazing_points;
+        const std::array<float, 3> n{normals.nx(u, v), normals.ny(u, v), normals.nz(u, v)};
+        ASSERT_TRUE(std::isfinite(n[0]) && std::isfinite(n[1]) && std::isfinite(n[2]))
+            << u << "," << v << " smooth " << smooth;
+        ASSERT_TRUE(std::isfinite(normals.curvature(u, v)));
+        if (n[0] == static_cast<float>(s.normal[0]) && n[1] == static_cast<float>(s.normal[1]) &&
+            n[2] == static_cast<float>(s.normal[2])) {
+          ++filled;
+          EXPECT_EQ(normals.curvature(u, v), 0.0f);
+        }
+      }
+    }
+    EXPECT_GT(grazing_points, 1000) << "smooth " << smooth;
+    EXPECT_GT(filled, 100) << "smooth " << smooth;  // points without a face
+  }
+}
+
+}  // namespace
+}  // namespace rangeseg

@@ -152,6 +152,9 @@ class Pipeline {
     if (settings_.smooth) return smoothed_cloud_;
     return input_ != nullptr ? *input_ : depth_cloud_;
   }
+  /// Smoothed normals, or the raw ones when smoothing is off. A point of a plane found seen at
+  /// grazing incidence (Segment::grazing) that no mesh face reaches, whose 1-ring normal is NaN,
+  /// has its plane's normal and curvature 0 here (in raw_normals() too when smoothing is off).
   const NormalMap& normals() const { return settings_.smooth ? smoothed_normals_ : raw_normals_; }
   const Segmentation& segmentation() const { return segmentation_; }
   const PolygonSet& polygons() const { return polygons_; }

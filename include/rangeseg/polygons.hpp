@@ -93,9 +93,12 @@ struct PolygonLoop {
 struct SegmentPolygons {
   int label = 0;
   PlaneFrame frame;
-  int first_loop = 0;  ///< loops[first_loop] is the outer loop with the largest area
-  /// Loops of this segment: the outer loops by area descending, then the holes grouped by
-  /// parent in the order of their parents (each group in tracing order).
+  /// loops[first_loop] is the outer loop that encloses the most pixels in the image
+  int first_loop = 0;
+  /// Loops of this segment: the outer loops by the pixels they enclose in the image, descending
+  /// (their areas in the plane, `PolygonLoop::area`, after simplification, may be ordered
+  /// otherwise where depths differ), then the holes grouped by parent in the order of their
+  /// parents (each group in tracing order).
   int loop_count = 0;
   int hull_first = 0;  ///< range into hull_points2d / hull_points3d / hull_pixels (CCW)
   int hull_count = 0;
