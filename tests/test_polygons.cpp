@@ -508,7 +508,15 @@ TEST(Polygons, ObjTriangulationCoversThePolygonArea) {
   std::string line;
   int nv = 0, nf = 0;
   while (std::getline(in, line)) {
-    if (line.rfind("v ", 0) == 0) ++nv;
+    if (line.rfind("v ", 0) == 0) {
+      // Each coordinate reads back as the float written (a 5 um rounding turned slivers over).
+      std::istringstream ss(line.substr(2));
+      std::array<float, 3> p{};
+      ss >> p[0] >> p[1] >> p[2];
+      ASSERT_LT(static_cast<std::size_t>(nv), ps.points3d.size());
+      EXPECT_EQ(p, ps.points3d[static_cast<std::size_t>(nv)]) << line;
+      ++nv;
+    }
     if (line.rfind("f ", 0) == 0) {
       ++nf;
       std::istringstream ss(line.substr(2));
