@@ -382,13 +382,19 @@ void Pipeline::process_grid(const OrganizedCloud& cloud) {
     times_.smoothing = ms_since(t);
   }
   if (settings_.segment) {
-    // With threads, the segments' areas are summed alongside the polygons (which do not read
-    // them); the auto model needs them earlier, to add up the areas of the pieces it joins.
-    const bool areas_alongside = pool != nullptr && settings_.polygons &&
-                                 settings_.segmentation.compute_area &&
-                                 settings_.segmentation.model != RegionModel::automatic;
+    // Plane segments take their polygon's area, so the models whose segments are all planes
+    // need the faces' sum only for a plane the polygon settings skip. With threads, the other
+    // models' areas are summed alongside the polygons (which do not read them); the auto model
+    // needs them earlier, to add up the areas of the pieces it joins.
+    const RegionModel model = settings_.segmentation.model;
+    const bool areas = settings_.segmentation.compute_area;
+    const bool areas_from_polygons =
+        areas && settings_.polygons &&
+        (model == RegionModel::plane || model == RegionModel::incremental_plane);
+    const bool areas_alongside = pool != nullptr && settings_.polygons && areas &&
+                                 !areas_from_polygons && model != RegionModel::automatic;
     SegmentationSettings segmentation = settings_.segmentation;
-    if (areas_alongside) segmentation.compute_area = false;
+    if (areas_alongside || areas_from_polygons) segmentation.compute_area = false;
     if (segmentation.min_region_fx > 0) {
       // Regions count lattice vertices, pixel_stride pixels apart.
       segmentation.min_region_size = min_region_size_for(segmentation, frame_fx() / stride);
@@ -426,7 +432,10 @@ void Pipeline::process_grid(const OrganizedCloud& cloud) {
       times_.polygons = ms_since(t);
     } else if (settings_.polygons) {
       polygon_extractor_.extract(this->cloud(), mesh_, segmentation_, settings_.polygon, polygons_);
-      if (settings_.segmentation.compute_area) planes_take_polygon_areas(polygons_, segmentation_);
+      if (areas_from_polygons && polygons_.segments.size() < segmentation_.segments.size()) {
+        segmenter_.compute_areas(this->cloud(), mesh_, segmentation_);
+      }
+      if (areas) planes_take_polygon_areas(polygons_, segmentation_);
       times_.polygons = ms_since(t);
     } else {
       polygons_ = PolygonSet{};

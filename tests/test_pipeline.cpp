@@ -855,6 +855,23 @@ TEST(Pipeline, PlaneAreasAreTheirPolygonsAndNotInflatedByNoise) {
   Segmenter().compute_areas(noisy.cloud(), noisy.mesh(), faces);
   const double face_area = faces.segments[static_cast<std::size_t>(wall.label - 1)].area_m2;
   EXPECT_GT(face_area, 1.1 * truth.area_m2) << "the faces are no longer tilted by the noise?";
+  // A plane the polygon settings skip keeps the faces' sum.
+  PipelineSettings skip_small;
+  skip_small.polygon.min_segment_pixels = 2000;
+  Pipeline some_polygons(skip_small);
+  some_polygons.process(kinect);
+  const Segmentation& some = some_polygons.segmentation();
+  Segmentation some_faces = some;
+  Segmenter().compute_areas(some_polygons.cloud(), some_polygons.mesh(), some_faces);
+  int skipped = 0;
+  for (const Segment& s : some.segments) {
+    const std::size_t j = static_cast<std::size_t>(s.label - 1);
+    if (s.pixel_count >= 2000) continue;
+    ++skipped;
+    EXPECT_GT(s.area_m2, 0.0) << s.label;
+    EXPECT_EQ(s.area_m2, some_faces.segments[j].area_m2) << s.label;
+  }
+  EXPECT_GT(skipped, 0);
   // Without polygons the area is the faces' sum.
   Pipeline no_polygons({.polygons = false});
   no_polygons.process(kinect);
