@@ -30,8 +30,9 @@ struct PipelineSettings {
   bool polygons = true;  ///< outline every plane segment (needs `segment`)
   PolygonSettings polygon{};
   /// Threads inside one frame: mesh, normals, smoothing and segmentation's frame-wide passes run
-  /// on this many row bands at once, and the segments' areas are summed while the polygons are
-  /// traced (then counted in StageTimes::polygons); results are bit-identical to 1 thread.
+  /// on this many row bands at once, and the smooth model's segment areas are summed while the
+  /// polygons are traced (then counted in StageTimes::polygons; a plane takes its polygon's
+  /// area); results are bit-identical to 1 thread.
   /// Region growing runs on min(threads, growth bands) threads
   /// (SegmentationSettings::growth_bands, default 2).
   /// Frames under 65536 pixels always run on one thread (a hand-off costs as much as their
