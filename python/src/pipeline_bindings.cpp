@@ -308,7 +308,8 @@ void bind_pipeline(py::module_& m) {
                     "smoothing), NaN where there is none")
       .def_readonly("normals", &Result::normals,
                     "float32 unit normals facing the sensor, as `points` (smoothed when smoothing "
-                    "is on); NaN where a point has no mesh face")
+                    "is on); NaN where a point has no mesh face, but a point of a plane found "
+                    "seen at grazing incidence (segment 'grazing') has its plane's normal")
       .def_readonly("raw_normals", &Result::raw_normals, "float32 normals before smoothing")
       .def_readonly("curvature", &Result::curvature, "float32 curvature [1/m], (H, W) or (N,)")
       .def_readonly("segments", &Result::segments,
