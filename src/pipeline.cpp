@@ -25,12 +25,14 @@ using Clock = std::chrono::steady_clock;
 /// little below the sensor that is most of its points.
 void planes_give_faceless_points_normals(const Segmentation& segmentation, NormalMap& normals) {
   const LabelImage& labels = segmentation.labels;
+  const bool with_curvature =
+      normals.curvature.height() == labels.height() && normals.curvature.width() == labels.width();
   for (int v = 0; v < labels.height(); ++v) {
     const std::int32_t* row = labels.row(v);
     float* nx = normals.nx.row(v);
     float* ny = normals.ny.row(v);
     float* nz = normals.nz.row(v);
-    float* curvature = normals.curvature.row(v);
+    float* curvature = with_curvature ? normals.curvature.row(v) : nullptr;
     for (int u = 0; u < labels.width(); ++u) {
       if (row[u] == 0 || !std::isnan(nz[u])) continue;
       const Segment& segment = segmentation.segments[static_cast<std::size_t>(row[u] - 1)];
@@ -38,7 +40,7 @@ void planes_give_faceless_points_normals(const Segmentation& segmentation, Norma
       nx[u] = static_cast<float>(segment.normal[0]);
       ny[u] = static_cast<float>(segment.normal[1]);
       nz[u] = static_cast<float>(segment.normal[2]);
-      curvature[u] = 0.0f;
+      if (curvature != nullptr) curvature[u] = 0.0f;
     }
   }
 }
