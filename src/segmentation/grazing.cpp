@@ -158,8 +158,19 @@ struct GrazingFit {
     }
     if (!fit.ok) return {};
     const auto& c = fit.centroid;
-    const double sine = ray_sine(fit, c[0], c[1], c[2]);
-    // Written to reject NaN too (a point at infinite depth).
+    // The angle to the rays over the inliers, not at the centroid: the centroid of a floor all
+    // round a spinning lidar lies at the sensor's foot, where the floor is seen head-on.
+    double sine_sum = 0;
+    std::size_t inliers = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const double* const p = point(k);
+      if (!within(fit, p, settings.max_distance_sigmas)) continue;
+      sine_sum +=
+          std::abs(fit.normal[0] * p[0] + fit.normal[1] * p[1] + fit.normal[2] * p[2]) * p[4];
+      ++inliers;
+    }
+    const double sine = sine_sum / static_cast<double>(inliers);
+    // Written to reject NaN too (no inliers, a point at infinite depth).
     if (!(sine >= sin_min && sine <= sin_max)) return {};
     const double noise_depth = by_range ? std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) : c[2];
     if (!(fit.rms <= settings.noise.sigma(noise_depth) * sin_max)) return {};
@@ -167,7 +178,7 @@ struct GrazingFit {
     // than if it faced the sensor: min_region_size counts that frontal area (and the rounds
     // above ask for at least half as many points, as for any region).
     if (static_cast<double>(stats.count) < settings.min_region_size * sine &&
-        !wide_enough(stats, settings.min_region_size, footprint, by_range)) {
+        !wide_enough(stats, settings.min_region_size, footprint)) {
       return {};
     }
     return fit;
@@ -200,11 +211,12 @@ namespace {
 class GrazingFinder {
  public:
   GrazingFinder(const Frame& f, const SegmentationSettings& settings, Segmenter::Scratch& s,
-                double footprint)
+                double footprint, double vertical_footprint)
       : f_(f),
         settings_(settings),
         s_(s),
         footprint_(footprint),
+        vertical_footprint_(vertical_footprint),
         sin_max_(std::sin(settings.grazing_max_angle)),
         inv_tan_min_(1.0 / std::tan(settings.grazing_min_angle)) {}
 
@@ -225,10 +237,16 @@ class GrazingFinder {
   }
 
  private:
-  // An infinite coordinate is no point, as NaN is.
+  // An infinite coordinate is no point, as NaN is, and a scanner's (0, 0, 0) none either. Any
+  // z is: a spinning lidar's scan surrounds the sensor.
   bool candidate(std::ptrdiff_t i) const {
-    return f_.labels[i] == 0 && f_.z[i] > 0 && std::isfinite(f_.z[i]) && std::isfinite(f_.x[i]) &&
-           std::isfinite(f_.y[i]);
+    return f_.labels[i] == 0 && std::isfinite(f_.z[i]) && std::isfinite(f_.x[i]) &&
+           std::isfinite(f_.y[i]) && range(i) > 0;
+  }
+  double range(std::ptrdiff_t i) const {
+    return std::sqrt(static_cast<double>(f_.x[i]) * f_.x[i] +
+                     static_cast<double>(f_.y[i]) * f_.y[i] +
+                     static_cast<double>(f_.z[i]) * f_.z[i]);
   }
 
   /// The component of `start` and, each time a plane is taken from one, the components of the
@@ -260,18 +278,21 @@ class GrazingFinder {
     const std::ptrdiff_t row = v * f_.stride;
 #if defined(__SSE2__)
     if (step == 1) {
-      // Candidate lanes of 4 columns from c: label 0 and depth > 0 (false for NaN).
+      // Lanes of 4 columns from c that may be candidates: label 0 and z not NaN.
       const auto lanes = [&](int c) {
         const __m128i labels =
             _mm_loadu_si128(reinterpret_cast<const __m128i*>(f_.labels + row + c));
-        const __m128 valid = _mm_cmpgt_ps(_mm_loadu_ps(f_.z + row + c), _mm_setzero_ps());
+        const __m128 z = _mm_loadu_ps(f_.z + row + c);
+        const __m128 valid = _mm_cmpord_ps(z, z);
         return _mm_and_si128(_mm_cmpeq_epi32(labels, _mm_setzero_si128()), _mm_castps_si128(valid));
       };
       for (; u + 16 <= end; u += 16) {
         const __m128i bytes = _mm_packs_epi16(_mm_packs_epi32(lanes(u), lanes(u + 4)),
                                               _mm_packs_epi32(lanes(u + 8), lanes(u + 12)));
-        const int found = _mm_movemask_epi8(bytes);
-        if (found != 0) return u + std::countr_zero(static_cast<unsigned>(found));
+        for (int found = _mm_movemask_epi8(bytes); found != 0; found &= found - 1) {
+          const int c = u + std::countr_zero(static_cast<unsigned>(found));
+          if (candidate(row + c)) return c;
+        }
       }
     }
 #endif
@@ -280,14 +301,16 @@ class GrazingFinder {
   }
 
   /// Vertically or horizontally adjacent samples of one surface whose angle to the viewing rays
-  /// is at least grazing_min_angle lie at most footprint z / tan(angle) apart in depth, plus the
-  /// noise of both.
-  bool linked(std::ptrdiff_t i, std::ptrdiff_t j) const {
-    const double z = std::min(f_.z[i], f_.z[j]);
-    const double bound = footprint_ * z * inv_tan_min_ + settings_.max_distance_sigmas *
-                                                             std::numbers::sqrt2 *
-                                                             settings_.noise.sigma(z);
-    return std::abs(static_cast<double>(f_.z[i]) - f_.z[j]) <= bound;
+  /// is at least grazing_min_angle lie at most footprint r / tan(angle) apart in range r, plus
+  /// the noise of both (sigma at the depth z, as the growth's tests take it); the footprint of
+  /// their direction on the lattice.
+  bool linked(std::ptrdiff_t i, std::ptrdiff_t j, double footprint) const {
+    const double ri = range(i), rj = range(j);
+    const double z = std::abs(f_.z[i]) < std::abs(f_.z[j]) ? f_.z[i] : f_.z[j];
+    const double bound =
+        footprint * std::min(ri, rj) * inv_tan_min_ +
+        settings_.max_distance_sigmas * std::numbers::sqrt2 * settings_.noise.sigma(z);
+    return std::abs(ri - rj) <= bound;
   }
 
   /// The unlabelled valid pixels 4-connected to `start` over linked pairs, appended to
@@ -305,12 +328,17 @@ class GrazingFinder {
       const std::ptrdiff_t i = pixels[k];
       const auto v = static_cast<int>(i / f_.stride);
       const auto u = static_cast<int>(i - v * f_.stride);
-      if (u + step < f_.width && candidate(i + step) && linked(i, i + step)) visit(i + step);
-      if (u >= step && candidate(i - step) && linked(i, i - step)) visit(i - step);
-      if (v + step < f_.height && candidate(i + row_step) && linked(i, i + row_step)) {
+      const double across = footprint_, down = vertical_footprint_;
+      if (u + step < f_.width && candidate(i + step) && linked(i, i + step, across)) {
+        visit(i + step);
+      }
+      if (u >= step && candidate(i - step) && linked(i, i - step, across)) visit(i - step);
+      if (v + step < f_.height && candidate(i + row_step) && linked(i, i + row_step, down)) {
         visit(i + row_step);
       }
-      if (v >= step && candidate(i - row_step) && linked(i, i - row_step)) visit(i - row_step);
+      if (v >= step && candidate(i - row_step) && linked(i, i - row_step, down)) {
+        visit(i - row_step);
+      }
     }
   }
 
@@ -372,14 +400,15 @@ class GrazingFinder {
       return false;
     }
     const double z = kept.sz / static_cast<double>(kept.count);
-    const double width = image_width(f_, pixels, label) * footprint_ * z;  // [m]
+    const double width =
+        image_width(f_, pixels, label) * footprint_ * noise_depth(kept.mean(), true);  // [m]
     return width <= std::sqrt(12.0) * settings_.noise.sigma(z) * sin_max_;
   }
 
   const Frame& f_;
   const SegmentationSettings& settings_;
   Segmenter::Scratch& s_;
-  double footprint_;
+  double footprint_, vertical_footprint_;
   double sin_max_, inv_tan_min_;
 };
 
@@ -388,7 +417,8 @@ class GrazingFinder {
 void find_grazing_planes(const Frame& f, const SegmentationSettings& settings,
                          Segmenter::Scratch& s, double footprint) {
   if (!(settings.grazing_min_angle > 0) || !(footprint > 0)) return;
-  GrazingFinder(f, settings, s, footprint).run();
+  const double vertical = pixel_footprint(f, s, true);
+  GrazingFinder(f, settings, s, footprint, vertical > 0 ? vertical : footprint).run();
 }
 
 }  // namespace rangeseg::seg

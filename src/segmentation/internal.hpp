@@ -527,18 +527,19 @@ void close_grazing_faces(const std::int32_t* labels, std::ptrdiff_t stride, int 
                          std::uint8_t* faces, std::uint8_t* edges);
 
 /// The angle one lattice step subtends [rad]: the median over three rows of the distance between
-/// horizontally adjacent valid points divided by their depth (0 without such points), so that
-/// a length at depth z is that many pixel footprints when divided by footprint * z.
-double pixel_footprint(const Frame& frame, Segmenter::Scratch& scratch);
+/// horizontally adjacent valid points divided by their range (0 without such points), so that
+/// a length at range r is that many pixel footprints when divided by footprint * r. `vertical`:
+/// over three columns, between vertically adjacent points (a spinning lidar's beams lie several
+/// times further apart than its columns).
+double pixel_footprint(const Frame& frame, Segmenter::Scratch& scratch, bool vertical = false);
 
 /// A region of at least half min_region_size pixels that, in 3D, is at least
 /// sqrt(2 min_region_size) pixel footprints wide in its narrower in-plane direction (the
 /// square root of 12 times the middle covariance eigenvalue): a face seen obliquely covers
 /// fewer pixels than a frontal one of its size, and this one has at least twice the frontal area
-/// of the smallest segment; crease slivers and specks are narrow. `by_range`: footprints at the
-/// centroid's distance from the origin, not its z (noise_depth), for a frame of rings.
-bool wide_enough(const detail::PlaneStats& stats, int min_region_size, double footprint,
-                 bool by_range = false);
+/// of the smallest segment; crease slivers and specks are narrow. The footprints are those at
+/// the centroid's range.
+bool wide_enough(const detail::PlaneStats& stats, int min_region_size, double footprint);
 
 /// Refit, merge, small-region removal, boundary re-assignment, compaction and the Segment list
 /// (areas 0: see segment_areas).

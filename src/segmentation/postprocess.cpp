@@ -555,16 +555,24 @@ SegmentationSettings with_measured_noise(const SegmentationSettings& settings, d
   return measured;
 }
 
-double pixel_footprint(const Frame& f, Segmenter::Scratch& s) {
+double pixel_footprint(const Frame& f, Segmenter::Scratch& s, bool vertical) {
   auto& steps = s.quantile_values;
   steps.clear();
   const int step = f.pixel_stride;
+  // Three rows (or columns) at a quarter, half and three quarters of the frame.
+  const int lines = vertical ? f.width : f.height, length = vertical ? f.height : f.width;
+  const std::ptrdiff_t along = vertical ? step * f.stride : step;
   for (int band = 1; band <= 3; ++band) {
-    const int v = (f.height * band / 4) / step * step;
-    for (int u = 0; u + step < f.width; u += step) {
-      const std::ptrdiff_t i = static_cast<std::ptrdiff_t>(v) * f.stride + u, j = i + step;
-      if (!(f.z[i] > 0) || !(f.z[j] > 0) || !std::isfinite(f.z[i] + f.z[j])) continue;  // NaN, inf
-      steps.push_back(std::hypot(f.x[j] - f.x[i], f.y[j] - f.y[i], f.z[j] - f.z[i]) / f.z[i]);
+    const int line = (lines * band / 4) / step * step;
+    const std::ptrdiff_t first = vertical ? line : static_cast<std::ptrdiff_t>(line) * f.stride;
+    for (int t = 0; t + step < length; t += step) {
+      const std::ptrdiff_t i = first + (t / step) * along, j = i + along;
+      // The range, not z: a scan around the sensor (a spinning lidar's) has points at every z.
+      const double range = std::hypot(f.x[i], f.y[i], f.z[i]);
+      const double step_length =
+          std::hypot(f.x[j] - f.x[i], f.y[j] - f.y[i], f.z[j] - f.z[i]);  // NaN, inf: no step
+      if (!(range > 0) || !std::isfinite(range) || !std::isfinite(step_length)) continue;
+      steps.push_back(step_length / range);
     }
   }
   if (steps.empty()) return 0;
@@ -573,14 +581,12 @@ double pixel_footprint(const Frame& f, Segmenter::Scratch& s) {
   return *middle;
 }
 
-bool wide_enough(const PlaneStats& stats, int min_region_size, double footprint, bool by_range) {
+bool wide_enough(const PlaneStats& stats, int min_region_size, double footprint) {
   if (!(footprint > 0) || 2 * stats.count < min_region_size || stats.count < 3) return false;
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
   solver.computeDirect(stats.covariance(), Eigen::EigenvaluesOnly);
   const double narrow = std::sqrt(12.0 * std::max(0.0, solver.eigenvalues()(1)));
-  const double depth =
-      by_range ? noise_depth(stats.mean(), true) : stats.sz / static_cast<double>(stats.count);
-  return narrow >= std::sqrt(2.0 * min_region_size) * footprint * depth;
+  return narrow >= std::sqrt(2.0 * min_region_size) * footprint * noise_depth(stats.mean(), true);
 }
 
 bool planes_merge(const PlaneStats& sa, const PlaneFit& a, const PlaneStats& sb, const PlaneFit& b,

@@ -456,7 +456,7 @@ void segment(const OrganizedCloud& cloud, const PointRings& rings, const NormalM
       settings.model == RegionModel::plane ? ring_footprint(rings, pts, b.noise_samples) : 0;
   const auto kept = [&](const detail::PlaneStats& st) {
     return st.count >= settings.min_region_size ||
-           seg::wide_enough(st, settings.min_region_size, footprint, /*by_range=*/true);
+           seg::wide_enough(st, settings.min_region_size, footprint);
   };
   std::vector<std::uint8_t>& keep = b.keep;  // per raw label (wide_enough is an eigen-solve)
   keep.assign(stats.size(), 0);
