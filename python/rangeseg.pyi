@@ -84,7 +84,7 @@ class Pipeline:
 
     def __init__(
         self,
-        preset: str = "kinect",
+        preset: Optional[str] = None,
         model: Optional[str] = None,
         smooth: Optional[bool] = None,
         track: Optional[bool] = None,

@@ -16,6 +16,7 @@
 
 #include "arrays.hpp"
 #include "bindings.hpp"
+#include "rangeseg/camera.hpp"
 #include "rangeseg/io/settings_json.hpp"
 #include "rangeseg/pipeline.hpp"
 #include "results.hpp"
@@ -170,11 +171,19 @@ void warn_if_scale_implausible(const View<const std::uint16_t>& depth, double sc
 
 class PyPipeline {
  public:
-  explicit PyPipeline(const PipelineSettings& settings) : pipeline_(settings) {}
+  /// `preset_chosen`: false when the preset is the default's (kinect), taken for any grid.
+  PyPipeline(const PipelineSettings& settings, bool preset_chosen)
+      : pipeline_(settings), grid_checked_(preset_chosen) {}
 
   Result process(const OrganizedCloud& cloud, double fx) {
     check_fx(fx);
-    return run(nullptr, [&] { pipeline_.process(cloud, fx); });
+    bool scanner = false;
+    Result result = run(nullptr, [&] {
+      pipeline_.process(cloud, fx);
+      scanner = first_grid_is_a_scanners(cloud, fx);
+    });
+    if (scanner) warn_scanner_grid();
+    return result;
   }
 
   /// NumPy points into the pipeline's own input cloud, which keeps its memory between frames;
@@ -191,8 +200,14 @@ class PyPipeline {
     const py::object p = numeric_array(points, "points");
     const py::object i = array_or_none(intensity, "intensity");
     const py::object c = array_or_none(colors, "colors");
-    return run([&] { cloud_from_arrays(p, i, c, py::none(), input_); },
-               [&] { pipeline_.process(input_, fx); });
+    bool scanner = false;
+    Result result = run([&] { cloud_from_arrays(p, i, c, py::none(), input_); },
+                        [&] {
+                          pipeline_.process(input_, fx);
+                          scanner = first_grid_is_a_scanners(input_, fx);
+                        });
+    if (scanner) warn_scanner_grid();
+    return result;
   }
 
   Result process_depth(const py::handle& depth, const CameraIntrinsics& camera,
@@ -291,8 +306,26 @@ class PyPipeline {
   }
 
   Pipeline pipeline_;
+  /// For a pipeline made with the default preset, once (under the mutex, without the GIL):
+  /// whether its first organized grid is one no pinhole camera explains, a scanner's (a spinning
+  /// lidar's, a tilting laser's), for which the kinect preset's noise model, a function of z, is
+  /// wrong. The command line's --preset auto notes it alike.
+  bool first_grid_is_a_scanners(const OrganizedCloud& cloud, double fx) {
+    if (grid_checked_ || fx > 0 || !cloud.is_organized()) return false;
+    grid_checked_ = true;
+    CameraIntrinsics camera;
+    return !fit_intrinsics(cloud, camera);
+  }
+  static void warn_scanner_grid() {
+    user_warning(
+        "no pinhole camera explains this grid (a scanner's, or points moved out of the camera's "
+        "frame); the default preset is a depth camera's (kinect). For a laser scanner or a "
+        "spinning lidar give preset=\"laser\": its range noise is not a function of z.");
+  }
+
   OrganizedCloud input_;  ///< the last NumPy points (Pipeline::cloud() may refer to it)
-  std::mutex mutex_;      ///< one frame at a time when Python threads share a pipeline
+  bool grid_checked_ = false;
+  std::mutex mutex_;  ///< one frame at a time when Python threads share a pipeline
 };
 
 }  // namespace
@@ -371,7 +404,10 @@ The pipeline keeps its buffers between frames, so a stream of frames of one size
 allocates nothing in the library after the first (the returned arrays are new).
 
 preset: sensor settings: "kinect" (structured light, also PrimeSense and RealSense
-        depth), "abw", "laser", "perceptron" or "ideal" (noise-free or simulated depth).
+        depth), "abw", "laser" (also spinning lidars), "perceptron" or "ideal"
+        (noise-free or simulated depth). Default None or "auto": kinect, with a
+        UserWarning when the first organized cloud is a grid that no pinhole camera
+        explains (a scanner's: give "laser").
 model:  region model: "plane", "smooth", "incremental_plane" or "auto" (planes,
         cylinders and spheres); default the preset's ("plane").
 smooth: run the bilateral filter (default the preset's: on, but for abw and ideal).
@@ -382,13 +418,17 @@ threads: threads inside a frame (1..256).
 config: settings on top of the preset, a dict or the path of a JSON file with the
         keys of `rangeseg segment --config` (metres, radians), e.g.
         {"segmentation": {"min_region_size": 200}}.)")
-      .def(py::init([](const std::string& preset, const std::optional<std::string>& model,
-                       std::optional<bool> smooth, std::optional<bool> track, int threads,
-                       const py::object& config) {
+      .def(py::init([](const std::optional<std::string>& preset,
+                       const std::optional<std::string>& model, std::optional<bool> smooth,
+                       std::optional<bool> track, int threads, const py::object& config) {
+             // None and "auto" (the command line's default) are the kinect preset, with a
+             // warning for a grid that no pinhole camera explains.
+             const bool chosen = preset && *preset != "auto";
              return std::make_unique<PyPipeline>(
-                 settings_from(preset, model, smooth, track, threads, config));
+                 settings_from(chosen ? *preset : "kinect", model, smooth, track, threads, config),
+                 chosen);
            }),
-           "preset"_a = "kinect", "model"_a = py::none(), "smooth"_a = py::none(),
+           "preset"_a = py::none(), "model"_a = py::none(), "smooth"_a = py::none(),
            "track"_a = py::none(), "threads"_a = 1, "config"_a = py::none())
       .def(
           "process",

@@ -419,6 +419,31 @@ class BadInput(unittest.TestCase):
             warnings.simplefilter("error")  # labels numbered from 1001 are labels
             self.assertEqual(rangeseg.evaluate(labels, labels + 1000)["correct"], 2)
 
+    def test_a_scanners_grid_with_the_default_preset_warns_once(self):
+        # A spinning lidar's organized scan (16 beams, 2 deg apart; 360 columns round the
+        # sensor) of a cylinder wall: no pinhole camera explains that grid.
+        elevation = np.radians(15.0 - 2.0 * np.arange(16))[:, None]
+        azimuth = np.radians(np.arange(360.0))[None, :]
+        r = 5.0 / np.cos(elevation) * np.ones_like(azimuth)
+        scan = np.stack([r * np.cos(elevation) * np.cos(azimuth),
+                         r * np.cos(elevation) * np.sin(azimuth),
+                         r * np.sin(elevation) * np.ones_like(azimuth)], -1).astype(np.float32)
+        for preset in (None, "auto"):
+            p = rangeseg.Pipeline(preset=preset) if preset else rangeseg.Pipeline()
+            with self.assertWarnsRegex(UserWarning, 'no pinhole camera explains this grid.*"laser"'):
+                p.process(scan)
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")
+                p.process(scan)  # once per pipeline
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            rangeseg.Pipeline(preset="laser").process(scan)
+            rangeseg.Pipeline(preset="kinect").process(scan)  # chosen: no warning
+            rangeseg.Pipeline().process(scan, fx=57.3)  # a camera given
+            # A depth camera's grid.
+            points = rays(320, 240, **HALF) * plane_depth([0.1, -0.6, -0.8], 1.4)[..., None]
+            rangeseg.Pipeline().process(points.astype(np.float32))
+
     def test_an_implausible_integer_depth_scale_warns(self):
         z = np.full((24, 32), 1500, np.uint16)  # millimetres
         p = rangeseg.Pipeline()
