@@ -1,6 +1,7 @@
 #include "rangeseg/cloud.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -29,18 +30,23 @@ std::size_t OrganizedCloud::count_valid() const { return cloud_stats(*this).vali
 CloudStats cloud_stats(const OrganizedCloud& cloud) {
   require_consistent(cloud, "cloud_stats");
   CloudStats s;
-  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+  float lo = std::numeric_limits<float>::infinity(), hi = -lo, near = lo, far = hi;
   for (int v = 0; v < cloud.height(); ++v) {
     for (int u = 0; u < cloud.width(); ++u) {
       if (!cloud.valid(u, v)) continue;
       ++s.valid;
       lo = std::min(lo, cloud.z(u, v));
       hi = std::max(hi, cloud.z(u, v));
+      const float range = std::hypot(cloud.x(u, v), cloud.y(u, v), cloud.z(u, v));
+      near = std::min(near, range);
+      far = std::max(far, range);
     }
   }
   if (s.valid > 0) {
     s.min_z = lo;
     s.max_z = hi;
+    s.min_range = near;
+    s.max_range = far;
   }
   return s;
 }

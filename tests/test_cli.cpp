@@ -632,7 +632,7 @@ TEST(Cli, CloudOptionWritesTheSmoothedLabelledPoints) {
       // grazing incidence also by up to the depth step to its neighbours (a sub-pixel shift
       // along the surface), not further.
       float step = INFINITY;
-      for (const auto [du, dv] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+      for (const auto& [du, dv] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
         const int nu = u + du, nv = v + dv;
         if (nu >= 0 && nv >= 0 && nu < input.width() && nv < input.height() &&
             input.valid(nu, nv)) {

@@ -156,6 +156,14 @@ TEST(Cloud, StatsCountOnlyFinitePoints) {
   EXPECT_EQ(s.valid, 2u);
   EXPECT_FLOAT_EQ(s.min_z, 1);
   EXPECT_FLOAT_EQ(s.max_z, 2);
+  EXPECT_FLOAT_EQ(s.min_range, 1);
+  EXPECT_FLOAT_EQ(s.max_range, 2);
+  c.x(0, 1) = 3;  // beside and behind the sensor: a range of 5 at z = -4
+  c.y(0, 1) = 0;
+  c.z(0, 1) = -4;
+  const CloudStats round = cloud_stats(c);
+  EXPECT_FLOAT_EQ(round.min_z, -4);
+  EXPECT_FLOAT_EQ(round.max_range, 5);
   EXPECT_THROW(require_organized(OrganizedCloud(5, 1), "test"), std::invalid_argument);
 }
 

@@ -62,7 +62,10 @@ void add_info(CLI::App& app) {
                 in.cloud.empty()
                     ? 0.0
                     : 100.0 * static_cast<double>(s.valid) / static_cast<double>(in.cloud.size()));
-    if (s.valid > 0) std::printf("depth:    %.4f .. %.4f %s\n", s.min_z, s.max_z, in.units.c_str());
+    if (s.valid > 0) {
+      std::printf("depth:    z %.4f .. %.4f %s, range %.4f .. %.4f %s\n", s.min_z, s.max_z,
+                  in.units.c_str(), s.min_range, s.max_range, in.units.c_str());
+    }
     if (in.cloud.has_label()) std::printf("labels:   yes\n");
     if (!in.viewpoint.empty()) {
       std::printf("viewpoint: %s (tx ty tz qw qx qy qz; %s)\n", in.viewpoint.c_str(),

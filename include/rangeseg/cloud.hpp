@@ -56,6 +56,9 @@ struct OrganizedCloud {
 struct CloudStats {
   std::size_t valid = 0;
   float min_z = NAN, max_z = NAN;  ///< metres, over valid points
+  /// distance from the origin [m], over valid points: a scan round the sensor (a spinning
+  /// lidar's) has points at every z
+  float min_range = NAN, max_range = NAN;
 };
 CloudStats cloud_stats(const OrganizedCloud& cloud);
 
