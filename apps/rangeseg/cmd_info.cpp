@@ -1,5 +1,3 @@
-#include <algorithm>
-#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -97,20 +95,6 @@ void add_info(CLI::App& app) {
             "rad unless the config sets \"smoothing\": {\"pixel_angle\": ...})\n");
         print_min_region_size(settings.segmentation, preset, 0);
       }
-    }
-    if (!in.cloud.is_organized() && s.valid > 0) {
-      // A scan all around its sensor (a spinning lidar) has no depth axis: its range does.
-      double low = INFINITY, high = 0;
-      const float *xs = in.cloud.x.row(0), *ys = in.cloud.y.row(0), *zs = in.cloud.z.row(0);
-      for (int i = 0; i < in.cloud.width(); ++i) {
-        const double x = xs[i], y = ys[i], z = zs[i];
-        const double r = std::sqrt(x * x + y * y + z * z);
-        if (!std::isfinite(r)) continue;
-        low = std::min(low, r);
-        high = std::max(high, r);
-      }
-      std::printf("range:    %.4f .. %.4f %s from the sensor (the origin)\n", low, high,
-                  in.units.c_str());
     }
     if (!in.cloud.is_organized()) {
       PixelGrid grid;
