@@ -30,23 +30,25 @@ std::size_t OrganizedCloud::count_valid() const { return cloud_stats(*this).vali
 CloudStats cloud_stats(const OrganizedCloud& cloud) {
   require_consistent(cloud, "cloud_stats");
   CloudStats s;
-  float lo = std::numeric_limits<float>::infinity(), hi = -lo, near = lo, far = hi;
+  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+  // Squared ranges in double (no overflow for finite floats); one root each at the end.
+  double near = std::numeric_limits<double>::infinity(), far = 0;
   for (int v = 0; v < cloud.height(); ++v) {
     for (int u = 0; u < cloud.width(); ++u) {
       if (!cloud.valid(u, v)) continue;
       ++s.valid;
+      const double x = cloud.x(u, v), y = cloud.y(u, v), z = cloud.z(u, v);
       lo = std::min(lo, cloud.z(u, v));
       hi = std::max(hi, cloud.z(u, v));
-      const float range = std::hypot(cloud.x(u, v), cloud.y(u, v), cloud.z(u, v));
-      near = std::min(near, range);
-      far = std::max(far, range);
+      near = std::min(near, x * x + y * y + z * z);
+      far = std::max(far, x * x + y * y + z * z);
     }
   }
   if (s.valid > 0) {
     s.min_z = lo;
     s.max_z = hi;
-    s.min_range = near;
-    s.max_range = far;
+    s.min_range = static_cast<float>(std::sqrt(near));
+    s.max_range = static_cast<float>(std::sqrt(far));
   }
   return s;
 }

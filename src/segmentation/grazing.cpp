@@ -241,12 +241,11 @@ class GrazingFinder {
   // z is: a spinning lidar's scan surrounds the sensor.
   bool candidate(std::ptrdiff_t i) const {
     return f_.labels[i] == 0 && std::isfinite(f_.z[i]) && std::isfinite(f_.x[i]) &&
-           std::isfinite(f_.y[i]) && range(i) > 0;
+           std::isfinite(f_.y[i]) && squared_range(i) > 0;
   }
-  double range(std::ptrdiff_t i) const {
-    return std::sqrt(static_cast<double>(f_.x[i]) * f_.x[i] +
-                     static_cast<double>(f_.y[i]) * f_.y[i] +
-                     static_cast<double>(f_.z[i]) * f_.z[i]);
+  double squared_range(std::ptrdiff_t i) const {
+    return static_cast<double>(f_.x[i]) * f_.x[i] + static_cast<double>(f_.y[i]) * f_.y[i] +
+           static_cast<double>(f_.z[i]) * f_.z[i];
   }
 
   /// The component of `start` and, each time a plane is taken from one, the components of the
@@ -303,9 +302,9 @@ class GrazingFinder {
   /// Vertically or horizontally adjacent samples of one surface whose angle to the viewing rays
   /// is at least grazing_min_angle lie at most footprint r / tan(angle) apart in range r, plus
   /// the noise of both (sigma at the depth z, as the growth's tests take it); the footprint of
-  /// their direction on the lattice.
-  bool linked(std::ptrdiff_t i, std::ptrdiff_t j, double footprint) const {
-    const double ri = range(i), rj = range(j);
+  /// their direction on the lattice. `ri`: the range of i.
+  bool linked(std::ptrdiff_t i, double ri, std::ptrdiff_t j, double footprint) const {
+    const double rj = std::sqrt(squared_range(j));
     const double z = std::abs(f_.z[i]) < std::abs(f_.z[j]) ? f_.z[i] : f_.z[j];
     const double bound =
         footprint * std::min(ri, rj) * inv_tan_min_ +
@@ -329,14 +328,15 @@ class GrazingFinder {
       const auto v = static_cast<int>(i / f_.stride);
       const auto u = static_cast<int>(i - v * f_.stride);
       const double across = footprint_, down = vertical_footprint_;
-      if (u + step < f_.width && candidate(i + step) && linked(i, i + step, across)) {
+      const double r = std::sqrt(squared_range(i));
+      if (u + step < f_.width && candidate(i + step) && linked(i, r, i + step, across)) {
         visit(i + step);
       }
-      if (u >= step && candidate(i - step) && linked(i, i - step, across)) visit(i - step);
-      if (v + step < f_.height && candidate(i + row_step) && linked(i, i + row_step, down)) {
+      if (u >= step && candidate(i - step) && linked(i, r, i - step, across)) visit(i - step);
+      if (v + step < f_.height && candidate(i + row_step) && linked(i, r, i + row_step, down)) {
         visit(i + row_step);
       }
-      if (v >= step && candidate(i - row_step) && linked(i, i - row_step, down)) {
+      if (v >= step && candidate(i - row_step) && linked(i, r, i - row_step, down)) {
         visit(i - row_step);
       }
     }

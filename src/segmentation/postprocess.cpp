@@ -568,11 +568,14 @@ double pixel_footprint(const Frame& f, Segmenter::Scratch& s, bool vertical) {
     for (int t = 0; t + step < length; t += step) {
       const std::ptrdiff_t i = first + (t / step) * along, j = i + along;
       // The range, not z: a scan around the sensor (a spinning lidar's) has points at every z.
-      const double range = std::hypot(f.x[i], f.y[i], f.z[i]);
-      const double step_length =
-          std::hypot(f.x[j] - f.x[i], f.y[j] - f.y[i], f.z[j] - f.z[i]);  // NaN, inf: no step
-      if (!(range > 0) || !std::isfinite(range) || !std::isfinite(step_length)) continue;
-      steps.push_back(step_length / range);
+      const double x = f.x[i], y = f.y[i], z = f.z[i];
+      const double dx = f.x[j] - x, dy = f.y[j] - y, dz = f.z[j] - z;
+      const double squared_range = x * x + y * y + z * z;
+      const double squared_step = dx * dx + dy * dy + dz * dz;  // NaN, inf: no step
+      if (!(squared_range > 0) || !std::isfinite(squared_range) || !std::isfinite(squared_step)) {
+        continue;
+      }
+      steps.push_back(std::sqrt(squared_step / squared_range));
     }
   }
   if (steps.empty()) return 0;
