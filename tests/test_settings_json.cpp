@@ -81,6 +81,7 @@ TEST(SettingsJson, WrittenSettingsReadBack) {
     s.mesh.type = MeshType::right_cut;
     s.rings.k = 9;
     s.restore_grid = false;
+    s.polygons = false;
     const std::string text = io::settings_to_json(s);
     PipelineSettings back;
     io::apply_settings_json(text, "written", back);
@@ -93,6 +94,7 @@ TEST(SettingsJson, WrittenSettingsReadBack) {
     EXPECT_EQ(back.mesh.type, MeshType::right_cut);
     EXPECT_EQ(back.rings.k, 9);
     EXPECT_FALSE(back.restore_grid);
+    EXPECT_FALSE(back.polygons);
   }
   EXPECT_NE(io::settings_to_json(pipeline_preset("kinect")).find("\"eps_theta\": 0.2182,"),
             std::string::npos);

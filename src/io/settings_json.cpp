@@ -82,6 +82,7 @@ void for_each_key(PipelineSettings& s, Visit&& visit) {
   visit("", "smooth", s.smooth);
   visit("", "restore_grid", s.restore_grid);
   visit("", "track", s.track);
+  visit("", "polygons", s.polygons);
   auto& m = s.mesh;
   visit("mesh", "type", m.type);
   visit("mesh", "eps_theta", m.eps_theta);
