@@ -433,7 +433,13 @@ void Pipeline::process_grid(const OrganizedCloud& cloud) {
       planes_take_polygon_areas(polygons_, segmentation_);
       times_.polygons = ms_since(t);
     } else if (settings_.polygons) {
-      polygon_extractor_.extract(this->cloud(), mesh_, segmentation_, settings_.polygon, polygons_);
+      if (pool != nullptr) {
+        polygon_extractor_.extract(this->cloud(), mesh_, segmentation_, settings_.polygon,
+                                   polygons_, *pool);
+      } else {
+        polygon_extractor_.extract(this->cloud(), mesh_, segmentation_, settings_.polygon,
+                                   polygons_);
+      }
       if (areas_from_polygons && polygons_.segments.size() < segmentation_.segments.size()) {
         segmenter_.compute_areas(this->cloud(), mesh_, segmentation_);
       }

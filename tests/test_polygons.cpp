@@ -19,6 +19,7 @@
 #include "rangeseg/pipeline.hpp"
 #include "rangeseg/polygons.hpp"
 #include "rangeseg/synth.hpp"
+#include "rangeseg/thread_pool.hpp"
 #include "test_util.hpp"
 
 namespace rangeseg {
@@ -587,6 +588,28 @@ std::pair<PolygonSet, PolygonSet> both_paths(const OrganizedCloud& cloud, const 
   return {std::move(fast), std::move(scalar)};
 }
 
+/// Polygons extracted with 2 and 3 threads (boundary masks in row bands, segments split among
+/// the threads), with the widest instruction set and the scalar code, equal the single-threaded
+/// ones; one extractor serves all, as a pipeline's does frame after frame.
+void expect_threads_match(const OrganizedCloud& cloud, const Mesh& mesh, const Segmentation& seg,
+                          const PolygonSettings& settings, const std::string& what) {
+  using detail::simd::Isa;
+  PolygonExtractor extractor;
+  for (const Isa isa : {Isa::avx512, Isa::baseline}) {
+    detail::simd::isa_limit = isa;
+    PolygonSet single, threaded;
+    extractor.extract(cloud, mesh, seg, settings, single);
+    for (const int threads : {2, 3}) {
+      ThreadPool pool(threads);
+      extractor.extract(cloud, mesh, seg, settings, threaded, pool);
+      expect_identical_polygons(threaded, single,
+                                what + ", " + std::to_string(threads) + " threads, isa " +
+                                    std::to_string(static_cast<int>(isa)));
+    }
+  }
+  detail::simd::isa_limit = Isa::avx512;
+}
+
 const PolygonSettings kRaw{
     .simplify_tolerance = 0, .simplify_tolerance_pixels = 0, .min_loop_pixels = 0};
 
@@ -604,6 +627,7 @@ TEST(Polygons, VectorPathsMatchScalarOnSyntheticScenes) {
         for (const PolygonSettings& settings : {PolygonSettings{}, kRaw}) {
           const auto [fast, scalar] = both_paths(r.cloud, mesh, seg, settings);
           expect_identical_polygons(fast, scalar, what);
+          expect_threads_match(r.cloud, mesh, seg, settings, what);
         }
       }
     }
@@ -656,6 +680,7 @@ TEST(Polygons, VectorPathsMatchScalarOnSpeckledLabels) {
         for (const PolygonSettings& settings : {PolygonSettings{}, kRaw}) {
           const auto [fast, scalar] = both_paths(cloud, mesh, seg, settings);
           expect_identical_polygons(fast, scalar, what);
+          expect_threads_match(cloud, mesh, seg, settings, what);
           // The mesh boundary itself is simple (simplified loops of such speckle may touch
           // their parent at pinch vertices, which the midpoint test cannot tell from leaving).
           SCOPED_TRACE(what);
@@ -677,6 +702,8 @@ TEST(Polygons, VectorPathsMatchScalarOnRealFrame) {
     const auto [fast, scalar] =
         both_paths(pipeline.cloud(), pipeline.mesh(), pipeline.segmentation(), ps);
     expect_identical_polygons(fast, scalar, "real frame");
+    expect_threads_match(pipeline.cloud(), pipeline.mesh(), pipeline.segmentation(), ps,
+                         "real frame");
     EXPECT_GE(fast.segments.size(), 5u);
     check_properties(fast);
   }

@@ -28,6 +28,7 @@
 namespace rangeseg {
 
 struct PointRings;  // unorganized.hpp
+class ThreadPool;   // thread_pool.hpp
 
 /// An orthonormal 2D frame on a plane. A point with plane coordinates (x, y) is the camera-frame
 /// point origin + x e1 + y e2; a camera-frame point p on the plane has x = (p - origin) . e1,
@@ -150,6 +151,10 @@ class PolygonExtractor {
   /// names no segment.
   void extract(const OrganizedCloud& cloud, const Mesh& mesh, const Segmentation& segmentation,
                const PolygonSettings& settings, PolygonSet& out);
+  /// The same, the segments split among the pool's threads (consecutive runs of about equal
+  /// boundary length); the result is identical to the single-threaded one.
+  void extract(const OrganizedCloud& cloud, const Mesh& mesh, const Segmentation& segmentation,
+               const PolygonSettings& settings, PolygonSet& out, ThreadPool& pool);
   /// The polygons of an unorganized cloud over its k-nearest-neighbour rings, without a mesh:
   /// see extract_polygons in unorganized.hpp.
   void extract(const OrganizedCloud& cloud, const PointRings& rings,
@@ -162,6 +167,9 @@ class PolygonExtractor {
   };
 
  private:
+  void extract_grid(const OrganizedCloud& cloud, const Mesh& mesh, const Segmentation& segmentation,
+                    const PolygonSettings& settings, PolygonSet& out, ThreadPool* pool);
+
   std::unique_ptr<Scratch> scratch_;
   std::unique_ptr<RingScratch, RingScratchDeleter> ring_scratch_;
 };

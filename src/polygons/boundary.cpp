@@ -16,6 +16,7 @@
 #include "detail/simd.hpp"
 #include "polygons/internal.hpp"
 #include "rangeseg/polygons.hpp"
+#include "rangeseg/thread_pool.hpp"
 
 namespace rangeseg {
 
@@ -192,21 +193,13 @@ void project(const OrganizedCloud& cloud, const std::array<std::int32_t, 2>* uv,
 
 }  // namespace
 
-struct PolygonExtractor::Scratch {
-  Plane<std::uint16_t> edge_masks;  // outgoing boundary edges: mask | remaining << 8
-  Plane<std::int32_t> pos;
-  bool dirty = false;
-  polygons_detail::BoundaryMaskScratch masks;
-  polygons_detail::TraceSteps trace_steps;
-  std::vector<std::int32_t> starts, walk, stack;
-  std::vector<RawLoop> raw;
-  std::vector<std::int32_t> raw_idx;
-  std::vector<std::array<std::int32_t, 2>> raw_uv;  // (u, v) of each raw_idx entry
-  std::vector<std::uint8_t> enabled;
-  std::vector<int> seg_of_label;
-  std::vector<int> bucket_start, bucket_loops;  // raw loops grouped by segment
-  std::vector<int> kept;                        // raw loops of one segment in output order
-  std::vector<int> outer_rank;                  // per raw outer loop: its index in `kept`
+namespace {
+
+// Buffers of one worker's segments: each segment's kept loops, their projection,
+// simplification and hull. Workers share the raw loops (each writes only its own segments'
+// entries of raw[].parent and outer_rank).
+struct SegmentWork {
+  std::vector<int> kept;        // raw loops of one segment in output order
   std::vector<int> hole_count;  // per outer loop rank: holes (prefix sums: fill cursors)
   // Holes whose parent is searched: raw loop, doubled query point, grouped by its row.
   std::vector<int> queries, query_x2, query_y2, row_start, row_queries, touched;
@@ -222,7 +215,30 @@ struct PolygonExtractor::Scratch {
   std::vector<int> hull_order, hull_idx;
   polygons_detail::PointSortScratch hull_sort;
   std::vector<double> hull_xy;
-  std::vector<std::int32_t> hull_pix;
+  PolygonSet part;  // the loops and hulls of a worker after the first, appended to the output
+};
+
+}  // namespace
+
+struct PolygonExtractor::Scratch {
+  Plane<std::uint16_t> edge_masks;  // outgoing boundary edges: mask | remaining << 8
+  Plane<std::int32_t> pos;
+  bool dirty = false;
+  polygons_detail::BoundaryMaskScratch masks;
+  polygons_detail::TraceSteps trace_steps;
+  std::vector<std::int32_t> starts, walk, stack;
+  std::vector<std::vector<std::int32_t>> band_starts;  // with threads: per row band
+  std::vector<polygons_detail::BoundaryMaskScratch> band_masks;
+  std::vector<RawLoop> raw;
+  std::vector<std::int32_t> raw_idx;
+  std::vector<std::array<std::int32_t, 2>> raw_uv;  // (u, v) of each raw_idx entry
+  std::vector<std::uint8_t> enabled;
+  std::vector<int> seg_of_label;
+  std::vector<int> bucket_start, bucket_loops;  // raw loops grouped by segment
+  std::vector<int> fill;                        // cursors of the grouping
+  std::vector<int> outer_rank;           // per raw outer loop: its index in its segment's `kept`
+  std::vector<std::size_t> group_first;  // per worker: its first segment (then the end)
+  std::vector<SegmentWork> work;         // per worker
 };
 
 namespace {
@@ -235,14 +251,15 @@ namespace {
 // the products are exact. Instead of testing every hole against every outer loop, the query
 // points are grouped by row and each loop's edges visit only the holes of the rows they cross:
 // grid loops' edges span at most pixel_stride rows. The result equals the pairwise test.
-void find_parents(PolygonExtractor::Scratch& sc, std::size_t n_outer) {
+void find_parents(std::vector<RawLoop>& raw, const std::vector<std::array<std::int32_t, 2>>& raw_uv,
+                  SegmentWork& sc, std::size_t n_outer) {
   const std::size_t nq = sc.queries.size();
   detail::resize_with_headroom(sc.query_x2, nq);
   detail::resize_with_headroom(sc.query_y2, nq);
   int y2_min = std::numeric_limits<int>::max(), y2_max = std::numeric_limits<int>::min();
   for (std::size_t q = 0; q < nq; ++q) {
-    const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.queries[q])];
-    const std::array<std::int32_t, 2>* uv = sc.raw_uv.data() + r.first;
+    const RawLoop& r = raw[static_cast<std::size_t>(sc.queries[q])];
+    const std::array<std::int32_t, 2>* uv = raw_uv.data() + r.first;
     sc.query_x2[q] = uv[0][0] + uv[1][0];
     sc.query_y2[q] = uv[0][1] + uv[1][1];
     y2_min = std::min(y2_min, sc.query_y2[q]);
@@ -263,9 +280,9 @@ void find_parents(PolygonExtractor::Scratch& sc, std::size_t n_outer) {
   detail::assign_with_headroom(sc.parity, nq, 0);
   for (std::size_t k = n_outer; k-- > 0;) {
     const int outer = sc.kept[k];
-    const RawLoop& o = sc.raw[static_cast<std::size_t>(outer)];
+    const RawLoop& o = raw[static_cast<std::size_t>(outer)];
     if (2 * o.v_max < y2_min || 2 * o.v_min > y2_max) continue;
-    const std::array<std::int32_t, 2>* uv = sc.raw_uv.data() + o.first;
+    const std::array<std::int32_t, 2>* uv = raw_uv.data() + o.first;
     sc.touched.clear();
     for (int i = 0, j = o.count - 1; i < o.count; j = i++) {
       const int yi_int = uv[i][1], yj_int = uv[j][1];
@@ -278,8 +295,7 @@ void find_parents(PolygonExtractor::Scratch& sc, std::size_t n_outer) {
         for (int t = sc.row_start[static_cast<std::size_t>(row)];
              t < sc.row_start[static_cast<std::size_t>(row) + 1]; ++t) {
           const int q = sc.row_queries[static_cast<std::size_t>(t)];
-          if (sc.raw[static_cast<std::size_t>(sc.queries[static_cast<std::size_t>(q)])].parent >=
-              0) {
+          if (raw[static_cast<std::size_t>(sc.queries[static_cast<std::size_t>(q)])].parent >= 0) {
             continue;
           }
           const double px = 0.5 * static_cast<double>(sc.query_x2[static_cast<std::size_t>(q)]);
@@ -297,9 +313,276 @@ void find_parents(PolygonExtractor::Scratch& sc, std::size_t n_outer) {
     for (const int q : sc.touched) {
       if (!sc.parity[static_cast<std::size_t>(q)]) continue;
       sc.parity[static_cast<std::size_t>(q)] = 0;
-      sc.raw[static_cast<std::size_t>(sc.queries[static_cast<std::size_t>(q)])].parent = outer;
+      raw[static_cast<std::size_t>(sc.queries[static_cast<std::size_t>(q)])].parent = outer;
     }
   }
+}
+
+// The loops of segment si (simplified, projected onto its plane) and its convex hull, appended
+// to dst; sp = out_segments[si] takes their offsets in dst and their areas.
+void outline_segment(const OrganizedCloud& cloud, const Segmentation& segmentation,
+                     const PolygonSettings& settings, const Vec& vp, PolygonExtractor::Scratch& sc,
+                     SegmentWork& w, std::size_t si, std::vector<SegmentPolygons>& out_segments,
+                     PolygonSet& dst) {
+  SegmentPolygons& sp = out_segments[si];
+  const Segment& seg = segmentation.segments[static_cast<std::size_t>(sp.label - 1)];
+  sp.frame = polygons_detail::plane_frame(seg);
+  sp.first_loop = static_cast<int>(dst.loops.size());
+  sp.hull_first = static_cast<int>(dst.hull_points2d.size());
+  const int b0 = sc.bucket_start[si], b1 = sc.bucket_start[si + 1];
+  if (b0 == b1) return;
+
+  // Outer loops (positive) by area descending, then the holes grouped by parent.
+  int largest = -1;
+  for (int b = b0; b < b1; ++b) {
+    const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.bucket_loops[b])];
+    if (r.area_px > 0 &&
+        (largest < 0 || r.area_px > sc.raw[static_cast<std::size_t>(largest)].area_px)) {
+      largest = sc.bucket_loops[b];
+    }
+  }
+  if (largest < 0) return;
+  w.kept.clear();
+  for (int b = b0; b < b1; ++b) {
+    const int li = sc.bucket_loops[b];
+    const RawLoop& r = sc.raw[static_cast<std::size_t>(li)];
+    if (r.area_px > 0 && (li == largest || r.area_px >= settings.min_loop_pixels)) {
+      w.kept.push_back(li);
+    }
+  }
+  std::sort(w.kept.begin(), w.kept.end(), [&](int a, int b) {
+    const double aa = sc.raw[static_cast<std::size_t>(a)].area_px,
+                 ab = sc.raw[static_cast<std::size_t>(b)].area_px;
+    return aa != ab ? aa > ab : a < b;
+  });
+  const std::size_t n_outer = w.kept.size();
+  for (std::size_t k = 0; k < n_outer; ++k) {
+    sc.outer_rank[static_cast<std::size_t>(w.kept[k])] = static_cast<int>(k);
+  }
+  // Holes: the parent is the smallest outer loop containing the midpoint of the hole's first
+  // edge (never on another loop's edge: edges are unique).
+  w.queries.clear();
+  for (int b = b0; b < b1; ++b) {
+    const int li = sc.bucket_loops[b];
+    RawLoop& r = sc.raw[static_cast<std::size_t>(li)];
+    if (r.area_px >= 0 || -r.area_px < settings.min_loop_pixels) continue;
+    r.parent = n_outer == 1 ? w.kept[0] : -1;
+    if (n_outer > 1) w.queries.push_back(li);
+  }
+  if (!w.queries.empty()) find_parents(sc.raw, sc.raw_uv, w, n_outer);
+  // Output order: the holes of each outer loop in turn, in tracing order (a counting sort by
+  // the parent's rank keeps the order of the bucket, which is the tracing order).
+  detail::assign_with_headroom(w.hole_count, n_outer + 1, 0);
+  for (int b = b0; b < b1; ++b) {
+    const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.bucket_loops[b])];
+    if (r.area_px >= 0 || -r.area_px < settings.min_loop_pixels || r.parent < 0) continue;
+    ++w.hole_count[static_cast<std::size_t>(sc.outer_rank[static_cast<std::size_t>(r.parent)]) + 1];
+  }
+  for (std::size_t k = 0; k < n_outer; ++k) w.hole_count[k + 1] += w.hole_count[k];
+  detail::resize_with_headroom(w.kept, n_outer + static_cast<std::size_t>(w.hole_count[n_outer]));
+  for (int b = b0; b < b1; ++b) {
+    const int li = sc.bucket_loops[b];
+    const RawLoop& r = sc.raw[static_cast<std::size_t>(li)];
+    if (r.area_px >= 0 || -r.area_px < settings.min_loop_pixels || r.parent < 0) continue;
+    const int rank = sc.outer_rank[static_cast<std::size_t>(r.parent)];
+    w.kept[n_outer + static_cast<std::size_t>(w.hole_count[static_cast<std::size_t>(rank)]++)] = li;
+  }
+
+  // Project every kept loop onto the plane.
+  const PlaneFrame& fr = sp.frame;
+  const Projection pr = polygons_detail::make_projection(fr, vp);
+  w.xy_first.clear();
+  std::size_t n_points = 0;
+  for (int li : w.kept) {
+    w.xy_first.push_back(static_cast<int>(n_points));
+    n_points += static_cast<std::size_t>(sc.raw[static_cast<std::size_t>(li)].count);
+  }
+  w.xy_first.push_back(static_cast<int>(n_points));
+  detail::resize_with_headroom(w.xy, 2 * n_points);
+  for (std::size_t k = 0; k < w.kept.size(); ++k) {
+    const RawLoop& r = sc.raw[static_cast<std::size_t>(w.kept[k])];
+    project(cloud, sc.raw_uv.data() + r.first, r.count, pr, xy_point(w.xy.data(), w.xy_first[k]));
+  }
+
+  // Simplify; loops that cross another loop (or themselves) get half the tolerance, and after a
+  // few halvings stay unsimplified (the mesh boundary is simple).
+  const std::size_t nk = w.kept.size();
+  detail::resize_with_headroom(w.tolerance, nk);
+  detail::resize_with_headroom(w.raw_area, nk);
+  detail::resize_with_headroom(w.raw_perimeter, nk);
+  for (std::size_t k = 0; k < nk; ++k) {
+    const int n = w.xy_first[k + 1] - w.xy_first[k];
+    polygons_detail::area_perimeter(xy_point(w.xy.data(), w.xy_first[k]), n, w.raw_area[k],
+                                    w.raw_perimeter[k]);
+    w.tolerance[k] = std::max(settings.simplify_tolerance,
+                              settings.simplify_tolerance_pixels * w.raw_perimeter[k] / n);
+  }
+  for (int attempt = 0;; ++attempt) {
+    // Only loops whose tolerance changed are simplified again.
+    w.keep_next.clear();
+    w.keep_first_next.clear();
+    for (std::size_t k = 0; k < nk; ++k) {
+      w.keep_first_next.push_back(static_cast<int>(w.keep_next.size()));
+      if (attempt > 0 && !w.bad[k]) {
+        detail::append_with_headroom(w.keep_next, w.keep.begin() + w.keep_first[k],
+                                     w.keep.begin() + w.keep_first[k + 1]);
+        continue;
+      }
+      const int n = w.xy_first[k + 1] - w.xy_first[k];
+      polygons_detail::simplify_closed(xy_point(w.xy.data(), w.xy_first[k]), n, w.tolerance[k],
+                                       w.keep_next, w.dp_stack);
+    }
+    w.keep_first_next.push_back(static_cast<int>(w.keep_next.size()));
+    std::swap(w.keep, w.keep_next);
+    std::swap(w.keep_first, w.keep_first_next);
+    polygons_detail::share_capacity(w.keep, w.keep_next);
+    polygons_detail::share_capacity(w.keep_first, w.keep_first_next);
+    bool any_simplified = false;
+    for (std::size_t k = 0; k < nk; ++k) any_simplified |= w.tolerance[k] > 0;
+    if (!any_simplified) break;
+    w.edges.clear();
+    for (std::size_t k = 0; k < nk; ++k) {
+      const RawLoop& r = sc.raw[static_cast<std::size_t>(w.kept[k])];
+      const int kb = w.keep_first[k], ke = w.keep_first[k + 1];
+      const double* base = xy_point(w.xy.data(), w.xy_first[k]);
+      for (int i = kb, j = ke - 1; i < ke; j = i++) {
+        const int a = w.keep[static_cast<std::size_t>(j)], b = w.keep[static_cast<std::size_t>(i)];
+        const double *pa = xy_point(base, a), *pb = xy_point(base, b);
+        w.edges.push_back(
+            {pa[0], pa[1], pb[0], pb[1],
+             sc.raw_idx[static_cast<std::size_t>(r.first) + static_cast<std::size_t>(a)],
+             sc.raw_idx[static_cast<std::size_t>(r.first) + static_cast<std::size_t>(b)],
+             static_cast<int>(k)});
+      }
+    }
+    // After the first check only pairs with a loop simplified again can newly touch: a pair of
+    // unchanged loops that touched marked both, and they changed, unless already unsimplified.
+    w.changed.assign(w.bad.begin(), w.bad.end());
+    detail::assign_with_headroom(w.bad, nk, 0);
+    if (!polygons_detail::mark_crossings(w.edges, w.bad,
+                                         attempt > 0 ? w.changed.data() : nullptr)) {
+      break;
+    }
+    for (std::size_t k = 0; k < nk; ++k) {
+      if (!w.bad[k]) continue;
+      const double tolerance = attempt >= 4 ? 0.0 : 0.5 * w.tolerance[k];
+      w.bad[k] = tolerance != w.tolerance[k];  // from here on: "simplify again"
+      w.tolerance[k] = tolerance;
+    }
+    if (attempt >= 5) break;  // every offender is unsimplified now
+  }
+
+  // Write the loops.
+  for (std::size_t k = 0; k < nk; ++k) {
+    const RawLoop& r = sc.raw[static_cast<std::size_t>(w.kept[k])];
+    const double* base = xy_point(w.xy.data(), w.xy_first[k]);
+    PolygonLoop lp;
+    lp.segment = static_cast<int>(si);
+    lp.label = sp.label;
+    lp.is_hole = r.area_px < 0;
+    if (lp.is_hole) lp.parent = sp.first_loop + sc.outer_rank[static_cast<std::size_t>(r.parent)];
+    lp.raw_count = r.count;
+    lp.tolerance = w.tolerance[k];
+    lp.raw_area = std::abs(w.raw_area[k]);
+    lp.raw_perimeter = w.raw_perimeter[k];
+    double a, p;
+    lp.first = static_cast<int>(dst.points2d.size());
+    const int kb = w.keep_first[k], ke = w.keep_first[k + 1];
+    lp.count = ke - kb;
+    w.hull_xy.clear();
+    for (int i = kb; i < ke; ++i) {
+      const int vi = w.keep[static_cast<std::size_t>(i)];
+      const double* pt = xy_point(base, vi);
+      const double x = pt[0], y = pt[1];
+      w.hull_xy.push_back(x);
+      w.hull_xy.push_back(y);
+      dst.points2d.push_back({static_cast<float>(x), static_cast<float>(y)});
+      dst.points3d.push_back({static_cast<float>(fr.origin[0] + x * fr.e1[0] + y * fr.e2[0]),
+                              static_cast<float>(fr.origin[1] + x * fr.e1[1] + y * fr.e2[1]),
+                              static_cast<float>(fr.origin[2] + x * fr.e1[2] + y * fr.e2[2])});
+      const auto [pu, pv] =
+          sc.raw_uv[static_cast<std::size_t>(r.first) + static_cast<std::size_t>(vi)];
+      dst.pixels.push_back({static_cast<float>(pu), static_cast<float>(pv)});
+    }
+    polygons_detail::area_perimeter(w.hull_xy.data(), lp.count, a, p);
+    lp.area = std::abs(a);
+    lp.perimeter = p;
+    sp.area += lp.is_hole ? -lp.area : lp.area;
+    sp.raw_area += lp.is_hole ? -lp.raw_area : lp.raw_area;
+    sp.perimeter += lp.perimeter;
+    dst.loops.push_back(lp);
+  }
+  sp.loop_count = static_cast<int>(nk);
+
+  // Convex hull of the outer loops' mesh boundary vertices.
+  if (settings.convex_hull) {
+    const double* xy = w.xy.data();
+    polygons_detail::hull_candidates(xy, w.xy_first[n_outer], w.hull_order);
+    const int n_pts = static_cast<int>(w.hull_order.size());
+    polygons_detail::sort_points_xy(xy, w.hull_order, w.hull_sort);
+    detail::resize_with_headroom(w.hull_xy, 2 * static_cast<std::size_t>(n_pts));
+    for (int i = 0; i < n_pts; ++i) {
+      const int o = w.hull_order[static_cast<std::size_t>(i)];
+      const double* pt = xy_point(xy, o);
+      w.hull_xy[2 * static_cast<std::size_t>(i)] = pt[0];
+      w.hull_xy[2 * static_cast<std::size_t>(i) + 1] = pt[1];
+    }
+    polygons_detail::monotone_chain_sorted(w.hull_xy.data(), n_pts, w.hull_idx);
+    // Vertex o of the concatenated outer loops -> its mesh vertex, for the pixel.
+    for (int hi : w.hull_idx) {
+      const int o = w.hull_order[static_cast<std::size_t>(hi)];
+      std::size_t k = 0;
+      while (w.xy_first[k + 1] <= o) ++k;
+      const RawLoop& r = sc.raw[static_cast<std::size_t>(w.kept[k])];
+      const auto [pu, pv] = sc.raw_uv[static_cast<std::size_t>(r.first + o - w.xy_first[k])];
+      const double* pt = xy_point(xy, o);
+      const double x = pt[0], y = pt[1];
+      dst.hull_points2d.push_back({static_cast<float>(x), static_cast<float>(y)});
+      dst.hull_points3d.push_back({static_cast<float>(fr.origin[0] + x * fr.e1[0] + y * fr.e2[0]),
+                                   static_cast<float>(fr.origin[1] + x * fr.e1[1] + y * fr.e2[1]),
+                                   static_cast<float>(fr.origin[2] + x * fr.e1[2] + y * fr.e2[2])});
+      dst.hull_pixels.push_back({static_cast<float>(pu), static_cast<float>(pv)});
+    }
+    sp.hull_count = static_cast<int>(w.hull_idx.size());
+    double a = 0, p = 0;
+    w.hull_xy.clear();
+    for (int hi : w.hull_idx) {
+      const int o = w.hull_order[static_cast<std::size_t>(hi)];
+      const double* pt = xy_point(xy, o);
+      w.hull_xy.push_back(pt[0]);
+      w.hull_xy.push_back(pt[1]);
+    }
+    if (sp.hull_count >= 3) {
+      polygons_detail::area_perimeter(w.hull_xy.data(), sp.hull_count, a, p);
+    }
+    sp.hull_area = std::abs(a);
+    sp.hull_perimeter = p;
+  }
+}
+
+// Worker g > 0 wrote its segments' loops and hulls into its own set, with offsets into it.
+void append_part(PolygonSet& part, std::size_t seg_begin, std::size_t seg_end, PolygonSet& out) {
+  const int loops = static_cast<int>(out.loops.size());
+  const int points = static_cast<int>(out.points2d.size());
+  const int hull_points = static_cast<int>(out.hull_points2d.size());
+  for (std::size_t si = seg_begin; si < seg_end; ++si) {
+    out.segments[si].first_loop += loops;
+    out.segments[si].hull_first += hull_points;
+  }
+  for (PolygonLoop& lp : part.loops) {
+    lp.first += points;
+    if (lp.is_hole) lp.parent += loops;
+  }
+  const auto append = [](auto& to, const auto& from) {
+    detail::append_with_headroom(to, from.begin(), from.end());
+  };
+  append(out.loops, part.loops);
+  append(out.points2d, part.points2d);
+  append(out.points3d, part.points3d);
+  append(out.pixels, part.pixels);
+  append(out.hull_points2d, part.hull_points2d);
+  append(out.hull_points3d, part.hull_points3d);
+  append(out.hull_pixels, part.hull_pixels);
 }
 
 }  // namespace
@@ -312,6 +595,19 @@ PolygonExtractor& PolygonExtractor::operator=(PolygonExtractor&&) noexcept = def
 void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
                                const Segmentation& segmentation, const PolygonSettings& settings,
                                PolygonSet& out) {
+  extract_grid(cloud, mesh, segmentation, settings, out, nullptr);
+}
+
+void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
+                               const Segmentation& segmentation, const PolygonSettings& settings,
+                               PolygonSet& out, ThreadPool& pool) {
+  extract_grid(cloud, mesh, segmentation, settings, out, pool.threads() > 1 ? &pool : nullptr);
+}
+
+void PolygonExtractor::extract_grid(const OrganizedCloud& cloud, const Mesh& mesh,
+                                    const Segmentation& segmentation,
+                                    const PolygonSettings& settings, PolygonSet& out,
+                                    ThreadPool* pool) {
   const int width = cloud.width(), height = cloud.height(), s = mesh.pixel_stride;
   if (mesh.width() != width || mesh.height() != height || mesh.faces.width() != width ||
       mesh.faces.height() != height || segmentation.labels.width() != width ||
@@ -369,9 +665,29 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
     throw std::logic_error("PolygonExtractor: plane strides differ");
   }
   std::uint16_t* edge_masks = sc.edge_masks.row(0);
-  polygons_detail::find_boundary_vertices(segmentation.labels.view(), mesh.faces.view(), s,
-                                          sc.enabled.data(), n_labels, edge_masks, stride,
-                                          sc.starts, sc.masks);
+  const auto find_boundary = [&](int v_begin, int v_end, std::vector<std::int32_t>& starts,
+                                 polygons_detail::BoundaryMaskScratch& masks) {
+    polygons_detail::find_boundary_vertices(segmentation.labels.view(), mesh.faces.view(), s,
+                                            sc.enabled.data(), n_labels, edge_masks, stride,
+                                            v_begin, v_end, starts, masks);
+  };
+  if (pool == nullptr) {
+    find_boundary(0, height, sc.starts, sc.masks);
+  } else {
+    const auto bands = static_cast<std::size_t>(pool->threads());
+    if (sc.band_starts.size() < bands) {
+      sc.band_starts.resize(bands);
+      sc.band_masks.resize(bands);
+    }
+    pool->for_each_band(height, s, [&](int band, int v_begin, int v_end) {
+      const auto b = static_cast<std::size_t>(band);
+      find_boundary(v_begin, v_end, sc.band_starts[b], sc.band_masks[b]);
+    });
+    sc.starts.clear();
+    for (std::size_t b = 0; b < bands; ++b) {
+      detail::append_with_headroom(sc.starts, sc.band_starts[b].begin(), sc.band_starts[b].end());
+    }
+  }
 
   // --- loops ---
   const std::int32_t row_len = static_cast<std::int32_t>(stride);
@@ -425,255 +741,47 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const Mesh& mesh,
   for (std::size_t i = 0; i < n_segs; ++i) sc.bucket_start[i + 1] += sc.bucket_start[i];
   detail::resize_with_headroom(sc.bucket_loops, sc.raw.size());
   {
-    sc.kept.assign(sc.bucket_start.begin(), sc.bucket_start.end() - 1);  // fill cursors
+    sc.fill.assign(sc.bucket_start.begin(), sc.bucket_start.end() - 1);
     for (std::size_t i = 0; i < sc.raw.size(); ++i) {
       sc.bucket_loops[static_cast<std::size_t>(
-          sc.kept[static_cast<std::size_t>(sc.raw[i].seg)]++)] = static_cast<int>(i);
+          sc.fill[static_cast<std::size_t>(sc.raw[i].seg)]++)] = static_cast<int>(i);
     }
   }
 
+  // Workers take consecutive segments with about equal numbers of loop vertices, which the
+  // work after the tracing is about proportional to.
   const Vec vp{settings.viewpoint[0], settings.viewpoint[1], settings.viewpoint[2]};
-  for (std::size_t si = 0; si < n_segs; ++si) {
-    SegmentPolygons& sp = out.segments[si];
-    const Segment& seg = segmentation.segments[static_cast<std::size_t>(sp.label - 1)];
-    sp.frame = polygons_detail::plane_frame(seg);
-    sp.first_loop = static_cast<int>(out.loops.size());
-    sp.hull_first = static_cast<int>(out.hull_points2d.size());
-    const int b0 = sc.bucket_start[si], b1 = sc.bucket_start[si + 1];
-    if (b0 == b1) continue;
-
-    // Outer loops (positive) by area descending, then the holes grouped by parent.
-    int largest = -1;
-    for (int b = b0; b < b1; ++b) {
-      const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.bucket_loops[b])];
-      if (r.area_px > 0 &&
-          (largest < 0 || r.area_px > sc.raw[static_cast<std::size_t>(largest)].area_px)) {
-        largest = sc.bucket_loops[b];
-      }
+  const std::size_t workers =
+      pool != nullptr && n_segs > 1 ? static_cast<std::size_t>(pool->threads()) : 1;
+  if (sc.work.size() < workers) sc.work.resize(workers);
+  sc.group_first.assign(workers + 1, n_segs);
+  sc.group_first[0] = 0;
+  std::size_t vertices = 0, g = 1;
+  for (std::size_t si = 0; si < n_segs && g < workers; ++si) {
+    for (int b = sc.bucket_start[si]; b < sc.bucket_start[si + 1]; ++b) {
+      vertices +=
+          static_cast<std::size_t>(sc.raw[static_cast<std::size_t>(sc.bucket_loops[b])].count);
     }
-    if (largest < 0) continue;
-    sc.kept.clear();
-    for (int b = b0; b < b1; ++b) {
-      const int li = sc.bucket_loops[b];
-      const RawLoop& r = sc.raw[static_cast<std::size_t>(li)];
-      if (r.area_px > 0 && (li == largest || r.area_px >= settings.min_loop_pixels)) {
-        sc.kept.push_back(li);
-      }
+    while (g < workers && vertices * workers >= sc.raw_idx.size() * g) sc.group_first[g++] = si + 1;
+  }
+  const auto outline_group = [&](std::size_t group) {
+    PolygonSet& dst = group == 0 ? out : sc.work[group].part;
+    if (group > 0) dst.clear();
+    for (std::size_t si = sc.group_first[group]; si < sc.group_first[group + 1]; ++si) {
+      outline_segment(cloud, segmentation, settings, vp, sc, sc.work[group], si, out.segments, dst);
     }
-    std::sort(sc.kept.begin(), sc.kept.end(), [&](int a, int b) {
-      const double aa = sc.raw[static_cast<std::size_t>(a)].area_px,
-                   ab = sc.raw[static_cast<std::size_t>(b)].area_px;
-      return aa != ab ? aa > ab : a < b;
-    });
-    const std::size_t n_outer = sc.kept.size();
-    for (std::size_t k = 0; k < n_outer; ++k) {
-      sc.outer_rank[static_cast<std::size_t>(sc.kept[k])] = static_cast<int>(k);
+  };
+  if (workers == 1) {
+    outline_group(0);
+    return;
+  }
+  pool->for_each_band(static_cast<int>(workers), 1, [&](int, int group_begin, int group_end) {
+    for (int group = group_begin; group < group_end; ++group) {
+      outline_group(static_cast<std::size_t>(group));
     }
-    // Holes: the parent is the smallest outer loop containing the midpoint of the hole's first
-    // edge (never on another loop's edge: edges are unique).
-    sc.queries.clear();
-    for (int b = b0; b < b1; ++b) {
-      const int li = sc.bucket_loops[b];
-      RawLoop& r = sc.raw[static_cast<std::size_t>(li)];
-      if (r.area_px >= 0 || -r.area_px < settings.min_loop_pixels) continue;
-      r.parent = n_outer == 1 ? sc.kept[0] : -1;
-      if (n_outer > 1) sc.queries.push_back(li);
-    }
-    if (!sc.queries.empty()) find_parents(sc, n_outer);
-    // Output order: the holes of each outer loop in turn, in tracing order (a counting sort by
-    // the parent's rank keeps the order of the bucket, which is the tracing order).
-    detail::assign_with_headroom(sc.hole_count, n_outer + 1, 0);
-    for (int b = b0; b < b1; ++b) {
-      const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.bucket_loops[b])];
-      if (r.area_px >= 0 || -r.area_px < settings.min_loop_pixels || r.parent < 0) continue;
-      ++sc.hole_count[static_cast<std::size_t>(sc.outer_rank[static_cast<std::size_t>(r.parent)]) +
-                      1];
-    }
-    for (std::size_t k = 0; k < n_outer; ++k) sc.hole_count[k + 1] += sc.hole_count[k];
-    detail::resize_with_headroom(sc.kept,
-                                 n_outer + static_cast<std::size_t>(sc.hole_count[n_outer]));
-    for (int b = b0; b < b1; ++b) {
-      const int li = sc.bucket_loops[b];
-      const RawLoop& r = sc.raw[static_cast<std::size_t>(li)];
-      if (r.area_px >= 0 || -r.area_px < settings.min_loop_pixels || r.parent < 0) continue;
-      const int rank = sc.outer_rank[static_cast<std::size_t>(r.parent)];
-      sc.kept[n_outer + static_cast<std::size_t>(sc.hole_count[static_cast<std::size_t>(rank)]++)] =
-          li;
-    }
-
-    // Project every kept loop onto the plane.
-    const PlaneFrame& fr = sp.frame;
-    const Projection pr = polygons_detail::make_projection(fr, vp);
-    sc.xy_first.clear();
-    std::size_t n_points = 0;
-    for (int li : sc.kept) {
-      sc.xy_first.push_back(static_cast<int>(n_points));
-      n_points += static_cast<std::size_t>(sc.raw[static_cast<std::size_t>(li)].count);
-    }
-    sc.xy_first.push_back(static_cast<int>(n_points));
-    detail::resize_with_headroom(sc.xy, 2 * n_points);
-    for (std::size_t k = 0; k < sc.kept.size(); ++k) {
-      const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.kept[k])];
-      project(cloud, sc.raw_uv.data() + r.first, r.count, pr,
-              xy_point(sc.xy.data(), sc.xy_first[k]));
-    }
-
-    // Simplify; loops that cross another loop (or themselves) get half the tolerance, and after a
-    // few halvings stay unsimplified (the mesh boundary is simple).
-    const std::size_t nk = sc.kept.size();
-    detail::resize_with_headroom(sc.tolerance, nk);
-    detail::resize_with_headroom(sc.raw_area, nk);
-    detail::resize_with_headroom(sc.raw_perimeter, nk);
-    for (std::size_t k = 0; k < nk; ++k) {
-      const int n = sc.xy_first[k + 1] - sc.xy_first[k];
-      polygons_detail::area_perimeter(xy_point(sc.xy.data(), sc.xy_first[k]), n, sc.raw_area[k],
-                                      sc.raw_perimeter[k]);
-      sc.tolerance[k] = std::max(settings.simplify_tolerance,
-                                 settings.simplify_tolerance_pixels * sc.raw_perimeter[k] / n);
-    }
-    for (int attempt = 0;; ++attempt) {
-      // Only loops whose tolerance changed are simplified again.
-      sc.keep_next.clear();
-      sc.keep_first_next.clear();
-      for (std::size_t k = 0; k < nk; ++k) {
-        sc.keep_first_next.push_back(static_cast<int>(sc.keep_next.size()));
-        if (attempt > 0 && !sc.bad[k]) {
-          detail::append_with_headroom(sc.keep_next, sc.keep.begin() + sc.keep_first[k],
-                                       sc.keep.begin() + sc.keep_first[k + 1]);
-          continue;
-        }
-        const int n = sc.xy_first[k + 1] - sc.xy_first[k];
-        polygons_detail::simplify_closed(xy_point(sc.xy.data(), sc.xy_first[k]), n, sc.tolerance[k],
-                                         sc.keep_next, sc.dp_stack);
-      }
-      sc.keep_first_next.push_back(static_cast<int>(sc.keep_next.size()));
-      std::swap(sc.keep, sc.keep_next);
-      std::swap(sc.keep_first, sc.keep_first_next);
-      polygons_detail::share_capacity(sc.keep, sc.keep_next);
-      polygons_detail::share_capacity(sc.keep_first, sc.keep_first_next);
-      bool any_simplified = false;
-      for (std::size_t k = 0; k < nk; ++k) any_simplified |= sc.tolerance[k] > 0;
-      if (!any_simplified) break;
-      sc.edges.clear();
-      for (std::size_t k = 0; k < nk; ++k) {
-        const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.kept[k])];
-        const int kb = sc.keep_first[k], ke = sc.keep_first[k + 1];
-        const double* base = xy_point(sc.xy.data(), sc.xy_first[k]);
-        for (int i = kb, j = ke - 1; i < ke; j = i++) {
-          const int a = sc.keep[static_cast<std::size_t>(j)],
-                    b = sc.keep[static_cast<std::size_t>(i)];
-          const double *pa = xy_point(base, a), *pb = xy_point(base, b);
-          sc.edges.push_back(
-              {pa[0], pa[1], pb[0], pb[1],
-               sc.raw_idx[static_cast<std::size_t>(r.first) + static_cast<std::size_t>(a)],
-               sc.raw_idx[static_cast<std::size_t>(r.first) + static_cast<std::size_t>(b)],
-               static_cast<int>(k)});
-        }
-      }
-      // After the first check only pairs with a loop simplified again can newly touch: a pair of
-      // unchanged loops that touched marked both, and they changed, unless already unsimplified.
-      sc.changed.assign(sc.bad.begin(), sc.bad.end());
-      detail::assign_with_headroom(sc.bad, nk, 0);
-      if (!polygons_detail::mark_crossings(sc.edges, sc.bad,
-                                           attempt > 0 ? sc.changed.data() : nullptr)) {
-        break;
-      }
-      for (std::size_t k = 0; k < nk; ++k) {
-        if (!sc.bad[k]) continue;
-        const double tolerance = attempt >= 4 ? 0.0 : 0.5 * sc.tolerance[k];
-        sc.bad[k] = tolerance != sc.tolerance[k];  // from here on: "simplify again"
-        sc.tolerance[k] = tolerance;
-      }
-      if (attempt >= 5) break;  // every offender is unsimplified now
-    }
-
-    // Write the loops.
-    for (std::size_t k = 0; k < nk; ++k) {
-      const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.kept[k])];
-      const double* base = xy_point(sc.xy.data(), sc.xy_first[k]);
-      PolygonLoop lp;
-      lp.segment = static_cast<int>(si);
-      lp.label = sp.label;
-      lp.is_hole = r.area_px < 0;
-      if (lp.is_hole) lp.parent = sp.first_loop + sc.outer_rank[static_cast<std::size_t>(r.parent)];
-      lp.raw_count = r.count;
-      lp.tolerance = sc.tolerance[k];
-      lp.raw_area = std::abs(sc.raw_area[k]);
-      lp.raw_perimeter = sc.raw_perimeter[k];
-      double a, p;
-      lp.first = static_cast<int>(out.points2d.size());
-      const int kb = sc.keep_first[k], ke = sc.keep_first[k + 1];
-      lp.count = ke - kb;
-      sc.hull_xy.clear();
-      for (int i = kb; i < ke; ++i) {
-        const int vi = sc.keep[static_cast<std::size_t>(i)];
-        const double* pt = xy_point(base, vi);
-        const double x = pt[0], y = pt[1];
-        sc.hull_xy.push_back(x);
-        sc.hull_xy.push_back(y);
-        out.points2d.push_back({static_cast<float>(x), static_cast<float>(y)});
-        out.points3d.push_back({static_cast<float>(fr.origin[0] + x * fr.e1[0] + y * fr.e2[0]),
-                                static_cast<float>(fr.origin[1] + x * fr.e1[1] + y * fr.e2[1]),
-                                static_cast<float>(fr.origin[2] + x * fr.e1[2] + y * fr.e2[2])});
-        const auto [pu, pv] =
-            sc.raw_uv[static_cast<std::size_t>(r.first) + static_cast<std::size_t>(vi)];
-        out.pixels.push_back({static_cast<float>(pu), static_cast<float>(pv)});
-      }
-      polygons_detail::area_perimeter(sc.hull_xy.data(), lp.count, a, p);
-      lp.area = std::abs(a);
-      lp.perimeter = p;
-      sp.area += lp.is_hole ? -lp.area : lp.area;
-      sp.raw_area += lp.is_hole ? -lp.raw_area : lp.raw_area;
-      sp.perimeter += lp.perimeter;
-      out.loops.push_back(lp);
-    }
-    sp.loop_count = static_cast<int>(nk);
-
-    // Convex hull of the outer loops' mesh boundary vertices.
-    if (settings.convex_hull) {
-      const double* xy = sc.xy.data();
-      polygons_detail::hull_candidates(xy, sc.xy_first[n_outer], sc.hull_order);
-      const int n_pts = static_cast<int>(sc.hull_order.size());
-      polygons_detail::sort_points_xy(xy, sc.hull_order, sc.hull_sort);
-      detail::resize_with_headroom(sc.hull_xy, 2 * static_cast<std::size_t>(n_pts));
-      for (int i = 0; i < n_pts; ++i) {
-        const int o = sc.hull_order[static_cast<std::size_t>(i)];
-        const double* pt = xy_point(xy, o);
-        sc.hull_xy[2 * static_cast<std::size_t>(i)] = pt[0];
-        sc.hull_xy[2 * static_cast<std::size_t>(i) + 1] = pt[1];
-      }
-      polygons_detail::monotone_chain_sorted(sc.hull_xy.data(), n_pts, sc.hull_idx);
-      // Vertex o of the concatenated outer loops -> its mesh vertex, for the pixel.
-      for (int hi : sc.hull_idx) {
-        const int o = sc.hull_order[static_cast<std::size_t>(hi)];
-        std::size_t k = 0;
-        while (sc.xy_first[k + 1] <= o) ++k;
-        const RawLoop& r = sc.raw[static_cast<std::size_t>(sc.kept[k])];
-        const auto [pu, pv] = sc.raw_uv[static_cast<std::size_t>(r.first + o - sc.xy_first[k])];
-        const double* pt = xy_point(xy, o);
-        const double x = pt[0], y = pt[1];
-        out.hull_points2d.push_back({static_cast<float>(x), static_cast<float>(y)});
-        out.hull_points3d.push_back(
-            {static_cast<float>(fr.origin[0] + x * fr.e1[0] + y * fr.e2[0]),
-             static_cast<float>(fr.origin[1] + x * fr.e1[1] + y * fr.e2[1]),
-             static_cast<float>(fr.origin[2] + x * fr.e1[2] + y * fr.e2[2])});
-        out.hull_pixels.push_back({static_cast<float>(pu), static_cast<float>(pv)});
-      }
-      sp.hull_count = static_cast<int>(sc.hull_idx.size());
-      double a = 0, p = 0;
-      sc.hull_xy.clear();
-      for (int hi : sc.hull_idx) {
-        const int o = sc.hull_order[static_cast<std::size_t>(hi)];
-        const double* pt = xy_point(xy, o);
-        sc.hull_xy.push_back(pt[0]);
-        sc.hull_xy.push_back(pt[1]);
-      }
-      if (sp.hull_count >= 3) {
-        polygons_detail::area_perimeter(sc.hull_xy.data(), sp.hull_count, a, p);
-      }
-      sp.hull_area = std::abs(a);
-      sp.hull_perimeter = p;
-    }
+  });
+  for (std::size_t group = 1; group < workers; ++group) {
+    append_part(sc.work[group].part, sc.group_first[group], sc.group_first[group + 1], out);
   }
 }
 

@@ -12,6 +12,7 @@
 // labels of segments that are not outlined, so that the per-cell "all corners carry one enabled
 // label" tests become 16-bit compares.
 #include <algorithm>
+#include <cassert>
 #include <cstring>
 
 #include "detail/headroom.hpp"
@@ -69,73 +70,83 @@ inline std::uint8_t vertex_mask(unsigned c00, unsigned c01, unsigned c10, unsign
   return static_cast<std::uint8_t>(m);
 }
 
-void masks_scalar(View<const std::int32_t> labels, View<const std::uint8_t> faces, int s,
-                  const std::uint8_t* en, std::size_t n_labels, std::uint16_t* edges,
-                  std::ptrdiff_t stride, std::vector<std::int32_t>& starts,
-                  BoundaryMaskScratch& scratch) {
-  const int width = labels.width, height = labels.height;
+// Coverage bits of the cells of row v (corners in rows v and v + s) into cur[0, width), 0 off
+// the lattice's columns and past its last one.
+void cell_row_scalar(View<const std::int32_t> labels, View<const std::uint8_t> faces, int s,
+                     const std::uint8_t* en, std::size_t n_labels, int v, std::uint8_t* cur) {
+  const int width = labels.width;
   const auto enabled = [en, n_labels](std::int32_t l) {
     return static_cast<std::size_t>(static_cast<std::uint32_t>(l)) < n_labels && en[l];
   };
+  const int last_u = (width - 1) / s * s;
+  if (v + s >= labels.height) {
+    for (int u = 0; u < width; u += s) cur[u] = 0;
+    return;
+  }
+  const std::int32_t* l0 = labels.row(v);
+  const std::int32_t* l1 = labels.row(v + s);
+  const std::uint8_t* f = faces.row(v);
+  for (int u = 0; u + s < width; u += s) {
+    if (s == 1 && u + kBlock < width) {
+      // Most cells lie inside one segment (or outside all): kBlock cells whose kBlock + 1
+      // corner columns in both rows carry one label take their faces' sides or nothing,
+      // decided once for the block instead of per cell with branches on the labels.
+      const std::int32_t label = l0[u];
+      unsigned differ = 0;
+      for (int i = 0; i <= kBlock; ++i) {
+        differ |=
+            static_cast<unsigned>(l0[u + i] ^ label) | static_cast<unsigned>(l1[u + i] ^ label);
+      }
+      if (differ == 0) {
+        if (enabled(label)) {
+          for (int i = 0; i < kBlock; ++i) cur[u + i] = kSides[f[u + i] & 15u];
+        } else {
+          std::memset(cur + u, 0, kBlock);
+        }
+        u += kBlock - 1;
+        continue;
+      }
+    }
+    const unsigned fb = f[u] & 15u;
+    if (fb == 0) {
+      cur[u] = 0;
+      continue;
+    }
+    const std::int32_t la = l0[u], lb = l0[u + s], lc = l1[u], ld = l1[u + s];
+    unsigned fe;
+    if (la == lb && la == lc && la == ld) {
+      fe = enabled(la) ? fb : 0u;
+    } else if (fb & face_bits::quad) {
+      fe = 0;
+    } else {
+      bool t0, t1;
+      if (fb & face_bits::diag_bc) {
+        t0 = la == lc && la == lb && enabled(la);
+        t1 = lb == lc && lb == ld && enabled(lb);
+      } else {
+        t0 = la == ld && la == lb && enabled(la);
+        t1 = la == lc && la == ld && enabled(la);
+      }
+      fe = (fb & face_bits::diag_bc) | (t0 ? (fb & face_bits::tri0) : 0u) |
+           (t1 ? (fb & face_bits::tri1) : 0u);
+    }
+    cur[u] = kSides[fe];
+  }
+  cur[last_u] = 0;
+}
+
+void masks_scalar(View<const std::int32_t> labels, View<const std::uint8_t> faces, int s,
+                  const std::uint8_t* en, std::size_t n_labels, std::uint16_t* edges,
+                  std::ptrdiff_t stride, int v_begin, int v_end, std::vector<std::int32_t>& starts,
+                  BoundaryMaskScratch& scratch) {
+  const int width = labels.width;
   detail::assign_with_headroom(scratch.sides, 2 * static_cast<std::size_t>(width), 0);
   std::uint8_t* cur = scratch.sides.data();
   std::uint8_t* prev = cur + width;
-  const int last_u = (width - 1) / s * s;
-  for (int v = 0; v < height; v += s) {
-    if (v + s < height) {
-      const std::int32_t* l0 = labels.row(v);
-      const std::int32_t* l1 = labels.row(v + s);
-      const std::uint8_t* f = faces.row(v);
-      for (int u = 0; u + s < width; u += s) {
-        if (s == 1 && u + kBlock < width) {
-          // Most cells lie inside one segment (or outside all): kBlock cells whose kBlock + 1
-          // corner columns in both rows carry one label take their faces' sides or nothing,
-          // decided once for the block instead of per cell with branches on the labels.
-          const std::int32_t label = l0[u];
-          unsigned differ = 0;
-          for (int i = 0; i <= kBlock; ++i) {
-            differ |=
-                static_cast<unsigned>(l0[u + i] ^ label) | static_cast<unsigned>(l1[u + i] ^ label);
-          }
-          if (differ == 0) {
-            if (enabled(label)) {
-              for (int i = 0; i < kBlock; ++i) cur[u + i] = kSides[f[u + i] & 15u];
-            } else {
-              std::memset(cur + u, 0, kBlock);
-            }
-            u += kBlock - 1;
-            continue;
-          }
-        }
-        const unsigned fb = f[u] & 15u;
-        if (fb == 0) {
-          cur[u] = 0;
-          continue;
-        }
-        const std::int32_t la = l0[u], lb = l0[u + s], lc = l1[u], ld = l1[u + s];
-        unsigned fe;
-        if (la == lb && la == lc && la == ld) {
-          fe = enabled(la) ? fb : 0u;
-        } else if (fb & face_bits::quad) {
-          fe = 0;
-        } else {
-          bool t0, t1;
-          if (fb & face_bits::diag_bc) {
-            t0 = la == lc && la == lb && enabled(la);
-            t1 = lb == lc && lb == ld && enabled(lb);
-          } else {
-            t0 = la == ld && la == lb && enabled(la);
-            t1 = la == lc && la == ld && enabled(la);
-          }
-          fe = (fb & face_bits::diag_bc) | (t0 ? (fb & face_bits::tri0) : 0u) |
-               (t1 ? (fb & face_bits::tri1) : 0u);
-        }
-        cur[u] = kSides[fe];
-      }
-      cur[last_u] = 0;
-    } else {
-      for (int u = 0; u < width; u += s) cur[u] = 0;
-    }
+  // A band's first vertex row needs the cells above it.
+  if (v_begin > 0) cell_row_scalar(labels, faces, s, en, n_labels, v_begin - s, prev);
+  for (int v = v_begin; v < v_end; v += s) {
+    cell_row_scalar(labels, faces, s, en, n_labels, v, cur);
     std::uint16_t* mrow = edges + v * stride;
     for (int u = 0; u < width; u += s) {
       if (s == 1 && u >= 1 && u + 8 < width) {
@@ -340,7 +351,8 @@ RANGESEG_SIMD_AVX2_TARGET void vertex_masks_avx2(const std::uint8_t* prev, const
 RANGESEG_SIMD_AVX2_TARGET void masks_avx2(View<const std::int32_t> labels,
                                           View<const std::uint8_t> faces, const std::uint8_t* en,
                                           std::size_t n_labels, std::uint16_t* edges,
-                                          std::ptrdiff_t stride, std::vector<std::int32_t>& starts,
+                                          std::ptrdiff_t stride, int v_begin, int v_end,
+                                          std::vector<std::int32_t>& starts,
                                           BoundaryMaskScratch& scratch) {
   const int width = labels.width, height = labels.height;
   detail::resize_with_headroom(scratch.label_map, n_labels + 1);
@@ -359,8 +371,12 @@ RANGESEG_SIMD_AVX2_TARGET void masks_avx2(View<const std::int32_t> labels,
   std::uint8_t* cur = prev + side_len;
   const std::int32_t* map = scratch.label_map.data();
   const auto n = static_cast<std::uint32_t>(n_labels);
-  enabled_labels_avx2(labels.row(0), width, map, n, e0);
-  for (int v = 0; v < height; ++v) {
+  enabled_labels_avx2(labels.row(v_begin), width, map, n, e0);
+  if (v_begin > 0) {  // a band's first vertex row needs the cells above it
+    enabled_labels_avx2(labels.row(v_begin - 1), width, map, n, e1);
+    cell_sides_avx2(e1, e0, faces.row(v_begin - 1), width, prev);
+  }
+  for (int v = v_begin; v < v_end; ++v) {
     if (v + 1 < height) {
       enabled_labels_avx2(labels.row(v + 1), width, map, n, e1);
       cell_sides_avx2(e0, e1, faces.row(v), width, cur);
@@ -380,17 +396,20 @@ RANGESEG_SIMD_AVX2_TARGET void masks_avx2(View<const std::int32_t> labels,
 
 void find_boundary_vertices(View<const std::int32_t> labels, View<const std::uint8_t> faces, int s,
                             const std::uint8_t* enabled, std::size_t n_labels, std::uint16_t* edges,
-                            std::ptrdiff_t stride, std::vector<std::int32_t>& starts,
-                            BoundaryMaskScratch& scratch) {
+                            std::ptrdiff_t stride, int v_begin, int v_end,
+                            std::vector<std::int32_t>& starts, BoundaryMaskScratch& scratch) {
   starts.clear();
-  if (labels.width <= 0 || labels.height <= 0) return;
+  v_begin = std::max(v_begin, 0);
+  v_end = std::min(v_end, labels.height);
+  if (labels.width <= 0 || v_begin >= v_end) return;
+  assert(v_begin % s == 0);
 #if RANGESEG_SIMD_X86
   if (s == 1 && n_labels <= 65536 && detail::simd::chosen_isa() >= detail::simd::Isa::avx2) {
-    masks_avx2(labels, faces, enabled, n_labels, edges, stride, starts, scratch);
+    masks_avx2(labels, faces, enabled, n_labels, edges, stride, v_begin, v_end, starts, scratch);
     return;
   }
 #endif
-  masks_scalar(labels, faces, s, enabled, n_labels, edges, stride, starts, scratch);
+  masks_scalar(labels, faces, s, enabled, n_labels, edges, stride, v_begin, v_end, starts, scratch);
 }
 
 }  // namespace rangeseg::polygons_detail

@@ -227,13 +227,15 @@ struct BoundaryMaskScratch {
 /// corners carry label L, and L is enabled when L < n_labels and enabled[L] != 0. Writes the
 /// non-zero masks m as m * 257 (trace_loops' mask and remaining bytes) into `edges` (index
 /// v * stride + u; all zero on entry, untouched elsewhere) and
-/// their indices into `starts`, in increasing index order. Pixel_stride 1 runs a vector kernel
-/// when the CPU has AVX2 (and detail::simd::isa_limit allows it) and labels fit in 16 bits;
-/// results are identical to the scalar path.
+/// their indices into `starts`, in increasing index order, for the vertex rows [v_begin, v_end)
+/// (v_begin a multiple of s): row bands can run concurrently, each with its own `starts` and
+/// scratch. Pixel_stride 1 runs a vector kernel when the CPU has AVX2 (and
+/// detail::simd::isa_limit allows it) and labels fit in 16 bits; results are identical to the
+/// scalar path.
 void find_boundary_vertices(View<const std::int32_t> labels, View<const std::uint8_t> faces, int s,
                             const std::uint8_t* enabled, std::size_t n_labels, std::uint16_t* edges,
-                            std::ptrdiff_t stride, std::vector<std::int32_t>& starts,
-                            BoundaryMaskScratch& scratch);
+                            std::ptrdiff_t stride, int v_begin, int v_end,
+                            std::vector<std::int32_t>& starts, BoundaryMaskScratch& scratch);
 
 /// Douglas-Peucker on the closed loop xy[0..n) (x, y interleaved): appends the indices of the
 /// kept vertices, in loop order, to `keep` (at least 3 when n >= 3). `stack` is scratch.

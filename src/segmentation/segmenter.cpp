@@ -362,7 +362,18 @@ void Segmenter::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalM
   seg::validate(settings);
   if (!scratch_) scratch_ = std::make_unique<Scratch>();
 
-  out.labels.resize(cloud.width(), cloud.height(), 0);
+  if (out.labels.width() != cloud.width() || out.labels.height() != cloud.height()) {
+    out.labels.resize(cloud.width(), cloud.height(), 0);
+  } else if (pool != nullptr) {
+    // A frame's worth of zeros is a fifth of a millisecond's memory traffic on one core.
+    pool->for_each_band(cloud.height(), 1, [&](int, int v_begin, int v_end) {
+      if (v_begin < v_end) {
+        std::fill(out.labels.row(v_begin), out.labels.row(v_end - 1) + out.labels.stride(), 0);
+      }
+    });
+  } else {
+    out.labels.fill(0);
+  }
   const seg::Frame f = seg::make_frame(cloud, mesh, normals, out.labels);
 
   Scratch& s = *scratch_;
