@@ -53,6 +53,26 @@ CloudStats cloud_stats(const OrganizedCloud& cloud) {
   return s;
 }
 
+bool surrounds_its_sensor(const OrganizedCloud& cloud) {
+  require_consistent(cloud, "surrounds_its_sensor");
+  constexpr std::size_t kFewestPoints = 100;  // that can tell a scan all round its sensor
+  double sum[3] = {0, 0, 0};
+  std::size_t n = 0;
+  for (int v = 0; v < cloud.height(); ++v) {
+    const float *x = cloud.x.row(v), *y = cloud.y.row(v), *z = cloud.z.row(v);
+    for (int u = 0; u < cloud.width(); ++u) {
+      const double px = x[u], py = y[u], pz = z[u];
+      const double r = std::sqrt(px * px + py * py + pz * pz);
+      if (!(r > 0) || !std::isfinite(r)) continue;
+      sum[0] += px / r;
+      sum[1] += py / r;
+      sum[2] += pz / r;
+      ++n;
+    }
+  }
+  return n >= kFewestPoints && std::hypot(sum[0], sum[1], sum[2]) < 0.5 * static_cast<double>(n);
+}
+
 void require_organized(const OrganizedCloud& cloud, const char* what) {
   if (!cloud.is_organized()) {
     throw std::invalid_argument(

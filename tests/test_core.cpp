@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iterator>
 #include <memory>
+#include <numbers>
 #include <numeric>
 #include <random>
 #include <stdexcept>
@@ -165,6 +166,39 @@ TEST(Cloud, StatsCountOnlyFinitePoints) {
   EXPECT_FLOAT_EQ(round.min_z, -4);
   EXPECT_FLOAT_EQ(round.max_range, 5);
   EXPECT_THROW(require_organized(OrganizedCloud(5, 1), "test"), std::invalid_argument);
+}
+
+/// Points at the given azimuths [deg] round the z axis (a ring in the x-y plane, 5 m away), as
+/// a row (unorganized) or two rows.
+OrganizedCloud ring_of_points(double from_deg, double to_deg, int n, int rows = 1) {
+  OrganizedCloud c(n / rows, rows);
+  for (int i = 0; i < n; ++i) {
+    const double a = (from_deg + (to_deg - from_deg) * i / n) * std::numbers::pi / 180;
+    const int u = i % c.width(), v = i / c.width();
+    c.x(u, v) = static_cast<float>(5 * std::cos(a));
+    c.y(u, v) = static_cast<float>(5 * std::sin(a));
+    c.z(u, v) = 0.3f;
+  }
+  return c;
+}
+
+TEST(Cloud, ScansRoundTheSensorAreToldFromACamerasCone) {
+  EXPECT_TRUE(surrounds_its_sensor(ring_of_points(0, 360, 400)));     // mean unit vector ~0
+  EXPECT_TRUE(surrounds_its_sensor(ring_of_points(0, 360, 400, 2)));  // every row counts
+  EXPECT_TRUE(surrounds_its_sensor(ring_of_points(0, 240, 400)));     // 0.41 long
+  EXPECT_FALSE(surrounds_its_sensor(ring_of_points(0, 200, 400)));    // 0.62
+  EXPECT_FALSE(surrounds_its_sensor(ring_of_points(-30, 30, 400)));   // a camera's cone
+  EXPECT_FALSE(surrounds_its_sensor(ring_of_points(0, 360, 99)));     // too few to tell
+  // Points that are none (NaN, infinite, the origin) are skipped, not summed: a quarter of the
+  // ring.
+  OrganizedCloud holes = ring_of_points(0, 360, 400);
+  for (int u = 0; u < 400; u += 4) {
+    const int kind = u / 4 % 3;
+    holes.x(u, 0) = kind == 0 ? NAN : kind == 1 ? INFINITY : 0.0f;
+    if (kind == 2) holes.y(u, 0) = holes.z(u, 0) = 0;
+  }
+  EXPECT_TRUE(surrounds_its_sensor(holes));
+  EXPECT_FALSE(surrounds_its_sensor(OrganizedCloud{}));
 }
 
 TEST(File, AtomicWriteLeavesNoTemporary) {

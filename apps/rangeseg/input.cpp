@@ -178,8 +178,6 @@ namespace {
 
 /// Coordinates from which float keeps no millimetre [m] (its steps there are 1-2 mm).
 constexpr double kFarCoordinate = 8192;
-/// Fewest points whose directions can tell a scan all around its sensor.
-constexpr std::size_t kMinPointsToSurround = 100;
 /// A median distance of the points from the sensor beyond any range sensor's [m].
 constexpr double kFarMedianRange = 500;
 
@@ -295,25 +293,6 @@ void check_cloud_scale(const std::string& path, const OrganizedCloud& cloud) {
                   median);
     warn_once(flag, [&] { return "warning: " + path + ": " + text; });
   }
-}
-
-// Whether the directions of the points from the origin spread over more than a hemisphere
-// (their mean unit vector shorter than 1/2): a spinning lidar's or a panoramic scanner's scan. A
-// camera's points lie in a cone (a Kinect's: mean length 0.95).
-bool surrounds_its_sensor(const OrganizedCloud& cloud) {
-  double sum[3] = {0, 0, 0};
-  std::size_t n = 0;
-  const float *x = cloud.x.row(0), *y = cloud.y.row(0), *z = cloud.z.row(0);
-  for (int i = 0; i < cloud.width(); ++i) {
-    const double r = std::sqrt(double{x[i]} * x[i] + double{y[i]} * y[i] + double{z[i]} * z[i]);
-    if (!(r > 0) || !std::isfinite(r)) continue;
-    sum[0] += x[i] / r;
-    sum[1] += y[i] / r;
-    sum[2] += z[i] / r;
-    ++n;
-  }
-  return n >= kMinPointsToSurround &&
-         std::hypot(sum[0], sum[1], sum[2]) < 0.5 * static_cast<double>(n);
 }
 
 }  // namespace

@@ -62,6 +62,13 @@ struct CloudStats {
 };
 CloudStats cloud_stats(const OrganizedCloud& cloud);
 
+/// Whether the directions from the origin to the valid points spread over more than a
+/// hemisphere (their mean unit vector shorter than 1/2, over at least 100 points): a spinning
+/// lidar's or a panoramic scanner's scan, for which a depth camera's noise model, a function of
+/// z, is wrong (the `laser` preset's is one of the range). A camera's points lie in a cone (a
+/// Kinect's mean unit vector is 0.95 long). The points are taken in the sensor's frame.
+bool surrounds_its_sensor(const OrganizedCloud& cloud);
+
 /// Throws std::invalid_argument naming `what` if the cloud's planes differ in size: x and y must
 /// have z's size, and so must intensity and label when present; r, g and b come together (all of
 /// z's size, or all empty).

@@ -4,6 +4,7 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <atomic>
 #include <climits>
 #include <cmath>
 #include <mutex>
@@ -171,14 +172,28 @@ void warn_if_scale_implausible(const View<const std::uint16_t>& depth, double sc
 
 class PyPipeline {
  public:
-  /// `preset_chosen`: false when the preset is the default's (kinect), taken for any grid.
-  PyPipeline(const PipelineSettings& settings, bool preset_chosen)
-      : pipeline_(settings), grid_checked_(preset_chosen) {}
+  /// `laser`: for the default preset ("auto"), the settings the pipeline takes instead of
+  /// `settings` (kinect's) when its first frame is a scan round its sensor; empty for a preset
+  /// the caller chose.
+  /// `arguments`: the constructor's, for pickling while the preset is undecided.
+  PyPipeline(const PipelineSettings& settings, const std::optional<PipelineSettings>& laser,
+             py::tuple arguments)
+      : pipeline_(settings),
+        laser_(laser),
+        arguments_(std::move(arguments)),
+        undecided_(laser_.has_value()),
+        grid_checked_(!laser_) {}
+
+  /// The constructor's arguments while the default preset waits for the first frame, else None.
+  py::object undecided_arguments() const {
+    return undecided_.load() ? py::object(arguments_) : py::object(py::none());
+  }
 
   Result process(const OrganizedCloud& cloud, double fx) {
     check_fx(fx);
     bool scanner = false;
     Result result = run(nullptr, [&] {
+      choose_preset(&cloud);
       pipeline_.process(cloud, fx);
       scanner = first_grid_is_a_scanners(cloud, fx);
     });
@@ -203,6 +218,7 @@ class PyPipeline {
     bool scanner = false;
     Result result = run([&] { cloud_from_arrays(p, i, c, py::none(), input_); },
                         [&] {
+                          choose_preset(&input_);
                           pipeline_.process(input_, fx);
                           scanner = first_grid_is_a_scanners(input_, fx);
                         });
@@ -234,7 +250,10 @@ class PyPipeline {
                                            static_cast<int>(d.shape(0)), d.shape(1)};
       const double scale = depth_scale.value_or(0.001);
       warn_if_scale_implausible(view, scale);
-      return run(nullptr, [&] { pipeline_.process(view, camera, scale); });
+      return run(nullptr, [&] {
+        choose_preset(nullptr);
+        pipeline_.process(view, camera, scale);
+      });
     }
     // Floats in metres (times depth_scale), other integers (negative: no measurement) in raw
     // units.
@@ -244,10 +263,18 @@ class PyPipeline {
     const View<const float> view{d.data(), static_cast<int>(d.shape(1)),
                                  static_cast<int>(d.shape(0)), d.shape(1)};
     if (kind == 'f' && !depth_scale) warn_if_not_metres(view);
-    return run(nullptr, [&] { pipeline_.process(view, camera); });
+    return run(nullptr, [&] {
+      choose_preset(nullptr);
+      pipeline_.process(view, camera);
+    });
   }
 
-  const PipelineSettings& settings() const { return pipeline_.settings(); }
+  /// A copy, taken under the mutex (an auto preset's first frame may replace the pipeline).
+  PipelineSettings settings() const {
+    const py::gil_scoped_release release;  // as run(): the GIL is not held while waiting
+    const std::lock_guard lock(mutex_);
+    return pipeline_.settings();
+  }
   void reset_tracks() {
     const py::gil_scoped_release release;  // as run(): the GIL is not held while waiting
     const std::lock_guard lock(mutex_);
@@ -305,7 +332,22 @@ class PyPipeline {
     return r;
   }
 
+  /// The default preset decides on the first frame (under the mutex): an unorganized cloud
+  /// whose points surround the sensor (a spinning lidar's scan) takes `laser_`, as the command
+  /// line's --preset auto does; anything else keeps kinect. `cloud`: nullptr for a depth image.
+  void choose_preset(const OrganizedCloud* cloud) {
+    if (!laser_) return;
+    if (cloud != nullptr && !cloud->is_organized() && surrounds_its_sensor(*cloud)) {
+      pipeline_ = Pipeline(*laser_);
+    }
+    laser_.reset();
+    undecided_ = false;
+  }
+
   Pipeline pipeline_;
+  std::optional<PipelineSettings> laser_;
+  py::tuple arguments_;
+  std::atomic<bool> undecided_;  ///< laser_ is set (read without the mutex)
   /// For a pipeline made with the default preset, once (under the mutex, without the GIL):
   /// whether its first organized grid is one no pinhole camera explains, a scanner's (a spinning
   /// lidar's, a tilting laser's), for which the kinect preset's noise model, a function of z, is
@@ -325,7 +367,7 @@ class PyPipeline {
 
   OrganizedCloud input_;  ///< the last NumPy points (Pipeline::cloud() may refer to it)
   bool grid_checked_ = false;
-  std::mutex mutex_;  ///< one frame at a time when Python threads share a pipeline
+  mutable std::mutex mutex_;  ///< one frame at a time when Python threads share a pipeline
 };
 
 }  // namespace
@@ -405,9 +447,11 @@ allocates nothing in the library after the first (the returned arrays are new).
 
 preset: sensor settings: "kinect" (structured light, also PrimeSense and RealSense
         depth), "abw", "laser" (also spinning lidars), "perceptron" or "ideal"
-        (noise-free or simulated depth). Default None or "auto": kinect, with a
-        UserWarning when the first organized cloud is a grid that no pinhole camera
-        explains (a scanner's: give "laser").
+        (noise-free or simulated depth). Default None or "auto", decided on the first
+        frame: laser when it is an unorganized cloud whose points surround the sensor
+        (a spinning lidar's scan, as the command line decides), else kinect, with a
+        UserWarning when it is a grid that no pinhole camera explains (a scanner's:
+        give "laser"). `settings` tells the choice after the first frame.
 model:  region model: "plane", "smooth", "incremental_plane" or "auto" (planes,
         cylinders and spheres); default the preset's ("plane").
 smooth: run the bilateral filter (default the preset's: on, but for abw and ideal).
@@ -422,11 +466,14 @@ config: settings on top of the preset, a dict or the path of a JSON file with th
                        const std::optional<std::string>& model, std::optional<bool> smooth,
                        std::optional<bool> track, int threads, const py::object& config) {
              // None and "auto" (the command line's default) are the kinect preset, with a
-             // warning for a grid that no pinhole camera explains.
+             // warning for a grid that no pinhole camera explains, or laser when the first
+             // frame is an unorganized scan round its sensor.
              const bool chosen = preset && *preset != "auto";
+             std::optional<PipelineSettings> laser;
+             if (!chosen) laser = settings_from("laser", model, smooth, track, threads, config);
              return std::make_unique<PyPipeline>(
                  settings_from(chosen ? *preset : "kinect", model, smooth, track, threads, config),
-                 chosen);
+                 laser, py::make_tuple(py::none(), model, smooth, track, threads, config));
            }),
            "preset"_a = py::none(), "model"_a = py::none(), "smooth"_a = py::none(),
            "track"_a = py::none(), "threads"_a = 1, "config"_a = py::none())
@@ -500,6 +547,10 @@ for process. Returns a Result.)")
       .def("__reduce__",
            [](const py::object& self) {
              const auto& p = self.cast<const PyPipeline&>();
+             // Undecided, the copy decides on its own first frame.
+             if (const py::object args = p.undecided_arguments(); !args.is_none()) {
+               return py::make_tuple(self.attr("__class__"), args);
+             }
              const py::object none = py::none();
              return py::make_tuple(self.attr("__class__"),
                                    py::make_tuple("kinect", none, none, none, p.settings().threads,

@@ -444,6 +444,48 @@ class BadInput(unittest.TestCase):
             points = rays(320, 240, **HALF) * plane_depth([0.1, -0.6, -0.8], 1.4)[..., None]
             rangeseg.Pipeline().process(points.astype(np.float32))
 
+    def test_the_default_preset_takes_laser_for_an_unorganized_scan_round_its_sensor(self):
+        # The lidar scan of a cylinder wall round the sensor as (N, 3) points, as the command
+        # line's --preset auto takes it; a camera's points (a cone) keep kinect.
+        elevation = np.radians(15.0 - 2.0 * np.arange(16))[:, None]
+        azimuth = np.radians(np.arange(360.0))[None, :]
+        r = 5.0 / np.cos(elevation) * np.ones_like(azimuth)
+        scan = np.stack([r * np.cos(elevation) * np.cos(azimuth),
+                         r * np.cos(elevation) * np.sin(azimuth),
+                         r * np.sin(elevation) * np.ones_like(azimuth)], -1).astype(np.float32)
+        points = scan.reshape(-1, 3)
+        small = dict(fx=FX / 16, fy=FX / 16, cx=19.5, cy=14.5)  # 40 x 30
+        camera_points = rays(40, 30, **small) * plane_depth([0.1, -0.6, -0.8], 1.4, 40, 30,
+                                                            **small)[..., None]
+        camera_points = camera_points.reshape(-1, 3).astype(np.float32)
+        laser = rangeseg.Pipeline(preset="laser", model="auto").settings
+        kinect = rangeseg.Pipeline(preset="kinect", model="auto").settings
+        self.assertNotEqual(laser, kinect)
+        for preset in (None, "auto"):
+            p = rangeseg.Pipeline(preset=preset, model="auto")
+            self.assertEqual(p.settings, kinect)  # until the first frame
+            copy = pickle.loads(pickle.dumps(p))  # undecided too
+            p.process(points)
+            self.assertEqual(p.settings, laser)
+            p.process(camera_points)  # decided once, on the first frame
+            self.assertEqual(p.settings, laser)
+            copy.process(points)
+            self.assertEqual(copy.settings, laser)
+            self.assertEqual(pickle.loads(pickle.dumps(p)).settings, laser)
+            camera = rangeseg.Pipeline(preset=preset, model="auto")
+            camera.process(camera_points)
+            self.assertEqual(camera.settings, kinect)
+            camera.process(points)
+            self.assertEqual(camera.settings, kinect)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                grid = rangeseg.Pipeline(preset=preset, model="auto")
+                grid.process(scan)  # an organized scan: kinect, with the warning
+            self.assertEqual(grid.settings, kinect)
+        chosen = rangeseg.Pipeline(preset="kinect", model="auto")
+        chosen.process(points)
+        self.assertEqual(chosen.settings, kinect)
+
     def test_an_implausible_integer_depth_scale_warns(self):
         z = np.full((24, 32), 1500, np.uint16)  # millimetres
         p = rangeseg.Pipeline()
