@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "detail/fit_camera.hpp"
 #include "detail/gather_points.hpp"
@@ -459,6 +461,83 @@ void Pipeline::process_grid(const OrganizedCloud& cloud) {
     tracker_.reset();
   }
   times_.total = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+namespace {
+
+/// For why_no_segments: why a grid's mesh has hardly any face. Its lattice points either
+/// seldom have a valid neighbour, or lie further apart than the mesh's edge bound eps_d.
+std::string why_no_faces(const OrganizedCloud& points, const MeshSettings& mesh) {
+  const int s = std::max(1, mesh.pixel_stride);
+  std::size_t valid = 0, with_neighbour = 0;
+  std::vector<double> gaps, ranges;
+  const auto range = [&](int u, int v) {
+    const double x = points.x(u, v), y = points.y(u, v), z = points.z(u, v);
+    return std::sqrt(x * x + y * y + z * z);
+  };
+  for (int v = 0; v < points.height(); v += s) {
+    for (int u = 0; u < points.width(); u += s) {
+      if (!points.valid(u, v)) continue;
+      ++valid;
+      const bool right = u + s < points.width() && points.valid(u + s, v);
+      const bool down = v + s < points.height() && points.valid(u, v + s);
+      with_neighbour += right && down;  // a cell's corners, but for the one across
+      if (!right) continue;
+      const double dx = points.x(u + s, v) - points.x(u, v),
+                   dy = points.y(u + s, v) - points.y(u, v),
+                   dz = points.z(u + s, v) - points.z(u, v);
+      gaps.push_back(std::sqrt(dx * dx + dy * dy + dz * dz));
+      ranges.push_back(range(u, v));
+    }
+  }
+  if (2 * with_neighbour < valid || gaps.empty()) {
+    return "neighbouring pixels seldom both hold a point (" + std::to_string(with_neighbour) +
+           " of " + std::to_string(valid) +
+           " have a neighbour to the right and below: every other row or column empty?); meshing "
+           "every other pixel may join them: \"mesh\": {\"pixel_stride\": " +
+           std::to_string(2 * s) + "} in the config";
+  }
+  const auto median = [](std::vector<double>& values) {
+    const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+    std::nth_element(values.begin(), middle, values.end());
+    return *middle;
+  };
+  const double gap = median(gaps), r = median(ranges);
+  const double bound = mesh.max_edge_a + mesh.max_edge_b * s * r + mesh.max_edge_c * r * r;
+  if (!(gap > bound)) {
+    return "neighbouring points lie along the viewing rays (mesh.eps_theta) or across depth "
+           "steps beyond the noise (mesh.jump_sigmas)";
+  }
+  char text[320];
+  std::snprintf(text, sizeof text,
+                "neighbouring points lie %.3g m apart (median, at a median range of %.3g m), "
+                "beyond the mesh's edge bound there, %.3g m: a camera much coarser than a "
+                "Kinect's 640 x 480, or a scanner's grid (preset laser); raise mesh.max_edge_b",
+                gap, r, bound);
+  return text;
+}
+
+}  // namespace
+
+std::string Pipeline::why_no_segments() const {
+  if (!settings_.segment || !segmentation_.segments.empty()) return {};
+  const OrganizedCloud& points = cloud();
+  const std::size_t valid = points.count_valid();
+  if (valid == 0) {
+    return "the cloud has no point (every x, y or z is NaN or infinite, or the point is the "
+           "sensor's origin)";
+  }
+  const bool on_a_grid = points.is_organized() || grid_.found();
+  if (!on_a_grid || mesh_.width() < 2 || mesh_.height() < 2) return {};
+  const auto s = static_cast<std::size_t>(std::max(1, mesh_.pixel_stride));
+  const std::size_t lattice_points = std::max<std::size_t>(1, valid / (s * s));
+  const std::size_t faces = count_faces(mesh_);
+  if (10 * faces >= lattice_points) return {};
+  std::string what = "the mesh joins hardly any of the points (" + std::to_string(faces) +
+                     " faces for " + std::to_string(valid) + " points)";
+  // The points of an unorganized cloud put on its pixel grid are not kept on the grid.
+  if (!points.is_organized()) return what;
+  return what + ": " + why_no_faces(points, settings_.mesh);
 }
 
 template <class Convert>

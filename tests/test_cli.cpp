@@ -30,6 +30,7 @@ namespace fs = std::filesystem;
 namespace {
 
 using rangeseg::test::CliResult;
+using rangeseg::test::contains;
 CliResult run(const std::string& args) { return rangeseg::test::run_cli(args); }
 
 std::string read_text(const fs::path& p) {
@@ -198,6 +199,41 @@ TEST(Cli, SynthSegmentEvalRoundTrip) {
                              (dir / "scene" / "camera.json").string());
   ASSERT_EQ(info.code, 0) << info.out;
   EXPECT_NE(info.out.find("640 x 480"), std::string::npos) << info.out;
+}
+
+// A frame whose mesh has no face (every other row empty) gives no segment, and says why and
+// which setting joins its points; the batch says it once.
+TEST(Cli, AFrameWithoutSegmentsSaysWhy) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_no_segments");
+  rangeseg::OrganizedCloud rows = small_frame(3);
+  for (int v = 1; v < rows.height(); v += 2) {
+    for (int u = 0; u < rows.width(); ++u) rows.x(u, v) = rows.y(u, v) = rows.z(u, v) = NAN;
+  }
+  fs::create_directories(dir / "in");
+  rangeseg::io::write_pcd((dir / "in" / "a.pcd").string(), rows);
+  rangeseg::io::write_pcd((dir / "in" / "b.pcd").string(), rows);
+  const CliResult one =
+      run("segment " + (dir / "in" / "a.pcd").string() + " -o " + (dir / "out").string());
+  EXPECT_EQ(one.code, 0) << one.out;
+  EXPECT_TRUE(contains(one.out, "a.pcd: no segments: the mesh joins hardly any of the points"))
+      << one.out;
+  EXPECT_TRUE(contains(one.out, "every other row or column empty")) << one.out;
+  EXPECT_TRUE(contains(one.out, "\"pixel_stride\": 2")) << one.out;
+  const CliResult batch =
+      run("segment " + (dir / "in").string() + " -o " + (dir / "batch").string());
+  EXPECT_EQ(batch.code, 0) << batch.out;
+  std::size_t notes = 0;
+  for (std::size_t at = batch.out.find("no segments"); at != std::string::npos;
+       at = batch.out.find("no segments", at + 1)) {
+    ++notes;
+  }
+  EXPECT_EQ(notes, 1u) << batch.out;
+  // A frame with segments says nothing of the kind.
+  write_small_pcd(dir / "full.pcd", 3);
+  const CliResult full =
+      run("segment " + (dir / "full.pcd").string() + " -o " + (dir / "full").string());
+  EXPECT_EQ(full.code, 0) << full.out;
+  EXPECT_FALSE(contains(full.out, "no segments")) << full.out;
 }
 
 TEST(Cli, BenchJsonHasEveryStage) {

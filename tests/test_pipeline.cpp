@@ -550,6 +550,55 @@ TEST(Pipeline, MovedPipelineKeepsItsDepthFramesPoints) {
   EXPECT_TRUE(same_bits(moved.cloud().z, expected.z));
 }
 
+/// A frame without segments tells why when its input is the cause: no valid point, or a mesh
+/// without faces, with the cause of that (rows without points, pixels beyond the edge bound).
+TEST(Pipeline, SaysWhyAFrameHasNoSegments) {
+  OrganizedCloud frame = qvga(2).cloud;
+  Pipeline pipeline(pipeline_preset("kinect"));
+  pipeline.process(frame);
+  ASSERT_FALSE(pipeline.segmentation().segments.empty());
+  EXPECT_EQ(pipeline.why_no_segments(), "");
+
+  OrganizedCloud rows = frame;
+  for (int v = 1; v < rows.height(); v += 2) {
+    for (int u = 0; u < rows.width(); ++u) rows.z(u, v) = NAN;
+  }
+  pipeline.process(rows);
+  EXPECT_TRUE(pipeline.segmentation().segments.empty());
+  const std::string why = pipeline.why_no_segments();
+  EXPECT_NE(why.find("the mesh joins hardly any of the points (0 faces"), std::string::npos) << why;
+  EXPECT_NE(why.find("every other row or column empty"), std::string::npos) << why;
+  EXPECT_NE(why.find("\"pixel_stride\": 2"), std::string::npos) << why;
+
+  // A plane at 1.5 m whose points lie 6 cm apart (a camera of fx 25 px): beyond the kinect
+  // preset's edge bound there, 4-5 cm.
+  OrganizedCloud coarse(32, 24);
+  for (int v = 0; v < 24; ++v) {
+    for (int u = 0; u < 32; ++u) {
+      coarse.x(u, v) = 0.06f * (static_cast<float>(u) - 15.5f);
+      coarse.y(u, v) = 0.06f * (static_cast<float>(v) - 11.5f);
+      coarse.z(u, v) = 1.5f;
+    }
+  }
+  pipeline.process(coarse);
+  EXPECT_TRUE(pipeline.segmentation().segments.empty());
+  const std::string coarse_why = pipeline.why_no_segments();
+  EXPECT_NE(coarse_why.find("neighbouring points lie 0.06 m apart"), std::string::npos)
+      << coarse_why;
+  EXPECT_NE(coarse_why.find("beyond the mesh's edge bound there"), std::string::npos) << coarse_why;
+
+  OrganizedCloud none = frame;
+  none.z.fill(NAN);
+  pipeline.process(none);
+  EXPECT_NE(pipeline.why_no_segments().find("the cloud has no point"), std::string::npos);
+
+  PipelineSettings off = pipeline_preset("kinect");
+  off.segment = false;
+  Pipeline no_segmentation(off);
+  no_segmentation.process(rows);
+  EXPECT_EQ(no_segmentation.why_no_segments(), "");
+}
+
 TEST(Pipeline, RejectsInvalidThreadCounts) {
   EXPECT_THROW(Pipeline({.threads = 0}), std::invalid_argument);
   EXPECT_THROW(Pipeline({.threads = 257}), std::invalid_argument);

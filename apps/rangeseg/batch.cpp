@@ -84,6 +84,7 @@ FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options
     Pipeline& pipeline = pipelines(r.preset);
     require_model_for(in.cloud, pipeline.settings(), frame.path);
     pipeline.process(in.cloud, in.camera_fx);
+    warn_if_no_segments(pipeline, frame.path);
     FolderFiles files = options.files;
     files.pose = in.pose;
     write_segmentation_folder((std::filesystem::path(options.out_dir) / frame.name).string(),

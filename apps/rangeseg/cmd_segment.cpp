@@ -177,6 +177,7 @@ void add_segment(CLI::App& app) {
     require_model_for(in.cloud, settings, o->in.path);
     Pipeline pipeline(settings);
     pipeline.process(in.cloud, in.camera_fx);
+    warn_if_no_segments(pipeline, o->in.path);
     const std::string files = write_segmentation_folder(
         o->out_dir, in.cloud, pipeline, {.mesh = !o->no_mesh, .cloud = o->cloud, .pose = in.pose});
     const StageTimes& t = pipeline.times();

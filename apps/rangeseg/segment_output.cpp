@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <system_error>
@@ -281,6 +282,16 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
   if (files.cloud) write_labelled_cloud(file("cloud.pcd"), pipeline, files.pose);
   remove_earlier_results(dir, written);
   return joined(written);
+}
+
+void warn_if_no_segments(const Pipeline& pipeline, const std::string& path) {
+  const std::string why = pipeline.why_no_segments();
+  if (why.empty()) return;
+  // A batch's frames may run on several threads; one such note says it for all.
+  static std::once_flag flag;
+  std::call_once(flag, [&] {
+    std::fprintf(stderr, "rangeseg: warning: %s: no segments: %s\n", path.c_str(), why.c_str());
+  });
 }
 
 }  // namespace rangeseg::cli

@@ -45,6 +45,10 @@ struct FolderFiles {
 std::string write_segmentation_folder(const std::string& dir, const OrganizedCloud& input,
                                       const Pipeline& pipeline, FolderFiles files);
 
+/// A warning on stderr, once per run, when the pipeline's frame from `path` gave no segment
+/// for a reason of its input (Pipeline::why_no_segments), which names the setting to change.
+void warn_if_no_segments(const Pipeline& pipeline, const std::string& path);
+
 /// Removes the result files (those of write_segmentation_folder, and a batch's summary.json)
 /// in `dir` that are not among the paths in `written`: a folder written again (a re-run, a
 /// batch into a single frame's folder or the other way round) keeps no result of an earlier run

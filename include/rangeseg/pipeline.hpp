@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <memory>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -160,6 +161,13 @@ class Pipeline {
   const Segmentation& segmentation() const { return segmentation_; }
   const PolygonSet& polygons() const { return polygons_; }
   const StageTimes& times() const { return times_; }
+  /// Why the last frame gave no segment when its input is the cause, in words for a user (what
+  /// is wrong and which setting to change), else empty: a cloud without a valid point, or a
+  /// grid whose mesh joins hardly any of its points (fewer faces than a tenth of its lattice
+  /// points: neighbouring pixels seldom both hold a point, e.g. every other row empty, or lie
+  /// further apart than the mesh's edge bounds allow). Empty too when there are segments, when
+  /// segmentation is off, and over rings.
+  std::string why_no_segments() const;
   /// Forgets the previous frame of the segment tracks (PipelineSettings::track): the next frame
   /// starts new tracks, e.g. at a cut in a sequence.
   void reset_tracks() { tracker_.reset(); }

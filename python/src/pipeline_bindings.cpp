@@ -290,6 +290,7 @@ class PyPipeline {
   template <class Prepare, class Frame>
   Result run(Prepare&& prepare, Frame&& frame) {
     std::optional<Result> out;
+    std::string why_no_segments;  // once per pipeline
     {
       const py::gil_scoped_release release;
       const std::lock_guard lock(mutex_);
@@ -300,9 +301,12 @@ class PyPipeline {
         prepare();
       }
       frame();
+      if (!warned_no_segments_) why_no_segments = pipeline_.why_no_segments();
+      if (!why_no_segments.empty()) warned_no_segments_ = true;
       const py::gil_scoped_acquire acquire;
       out.emplace(result());
     }
+    if (!why_no_segments.empty()) user_warning("no segments: " + why_no_segments);
     return std::move(*out);
   }
 
@@ -367,7 +371,8 @@ class PyPipeline {
 
   OrganizedCloud input_;  ///< the last NumPy points (Pipeline::cloud() may refer to it)
   bool grid_checked_ = false;
-  mutable std::mutex mutex_;  ///< one frame at a time when Python threads share a pipeline
+  bool warned_no_segments_ = false;  ///< under the mutex
+  mutable std::mutex mutex_;         ///< one frame at a time when Python threads share a pipeline
 };
 
 }  // namespace
@@ -461,7 +466,11 @@ track:  give the segments of consecutive frames track ids (segments' "track_id")
 threads: threads inside a frame (1..256).
 config: settings on top of the preset, a dict or the path of a JSON file with the
         keys of `rangeseg segment --config` (metres, radians), e.g.
-        {"segmentation": {"min_region_size": 200}}.)")
+        {"segmentation": {"min_region_size": 200}}.
+
+A frame that gives no segment for a reason of its input (no valid point; a grid
+whose mesh joins hardly any of its points, e.g. every other row empty) gives a
+UserWarning, once per pipeline, that names the setting to change.)")
       .def(py::init([](const std::optional<std::string>& preset,
                        const std::optional<std::string>& model, std::optional<bool> smooth,
                        std::optional<bool> track, int threads, const py::object& config) {

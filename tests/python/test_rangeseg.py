@@ -405,6 +405,8 @@ class BadInput(unittest.TestCase):
             p.process_depth(z, fx=26.25, fy=26.25, cx=15.5, cy=11.5)
         with warnings.catch_warnings():
             warnings.simplefilter("error")
+            # 5.7 cm pixels at 1.5 m: a mesh without faces (test_a_frame_without_segments_says_why)
+            warnings.filterwarnings("ignore", "no segments")
             p.process_depth(z / 1000, fx=26.25, fy=26.25, cx=15.5, cy=11.5)  # metres
             result = p.process_depth(z, fx=26.25, fy=26.25, cx=15.5, cy=11.5, depth_scale=0.001)
         self.assertEqual(repr(result), "<rangeseg.Result (24, 32): %d segments>" % len(result.segments))
@@ -467,13 +469,17 @@ class BadInput(unittest.TestCase):
             copy = pickle.loads(pickle.dumps(p))  # undecided too
             p.process(points)
             self.assertEqual(p.settings, laser)
-            p.process(camera_points)  # decided once, on the first frame
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                p.process(camera_points)  # decided once, on the first frame
             self.assertEqual(p.settings, laser)
             copy.process(points)
             self.assertEqual(copy.settings, laser)
             self.assertEqual(pickle.loads(pickle.dumps(p)).settings, laser)
             camera = rangeseg.Pipeline(preset=preset, model="auto")
-            camera.process(camera_points)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # a 40 x 30 camera's pixels: few faces
+                camera.process(camera_points)
             self.assertEqual(camera.settings, kinect)
             camera.process(points)
             self.assertEqual(camera.settings, kinect)
@@ -486,6 +492,33 @@ class BadInput(unittest.TestCase):
         chosen.process(points)
         self.assertEqual(chosen.settings, kinect)
 
+    def test_a_frame_without_segments_says_why(self):
+        # A plane at 1.2-2 m seen by a Kinect at 320 x 240, every other row empty: no mesh face.
+        points = rays(320, 240, **HALF) * plane_depth([0.1, -0.6, -0.8], 1.4)[..., None]
+        points = points.astype(np.float32)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            self.assertGreater(len(rangeseg.Pipeline().process(points).segments), 0)
+        rows = points.copy()
+        rows[1::2] = np.nan
+        p = rangeseg.Pipeline()
+        with self.assertWarnsRegex(UserWarning, "no segments: the mesh joins hardly any.*every "
+                                   'other row or column empty.*"pixel_stride": 2'):
+            self.assertEqual(len(p.process(rows).segments), 0)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            p.process(rows)  # once per pipeline
+            # The hint's setting joins them.
+            every_other = rangeseg.Pipeline(config={"mesh": {"pixel_stride": 2}})
+            self.assertGreater(len(every_other.process(rows).segments), 0)
+        # 5.7 cm pixels at 1.5 m: beyond the edge bound, which the warning gives.
+        z = np.full((24, 32), 1500, np.uint16)
+        with self.assertWarnsRegex(UserWarning, r"lie 0\.057\d* m apart.*edge bound there, "
+                                   r"0\.04\d* m.*max_edge_b"):
+            rangeseg.Pipeline().process_depth(z, fx=26.25, fy=26.25, cx=15.5, cy=11.5)
+        with self.assertWarnsRegex(UserWarning, "no segments: the cloud has no point"):
+            rangeseg.Pipeline().process(np.full((10, 10, 3), np.nan, np.float32))
+
     def test_an_implausible_integer_depth_scale_warns(self):
         z = np.full((24, 32), 1500, np.uint16)  # millimetres
         p = rangeseg.Pipeline()
@@ -495,6 +528,7 @@ class BadInput(unittest.TestCase):
                 p.process_depth(z, depth_scale=scale, **camera)
         with warnings.catch_warnings():
             warnings.simplefilter("error")
+            warnings.filterwarnings("ignore", "no segments")  # 5.7 cm pixels at 1.5 m
             p.process_depth(z, **camera)  # the default 0.001
             p.process_depth(z, depth_scale=0.0001, **camera)  # a RealSense's 0.1 mm: 0.15 m
 
