@@ -46,6 +46,17 @@ def plane_depth(normal, offset, width=320, height=240, **camera):
     return z
 
 
+def lidar_scan_of_a_cylinder_wall():
+    """A spinning lidar's organized scan (16 beams, 2 deg apart; 360 columns round the sensor)
+    of a cylinder wall 5 m away, (16, 360, 3): a grid that no pinhole camera explains."""
+    elevation = np.radians(15.0 - 2.0 * np.arange(16))[:, None]
+    azimuth = np.radians(np.arange(360.0))[None, :]
+    r = 5.0 / np.cos(elevation) * np.ones_like(azimuth)
+    return np.stack([r * np.cos(elevation) * np.cos(azimuth),
+                     r * np.cos(elevation) * np.sin(azimuth),
+                     r * np.sin(elevation) * np.ones_like(azimuth)], -1).astype(np.float32)
+
+
 def kinect_sigma(z):
     return 0.0012 + 0.0019 * (z - 0.4) ** 2
 
@@ -424,12 +435,7 @@ class BadInput(unittest.TestCase):
     def test_a_scanners_grid_with_the_default_preset_warns_once(self):
         # A spinning lidar's organized scan (16 beams, 2 deg apart; 360 columns round the
         # sensor) of a cylinder wall: no pinhole camera explains that grid.
-        elevation = np.radians(15.0 - 2.0 * np.arange(16))[:, None]
-        azimuth = np.radians(np.arange(360.0))[None, :]
-        r = 5.0 / np.cos(elevation) * np.ones_like(azimuth)
-        scan = np.stack([r * np.cos(elevation) * np.cos(azimuth),
-                         r * np.cos(elevation) * np.sin(azimuth),
-                         r * np.sin(elevation) * np.ones_like(azimuth)], -1).astype(np.float32)
+        scan = lidar_scan_of_a_cylinder_wall()
         for preset in (None, "auto"):
             p = rangeseg.Pipeline(preset=preset) if preset else rangeseg.Pipeline()
             with self.assertWarnsRegex(UserWarning, 'no pinhole camera explains this grid.*"laser"'):
@@ -449,12 +455,7 @@ class BadInput(unittest.TestCase):
     def test_the_default_preset_takes_laser_for_an_unorganized_scan_round_its_sensor(self):
         # The lidar scan of a cylinder wall round the sensor as (N, 3) points, as the command
         # line's --preset auto takes it; a camera's points (a cone) keep kinect.
-        elevation = np.radians(15.0 - 2.0 * np.arange(16))[:, None]
-        azimuth = np.radians(np.arange(360.0))[None, :]
-        r = 5.0 / np.cos(elevation) * np.ones_like(azimuth)
-        scan = np.stack([r * np.cos(elevation) * np.cos(azimuth),
-                         r * np.cos(elevation) * np.sin(azimuth),
-                         r * np.sin(elevation) * np.ones_like(azimuth)], -1).astype(np.float32)
+        scan = lidar_scan_of_a_cylinder_wall()
         points = scan.reshape(-1, 3)
         small = dict(fx=FX / 16, fy=FX / 16, cx=19.5, cy=14.5)  # 40 x 30
         camera_points = rays(40, 30, **small) * plane_depth([0.1, -0.6, -0.8], 1.4, 40, 30,
