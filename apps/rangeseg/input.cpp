@@ -299,8 +299,9 @@ void check_cloud_scale(const std::string& path, const OrganizedCloud& cloud) {
 
 void note_auto_preset(const std::string& preset_option, const LoadedInput& in,
                       const std::string& path) {
+  // A grid without points tells nothing (the no-segments warning says what is wrong with it).
   if (preset_option != "auto" || !in.sensor_preset.empty() || !in.cloud.is_organized() ||
-      in.camera_fx > 0) {
+      in.camera_fx > 0 || in.cloud.count_valid() == 0) {
     return;
   }
   static std::once_flag checked;

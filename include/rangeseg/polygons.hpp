@@ -103,7 +103,7 @@ struct SegmentPolygons {
   int loop_count = 0;
   int hull_first = 0;  ///< range into hull_points2d / hull_points3d / hull_pixels (CCW)
   int hull_count = 0;
-  double area = 0;            ///< outer loops minus holes, simplified [m^2]
+  double area = 0;            ///< outer loops minus holes, simplified (0 at least) [m^2]
   double raw_area = 0;        ///< the same for the mesh boundary (= projected mesh area) [m^2]
   double perimeter = 0;       ///< sum over all loops, simplified [m]
   double hull_area = 0;       ///< [m^2]

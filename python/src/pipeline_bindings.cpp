@@ -4,7 +4,6 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
-#include <atomic>
 #include <climits>
 #include <cmath>
 #include <mutex>
@@ -175,18 +174,24 @@ class PyPipeline {
   /// `laser`: for the default preset ("auto"), the settings the pipeline takes instead of
   /// `settings` (kinect's) when its first frame is a scan round its sensor; empty for a preset
   /// the caller chose.
-  /// `arguments`: the constructor's, for pickling while the preset is undecided.
-  PyPipeline(const PipelineSettings& settings, const std::optional<PipelineSettings>& laser,
-             py::tuple arguments)
-      : pipeline_(settings),
-        laser_(laser),
-        arguments_(std::move(arguments)),
-        undecided_(laser_.has_value()),
-        grid_checked_(!laser_) {}
+  PyPipeline(const PipelineSettings& settings, const std::optional<PipelineSettings>& laser)
+      : pipeline_(settings), laser_(laser), grid_checked_(!laser_) {}
 
-  /// The constructor's arguments while the default preset waits for the first frame, else None.
-  py::object undecided_arguments() const {
-    return undecided_.load() ? py::object(arguments_) : py::object(py::none());
+  /// Makes the pipeline decide on its first frame between its settings and `laser`, as the
+  /// default preset does (an undecided pipeline unpickled). Before any frame only.
+  void wait_for_the_first_frame(const PipelineSettings& laser) {
+    const py::gil_scoped_release release;
+    const std::lock_guard lock(mutex_);
+    laser_ = laser;
+    grid_checked_ = false;
+  }
+
+  /// While the default preset waits for the first frame, its laser settings (the pipeline's
+  /// are kinect's), for a copy that decides alike; else nothing. Under the mutex, as settings().
+  std::optional<PipelineSettings> undecided_laser() const {
+    const py::gil_scoped_release release;
+    const std::lock_guard lock(mutex_);
+    return laser_;
   }
 
   Result process(const OrganizedCloud& cloud, double fx) {
@@ -343,21 +348,22 @@ class PyPipeline {
     if (!laser_) return;
     if (cloud != nullptr && !cloud->is_organized() && surrounds_its_sensor(*cloud)) {
       pipeline_ = Pipeline(*laser_);
+      grid_checked_ = true;  // a scanner's preset: its grids need no warning
     }
     laser_.reset();
-    undecided_ = false;
   }
 
   Pipeline pipeline_;
   std::optional<PipelineSettings> laser_;
-  py::tuple arguments_;
-  std::atomic<bool> undecided_;  ///< laser_ is set (read without the mutex)
   /// For a pipeline made with the default preset, once (under the mutex, without the GIL):
   /// whether its first organized grid is one no pinhole camera explains, a scanner's (a spinning
   /// lidar's, a tilting laser's), for which the kinect preset's noise model, a function of z, is
   /// wrong. The command line's --preset auto notes it alike.
   bool first_grid_is_a_scanners(const OrganizedCloud& cloud, double fx) {
-    if (grid_checked_ || fx > 0 || !cloud.is_organized()) return false;
+    // A grid without points tells nothing (why_no_segments says what is wrong with it).
+    if (grid_checked_ || fx > 0 || !cloud.is_organized() || cloud.count_valid() == 0) {
+      return false;
+    }
     grid_checked_ = true;
     CameraIntrinsics camera;
     return !fit_intrinsics(cloud, camera);
@@ -482,7 +488,7 @@ UserWarning, once per pipeline, that names the setting to change.)")
              if (!chosen) laser = settings_from("laser", model, smooth, track, threads, config);
              return std::make_unique<PyPipeline>(
                  settings_from(chosen ? *preset : "kinect", model, smooth, track, threads, config),
-                 laser, py::make_tuple(py::none(), model, smooth, track, threads, config));
+                 laser);
            }),
            "preset"_a = py::none(), "model"_a = py::none(), "smooth"_a = py::none(),
            "track"_a = py::none(), "threads"_a = 1, "config"_a = py::none())
@@ -556,15 +562,33 @@ for process. Returns a Result.)")
       .def("__reduce__",
            [](const py::object& self) {
              const auto& p = self.cast<const PyPipeline&>();
-             // Undecided, the copy decides on its own first frame.
-             if (const py::object args = p.undecided_arguments(); !args.is_none()) {
-               return py::make_tuple(self.attr("__class__"), args);
-             }
+             // Undecided, the copy decides on its own first frame between the same settings:
+             // made with the kinect ones, it is given the laser ones as the state pickle sets
+             // by attribute (pybind11 takes a method named __setstate__ for a constructor).
+             const std::optional<PipelineSettings> laser = p.undecided_laser();
              const py::object none = py::none();
-             return py::make_tuple(self.attr("__class__"),
-                                   py::make_tuple("kinect", none, none, none, p.settings().threads,
-                                                  settings_dict(p.settings())));
+             return py::make_tuple(
+                 self.attr("__class__"),
+                 py::make_tuple("kinect", none, none, none, p.settings().threads,
+                                settings_dict(p.settings())),
+                 laser ? py::object(py::make_tuple(
+                             none, py::dict("_undecided_laser"_a = settings_dict(*laser))))
+                       : none);
            })
+      .def_property(
+          "_undecided_laser",
+          [](const PyPipeline& p) -> py::object {
+            const std::optional<PipelineSettings> laser = p.undecided_laser();
+            return laser ? py::object(settings_dict(*laser)) : py::object(py::none());
+          },
+          [](PyPipeline& p, const py::dict& laser) {
+            const std::optional<std::string> no_model;
+            const std::optional<bool> no_flag;
+            p.wait_for_the_first_frame(
+                settings_from("laser", no_model, no_flag, no_flag, p.settings().threads, laser));
+          },
+          "for pickling: the settings an undecided default preset takes for a scan round its "
+          "sensor")
       .def("__repr__", [](const PyPipeline& p) {
         const PipelineSettings& s = p.settings();
         return "<rangeseg.Pipeline model='" + std::string(to_string(s.segmentation.model)) +

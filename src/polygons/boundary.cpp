@@ -125,7 +125,9 @@ __attribute__((target("avx2"))) void project_avx2(const OrganizedCloud& cloud,
                 e22 = _mm256_set1_pd(fr.e2[2]);
   const __m256d offset = _mm256_set1_pd(fr.offset), neg_nvp = _mm256_set1_pd(-pr.nvp),
                 zero = _mm256_setzero_pd();
-  const __m256d c2e12 = _mm256_set1_pd(2e-12), c1e6 = _mm256_set1_pd(-1e-6);
+  const __m256d two_sine2 =
+                    _mm256_set1_pd(2 * polygons_detail::kMinRaySine * polygons_detail::kMinRaySine),
+                minus_sine = _mm256_set1_pd(-polygons_detail::kMinRaySine);
   const __m256d front = pr.nvp > 0 ? _mm256_castsi256_pd(_mm256_set1_epi64x(-1)) : zero;
   int i = 0;
   for (; i + 4 <= n; i += 4) {
@@ -149,9 +151,9 @@ __attribute__((target("avx2"))) void project_avx2(const OrganizedCloud& cloud,
     const __m256d denom = dot3(n0, n1, n2, d0, d1, d2);
     const __m256d dir2 = dot3(d0, d1, d2, d0, d1, d2);
     const __m256d steep =
-        _mm256_cmp_pd(_mm256_mul_pd(denom, denom), _mm256_mul_pd(c2e12, dir2), _CMP_GT_OQ);
+        _mm256_cmp_pd(_mm256_mul_pd(denom, denom), _mm256_mul_pd(two_sine2, dir2), _CMP_GT_OQ);
     const __m256d near =
-        _mm256_cmp_pd(denom, _mm256_mul_pd(c1e6, _mm256_sqrt_pd(dir2)), _CMP_LT_OQ);
+        _mm256_cmp_pd(denom, _mm256_mul_pd(minus_sine, _mm256_sqrt_pd(dir2)), _CMP_LT_OQ);
     const __m256d ray = _mm256_and_pd(_mm256_and_pd(front, _mm256_cmp_pd(denom, zero, _CMP_LT_OQ)),
                                       _mm256_or_pd(steep, near));
     const __m256d t = _mm256_div_pd(neg_nvp, denom);
@@ -513,6 +515,9 @@ void outline_segment(const OrganizedCloud& cloud, const Segmentation& segmentati
     dst.loops.push_back(lp);
   }
   sp.loop_count = static_cast<int>(nk);
+  // Holes lie inside their outer loops, so this is never below 0 but for a plane seen edge-on
+  // (through the viewpoint), whose outline projects onto it as a sliver of overlapping loops.
+  sp.area = std::max(0.0, sp.area);
 
   // Convex hull of the outer loops' mesh boundary vertices.
   if (settings.convex_hull) {

@@ -46,19 +46,27 @@ inline Projection make_projection(const PlaneFrame& fr, const Vec& vp) {
   return {fr, vp, dot(fr.normal, vp) + fr.offset};
 }
 
+/// Boundary points move onto their plane along their viewing ray (their noise lies along it)
+/// unless the ray meets the plane at less than this sine (1 deg): the move along the ray is
+/// 1 / sine times their distance from the plane, and a plane through the viewpoint (seen
+/// edge-on) would collapse onto it. Those go perpendicular to the plane.
+inline constexpr double kMinRaySine = 0.0175;
+
 /// Plane coordinates (x, y) of camera-frame point p under `pr`.
 inline void project_point(const Projection& pr, const Vec& p, double* xy) {
   const PlaneFrame& fr = pr.fr;
   const Vec& vp = pr.vp;
   const Vec dir{p[0] - vp[0], p[1] - vp[1], p[2] - vp[2]};
   const double denom = dot(fr.normal, dir);
-  // The ray meets the plane's front side when denom < -1e-6 |dir| (and nvp > 0); the square
-  // root is needed only near that limit: denom^2 > 2e-12 |dir|^2 already implies it with a
-  // margin of sqrt(2) over the rounding of either side.
+  // Along the ray when it meets the plane's front side at more than kMinRaySine (nvp > 0,
+  // denom < -kMinRaySine |dir|); the square root is needed only near that limit: denom^2 >
+  // 2 kMinRaySine^2 |dir|^2 already implies it with a margin of sqrt(2) over the rounding of
+  // either side.
   bool ray = false;
   if (pr.nvp > 0 && denom < 0) {
     const double dir2 = dot(dir, dir);
-    ray = denom * denom > 2e-12 * dir2 || denom < -1e-6 * std::sqrt(dir2);
+    ray = denom * denom > 2 * kMinRaySine * kMinRaySine * dir2 ||
+          denom < -kMinRaySine * std::sqrt(dir2);
   }
   Vec q;
   if (ray) {

@@ -11,6 +11,7 @@ import os
 import subprocess
 import pathlib
 import pickle
+import re
 import tempfile
 import threading
 import unittest
@@ -492,6 +493,22 @@ class BadInput(unittest.TestCase):
         chosen = rangeseg.Pipeline(preset="kinect", model="auto")
         chosen.process(points)
         self.assertEqual(chosen.settings, kinect)
+        # An undecided copy keeps the settings the original was made with, whatever happens to
+        # its config afterwards.
+        config = {"segmentation": {"min_region_size": 77}}
+        p = rangeseg.Pipeline(config=config)
+        config["segmentation"]["min_region_size"] = 5
+        copy = pickle.loads(pickle.dumps(p))
+        self.assertEqual(copy.settings, p.settings)
+        copy.process(points)
+        self.assertEqual(copy.settings["segmentation"]["min_region_size"], 77)
+        self.assertEqual(copy.settings["noise"], laser["noise"])
+        # Decided on laser, its grids need no word about the preset.
+        p = rangeseg.Pipeline()
+        p.process(points)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            p.process(scan)
 
     def test_a_frame_without_segments_says_why(self):
         # A plane at 1.2-2 m seen by a Kinect at 320 x 240, every other row empty: no mesh face.
@@ -503,8 +520,8 @@ class BadInput(unittest.TestCase):
         rows = points.copy()
         rows[1::2] = np.nan
         p = rangeseg.Pipeline()
-        with self.assertWarnsRegex(UserWarning, "no segments: the mesh joins hardly any.*every "
-                                   'other row or column empty.*"pixel_stride": 2'):
+        with self.assertWarnsRegex(UserWarning, r"no segments: the mesh joins hardly any.*every "
+                                   r'2nd row from row 0: .*points\[0::2, 0::1\].*"pixel_stride": 2'):
             self.assertEqual(len(p.process(rows).segments), 0)
         with warnings.catch_warnings():
             warnings.simplefilter("error")
@@ -512,11 +529,19 @@ class BadInput(unittest.TestCase):
             # The hint's setting joins them.
             every_other = rangeseg.Pipeline(config={"mesh": {"pixel_stride": 2}})
             self.assertGreater(len(every_other.process(rows).segments), 0)
-        # 5.7 cm pixels at 1.5 m: beyond the edge bound, which the warning gives.
+        # A 32 x 24 camera (fx 26 px): its pixels' rays lie 1 / 26 rad apart (1.4 / 26 across the
+        # diagonal), beyond the edge bound; the value the warning proposes joins them.
         z = np.full((24, 32), 1500, np.uint16)
-        with self.assertWarnsRegex(UserWarning, r"lie 0\.057\d* m apart.*edge bound there, "
-                                   r"0\.04\d* m.*max_edge_b"):
-            rangeseg.Pipeline().process_depth(z, fx=26.25, fy=26.25, cx=15.5, cy=11.5)
+        coarse = dict(fx=26.25, fy=26.25, cx=15.5, cy=11.5)
+        with self.assertWarnsRegex(UserWarning, r"rays lie 0\.048\d* rad apart.*0\.07\d* m at the "
+                                   r"median range of 1\.6\d* m.*edge bound there, 0\.046\d* m.*"
+                                   r"max_edge_b .* to about") as caught:
+            rangeseg.Pipeline().process_depth(z, **coarse)
+        b = float(re.search(r"to about ([0-9.]+)", str(caught.warning)).group(1))
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            raised = rangeseg.Pipeline(config={"mesh": {"max_edge_b": b}})
+            self.assertEqual(len(raised.process_depth(z, **coarse).segments), 1)
         with self.assertWarnsRegex(UserWarning, "no segments: the cloud has no point"):
             rangeseg.Pipeline().process(np.full((10, 10, 3), np.nan, np.float32))
 
