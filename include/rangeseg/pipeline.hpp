@@ -162,11 +162,13 @@ class Pipeline {
   const PolygonSet& polygons() const { return polygons_; }
   const StageTimes& times() const { return times_; }
   /// Why the last frame gave no segment when its input is the cause, in words for a user (what
-  /// is wrong and which setting to change), else empty: a cloud without a valid point, or a
-  /// grid whose mesh joins hardly any of its points (fewer faces than a tenth of its lattice
-  /// points: neighbouring pixels seldom both hold a point, e.g. every other row empty, or lie
-  /// further apart than the mesh's edge bounds allow). Empty too when there are segments, when
-  /// segmentation is off, and over rings.
+  /// is wrong and, where one helps, what to change), else empty: a cloud without a valid point,
+  /// or a grid whose mesh joins hardly any of its points (fewer faces than a tenth of its
+  /// lattice points) because its pixels seldom have valid neighbours (the rows and columns
+  /// that hold points when only every k-th does, and how to mesh those) or because its camera
+  /// is so coarse that neighbouring rays lie further apart than the mesh's edge bound (a
+  /// max_edge_b that joins them). Empty too when the points themselves leave no face (noise,
+  /// surfaces seen edge-on), when there are segments, when segmentation is off, and over rings.
   std::string why_no_segments() const;
   /// Forgets the previous frame of the segment tracks (PipelineSettings::track): the next frame
   /// starts new tracks, e.g. at a cut in a sequence.
