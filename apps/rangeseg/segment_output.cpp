@@ -105,16 +105,18 @@ void write_labelled_cloud(const std::string& path, const Pipeline& pipeline,
                           const std::array<double, 7>& pose) {
   OrganizedCloud cloud = pipeline.cloud();
   cloud.label = pipeline.segmentation().labels;
-  LabelImage ids;
-  const RgbImage colours = colorize_labels(colour_ids(pipeline.segmentation(), ids));
   cloud.add_rgb();
-  for (int v = 0; v < cloud.height(); ++v) {
-    for (int u = 0; u < cloud.width(); ++u) {
-      if (!cloud.valid(u, v)) continue;  // black
-      const std::uint8_t* c = colours.pixel(u, v);
-      cloud.r(u, v) = c[0];
-      cloud.g(u, v) = c[1];
-      cloud.b(u, v) = c[2];
+  {  // the colour images are gone before the file is encoded (peak memory)
+    LabelImage ids;
+    const RgbImage colours = colorize_labels(colour_ids(pipeline.segmentation(), ids));
+    for (int v = 0; v < cloud.height(); ++v) {
+      for (int u = 0; u < cloud.width(); ++u) {
+        if (!cloud.valid(u, v)) continue;  // black
+        const std::uint8_t* c = colours.pixel(u, v);
+        cloud.r(u, v) = c[0];
+        cloud.g(u, v) = c[1];
+        cloud.b(u, v) = c[2];
+      }
     }
   }
   write_pcd_with_normals(path, cloud, pipeline.normals(), pose);

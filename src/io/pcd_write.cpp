@@ -157,24 +157,30 @@ std::vector<std::uint8_t> encode_pcd(const OrganizedCloud& cloud, const PcdWrite
         throw std::invalid_argument("encode_pcd: cloud too large for binary_compressed (" +
                                     std::to_string(raw_size) + " bytes)");
       }
-      std::vector<std::uint8_t> raw(raw_size);  // structure of arrays: field after field
-      std::uint8_t* dst = raw.data();
+      // Structure of arrays, field after field, compressed a field at a time: LZF streams
+      // concatenate (a back-reference never reaches before its own block's output), so the
+      // blocks decode as one, and no frame-sized copy of the points is made. The output is
+      // reserved, not filled, so that only its written pages become resident.
+      const std::size_t field_size = n * 4;
+      const std::size_t block_capacity = field_size + field_size / 16 + 64;  // LZF: < 104 %
+      std::vector<std::uint8_t> field(field_size), block(block_capacity);
+      out.reserve(header_size + 8 + raw_size + raw_size / 16 + 64);
+      out.resize(header_size + 8);
       for (const OutField& f : fields) {
+        std::uint8_t* dst = field.data();
         for (int v = 0; v < h; ++v) {
           std::memcpy(dst, f.row(v), static_cast<std::size_t>(w) * 4);
           dst += static_cast<std::size_t>(w) * 4;
         }
+        const unsigned compressed =
+            lzf_compress(field.data(), static_cast<unsigned>(field_size), block.data(),
+                         static_cast<unsigned>(block_capacity));
+        if (compressed == 0) throw std::runtime_error("encode_pcd: LZF compression failed");
+        out.insert(out.end(), block.begin(), block.begin() + compressed);
       }
-      // LZF output is below 104% of the input, so this bound never makes compression fail.
-      const std::size_t capacity = raw_size + raw_size / 16 + 64;
-      out.resize(header_size + 8 + capacity);
-      const unsigned compressed =
-          lzf_compress(raw.data(), static_cast<unsigned>(raw_size), out.data() + header_size + 8,
-                       static_cast<unsigned>(capacity));
-      if (compressed == 0) throw std::runtime_error("encode_pcd: LZF compression failed");
-      const std::uint32_t sizes[2] = {compressed, static_cast<std::uint32_t>(raw_size)};
+      const std::uint32_t sizes[2] = {static_cast<std::uint32_t>(out.size() - header_size - 8),
+                                      static_cast<std::uint32_t>(raw_size)};
       std::memcpy(out.data() + header_size, sizes, 8);
-      out.resize(header_size + 8 + compressed);
       break;
     }
     case PcdEncoding::ascii: {
