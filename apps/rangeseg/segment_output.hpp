@@ -46,7 +46,7 @@ std::string write_segmentation_folder(const std::string& dir, const OrganizedClo
                                       const Pipeline& pipeline, FolderFiles files);
 
 /// A warning on stderr, once per run, when the pipeline's frame from `path` gave no segment
-/// for a reason of its input (Pipeline::why_no_segments), which names the setting to change.
+/// for a reason of its input (Pipeline::why_no_segments), and, where one helps, what to change.
 void warn_if_no_segments(const Pipeline& pipeline, const std::string& path);
 
 /// Removes the result files (those of write_segmentation_folder, and a batch's summary.json)

@@ -186,12 +186,13 @@ class PyPipeline {
     grid_checked_ = false;
   }
 
-  /// While the default preset waits for the first frame, its laser settings (the pipeline's
-  /// are kinect's), for a copy that decides alike; else nothing. Under the mutex, as settings().
-  std::optional<PipelineSettings> undecided_laser() const {
+  /// The pipeline's settings and, while the default preset waits for the first frame, its
+  /// laser settings (the others are kinect's), read together under the mutex, as settings():
+  /// what a copy needs to decide alike.
+  std::pair<PipelineSettings, std::optional<PipelineSettings>> state() const {
     const py::gil_scoped_release release;
     const std::lock_guard lock(mutex_);
-    return laser_;
+    return {pipeline_.settings(), laser_};
   }
 
   Result process(const OrganizedCloud& cloud, double fx) {
@@ -475,8 +476,9 @@ config: settings on top of the preset, a dict or the path of a JSON file with th
         {"segmentation": {"min_region_size": 200}}.
 
 A frame that gives no segment for a reason of its input (no valid point; a grid
-whose mesh joins hardly any of its points, e.g. every other row empty) gives a
-UserWarning, once per pipeline, that names the setting to change.)")
+whose mesh joins hardly any of its points: points on every k-th row or column only,
+or a camera too coarse for the mesh's edge bound) gives a UserWarning, once per
+pipeline, that says so and, where one helps, what to change.)")
       .def(py::init([](const std::optional<std::string>& preset,
                        const std::optional<std::string>& model, std::optional<bool> smooth,
                        std::optional<bool> track, int threads, const py::object& config) {
@@ -565,12 +567,12 @@ for process. Returns a Result.)")
              // Undecided, the copy decides on its own first frame between the same settings:
              // made with the kinect ones, it is given the laser ones as the state pickle sets
              // by attribute (pybind11 takes a method named __setstate__ for a constructor).
-             const std::optional<PipelineSettings> laser = p.undecided_laser();
+             const auto [settings, laser] = p.state();
              const py::object none = py::none();
              return py::make_tuple(
                  self.attr("__class__"),
-                 py::make_tuple("kinect", none, none, none, p.settings().threads,
-                                settings_dict(p.settings())),
+                 py::make_tuple("kinect", none, none, none, settings.threads,
+                                settings_dict(settings)),
                  laser ? py::object(py::make_tuple(
                              none, py::dict("_undecided_laser"_a = settings_dict(*laser))))
                        : none);
@@ -578,7 +580,7 @@ for process. Returns a Result.)")
       .def_property(
           "_undecided_laser",
           [](const PyPipeline& p) -> py::object {
-            const std::optional<PipelineSettings> laser = p.undecided_laser();
+            const std::optional<PipelineSettings> laser = p.state().second;
             return laser ? py::object(settings_dict(*laser)) : py::object(py::none());
           },
           [](PyPipeline& p, const py::dict& laser) {

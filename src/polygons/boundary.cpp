@@ -226,11 +226,10 @@ struct PolygonExtractor::Scratch {
   Plane<std::uint16_t> edge_masks;  // outgoing boundary edges: mask | remaining << 8
   Plane<std::int32_t> pos;
   bool dirty = false;
-  polygons_detail::BoundaryMaskScratch masks;
   polygons_detail::TraceSteps trace_steps;
   std::vector<std::int32_t> starts, walk, stack;
-  std::vector<std::vector<std::int32_t>> band_starts;  // with threads: per row band
-  std::vector<polygons_detail::BoundaryMaskScratch> band_masks;
+  std::vector<std::vector<std::int32_t>> band_starts;            // with threads: per row band
+  std::vector<polygons_detail::BoundaryMaskScratch> band_masks;  // per row band
   std::vector<RawLoop> raw;
   std::vector<std::int32_t> raw_idx;
   std::vector<std::array<std::int32_t, 2>> raw_uv;  // (u, v) of each raw_idx entry
@@ -676,14 +675,14 @@ void PolygonExtractor::extract_grid(const OrganizedCloud& cloud, const Mesh& mes
                                             sc.enabled.data(), n_labels, edge_masks, stride,
                                             v_begin, v_end, starts, masks);
   };
+  const auto bands = static_cast<std::size_t>(pool != nullptr ? pool->threads() : 1);
+  if (sc.band_masks.size() < bands) {
+    sc.band_starts.resize(bands);
+    sc.band_masks.resize(bands);
+  }
   if (pool == nullptr) {
-    find_boundary(0, height, sc.starts, sc.masks);
+    find_boundary(0, height, sc.starts, sc.band_masks[0]);
   } else {
-    const auto bands = static_cast<std::size_t>(pool->threads());
-    if (sc.band_starts.size() < bands) {
-      sc.band_starts.resize(bands);
-      sc.band_masks.resize(bands);
-    }
     pool->for_each_band(height, s, [&](int band, int v_begin, int v_end) {
       const auto b = static_cast<std::size_t>(band);
       find_boundary(v_begin, v_end, sc.band_starts[b], sc.band_masks[b]);
