@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstdint>
@@ -14,7 +15,9 @@
 #include <sstream>
 #include <string>
 
+#include "rangeseg/camera.hpp"
 #include "rangeseg/io/pcd.hpp"
+#include "rangeseg/synth.hpp"
 
 namespace rangeseg::test {
 
@@ -39,6 +42,31 @@ inline CliResult run_cli(const std::string& args) {
   const int status = pclose(pipe);
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
+}
+
+inline std::string read_text(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+inline nlohmann::json read_json(const std::filesystem::path& p) {
+  return nlohmann::json::parse(read_text(p));
+}
+
+/// A small noisy synthetic frame (160x120, Kinect optics scaled down) so batch tests stay fast.
+inline OrganizedCloud small_frame(std::uint64_t seed) {
+  const CameraIntrinsics camera{
+      .fx = 131.25, .fy = 131.25, .cx = 79.5, .cy = 59.5, .width = 160, .height = 120};
+  return synth::render(synth::random_scene(seed, false),
+                       {.camera = camera, .noise = synth::Noise::kinect, .seed = seed})
+      .cloud;
+}
+
+inline void write_small_pcd(const std::filesystem::path& path, std::uint64_t seed) {
+  std::filesystem::create_directories(path.parent_path());
+  io::write_pcd(path.string(), small_frame(seed), {.encoding = io::PcdEncoding::binary_compressed});
 }
 
 /// The normals of a PCD written with normal_x normal_y normal_z curvature, read with the library's

@@ -33,35 +33,16 @@ using rangeseg::test::CliResult;
 using rangeseg::test::contains;
 CliResult run(const std::string& args) { return rangeseg::test::run_cli(args); }
 
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-/// A small noisy synthetic frame (160x120, Kinect optics scaled down) so batch tests stay fast.
-rangeseg::OrganizedCloud small_frame(std::uint64_t seed) {
-  const rangeseg::CameraIntrinsics camera{
-      .fx = 131.25, .fy = 131.25, .cx = 79.5, .cy = 59.5, .width = 160, .height = 120};
-  return rangeseg::synth::render(
-             rangeseg::synth::random_scene(seed, false),
-             {.camera = camera, .noise = rangeseg::synth::Noise::kinect, .seed = seed})
-      .cloud;
-}
-
-void write_small_pcd(const fs::path& path, std::uint64_t seed) {
-  fs::create_directories(path.parent_path());
-  rangeseg::io::write_pcd(path.string(), small_frame(seed),
-                          {.encoding = rangeseg::io::PcdEncoding::binary_compressed});
-}
+using rangeseg::test::read_text;
+using rangeseg::test::small_frame;
+using rangeseg::test::write_small_pcd;
 
 void write_truncated_pcd(const fs::path& path) {
   std::ofstream(path) << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
                          "WIDTH 100\nHEIGHT 100\nPOINTS 10000\nDATA binary\nabc";
 }
 
-nlohmann::json read_json(const fs::path& p) { return nlohmann::json::parse(read_text(p)); }
+using rangeseg::test::read_json;
 
 int count_files(const fs::path& dir) {
   int n = 0;
@@ -997,9 +978,10 @@ TEST(CliBatch, TumSequenceUsesTimestampsAndFiveThousandUnitsPerMetre) {
   EXPECT_EQ(summary["frames"], 3);
   EXPECT_EQ(summary["succeeded"], 2);
   // How the depth became points: TUM's scale, the camera the options gave.
-  EXPECT_DOUBLE_EQ(summary["depth_png"]["depth_scale_m_per_unit"].get<double>(), 1.0 / 5000.0);
-  EXPECT_EQ(summary["depth_png"]["camera"], "--fx / --fy / --cx / --cy");
-  EXPECT_EQ(summary["depth_png"]["fx"].get<double>(), 131.25);
+  EXPECT_DOUBLE_EQ(summary["tum_depth_png"]["depth_scale_m_per_unit"].get<double>(), 1.0 / 5000.0);
+  EXPECT_EQ(summary["tum_depth_png"]["camera"], "--fx / --fy / --cx / --cy");
+  EXPECT_EQ(summary["tum_depth_png"]["fx"].get<double>(), 131.25);
+  EXPECT_FALSE(summary.contains("depth_png"));  // no other depth image
 }
 
 TEST(CliBatch, TwoThreadsWriteTheSameBytesAsOne) {

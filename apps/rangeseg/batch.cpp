@@ -7,17 +7,25 @@
 #endif
 
 #include <algorithm>
+#include <array>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <map>
 #include <memory>
+#include <set>
 #include <thread>
+
+#include <unistd.h>
 #include <vector>
 
 #include "names.hpp"
 #include "output.hpp"
+#include "rangeseg/io/file.hpp"
 #include "segment_output.hpp"
 
 namespace rangeseg::cli {
@@ -25,6 +33,7 @@ namespace {
 
 struct FrameResult {
   bool ok = false;
+  bool first = false;  ///< its pipeline's first frame, which allocated the buffers
   std::string error;
   std::string preset;
   StageTimes times;
@@ -48,11 +57,14 @@ class WorkerPipelines {
     }
     return *p;
   }
+  /// Whether the pipeline of `preset` runs its first frame (then counted as run).
+  bool first_frame(const std::string& preset) { return ran_.insert(preset).second; }
 
  private:
   const BatchSettings& settings_;
   int frame_threads_;
   std::map<std::string, std::unique_ptr<Pipeline>> by_preset_;
+  std::set<std::string> ran_;
 };
 
 /// Every stage name in the order of summary.json: a frame on a grid has no rings, one over rings
@@ -84,6 +96,7 @@ FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options
     Pipeline& pipeline = pipelines(r.preset);
     require_model_for(in.cloud, pipeline.settings(), frame.path);
     pipeline.process(in.cloud, in.camera_fx);
+    r.first = pipelines.first_frame(r.preset);
     warn_if_no_segments(pipeline, frame.path);
     FolderFiles files = options.files;
     files.pose = in.pose;
@@ -110,6 +123,43 @@ FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options
 /// of the CPU time for 12 Kinect frames with mesh.ply; worse with threads, which contend on the
 /// kernel's address-space lock). Keeping freed memory in the heap for the next frame cuts this
 /// to 17k faults; the peak stays that of one frame per thread.
+/// The signal that asked the running batch to stop (SIGINT, SIGTERM, SIGHUP); 0 while none has.
+std::atomic<int> stop_signal{0};
+
+extern "C" void stop_after_current_frames(int signal) {
+  // A second signal ends the process at once, as it would have without a batch.
+  if (stop_signal.exchange(signal) != 0) {
+    io::remove_temporary_files();
+    std::signal(signal, SIG_DFL);
+    std::raise(signal);
+  }
+}
+
+/// While one exists, SIGINT, SIGTERM and SIGHUP stop the batch after the frames being processed:
+/// their folders are complete, and the summary says which frames ran.
+class StopAfterCurrentFrames {
+ public:
+  StopAfterCurrentFrames() {
+    stop_signal.store(0);
+    for (std::size_t k = 0; k < kSignals.size(); ++k) {
+      previous_[k] = std::signal(kSignals[k], stop_after_current_frames);
+    }
+  }
+  ~StopAfterCurrentFrames() {
+    for (std::size_t k = 0; k < kSignals.size(); ++k) std::signal(kSignals[k], previous_[k]);
+  }
+  StopAfterCurrentFrames(const StopAfterCurrentFrames&) = delete;
+  StopAfterCurrentFrames& operator=(const StopAfterCurrentFrames&) = delete;
+
+ private:
+  static constexpr std::array<int, 3> kSignals{SIGINT, SIGTERM, SIGHUP};
+  std::array<void (*)(int), 3> previous_{};
+};
+
+const char* signal_name(int signal) {
+  return signal == SIGINT ? "SIGINT" : signal == SIGTERM ? "SIGTERM" : "SIGHUP";
+}
+
 void keep_freed_memory_for_reuse() {
 #if defined(__GLIBC__)
   mallopt(M_MMAP_THRESHOLD, 32 << 20);  // the largest glibc accepts on 64-bit
@@ -140,6 +190,11 @@ double median(std::vector<double> v) {
 std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
                           const BatchOptions& options) {
   const auto out_dir = ensure_dir(options.out_dir);
+  // Found before any frame is read, not after all of them.
+  if (::access(out_dir.c_str(), W_OK | X_OK) != 0) {
+    throw std::runtime_error(out_dir.string() + ": cannot write into the output folder (" +
+                             std::strerror(errno) + ")");
+  }
   keep_freed_memory_for_reuse();
   const std::size_t n = list.frames.size();
   // Tracked segments need the frames in order, on one pipeline: the threads then work inside
@@ -147,40 +202,68 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
   const bool track = settings.settings_for(resolve_preset(settings.preset, "")).track;
   for (std::size_t i = 1; track && i < n; ++i) {
     // A shell's glob sorts frame10 before frame2; tracks would then jump back and forth.
-    const std::string& before = list.frames[i - 1].path;
-    const std::string& after = list.frames[i].path;
-    if (natural_less(after, before)) {
-      std::fprintf(stderr,
-                   "rangeseg: warning: --track runs the frames in the order given, and %s comes "
-                   "before %s (a folder runs in natural order: give the folder, or sort the "
-                   "list with `ls -v`)\n",
-                   before.c_str(), after.c_str());
-      break;
+    const FrameSource& before = list.frames[i - 1];
+    const FrameSource& after = list.frames[i];
+    if (!natural_less(after.path, before.path)) continue;
+    if (before.tum && after.tum) {
+      note(
+          "warning: --track runs the frames in the order of depth.txt, which lists %s before %s: "
+          "sort its lines by timestamp",
+          before.path.c_str(), after.path.c_str());
+    } else {
+      note(
+          "warning: --track runs the frames in the order given, and %s comes before %s (a "
+          "folder runs in natural order: give the folder, or sort the list with `ls -v`)",
+          before.path.c_str(), after.path.c_str());
     }
+    break;
   }
   const int frame_threads = track ? std::max(options.threads, 1) : 1;
   const std::size_t threads =
       track ? 1
             : std::clamp<std::size_t>(static_cast<std::size_t>(std::max(options.threads, 1)), 1,
                                       std::max<std::size_t>(n, 1));
+  if (const unsigned cores = std::thread::hardware_concurrency();
+      cores > 0 && static_cast<unsigned>(std::max(options.threads, 1)) > cores) {
+    note(
+        "warning: --threads %d on %u cores: the threads take turns, and the times per frame "
+        "include the waits",
+        options.threads, cores);
+  }
   // The first pipeline of each worker is made here, so that invalid settings throw before any
   // work starts.
   std::vector<WorkerPipelines> pipelines;
   for (std::size_t t = 0; t < threads; ++t) {
     pipelines.emplace_back(settings, frame_threads)(resolve_preset(settings.preset, ""));
   }
+  // The clean-up of result folders never removes a frame of this batch (an input folder given
+  // as the output folder holds both).
+  std::vector<std::string> paths;
+  for (const FrameSource& frame : list.frames) paths.push_back(frame.path);
+  const InputFiles inputs(paths);
+  BatchOptions frame_options = options;
+  frame_options.files.inputs = &inputs;
+  // An earlier run's summary would describe folders this run is replacing.
+  if (const auto old = out_dir / "summary.json";
+      std::filesystem::is_regular_file(old) && !inputs.contains(old) && written_by_rangeseg(old)) {
+    std::error_code ignored;
+    std::filesystem::remove(old, ignored);
+  }
 
   std::vector<FrameResult> results(n);
+  std::vector<std::uint8_t> ran(n, 0);
   std::string sequence_preset;  // tracked: the one worker's
   std::atomic<std::size_t> next{0};
+  const StopAfterCurrentFrames stop;
   ProgressBar bar(n);
   // Each worker takes the next unclaimed frame; a frame's result depends only on the frame, so
   // the outputs are the same for any number of threads.
   const auto work = [&](WorkerPipelines& worker) {
-    for (std::size_t i = next++; i < n; i = next++) {
+    for (std::size_t i = next++; i < n && stop_signal.load() == 0; i = next++) {
       const FrameSource& frame = list.frames[i];
-      results[i] = run_frame(frame, list.options, settings.preset, worker, options,
+      results[i] = run_frame(frame, list.options_for(frame), settings.preset, worker, frame_options,
                              track ? &sequence_preset : nullptr);
+      ran[i] = 1;
       if (!results[i].ok) bar.message("skipped " + results[i].error);
       bar.advance(frame.name);
     }
@@ -195,18 +278,26 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
   const double wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   bar.finish();
+  const int stopped_by = stop_signal.load();
 
-  std::map<std::string, std::vector<double>> per_stage;
+  // Medians over the frames after each pipeline's first, which allocates its buffers (all
+  // frames when every one was a first).
+  std::map<std::string, std::vector<double>> per_stage, warm_per_stage;
   nlohmann::json frames = nlohmann::json::array(), failures = nlohmann::json::array();
-  std::size_t ok = 0;
+  std::size_t ok = 0, run = 0;
+  bool any_png = false, any_tum = false;
   for (std::size_t i = 0; i < n; ++i) {
     const FrameSource& f = list.frames[i];
+    if (ran[i] == 0) continue;
+    ++run;
+    (f.tum ? any_tum : any_png) |= io::extension(f.path) == ".png";
     const FrameResult& r = results[i];
     if (r.ok) {
       ++ok;
       nlohmann::json ms;
       for (const StageTime& s : stage_times(r.times, r.organized, !r.organized && !r.pixel_grid)) {
         per_stage[s.name].push_back(s.ms);
+        if (!r.first) warm_per_stage[s.name].push_back(s.ms);
         ms[s.name] = s.ms;
       }
       frames.push_back({{"name", f.name},
@@ -216,54 +307,67 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
                         {"pixel_grid", r.pixel_grid},
                         {"preset", r.preset},
                         {"segments", r.segments},
+                        {"first_of_pipeline", r.first},
                         {"ms", ms}});
     } else {
       frames.push_back({{"name", f.name}, {"input", f.path}, {"ok", false}, {"error", r.error}});
       failures.push_back({{"name", f.name}, {"input", f.path}, {"error", r.error}});
     }
   }
-  // Medians of the stages the frames ran (mesh over those on a grid, rings over the others).
+  const bool warm = !warm_per_stage.empty();
   nlohmann::json medians = nlohmann::json::object();
   for (const char* stage : kStages) {
-    if (per_stage.contains(stage)) medians[stage] = median(per_stage[stage]);
+    auto& times = warm ? warm_per_stage : per_stage;
+    if (times.contains(stage)) medians[stage] = median(times[stage]);
   }
-  // How depth PNGs among the frames became points (the focal lengths when no file gives them).
-  nlohmann::json depth_png{{"depth_scale_m_per_unit", list.options.depth_scale},
-                           {"camera", camera_source(list.options)}};
-  if (list.options.intrinsics.empty()) {
-    const auto [fx, fy] = focal_lengths(list.options);
-    depth_png["fx"] = fx;
-    depth_png["fy"] = fy;
-  }
-  const nlohmann::json summary{
+  nlohmann::json summary{
       {"frames", n},
+      {"run", run},
       {"succeeded", ok},
-      {"failed", n - ok},
+      {"failed", run - ok},
       {"threads", track ? frame_threads : static_cast<int>(threads)},
       {"tracked", track},
       {"wall_seconds", wall_s},
       // Of the frames segmented: failures are often cut short by a bad header.
       {"frames_per_second", wall_s > 0 ? static_cast<double>(ok) / wall_s : 0.0},
       {"median_ms", medians},
-      {"depth_png", depth_png},
+      {"median_of", warm ? "the frames after each pipeline's first (which allocates its buffers)"
+                         : "every frame (each its pipeline's first)"},
       {"failures", failures},
       {"per_frame", frames}};
+  // How the depth PNGs among the frames became points (the focal lengths when no file gives
+  // them): those of a TUM sequence, and the others.
+  const auto depth_png = [](const InputOptions& o) {
+    nlohmann::json entry{{"depth_scale_m_per_unit", o.depth_scale}, {"camera", camera_source(o)}};
+    if (o.intrinsics.empty()) {
+      const auto [fx, fy] = focal_lengths(o);
+      entry["fx"] = fx;
+      entry["fy"] = fy;
+    }
+    return entry;
+  };
+  if (any_png) summary["depth_png"] = depth_png(list.options);
+  if (any_tum) summary["tum_depth_png"] = depth_png(list.tum_options);
+  if (stopped_by != 0) summary["stopped_by"] = signal_name(stopped_by);
   write_json((out_dir / "summary.json").string(), summary);
-  remove_earlier_results(out_dir, {(out_dir / "summary.json").string()});
+  remove_earlier_results(out_dir, {(out_dir / "summary.json").string()}, &inputs);
 
-  if (track) {
-    std::printf(
-        "%zu frames: %zu ok, %zu failed; %.2f s, in order with %d thread%s per frame, "
-        "segments tracked",
-        n, ok, n - ok, wall_s, frame_threads, frame_threads == 1 ? "" : "s");
+  if (stopped_by != 0) {
+    std::printf("stopped by %s after %zu of %zu frames: ", signal_name(stopped_by), run, n);
   } else {
-    std::printf("%zu frames: %zu ok, %zu failed; %.2f s with %zu thread%s", n, ok, n - ok, wall_s,
-                threads, threads == 1 ? "" : "s");
+    std::printf("%zu frames: ", n);
+  }
+  if (track) {
+    std::printf("%zu ok, %zu failed; %.2f s, in order with %d thread%s per frame, segments tracked",
+                ok, run - ok, wall_s, frame_threads, frame_threads == 1 ? "" : "s");
+  } else {
+    std::printf("%zu ok, %zu failed; %.2f s with %zu thread%s", ok, run - ok, wall_s, threads,
+                threads == 1 ? "" : "s");
   }
   if (ok > 0) std::printf(" (%.1f frames/s)", summary["frames_per_second"].get<double>());
   std::printf("\n");
   if (ok > 0) {
-    std::printf("median per frame:");
+    std::printf("median per frame%s:", warm ? " after each pipeline's first" : "");
     const char* separator = " ";
     for (const char* stage : kStages) {
       if (!medians.contains(stage)) continue;
@@ -273,8 +377,15 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
     std::printf("\n");
   }
   for (const auto& f : failures) std::printf("failed: %s\n", f["error"].get<std::string>().c_str());
-  std::printf("results in %s, summary in %s\n", (out_dir / "<frame>" / "").string().c_str(),
-              (out_dir / "summary.json").string().c_str());
+  if (ok > 0) std::printf("results in %s, ", (out_dir / "<frame>" / "").string().c_str());
+  std::printf("summary in %s\n", (out_dir / "summary.json").string().c_str());
+  if (stopped_by != 0) {
+    // Ended by the signal, as the caller (a shell: status 128 + signal) expects.
+    std::fflush(stdout);
+    std::fflush(stderr);
+    std::signal(stopped_by, SIG_DFL);
+    std::raise(stopped_by);
+  }
   return ok;
 }
 

@@ -138,7 +138,9 @@ void add_segment(CLI::App& app) {
   cmd->footer(
       "Several inputs, a directory or a TUM sequence run as a batch: a frame that cannot be read "
       "or processed is reported and skipped. Folders are named after the file stem (TUM: the "
-      "timestamp). TUM depth PNGs default to 5000 units per metre and fx = fy = 525, cx = 319.5, "
+      "timestamp; a name two inputs share gets _2, _3, ... in input order). Ctrl-C stops a "
+      "batch after the frames being processed, with its summary. TUM depth PNGs default to 5000 "
+      "units per metre and fx = fy = 525, cx = 319.5, "
       "cy = 239.5.\ncloud.pcd holds the processed (smoothed) points, organized as the input, with "
       "normal_x normal_y normal_z curvature, label and rgb (the label's colour); it takes ~0.15 "
       "s and ~20 MB more for a 640x480 frame.\nAn unorganized "
@@ -147,7 +149,8 @@ void add_segment(CLI::App& app) {
       "the k nearest neighbours of each point (--config \"rings\"; \"restore_grid\": false "
       "always), with --model plane, smooth or auto; its folder holds segments.json, "
       "polygons.obj and cloud.pcd.\nFiles of an earlier run in the output folder that this run "
-      "does not write are removed.\nExit codes: 0 = done (a batch with at least "
+      "does not write are removed (only files rangeseg wrote, never an input).\nExit codes: 0 = "
+      "done (a batch with at least "
       "one frame written; failed frames are listed), 2 = bad arguments, unreadable single input, "
       "or no frame of a batch succeeded (with --strict: any frame failed).");
   cmd->callback([o] {
@@ -178,8 +181,10 @@ void add_segment(CLI::App& app) {
     Pipeline pipeline(settings);
     pipeline.process(in.cloud, in.camera_fx);
     warn_if_no_segments(pipeline, o->in.path);
+    const InputFiles inputs({o->in.path});
     const std::string files = write_segmentation_folder(
-        o->out_dir, in.cloud, pipeline, {.mesh = !o->no_mesh, .cloud = o->cloud, .pose = in.pose});
+        o->out_dir, in.cloud, pipeline,
+        {.mesh = !o->no_mesh, .cloud = o->cloud, .pose = in.pose, .inputs = &inputs});
     const StageTimes& t = pipeline.times();
     const std::size_t segments = pipeline.segmentation().segments.size();
     char tracking[48] = "";

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "output.hpp"
 #include "rangeseg/camera.hpp"
 #include "rangeseg/io/camera_file.hpp"
 #include "rangeseg/io/file.hpp"
@@ -90,12 +91,12 @@ void warn_distortion(const std::string& path, const io::CameraFile& file) {
     std::snprintf(text, sizeof text, "%s%g", coefficients.empty() ? "" : ", ", d);
     coefficients += text;
   }
-  std::fprintf(stderr,
-               "rangeseg: warning: %s: its lens distortion (%s [%s]) is not applied: the depth "
-               "images are taken as a pinhole camera's (rectified)\n",
-               path.c_str(),
-               file.distortion_model.empty() ? "no model named" : file.distortion_model.c_str(),
-               coefficients.c_str());
+  note(
+      "warning: %s: its lens distortion (%s [%s]) is not applied: the depth "
+      "images are taken as a pinhole camera's (rectified)",
+      path.c_str(),
+      file.distortion_model.empty() ? "no model named" : file.distortion_model.c_str(),
+      coefficients.c_str());
 }
 
 void note_projection(const std::string& path, const io::CameraFile& file) {
@@ -105,11 +106,11 @@ void note_projection(const std::string& path, const io::CameraFile& file) {
   if (!noted.insert(path).second) return;
   const CameraIntrinsics& p = file.intrinsics;
   const CameraIntrinsics& k = file.camera_matrix;
-  std::fprintf(stderr,
-               "rangeseg: %s: the projection matrix P (fx %.2f, fy %.2f, cx %.2f, cy %.2f) is "
-               "the camera of the depth images, as for ROS's depth_image_proc: they are taken "
-               "as rectified; K (fx %.2f, fy %.2f, cx %.2f, cy %.2f) is the raw image's\n",
-               path.c_str(), p.fx, p.fy, p.cx, p.cy, k.fx, k.fy, k.cx, k.cy);
+  note(
+      "%s: the projection matrix P (fx %.2f, fy %.2f, cx %.2f, cy %.2f) is "
+      "the camera of the depth images, as for ROS's depth_image_proc: they are taken "
+      "as rectified; K (fx %.2f, fy %.2f, cx %.2f, cy %.2f) is the raw image's",
+      path.c_str(), p.fx, p.fy, p.cx, p.cy, k.fx, k.fy, k.cx, k.cy);
 }
 
 bool camera_options_given(const InputOptions& o) {
@@ -166,10 +167,10 @@ void take_viewpoint(LoadedInput& in, const std::array<double, 7>& p, const Input
     throw std::runtime_error(o.path + ": " + what + " " + pose + ": " + e.what());
   }
   in.pose = {0, 0, 0, 1, 0, 0, 0};
-  std::fprintf(stderr,
-               "rangeseg: %s: %s %s: its points are moved into that sensor's frame, in which "
-               "the results are given\n",
-               o.path.c_str(), what, pose);
+  note(
+      "%s: %s %s: its points are moved into that sensor's frame, in which "
+      "the results are given",
+      o.path.c_str(), what, pose);
 }
 
 }  // namespace
@@ -185,7 +186,7 @@ constexpr double kFarMedianRange = 500;
 // `message` runs only for the one that prints.
 template <class Message>
 void warn_once(std::once_flag& flag, const Message& message) {
-  std::call_once(flag, [&] { std::fprintf(stderr, "rangeseg: %s\n", message().c_str()); });
+  std::call_once(flag, [&] { note("%s", message().c_str()); });
 }
 
 /// The median of `values` (reordered), NaN for none.
@@ -198,6 +199,23 @@ double median_of(std::vector<float>& values) {
 
 // A depth image's camera and scale, when nothing named them or they are implausible.
 void check_depth_image(const InputOptions& o, const OrganizedCloud& cloud, bool eight_bit) {
+  if (!o.tum_sequence && !o.depth_scale_given) {
+    // An image of a TUM sequence's depth/ folder, given alone or as that folder: its depth.txt
+    // would have given TUM's scale (5000 per metre, not millimetres) and camera.
+    const std::filesystem::path sequence =
+        std::filesystem::path(o.path).parent_path().parent_path();
+    std::error_code ec;
+    if (std::filesystem::is_regular_file(
+            (sequence.empty() ? std::filesystem::path(".") : sequence) / "depth.txt", ec)) {
+      static std::once_flag flag;
+      warn_once(flag, [&] {
+        const std::string folder = sequence.empty() ? "." : sequence.string();
+        return "warning: " + o.path + " is a frame of the TUM RGB-D sequence " + folder +
+               " (its depth.txt), read in millimetres: give " + folder +
+               " for TUM's 5000 units per metre and camera, or --depth-scale 0.0002";
+      });
+    }
+  }
   if (!camera_options_given(o) && !o.camera_by_convention) {
     static std::once_flag flag;
     warn_once(flag, [&] {
@@ -308,13 +326,13 @@ void note_auto_preset(const std::string& preset_option, const LoadedInput& in,
   std::call_once(checked, [&] {
     CameraIntrinsics camera;
     if (fit_intrinsics(in.cloud, camera)) return;
-    std::fprintf(stderr,
-                 "rangeseg: note: %s: no pinhole camera explains this grid (a scanner's, or "
-                 "points moved out of the camera's frame); --preset auto takes it for a depth "
-                 "camera's (kinect). For a laser scanner give --preset laser: its range noise at "
-                 "short range is above a depth camera's, and the kinect preset leaves much of "
-                 "such a scan unlabelled.\n",
-                 path.c_str());
+    note(
+        "note: %s: no pinhole camera explains this grid (a scanner's, or "
+        "points moved out of the camera's frame); --preset auto takes it for a depth "
+        "camera's (kinect). For a laser scanner give --preset laser: its range noise at "
+        "short range is above a depth camera's, and the kinect preset leaves much of "
+        "such a scan unlabelled.",
+        path.c_str());
   });
 }
 
@@ -373,10 +391,10 @@ LoadedInput load_input(const InputOptions& o) {
                                  ": --apply-viewpoint: the camera element's axes are no "
                                  "rotation, so its sensor pose cannot be applied");
       }
-      std::fprintf(stderr,
-                   "rangeseg: %s: the camera element's axes are no rotation: its sensor pose is "
-                   "ignored\n",
-                   o.path.c_str());
+      note(
+          "%s: the camera element's axes are no rotation: its sensor pose is "
+          "ignored",
+          o.path.c_str());
     }
     take_viewpoint(in, info.viewpoint, o, "camera element's sensor pose");
   } else if (io::is_text_cloud_extension(ext)) {
@@ -433,11 +451,10 @@ void require_grid(OrganizedCloud& cloud, const std::string& path, const std::str
   OrganizedCloud on_grid;
   scatter_to_grid(cloud, grid, on_grid);
   cloud = std::move(on_grid);
-  std::fprintf(stderr,
-               "rangeseg: %s: unorganized, its points on a %d x %d pixel grid (fx %.2f, fy %.2f, "
-               "cx %.2f, cy %.2f px), which %s uses\n",
-               path.c_str(), grid.width, grid.height, grid.fx, grid.fy, grid.cx, grid.cy,
-               what.c_str());
+  note(
+      "%s: unorganized, its points on a %d x %d pixel grid (fx %.2f, fy %.2f, "
+      "cx %.2f, cy %.2f px), which %s uses",
+      path.c_str(), grid.width, grid.height, grid.fx, grid.fy, grid.cx, grid.cy, what.c_str());
 }
 
 namespace {
@@ -460,8 +477,13 @@ bool is_frame_file(const fs::path& p) {
 /// Frames of a TUM sequence from its depth.txt: "timestamp path" per line, '#' comments. A
 /// malformed line becomes a frame that fails with the reason, so the batch goes on.
 void add_tum_frames(const fs::path& list, std::vector<FrameSource>& frames) {
+  const auto fail = [&](const std::string& why) {
+    frames.push_back({.path = list.string(),
+                      .name = list.parent_path().filename().string(),
+                      .error = list.string() + ": " + why});
+  };
   std::ifstream in(list);
-  if (!in) throw std::runtime_error(list.string() + ": cannot open the TUM depth list");
+  if (!in) return fail("cannot open the TUM depth list");
   const fs::path folder = list.parent_path();
   std::string line;
   int line_number = 0;
@@ -469,6 +491,8 @@ void add_tum_frames(const fs::path& list, std::vector<FrameSource>& frames) {
   while (std::getline(in, line)) {
     ++line_number;
     if (!line.empty() && line.back() == '\r') line.pop_back();
+    // A byte order mark, as some Windows editors write at the start of a text file.
+    if (line_number == 1 && line.starts_with("\xEF\xBB\xBF")) line.erase(0, 3);
     const std::size_t start = line.find_first_not_of(" \t");
     if (start == std::string::npos || line[start] == '#') continue;
     std::istringstream fields(line);
@@ -481,9 +505,10 @@ void add_tum_frames(const fs::path& list, std::vector<FrameSource>& frames) {
                                  ": expected 'timestamp path', got '" + line + "'"});
       continue;
     }
-    frames.push_back({.path = (folder / file).string(), .name = timestamp, .error = {}});
+    frames.push_back(
+        {.path = (folder / file).string(), .name = timestamp, .error = {}, .tum = true});
   }
-  if (frames.size() == first) throw std::runtime_error(list.string() + ": lists no depth images");
+  if (frames.size() == first) fail("lists no depth images");
 }
 
 void add_directory_frames(const fs::path& dir, std::vector<FrameSource>& frames) {
@@ -492,9 +517,15 @@ void add_directory_frames(const fs::path& dir, std::vector<FrameSource>& frames)
     if (e.is_regular_file() && is_frame_file(e.path())) files.push_back(e.path());
   }
   if (files.empty()) {
-    throw std::runtime_error(
-        dir.string() +
-        ": no .pcd, .ply, .png, .range, .xyz, .xyzn, .xyzrgb or .pts files in the directory");
+    // Reported with the other failures: one empty folder among the inputs stops nothing.
+    frames.push_back(
+        {.path = dir.string(),
+         .name = dir.filename().empty() ? dir.parent_path().filename().string()
+                                        : dir.filename().string(),
+         .error = dir.string() +
+                  ": no .pcd, .ply, .png, .range, .xyz, .xyzn, .xyzrgb or .pts files in the "
+                  "directory"});
+    return;
   }
   std::sort(files.begin(), files.end(), natural_less);
   for (const fs::path& f : files) {
@@ -563,15 +594,16 @@ FrameList gather_frames(const std::vector<std::string>& inputs, const InputOptio
   // TUM documents one conversion for all its sequences (the depth images are registered to the
   // colour camera by the factory calibration): fx = fy = 525, cx = 319.5, cy = 239.5, which are
   // the defaults of InputOptions at 640x480, and 5000 depth units per metre.
-  if (tum && !base.depth_scale_given) list.options.depth_scale = kTumDepthScale;
+  list.tum_options = base;
+  list.tum_options.tum_sequence = true;
+  if (tum && !base.depth_scale_given) list.tum_options.depth_scale = kTumDepthScale;
   if (tum) {
-    list.options.camera_by_convention = !camera_options_given(base);
-    std::fprintf(stderr, "rangeseg: a TUM RGB-D sequence: depth in units of %g m%s, %s\n",
-                 list.options.depth_scale,
-                 base.depth_scale_given ? " (--depth-scale)" : " (TUM's 5000 per metre)",
-                 camera_options_given(base) ? "the camera given"
-                                            : "the camera TUM documents (fx = fy = 525 px, cx "
-                                              "319.5, cy 239.5 at 640 x 480)");
+    list.tum_options.camera_by_convention = !camera_options_given(base);
+    note("a TUM RGB-D sequence: depth in units of %g m%s, %s", list.tum_options.depth_scale,
+         base.depth_scale_given ? " (--depth-scale)" : " (TUM's 5000 per metre)",
+         camera_options_given(base) ? "the camera given"
+                                    : "the camera TUM documents (fx = fy = 525 px, cx "
+                                      "319.5, cy 239.5 at 640 x 480)");
   }
   // Unique folder names in input order: the second "a" becomes "a_2".
   std::map<std::string, int> seen;

@@ -25,6 +25,7 @@ struct InputOptions {
   /// The camera and depth scale are the input's documented ones (a TUM sequence), so a depth
   /// PNG without a camera gets no note about the default camera.
   bool camera_by_convention = false;
+  bool tum_sequence = false;  ///< a frame listed in a TUM sequence's depth.txt
   /// Move a PCD's points into the frame of the sensor its VIEWPOINT names (off by default:
   /// PCL's OpenNI grabber writes VIEWPOINT 0 0 0 0 1 0 0 for points in the camera's frame).
   bool apply_viewpoint = false;
@@ -90,14 +91,20 @@ struct FrameSource {
   std::string path;
   std::string name;   ///< file stem, or the TUM timestamp; unique within the batch
   std::string error;  ///< set when the frame is known to be unreadable before loading
+  bool tum = false;   ///< listed in a TUM sequence's depth.txt: loaded with FrameList::tum_options
 };
 
 /// The frames of a batch and the options to load them with.
 struct FrameList {
   std::vector<FrameSource> frames;
-  /// `base`, with the TUM depth scale when a TUM sequence is among the inputs and no
-  /// --depth-scale was given; `path` is unused.
+  /// The options to load the frames with (`base`; `path` is unused) ...
   InputOptions options;
+  /// ... and those of the frames of a TUM sequence: `base` with TUM's depth scale unless
+  /// --depth-scale was given, and TUM's camera unless one was.
+  InputOptions tum_options;
+  const InputOptions& options_for(const FrameSource& frame) const {
+    return frame.tum ? tum_options : options;
+  }
 };
 
 /// Expands the positional inputs of a batch, in order: a file is one frame; a directory holding
@@ -107,9 +114,9 @@ struct FrameList {
 /// sequences (fx = fy = 525, cx = 319.5, cy = 239.5: the defaults) unless --intrinsics / --fx..
 /// are given; any other directory contributes its .pcd, .ply, .png, .range and text cloud files
 /// in natural order (`natural_less`: frame2 before frame10; not recursive). Missing files and
-/// malformed depth.txt lines become frames with `error` set, so the batch reports them and goes on.
-/// Duplicate names get "_2", "_3", ... Throws std::runtime_error naming the input if a directory or
-/// depth.txt yields no frames.
+/// malformed depth.txt lines, a directory without frame files and a depth.txt that lists none
+/// become frames with `error` set, so the batch reports them and goes on. Duplicate names get
+/// "_2", "_3", ... in input order.
 FrameList gather_frames(const std::vector<std::string>& inputs, const InputOptions& base);
 
 /// True if the input is a directory or a TUM depth.txt, i.e. it needs batch processing.

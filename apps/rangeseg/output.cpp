@@ -3,6 +3,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
+#include <cstdarg>
 #include <cstdio>
 #include <stdexcept>
 
@@ -69,10 +71,39 @@ void write_json(const std::string& path, const nlohmann::json& value) {
 
 void progress(const std::string& what) { std::fprintf(stderr, "rangeseg: %s\n", what.c_str()); }
 
-ProgressBar::ProgressBar(std::size_t total)
-    : total_(total), terminal_(::isatty(::fileno(stderr)) == 1) {}
+namespace {
+/// The progress bar drawn on the terminal, if any: notes go above it.
+std::atomic<ProgressBar*> drawn_bar{nullptr};
+}  // namespace
 
-ProgressBar::~ProgressBar() { finish(); }
+void note(const char* format, ...) {
+  std::va_list args;
+  va_start(args, format);
+  std::va_list again;
+  va_copy(again, args);
+  const int length = std::vsnprintf(nullptr, 0, format, args);
+  va_end(args);
+  std::string line(static_cast<std::size_t>(std::max(length, 0)) + 1, '\0');
+  std::vsnprintf(line.data(), line.size(), format, again);
+  va_end(again);
+  line.pop_back();
+  if (ProgressBar* bar = drawn_bar.load()) {
+    bar->message(line);
+  } else {
+    std::fprintf(stderr, "rangeseg: %s\n", line.c_str());
+  }
+}
+
+ProgressBar::ProgressBar(std::size_t total)
+    : total_(total), terminal_(::isatty(::fileno(stderr)) == 1) {
+  if (terminal_) drawn_bar.store(this);
+}
+
+ProgressBar::~ProgressBar() {
+  finish();
+  ProgressBar* self = this;
+  drawn_bar.compare_exchange_strong(self, nullptr);
+}
 
 void ProgressBar::draw(const std::string& item) {
   constexpr int kWidth = 30;
@@ -84,6 +115,7 @@ void ProgressBar::draw(const std::string& item) {
                item.c_str());
   std::fflush(stderr);
   drawn_ = true;
+  last_item_ = item;
 }
 
 void ProgressBar::advance(const std::string& item) {
@@ -102,7 +134,7 @@ void ProgressBar::advance(const std::string& item) {
 void ProgressBar::message(const std::string& line) {
   const std::lock_guard lock(mutex_);
   std::fprintf(stderr, "%srangeseg: %s\n", terminal_ && drawn_ ? "\r\33[K" : "", line.c_str());
-  if (terminal_ && drawn_) draw("");
+  if (terminal_ && drawn_ && !finished_) draw(last_item_);
 }
 
 void ProgressBar::finish() {

@@ -35,6 +35,10 @@ void write_json(const std::string& path, const nlohmann::json& value);
 /// Prints a progress line on stderr ("rangeseg: <what>").
 void progress(const std::string& what);
 
+/// Prints "rangeseg: " and the printf-formatted line on stderr; while a progress bar is drawn
+/// on the terminal, above it. Thread-safe.
+[[gnu::format(printf, 1, 2)]] void note(const char* format, ...);
+
 /// Progress of `total` items on stderr: a bar redrawn in place on a terminal, otherwise a line at
 /// every tenth of the items (logs stay short). Thread-safe.
 class ProgressBar {
@@ -55,6 +59,7 @@ class ProgressBar {
   void draw(const std::string& item);  // caller holds mutex_
 
   std::mutex mutex_;
+  std::string last_item_;
   std::size_t total_, done_ = 0, last_line_ = 0;
   bool terminal_, drawn_ = false, finished_ = false;
 };

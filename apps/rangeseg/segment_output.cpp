@@ -1,6 +1,7 @@
 #include "segment_output.hpp"
 
 #include <signal.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <array>
@@ -206,8 +207,38 @@ std::string joined(const std::vector<std::string>& paths) {
 
 }  // namespace
 
+InputFiles::InputFiles(const std::vector<std::string>& paths) {
+  for (const std::string& path : paths) {
+    struct stat info {};
+    if (::stat(path.c_str(), &info) == 0) ids_.emplace_back(info.st_dev, info.st_ino);
+  }
+  std::sort(ids_.begin(), ids_.end());
+}
+
+bool InputFiles::contains(const std::filesystem::path& path) const {
+  struct stat info {};
+  if (ids_.empty() || ::stat(path.c_str(), &info) != 0) return false;
+  return std::binary_search(ids_.begin(), ids_.end(),
+                            std::pair<std::uint64_t, std::uint64_t>(info.st_dev, info.st_ino));
+}
+
+bool written_by_rangeseg(const std::filesystem::path& path) {
+  std::FILE* file = std::fopen(path.c_str(), "rb");
+  if (file == nullptr) return false;
+  const bool json = path.extension() == ".json";
+  // The marker is in the first lines of a header; a summary's keys may follow a long list.
+  std::string text(json ? std::size_t{1} << 20 : 4096, '\0');
+  text.resize(std::fread(text.data(), 1, text.size(), file));
+  std::fclose(file);
+  if (json) {
+    return text.find("\"per_frame\"") != std::string::npos &&
+           text.find("\"median_ms\"") != std::string::npos;
+  }
+  return text.find("rangeseg") != std::string::npos;
+}
+
 void remove_earlier_results(const std::filesystem::path& dir,
-                            const std::vector<std::string>& written) {
+                            const std::vector<std::string>& written, const InputFiles* inputs) {
   // Temporaries of a run that was killed (SIGKILL, a power cut: no handler ran): NAME.tmp.PID of
   // a process that no longer runs.
   std::error_code error;
@@ -229,16 +260,21 @@ void remove_earlier_results(const std::filesystem::path& dir,
     if (::kill(pid, 0) == 0 || errno != ESRCH) continue;  // its writer may still run
     std::error_code removed;
     if (std::filesystem::remove(entry.path(), removed)) {
-      std::fprintf(stderr, "rangeseg: removed %s, left by an interrupted run\n",
-                   entry.path().c_str());
+      note("removed %s, left by an interrupted run", entry.path().c_str());
     }
   }
   for (const char* name : kFolderFiles) {
     const std::filesystem::path path = dir / name;
     if (std::find(written.begin(), written.end(), path.string()) != written.end()) continue;
     std::error_code error;
+    if (!std::filesystem::is_regular_file(path, error)) continue;
+    if (inputs != nullptr && inputs->contains(path)) continue;  // this run's input
+    if (!written_by_rangeseg(path)) {
+      note("warning: kept %s: a result's name, but rangeseg did not write it", path.c_str());
+      continue;
+    }
     if (std::filesystem::remove(path, error)) {
-      std::fprintf(stderr, "rangeseg: removed %s of an earlier run\n", path.c_str());
+      note("removed %s of an earlier run", path.c_str());
     } else if (error) {
       throw std::runtime_error(path.string() + ": cannot remove the earlier run's file (" +
                                error.message() + ")");
@@ -262,7 +298,7 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
       write_polygons_obj(file("polygons.obj"), pipeline.polygons(), &seg);
     }
     write_labelled_cloud(file("cloud.pcd"), pipeline, files.pose);
-    remove_earlier_results(dir, written);
+    remove_earlier_results(dir, written, files.inputs);
     return joined(written);
   }
   io::write_label_png(file("labels.png"), seg.labels);
@@ -282,7 +318,7 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
     write_mesh_ply(file("mesh.ply"), pipeline.cloud(), pipeline.mesh(), &pipeline.normals(), &flat);
   }
   if (files.cloud) write_labelled_cloud(file("cloud.pcd"), pipeline, files.pose);
-  remove_earlier_results(dir, written);
+  remove_earlier_results(dir, written, files.inputs);
   return joined(written);
 }
 
@@ -291,9 +327,7 @@ void warn_if_no_segments(const Pipeline& pipeline, const std::string& path) {
   if (why.empty()) return;
   // A batch's frames may run on several threads; one such note says it for all.
   static std::once_flag flag;
-  std::call_once(flag, [&] {
-    std::fprintf(stderr, "rangeseg: warning: %s: no segments: %s\n", path.c_str(), why.c_str());
-  });
+  std::call_once(flag, [&] { note("warning: %s: no segments: %s", path.c_str(), why.c_str()); });
 }
 
 }  // namespace rangeseg::cli

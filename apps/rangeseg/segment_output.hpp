@@ -5,8 +5,10 @@
 #include <nlohmann/json.hpp>
 
 #include <array>
+#include <cstdint>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "rangeseg/colorize.hpp"
@@ -24,6 +26,19 @@ nlohmann::json segments_json(const Segmentation& segmentation, const PolygonSet*
 /// Throws std::invalid_argument if its size is not the labels'.
 RgbImage colorize_surface_types(const Segmentation& segmentation, RgbImage shaded);
 
+/// The files a run reads, by device and inode (hard links and other spellings of a path
+/// included): a result folder's clean-up never removes one.
+class InputFiles {
+ public:
+  InputFiles() = default;
+  /// Paths that do not exist (yet) are left out.
+  explicit InputFiles(const std::vector<std::string>& paths);
+  bool contains(const std::filesystem::path& path) const;
+
+ private:
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> ids_;  ///< sorted (device, inode)
+};
+
 /// The optional files of a result folder.
 struct FolderFiles {
   bool mesh = true;    ///< mesh.ply (an organized frame)
@@ -31,6 +46,7 @@ struct FolderFiles {
   /// The input's sensor pose (LoadedInput::pose), cloud.pcd's VIEWPOINT: its points are the
   /// input's, in the same frame.
   std::array<double, 7> pose{0, 0, 0, 1, 0, 0, 0};
+  const InputFiles* inputs = nullptr;  ///< never removed as an earlier run's files
 };
 
 /// Writes the results of the pipeline's last frame into `dir` (each file atomically) and returns
@@ -52,8 +68,15 @@ void warn_if_no_segments(const Pipeline& pipeline, const std::string& path);
 /// Removes the result files (those of write_segmentation_folder, and a batch's summary.json)
 /// in `dir` that are not among the paths in `written`: a folder written again (a re-run, a
 /// batch into a single frame's folder or the other way round) keeps no result of an earlier run
-/// beside this one's. Other files and folders stay.
+/// beside this one's. Only files that rangeseg wrote (written_by_rangeseg) and that are not
+/// among `inputs` go; other files and folders stay (a file of a result's name that rangeseg did
+/// not write gets a warning).
 void remove_earlier_results(const std::filesystem::path& dir,
-                            const std::vector<std::string>& written);
+                            const std::vector<std::string>& written,
+                            const InputFiles* inputs = nullptr);
+
+/// Whether the file at `path` names rangeseg as its writer: PNG (a Software text chunk), PLY,
+/// OBJ and PCD (a header comment), a batch's summary.json (its keys).
+bool written_by_rangeseg(const std::filesystem::path& path);
 
 }  // namespace rangeseg::cli

@@ -107,7 +107,9 @@ std::vector<std::uint8_t> encode_pcd(const OrganizedCloud& cloud, const PcdWrite
 
   const std::size_t n = cloud.size();
   const std::size_t nf = fields.size();
-  std::string header = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS";
+  // The comment names the writer: the command line removes only result files it recognises.
+  std::string header =
+      "# .PCD v0.7 - Point Cloud Data file format, written by rangeseg\nVERSION 0.7\nFIELDS";
   for (const OutField& f : fields) header += " " + f.name;
   header += "\nSIZE";
   for (std::size_t i = 0; i < nf; ++i) header += " 4";
