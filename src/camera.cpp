@@ -4,6 +4,7 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -12,12 +13,17 @@
 namespace rangeseg {
 
 void validate(const CameraIntrinsics& c) {
-  if (!(std::isfinite(c.fx) && std::isfinite(c.fy) && std::isfinite(c.cx) && std::isfinite(c.cy)) ||
-      c.fx <= 0 || c.fy <= 0 || c.width < 0 || c.height < 0) {
-    throw std::invalid_argument("camera intrinsics invalid: fx=" + std::to_string(c.fx) +
-                                " fy=" + std::to_string(c.fy) + " cx=" + std::to_string(c.cx) +
-                                " cy=" + std::to_string(c.cy) + " (need finite, fx, fy > 0)");
+  const auto fail = [&](const char* what) {
+    std::ostringstream message;
+    message << "camera intrinsics: " << what << " (fx " << c.fx << ", fy " << c.fy << ", cx "
+            << c.cx << ", cy " << c.cy << ", width " << c.width << ", height " << c.height << ")";
+    throw std::invalid_argument(message.str());
+  };
+  if (!(std::isfinite(c.fx) && std::isfinite(c.fy) && std::isfinite(c.cx) && std::isfinite(c.cy))) {
+    fail("fx, fy, cx and cy must be finite");
   }
+  if (!(c.fx > 0) || !(c.fy > 0)) fail("fx and fy must be > 0 [pixel]");
+  if (c.width < 0 || c.height < 0) fail("width and height must be >= 0 (0: any size)");
 }
 
 namespace {
@@ -63,10 +69,12 @@ void require_camera_for(const CameraIntrinsics& camera, View<const T> depth) {
   validate(camera);
   if ((camera.width != 0 && camera.width != depth.width) ||
       (camera.height != 0 && camera.height != depth.height)) {
-    throw std::invalid_argument("depth_to_cloud: intrinsics of a " + std::to_string(camera.width) +
-                                " x " + std::to_string(camera.height) + " image for a " +
-                                std::to_string(depth.width) + " x " + std::to_string(depth.height) +
-                                " depth image (width and height 0: any size)");
+    const auto side = [](int size) {
+      return size == 0 ? std::string("any") : std::to_string(size);
+    };
+    throw std::invalid_argument("the camera intrinsics are for a " + side(camera.width) + " x " +
+                                side(camera.height) + " image, the depth image is " +
+                                std::to_string(depth.width) + " x " + std::to_string(depth.height));
   }
 }
 

@@ -74,8 +74,9 @@ OrganizedCloud downsample(const OrganizedCloud& cloud, int factor) {
   if (factor < 1) {
     throw std::invalid_argument("downsample: factor must be >= 1, got " + std::to_string(factor));
   }
-  const int w = (cloud.width() + factor - 1) / factor;
-  const int h = (cloud.height() + factor - 1) / factor;
+  // ceil(size / factor) without the overflow of size + factor - 1.
+  const auto ceil_div = [factor](int size) { return size == 0 ? 0 : (size - 1) / factor + 1; };
+  const int w = ceil_div(cloud.width()), h = ceil_div(cloud.height());
   OrganizedCloud out;
   take_every(cloud.x, factor, w, h, out.x);
   take_every(cloud.y, factor, w, h, out.y);

@@ -28,6 +28,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -103,40 +104,41 @@ const Kernels& kernels() { RANGESEG_SIMD_PICK(Kernels, RANGESEG_MESH_KERNELS); }
 }  // namespace
 
 void validate(const MeshSettings& s) {
+  const auto fail = [](const std::string& field, const std::string& value, const char* condition) {
+    throw std::invalid_argument("MeshSettings::" + field + " = " + value + " must be " + condition);
+  };
+  const auto text = [](double v) {
+    std::ostringstream out;
+    out << v;
+    return out.str();
+  };
   const int t = static_cast<int>(s.type);
   if (t < 0 || t > 3) {
-    throw std::invalid_argument("build_mesh: unknown MeshType " + std::to_string(t));
+    fail("type", std::to_string(t), "a MeshType (quad, left_cut, right_cut or adaptive)");
   }
   if (!(s.eps_theta >= 0.0f && s.eps_theta <= 1.5707964f)) {
-    throw std::invalid_argument("build_mesh: eps_theta must be in [0, pi/2] rad, got " +
-                                std::to_string(s.eps_theta));
+    fail("eps_theta", text(s.eps_theta), "in [0, pi/2] rad");
   }
-  for (float e : {s.max_edge_a, s.max_edge_b, s.max_edge_c}) {
-    if (!(e >= 0.0f) || !std::isfinite(e)) {
-      throw std::invalid_argument("build_mesh: max_edge_a/b/c must be finite and >= 0, got " +
-                                  std::to_string(s.max_edge_a) + ", " +
-                                  std::to_string(s.max_edge_b) + ", " +
-                                  std::to_string(s.max_edge_c));
+  const std::array<std::pair<const char*, float>, 4> bounds{{{"max_edge_a", s.max_edge_a},
+                                                             {"max_edge_b", s.max_edge_b},
+                                                             {"max_edge_c", s.max_edge_c},
+                                                             {"jump_sigmas", s.jump_sigmas}}};
+  for (const auto& [field, value] : bounds) {
+    if (!(value >= 0.0f) || !std::isfinite(value)) fail(field, text(value), "finite and >= 0");
+  }
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (!std::isfinite(s.viewpoint[k])) {
+      fail("viewpoint[" + std::to_string(k) + "]", text(s.viewpoint[k]), "finite [m]");
     }
   }
-  for (float p : s.viewpoint) {
-    if (!std::isfinite(p)) throw std::invalid_argument("build_mesh: viewpoint must be finite");
+  // The noise model of the other stages: sigma(r) > 0 everywhere.
+  if (!std::isfinite(s.noise.a) || !(s.noise.a > 0))
+    fail("noise.a", text(s.noise.a), "finite and > 0");
+  if (!std::isfinite(s.noise.b) || !(s.noise.b >= 0)) {
+    fail("noise.b", text(s.noise.b), "finite and >= 0");
   }
-  if (!(s.jump_sigmas >= 0.0f) || !std::isfinite(s.jump_sigmas)) {
-    throw std::invalid_argument("build_mesh: jump_sigmas must be finite and >= 0, got " +
-                                std::to_string(s.jump_sigmas));
-  }
-  for (double e : {s.noise.a, s.noise.b, s.noise.z0}) {
-    if (!std::isfinite(e)) {
-      throw std::invalid_argument("build_mesh: noise model must be finite, got a " +
-                                  std::to_string(s.noise.a) + ", b " + std::to_string(s.noise.b) +
-                                  ", z0 " + std::to_string(s.noise.z0));
-    }
-  }
-  if (s.pixel_stride < 1) {
-    throw std::invalid_argument("build_mesh: pixel_stride must be >= 1, got " +
-                                std::to_string(s.pixel_stride));
-  }
+  if (!std::isfinite(s.noise.z0)) fail("noise.z0", text(s.noise.z0), "finite");
+  if (s.pixel_stride < 1) fail("pixel_stride", std::to_string(s.pixel_stride), ">= 1");
 }
 
 namespace {

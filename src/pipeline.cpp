@@ -146,7 +146,7 @@ void Pipeline::process_unorganized(const OrganizedCloud& cloud) {
                                 " model is not available for unorganized clouds over rings "
                                 "(plane, smooth or auto)");
   }
-  input_ = &cloud;
+  set_input(cloud);
   times_ = {};
   mesh_ = Mesh{};
   ThreadPool* const pool =
@@ -284,10 +284,22 @@ void Pipeline::process_restored(const OrganizedCloud& cloud, double find_ms) {
   } else {
     segmentation_.labels.clear();
   }
-  input_ = &cloud;
+  set_input(cloud);
   const double extra = find_ms + scatter_ms + ms_since(t);
   times_.input += extra;
   times_.total += extra;
+}
+
+void Pipeline::set_input(const OrganizedCloud& cloud) {
+  input_ = nullptr;
+  if (&cloud == &depth_cloud_) {
+    input_kind_ = InputKind::depth;
+  } else if (&cloud == &own_input_) {
+    input_kind_ = InputKind::own;
+  } else {
+    input_kind_ = InputKind::caller;
+    input_ = &cloud;
+  }
 }
 
 void Pipeline::process(const OrganizedCloud& cloud, double camera_fx) {
@@ -318,7 +330,7 @@ void Pipeline::process_cloud(const OrganizedCloud& cloud) {
 
 void Pipeline::process_grid(const OrganizedCloud& cloud) {
   rings_ = PointRings{};
-  input_ = &cloud;
+  set_input(cloud);
   times_ = {};
   Clock::time_point t = Clock::now();
   const Clock::time_point start = t;
@@ -488,7 +500,7 @@ void Pipeline::process_depth(int width, int height, double fx, Convert&& convert
   const double input_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   camera_fx_ = fx;
   process_cloud(depth_cloud_);
-  input_ = nullptr;  // cloud() is depth_cloud_, wherever the pipeline has moved since
+  input_kind_ = InputKind::depth;
   times_.input = input_ms;
   times_.total += input_ms;
 }

@@ -140,7 +140,15 @@ std::string why_no_faces(const OrganizedCloud& points, const MeshSettings& mesh)
 std::string Pipeline::why_no_segments() const {
   if (!settings_.segment || !segmentation_.segments.empty()) return {};
   const OrganizedCloud& points = cloud();
-  const std::size_t valid = points.count_valid();
+  // Finite points off the sensor's origin, where many drivers put a pixel without depth.
+  std::size_t valid = 0;
+  for (int v = 0; v < points.height(); ++v) {
+    const float *x = points.x.row(v), *y = points.y.row(v), *z = points.z.row(v);
+    for (int u = 0; u < points.width(); ++u) {
+      valid += std::isfinite(x[u]) && std::isfinite(y[u]) && std::isfinite(z[u]) &&
+               (x[u] != 0 || y[u] != 0 || z[u] != 0);
+    }
+  }
   if (valid == 0) {
     return "the cloud has no point (every x, y or z is NaN or infinite, or the point is the "
            "sensor's origin)";

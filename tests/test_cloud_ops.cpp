@@ -82,6 +82,17 @@ TEST(Downsample, RejectsFactorBelowOne) {
   EXPECT_TRUE(rangeseg::downsample(rangeseg::OrganizedCloud{}, 3).empty());
 }
 
+TEST(Downsample, AFactorBeyondTheSizeKeepsTheFirstPixel) {
+  rangeseg::OrganizedCloud in(1000, 3);
+  in.z(0, 0) = 2.0f;
+  for (const int factor : {1000, 1001, 2147483000, std::numeric_limits<int>::max()}) {
+    const rangeseg::OrganizedCloud out = rangeseg::downsample(in, factor);
+    ASSERT_EQ(out.width(), 1) << factor;
+    ASSERT_EQ(out.height(), 1) << factor;
+    EXPECT_EQ(out.z(0, 0), 2.0f) << factor;
+  }
+}
+
 TEST(Cloud, PlanesOfOtherSizesAreRejected) {
   // Every function indexes each plane with the cloud's size (z's): a plane of another size, or
   // some of r, g, b without the others, is an error naming the function and the plane, not a

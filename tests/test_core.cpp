@@ -90,6 +90,23 @@ TEST(Camera, DepthToCloudAndBackIsExact) {
   EXPECT_THROW(depth_to_cloud(depth.view(), CameraIntrinsics{.fx = 0}, 0.001),
                std::invalid_argument);
   EXPECT_THROW(depth_to_cloud(depth.view(), cam, -1.0), std::invalid_argument);
+  // The message says what is wrong, with every value.
+  try {
+    validate(CameraIntrinsics{.width = -1});
+    ADD_FAILURE() << "width -1 accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("width and height must be >= 0"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("width -1"), std::string::npos) << e.what();
+  }
+  try {
+    depth_to_cloud(depth.view(), CameraIntrinsics{.width = 320}, 0.001);
+    ADD_FAILURE() << "a camera of another size accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("for a 320 x any image, the depth image is 8 x 6"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 // The intrinsics of a cloud made from a depth image are found again; a cloud whose points are

@@ -11,6 +11,7 @@
 #include <limits>
 #include <random>
 #include <set>
+#include <string>
 #include <vector>
 
 #include "rangeseg/mesh.hpp"
@@ -365,6 +366,25 @@ TEST(Mesh, ReusesBuffersAndValidates) {
   EXPECT_THROW(rangeseg::build_mesh(cloud, {.viewpoint = {0, INFINITY, 0}}), std::invalid_argument);
   EXPECT_THROW(rangeseg::build_mesh(cloud, {.type = static_cast<MeshType>(9)}),
                std::invalid_argument);
+  // Every field is named with its value; the noise model is the other stages' (sigma > 0).
+  const auto message = [&](const MeshSettings& settings) {
+    try {
+      rangeseg::validate(settings);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no exception");
+  };
+  EXPECT_EQ(message({.max_edge_b = -1.0f}),
+            "MeshSettings::max_edge_b = -1 must be finite and >= 0");
+  EXPECT_EQ(message({.viewpoint = {0, INFINITY, 0}}),
+            "MeshSettings::viewpoint[1] = inf must be finite [m]");
+  EXPECT_EQ(message({.noise = {.a = -1.0}}), "MeshSettings::noise.a = -1 must be finite and > 0");
+  EXPECT_EQ(message({.noise = {.a = 0.0, .b = 0.0}}),
+            "MeshSettings::noise.a = 0 must be finite and > 0");
+  EXPECT_EQ(message({.noise = {.b = -1.0}}), "MeshSettings::noise.b = -1 must be finite and >= 0");
+  EXPECT_EQ(message({.pixel_stride = 0}), "MeshSettings::pixel_stride = 0 must be >= 1");
+  EXPECT_EQ(message({}), "no exception");
 }
 
 // Kinect noise (Gaussian + disparity quantisation) on a fronto-parallel plane: the noise gate

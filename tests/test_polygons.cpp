@@ -372,6 +372,22 @@ TEST(Polygons, SmallHolesAndFilters) {
   EXPECT_EQ(extract_polygons(h.cloud, h.mesh, h.seg, {.planes_only = false}).segments.size(), 1u);
   EXPECT_THROW(extract_polygons(h.cloud, h.mesh, h.seg, {.simplify_tolerance = -1}),
                std::invalid_argument);
+  // Each field by its name and value.
+  const auto message = [](const PolygonSettings& settings) {
+    try {
+      validate(settings);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no exception");
+  };
+  EXPECT_EQ(message({.min_loop_pixels = INFINITY}),
+            "PolygonSettings::min_loop_pixels = inf must be finite and >= 0");
+  EXPECT_EQ(message({.min_segment_pixels = -1}),
+            "PolygonSettings::min_segment_pixels = -1 must be >= 0");
+  EXPECT_EQ(message({.viewpoint = {0.0f, 0.0f, NAN}}),
+            "PolygonSettings::viewpoint[2] = nan must be finite [m]");
+  EXPECT_EQ(message({}), "no exception");
   OrganizedCloud other = flat_cloud(10, 10, 1.0);
   EXPECT_THROW(extract_polygons(other, h.mesh, h.seg), std::invalid_argument);
   // A label that names no segment (it would cut a hole in its neighbour's polygon).

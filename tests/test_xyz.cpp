@@ -91,6 +91,8 @@ TEST(TextCloud, MalformedLinesNameTheFileLineAndProblem) {
       {"1 2 3 4 5\n", F::pts, "a .pts point is"},
       {"3\n1 2 3\n4 5 6\n", F::pts, "the first line gives 3 points, the file has 2"},
       {"-2\n1 2 3\n", F::pts, "is no count"},
+      {"", F::xyz, "no point (an empty file)"},
+      {"# x y z\n\n", F::xyz, "no point (only comments and blank lines)"},
   };
   for (const Bad& c : cases) {
     if (*c.message == 0) {

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <new>
+#include <utility>
 #include <vector>
 
 namespace rangeseg {
@@ -73,6 +74,27 @@ class Plane {
  public:
   Plane() = default;
   Plane(int width, int height, T fill = T{}) { resize(width, height, fill); }
+  Plane(const Plane&) = default;
+  Plane& operator=(const Plane&) = default;
+  /// The moved-from plane is empty (0 x 0), ready to be resized and reused.
+  Plane(Plane&& other) noexcept
+      : buffer_(std::move(other.buffer_)),
+        width_(std::exchange(other.width_, 0)),
+        height_(std::exchange(other.height_, 0)),
+        stride_(std::exchange(other.stride_, 0)) {
+    other.buffer_.clear();
+  }
+  Plane& operator=(Plane&& other) noexcept {
+    if (this != &other) {
+      buffer_ = std::move(other.buffer_);
+      other.buffer_.clear();
+      width_ = std::exchange(other.width_, 0);
+      height_ = std::exchange(other.height_, 0);
+      stride_ = std::exchange(other.stride_, 0);
+    }
+    return *this;
+  }
+  ~Plane() = default;
 
   /// Sets the size and fills every element with `fill`. Throws std::invalid_argument for
   /// negative sizes.

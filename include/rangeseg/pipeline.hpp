@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -152,7 +153,15 @@ class Pipeline {
   /// points of a depth image (empty before the first frame).
   const OrganizedCloud& cloud() const {
     if (settings_.smooth) return smoothed_cloud_;
-    return input_ != nullptr ? *input_ : depth_cloud_;
+    switch (input_kind_) {
+      case InputKind::caller:
+        return *input_;
+      case InputKind::own:
+        return own_input_;
+      case InputKind::depth:
+        break;
+    }
+    return depth_cloud_;
   }
   /// Smoothed normals, or the raw ones when smoothing is off. A point of a plane found seen at
   /// grazing incidence (Segment::grazing) that no mesh face reaches, whose 1-ring normal is NaN,
@@ -182,12 +191,18 @@ class Pipeline {
   template <class Convert>
   void process_depth(int width, int height, double fx, Convert&& convert_rows);
 
+  /// Remembers the input of the frame for cloud(): the caller's cloud, or one of the pipeline's
+  /// own (named, not pointed to, so that cloud() stays right when the pipeline is moved).
+  void set_input(const OrganizedCloud& cloud);
+
   PipelineSettings settings_;
-  /// The caller's cloud of the last frame; nullptr for a depth image (depth_cloud_), which
-  /// keeps cloud() right when the pipeline is moved.
-  const OrganizedCloud* input_ = nullptr;
-  OrganizedCloud depth_cloud_;  ///< the points of the last depth image
-  OrganizedCloud own_input_;    ///< a copy of cloud() when it is fed back to process()
+  /// Whose points the last frame's input was: the caller's (input_), the pipeline's points of a
+  /// depth image (depth_cloud_, also when cloud() was fed back) or its copy of a fed-back cloud.
+  enum class InputKind : std::uint8_t { caller, depth, own };
+  InputKind input_kind_ = InputKind::depth;
+  const OrganizedCloud* input_ = nullptr;  ///< the caller's cloud (InputKind::caller)
+  OrganizedCloud depth_cloud_;             ///< the points of the last depth image
+  OrganizedCloud own_input_;               ///< a copy of cloud() when it is fed back to process()
   /// fx of the frame's camera when known (a depth image's, a pixel grid's), else 0: the
   /// smoothing's pixel angle when SmoothingSettings::pixel_angle is 0
   double camera_fx_ = 0;

@@ -68,8 +68,8 @@ struct PolygonSettings {
   std::array<float, 3> viewpoint{0.0f, 0.0f, 0.0f};
 };
 
-/// Throws std::invalid_argument, with the values, unless the tolerances and min_loop_pixels are
-/// finite and >= 0 and the viewpoint is finite.
+/// Throws std::invalid_argument naming the field and its value unless the tolerances and
+/// min_loop_pixels are finite and >= 0, min_segment_pixels >= 0 and the viewpoint finite.
 void validate(const PolygonSettings& settings);
 
 /// One closed loop, vertices [first, first + count) of the PolygonSet point arrays, without

@@ -73,7 +73,7 @@ class RingBuffers {
   RingBuffers& operator=(RingBuffers&&) noexcept;
 
   struct Impl;
-  Impl& impl() { return *impl_; }
+  Impl& impl();
 
  private:
   std::unique_ptr<Impl> impl_;

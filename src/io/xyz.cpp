@@ -172,6 +172,12 @@ OrganizedCloud decode_text_cloud(const std::uint8_t* data, std::size_t size,
     }
   }
   const std::size_t n = xyz.size() / 3;
+  if (n == 0 && declared <= 0) {
+    // As an empty PCD or PLY file is an error: a cloud of no point is no input.
+    throw std::runtime_error(
+        "point cloud '" + name + "': no point (" +
+        (size == 0 ? std::string("an empty file") : "only comments and blank lines") + ")");
+  }
   if (declared >= 0 && static_cast<std::size_t>(declared) != n) {
     fail(name, line_no,
          "the first line gives " + std::to_string(declared) + " points, the file has " +

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -631,6 +632,7 @@ void PolygonExtractor::extract_grid(const OrganizedCloud& cloud, const Mesh& mes
   detail::require_labels_name_segments(segmentation, "PolygonExtractor::extract");
   validate(settings);
 
+  if (!scratch_) scratch_ = std::make_unique<Scratch>();  // moved from
   Scratch& sc = *scratch_;
   out.clear();
   out.width = width;
@@ -798,19 +800,27 @@ PolygonSet extract_polygons(const OrganizedCloud& cloud, const Mesh& mesh,
 }
 
 void validate(const PolygonSettings& settings) {
-  if (!(settings.simplify_tolerance >= 0) || !std::isfinite(settings.simplify_tolerance) ||
-      !(settings.simplify_tolerance_pixels >= 0) ||
-      !std::isfinite(settings.simplify_tolerance_pixels) || !(settings.min_loop_pixels >= 0) ||
-      !std::isfinite(settings.viewpoint[0]) || !std::isfinite(settings.viewpoint[1]) ||
-      !std::isfinite(settings.viewpoint[2])) {
-    throw std::invalid_argument(
-        "PolygonSettings: tolerances and min_loop_pixels must be finite and >= 0, viewpoint "
-        "finite; got simplify_tolerance " +
-        std::to_string(settings.simplify_tolerance) + ", simplify_tolerance_pixels " +
-        std::to_string(settings.simplify_tolerance_pixels) + ", min_loop_pixels " +
-        std::to_string(settings.min_loop_pixels) + ", viewpoint " +
-        std::to_string(settings.viewpoint[0]) + " " + std::to_string(settings.viewpoint[1]) + " " +
-        std::to_string(settings.viewpoint[2]));
+  // Runs every frame: the message is made only on failure (no allocation otherwise).
+  const auto require = [](bool ok, const char* field, int index, double value,
+                          const char* condition) {
+    if (ok) return;
+    std::ostringstream message;
+    message << "PolygonSettings::" << field;
+    if (index >= 0) message << "[" << index << "]";
+    message << " = " << value << " must be " << condition;
+    throw std::invalid_argument(message.str());
+  };
+  const auto finite_nonnegative = [&](double value, const char* field) {
+    require(std::isfinite(value) && value >= 0, field, -1, value, "finite and >= 0");
+  };
+  finite_nonnegative(settings.simplify_tolerance, "simplify_tolerance");
+  finite_nonnegative(settings.simplify_tolerance_pixels, "simplify_tolerance_pixels");
+  finite_nonnegative(settings.min_loop_pixels, "min_loop_pixels");
+  require(settings.min_segment_pixels >= 0, "min_segment_pixels", -1, settings.min_segment_pixels,
+          ">= 0");
+  for (int k = 0; k < 3; ++k) {
+    require(std::isfinite(settings.viewpoint[static_cast<std::size_t>(k)]), "viewpoint", k,
+            settings.viewpoint[static_cast<std::size_t>(k)], "finite [m]");
   }
 }
 

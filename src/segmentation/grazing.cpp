@@ -373,8 +373,11 @@ class GrazingFinder {
         kept.add(p[0], p[1], p[2]);
       }
     }
-    // 2 kept < min_region_size: the last refit moved the plane.
-    if (2 * kept.count < settings_.min_region_size || narrow_strip(pixels, label, kept)) {
+    // 2 kept < min_region_size: the last refit moved the plane. Points on one row, column or
+    // diagonal of the image (a scanner's last column) lie in one plane with the rays, and no
+    // plane through them is better than another.
+    if (2 * kept.count < settings_.min_region_size || narrow_strip(pixels, label, kept) ||
+        image_width(f_, pixels, label) < 1.0) {
       for (const std::int32_t i : pixels) {
         if (f_.labels[i] == label) f_.labels[i] = kVisited;
       }

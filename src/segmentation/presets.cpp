@@ -72,8 +72,8 @@ SegmentationSettings preset(std::string_view name) {
     return s;
   }
   throw std::invalid_argument(
-      "segmentation preset \"" + std::string(name) +
-      "\" is unknown; valid presets: kinect, abw, laser, perceptron, ideal");
+      "preset \"" + std::string(name) +
+      "\" is unknown; valid presets: kinect, abw, laser, perceptron, ideal (lower case)");
 }
 
 }  // namespace rangeseg

@@ -61,12 +61,20 @@ void require_edges_inside(const Mesh& mesh) {
   }
 }
 
-void require(bool ok, const char* field, double value, const char* condition) {
+template <class T>
+void require_value(bool ok, const char* field, T value, const char* condition) {
   if (!ok) {
     std::ostringstream msg;
     msg << "SegmentationSettings::" << field << " = " << value << " must be " << condition;
     throw std::invalid_argument(msg.str());
   }
+}
+void require(bool ok, const char* field, double value, const char* condition) {
+  require_value(ok, field, value, condition);
+}
+// Integer fields print as integers (2147483647, not 2.14748e+09).
+void require(bool ok, const char* field, int value, const char* condition) {
+  require_value(ok, field, value, condition);
 }
 
 }  // namespace

@@ -82,10 +82,18 @@ void unorganized::RingTreeDeleter::operator()(RingTree* tree) const { delete tre
 
 namespace {
 
-void fail(const char* field, double value, const char* condition) {
+template <class T>
+[[noreturn]] void fail_with(const char* field, T value, const char* condition) {
   std::ostringstream msg;
   msg << "RingSettings::" << field << " = " << value << " must be " << condition;
   throw std::invalid_argument(msg.str());
+}
+[[noreturn]] void fail(const char* field, double value, const char* condition) {
+  fail_with(field, value, condition);
+}
+// Integer fields print as integers (2147483647, not 2.14748e+09).
+[[noreturn]] void fail(const char* field, int value, const char* condition) {
+  fail_with(field, value, condition);
 }
 
 /// The ring test of the mesh (MeshSettings) for the edge from p to q.

@@ -195,6 +195,11 @@ void smooth_over_rings(const OrganizedCloud& cloud, const PointRings& rings,
 }  // namespace
 
 RingBuffers::RingBuffers() : impl_(std::make_unique<Impl>()) {}
+
+RingBuffers::Impl& RingBuffers::impl() {
+  if (!impl_) impl_ = std::make_unique<Impl>();  // moved from
+  return *impl_;
+}
 RingBuffers::~RingBuffers() = default;
 RingBuffers::RingBuffers(RingBuffers&&) noexcept = default;
 RingBuffers& RingBuffers::operator=(RingBuffers&&) noexcept = default;

@@ -31,8 +31,8 @@ bool is_text_cloud_extension(const std::string& extension);
 /// become r, g, b (0..255), a .pts intensity column `intensity` unless it is the same at every
 /// point (Open3D writes 0), which measures nothing. Throws std::runtime_error naming the file, the
 /// line and the problem for a line that is not numbers, has fewer columns than the format needs or
-/// another count than the first point's, a colour out of range, or a .pts count that is not
-/// the number of points.
+/// another count than the first point's, a colour out of range, a .pts count that is not
+/// the number of points, or a file without a point.
 OrganizedCloud read_text_cloud(const std::string& path);
 
 /// read_text_cloud on bytes in memory; `name` is used in error messages.
