@@ -94,11 +94,16 @@ void set_colors(const py::array& a, OrganizedCloud& cloud) {
 }
 
 template <class T>
-py::array_t<T> plane_array_of(const Plane<T>& plane, bool organized) {
+py::array_t<T> new_array(const std::vector<py::ssize_t>& shape, ArrayPool* pool) {
+  return pool != nullptr ? pool->array<T>(shape) : py::array_t<T>(shape);
+}
+
+template <class T>
+py::array_t<T> plane_array_of(const Plane<T>& plane, bool organized, ArrayPool* pool = nullptr) {
   std::vector<py::ssize_t> shape;
   if (organized) shape.push_back(plane.height());
   shape.push_back(plane.width());
-  py::array_t<T> out(shape);
+  py::array_t<T> out = new_array<T>(shape, pool);
   T* data = out.mutable_data();
   const auto width = static_cast<std::size_t>(plane.width());
   for (int v = 0; v < plane.height(); ++v) {
@@ -209,13 +214,57 @@ void cloud_from_arrays(const py::handle& points, const py::handle& intensity,
   }
 }
 
+struct ArrayPool::Block {
+  std::shared_ptr<ArrayPool> pool;
+  void* memory;
+  std::size_t bytes;
+};
+
+ArrayPool::~ArrayPool() {
+  for (const auto& [bytes, memory] : free_) ::operator delete(memory);
+}
+
+void ArrayPool::release(void* context) {
+  const std::unique_ptr<Block> block(static_cast<Block*>(context));
+  ArrayPool& pool = *block->pool;
+  if (pool.free_.size() < kKept) {
+    pool.free_.emplace_back(block->bytes, block->memory);
+  } else {
+    ::operator delete(block->memory);
+  }
+}
+
+template <class T>
+py::array_t<T> ArrayPool::array(const std::vector<py::ssize_t>& shape) {
+  std::size_t count = 1;
+  for (const py::ssize_t n : shape) count *= static_cast<std::size_t>(n);
+  const std::size_t bytes = std::max<std::size_t>(count * sizeof(T), 1);
+  // A block of the same size: frames of one stream have one size.
+  const auto same = std::find_if(free_.begin(), free_.end(),
+                                 [&](const auto& block) { return block.first == bytes; });
+  void* memory = nullptr;
+  if (same != free_.end()) {
+    memory = same->second;
+    free_.erase(same);
+  } else {
+    memory = ::operator new(bytes);
+  }
+  auto block = std::make_unique<Block>(Block{shared_from_this(), memory, bytes});
+  const py::capsule owner(block.get(), &ArrayPool::release);
+  block.release();  // the capsule owns it now
+  return py::array_t<T>(shape, static_cast<T*>(memory), owner);
+}
+
+template py::array_t<float> ArrayPool::array<float>(const std::vector<py::ssize_t>&);
+template py::array_t<std::int32_t> ArrayPool::array<std::int32_t>(const std::vector<py::ssize_t>&);
+
 py::array_t<float> xyz_array(const FloatPlane& x, const FloatPlane& y, const FloatPlane& z,
-                             bool organized) {
+                             bool organized, ArrayPool* pool) {
   std::vector<py::ssize_t> shape;
   if (organized) shape.push_back(z.height());
   shape.push_back(z.width());
   shape.push_back(3);
-  py::array_t<float> out(shape);
+  py::array_t<float> out = new_array<float>(shape, pool);
   float* data = out.mutable_data();
   for (int v = 0; v < z.height(); ++v) {
     float* o = data + static_cast<std::size_t>(v) * z.width() * 3;
@@ -229,11 +278,11 @@ py::array_t<float> xyz_array(const FloatPlane& x, const FloatPlane& y, const Flo
   return out;
 }
 
-py::array_t<float> plane_array(const FloatPlane& plane, bool organized) {
-  return plane_array_of(plane, organized);
+py::array_t<float> plane_array(const FloatPlane& plane, bool organized, ArrayPool* pool) {
+  return plane_array_of(plane, organized, pool);
 }
-py::array_t<std::int32_t> plane_array(const LabelImage& plane, bool organized) {
-  return plane_array_of(plane, organized);
+py::array_t<std::int32_t> plane_array(const LabelImage& plane, bool organized, ArrayPool* pool) {
+  return plane_array_of(plane, organized, pool);
 }
 py::array_t<std::uint16_t> plane_array(const DepthImage& plane, bool organized) {
   return plane_array_of(plane, organized);

@@ -324,11 +324,12 @@ class PyPipeline {
     r.organized = organized;
     r.width = normals.width();
     r.height = normals.height();
-    r.points = points_array(pipeline_.cloud());
-    r.normals = normals_array(normals, organized);
-    r.raw_normals = normals_array(pipeline_.raw_normals(), organized);
-    r.curvature = plane_array(normals.curvature, organized);
-    r.labels = plane_array(seg.labels, organized);
+    ArrayPool* const pool = arrays_.get();
+    r.points = points_array(pipeline_.cloud(), pool);
+    r.normals = normals_array(normals, organized, pool);
+    r.raw_normals = normals_array(pipeline_.raw_normals(), organized, pool);
+    r.curvature = plane_array(normals.curvature, organized, pool);
+    r.labels = plane_array(seg.labels, organized, pool);
     r.segments = segments_list(seg, &pipeline_.polygons(), pipeline_.settings().segmentation);
     const StageTimes& t = pipeline_.times();
     r.times = py::dict("input"_a = t.input, "normals"_a = t.normals, "smoothing"_a = t.smoothing,
@@ -377,6 +378,8 @@ class PyPipeline {
   }
 
   OrganizedCloud input_;  ///< the last NumPy points (Pipeline::cloud() may refer to it)
+  /// The memory of the result arrays, reused once a frame's result is dropped (GIL held).
+  std::shared_ptr<ArrayPool> arrays_ = std::make_shared<ArrayPool>();
   bool grid_checked_ = false;
   bool warned_no_segments_ = false;  ///< under the mutex
   mutable std::mutex mutex_;         ///< one frame at a time when Python threads share a pipeline
