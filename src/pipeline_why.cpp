@@ -137,6 +137,69 @@ std::string why_no_faces(const OrganizedCloud& points, const MeshSettings& mesh)
 
 }  // namespace
 
+std::string Pipeline::why_not_smooth() const {
+  // The smooth model admits a point whose curvature is at most max_curvature and whose normal
+  // is within max_smooth_angle of its neighbour's; a noisy sensor's 1-ring curvature (a
+  // Kinect's: a median of ~130 1/m at 1-2 m) and neighbouring normals may fail either nearly
+  // everywhere. Every 2nd point, with its right and lower neighbours.
+  const SegmentationSettings& settings = settings_.segmentation;
+  const NormalMap& n = normals();
+  std::vector<float> curvatures, angles;
+  const auto angle = [&](int u0, int v0, int u1, int v1) {
+    const double dot = static_cast<double>(n.nx(u0, v0)) * n.nx(u1, v1) +
+                       static_cast<double>(n.ny(u0, v0)) * n.ny(u1, v1) +
+                       static_cast<double>(n.nz(u0, v0)) * n.nz(u1, v1);
+    if (std::isfinite(dot))
+      angles.push_back(static_cast<float>(std::acos(std::clamp(dot, -1.0, 1.0))));
+  };
+  for (int v = 0; v + 1 < n.curvature.height(); v += 2) {
+    for (int u = 0; u + 1 < n.curvature.width(); u += 2) {
+      if (!std::isfinite(n.curvature(u, v))) continue;
+      curvatures.push_back(n.curvature(u, v));
+      angle(u, v, u + 1, v);
+      angle(u, v, u, v + 1);
+    }
+  }
+  if (curvatures.empty()) return {};
+  const auto share_above = [](const std::vector<float>& values, double bound) {
+    const auto above = std::count_if(values.begin(), values.end(),
+                                     [&](float x) { return static_cast<double>(x) > bound; });
+    return static_cast<double>(above) /
+           static_cast<double>(std::max<std::size_t>(values.size(), 1));
+  };
+  const auto quantile = [](std::vector<float>& values, double q) {
+    const auto k =
+        values.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(values.size() - 1));
+    std::nth_element(values.begin(), k, values.end());
+    return static_cast<double>(*k);
+  };
+  const double curved = share_above(curvatures, settings.max_curvature);
+  const double bent = share_above(angles, settings.max_smooth_angle);
+  // Half the points off, or a quarter of the neighbour pairs: growth stalls.
+  const bool by_curvature = curved >= 0.5, by_angle = !angles.empty() && bent >= 0.25;
+  if (!by_curvature && !by_angle) return {};
+  std::string text = "the smooth model's bounds reject most of the points:";
+  char part[300];
+  if (by_curvature) {
+    const double median = quantile(curvatures, 0.5);
+    std::snprintf(part, sizeof part,
+                  " %.0f %% lie above segmentation.max_curvature = %g 1/m (median %.3g 1/m: the "
+                  "depth noise's curvature); raise it to about %.3g (the frame's 90th "
+                  "percentile).",
+                  100 * curved, settings.max_curvature, median, quantile(curvatures, 0.9));
+    text += part;
+  }
+  if (by_angle) {
+    std::snprintf(part, sizeof part,
+                  " %.0f %% of neighbouring normals differ by more than "
+                  "segmentation.max_smooth_angle = %.3g rad; raise it to about %.3g (the "
+                  "frame's 90th percentile).",
+                  100 * bent, settings.max_smooth_angle, quantile(angles, 0.9));
+    text += part;
+  }
+  return text + " Or use the plane or auto model";
+}
+
 std::string Pipeline::why_no_segments() const {
   if (!settings_.segment || !segmentation_.segments.empty()) return {};
   const OrganizedCloud& points = cloud();
@@ -163,7 +226,9 @@ std::string Pipeline::why_no_segments() const {
   const auto s = static_cast<std::size_t>(std::max(1, mesh_.pixel_stride));
   const std::size_t lattice_points = std::max<std::size_t>(1, valid / (s * s));
   const std::size_t faces = count_faces(mesh_);
-  if (10 * faces >= lattice_points) return {};
+  if (10 * faces >= lattice_points) {
+    return settings_.segmentation.model == RegionModel::smooth ? why_not_smooth() : std::string();
+  }
   const std::string cause = why_no_faces(*grid, settings_.mesh);
   if (cause.empty()) return {};
   return "the mesh joins hardly any of the points (" + std::to_string(faces) + " faces for " +

@@ -178,12 +178,15 @@ class Pipeline {
   /// is so coarse that neighbouring rays lie further apart than the mesh's edge bound (a
   /// max_edge_b that joins them). Empty too when the points themselves leave no face (noise,
   /// surfaces seen edge-on), when there are segments, when segmentation is off, and over rings.
+  /// For the smooth model also when most points' curvature lies above its max_curvature (a
+  /// noisy sensor's), with the bound that admits them.
   std::string why_no_segments() const;
   /// Forgets the previous frame of the segment tracks (PipelineSettings::track): the next frame
   /// starts new tracks, e.g. at a cut in a sequence.
   void reset_tracks() { tracker_.reset(); }
 
  private:
+  std::string why_not_smooth() const;  ///< why_no_segments for the smooth model
   void process_cloud(const OrganizedCloud& cloud);
   void process_unorganized(const OrganizedCloud& cloud);
   void process_grid(const OrganizedCloud& cloud);
