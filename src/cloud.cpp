@@ -1,10 +1,13 @@
 #include "rangeseg/cloud.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace rangeseg {
 
@@ -51,6 +54,61 @@ CloudStats cloud_stats(const OrganizedCloud& cloud) {
     s.max_range = static_cast<float>(std::sqrt(far));
   }
   return s;
+}
+
+std::string cloud_scale_problem(const OrganizedCloud& cloud) {
+  // Coordinates from which float keeps no millimetre [m] (its steps there are 1-2 mm), and
+  // median distances from the sensor beyond any range sensor's, or below any's [m].
+  constexpr double kFarCoordinate = 8192, kFarMedian = 500, kNearMedian = 0.01;
+  require_consistent(cloud, "cloud_scale_problem");
+  std::vector<float> range;
+  double largest = 0;
+  std::array<double, 3> low{INFINITY, INFINITY, INFINITY}, high{-INFINITY, -INFINITY, -INFINITY};
+  const std::size_t step = std::max<std::size_t>(1, cloud.size() / 4096);
+  std::size_t index = 0;
+  for (int v = 0; v < cloud.height(); ++v) {
+    const float *x = cloud.x.row(v), *y = cloud.y.row(v), *z = cloud.z.row(v);
+    for (int u = 0; u < cloud.width(); ++u, ++index) {
+      if (!std::isfinite(x[u]) || !std::isfinite(y[u]) || !std::isfinite(z[u])) continue;
+      const std::array<double, 3> p{x[u], y[u], z[u]};
+      for (std::size_t a = 0; a < 3; ++a) {
+        largest = std::max(largest, std::fabs(p[a]));
+        low[a] = std::min(low[a], p[a]);
+        high[a] = std::max(high[a], p[a]);
+      }
+      if (index % step == 0) range.push_back(static_cast<float>(std::hypot(p[0], p[1], p[2])));
+    }
+  }
+  if (range.empty()) return {};
+  char text[240];
+  const double extent = std::hypot(high[0] - low[0], high[1] - low[1], high[2] - low[2]);
+  if (largest >= kFarCoordinate && extent < 0.1 * largest) {
+    std::snprintf(
+        text, sizeof text,
+        "coordinates up to %.6g m, where float points lie %.3g m apart: move the origin "
+        "near the sensor (e.g. subtract a UTM offset)",
+        largest,
+        static_cast<double>(std::nextafter(static_cast<float>(largest), INFINITY)) - largest);
+    return text;
+  }
+  const auto middle = range.begin() + static_cast<std::ptrdiff_t>(range.size() / 2);
+  std::nth_element(range.begin(), middle, range.end());
+  const double median = *middle;
+  if (median > kFarMedian) {
+    std::snprintf(text, sizeof text,
+                  "the points' median distance from the sensor is %.4g m: rangeseg reads metres "
+                  "(a cloud in millimetres: scale it by 0.001)",
+                  median);
+    return text;
+  }
+  if (median < kNearMedian) {
+    std::snprintf(text, sizeof text,
+                  "the points' median distance from the sensor is %.4g m: rangeseg reads metres "
+                  "(are they in another unit, or not in the sensor's frame?)",
+                  median);
+    return text;
+  }
+  return {};
 }
 
 bool surrounds_its_sensor(const OrganizedCloud& cloud) {

@@ -54,7 +54,9 @@ TEST(SettingsJson, ErrorsNameTheSourceAndKeyAndChangeNothing) {
              "[segmentation]: key 'min_region_size' = -3 is invalid"},
         Case{R"({"segmentation": {"model": "planes"}})", "unknown model 'planes'"},
         Case{R"({"mesh": {"type": "triangles"}})", "unknown mesh type"},
-        Case{R"({"smooth": "yes"})", "wrong type"}, Case{R"([1, 2])", "expected a JSON object"},
+        Case{R"({"smooth": "yes"})", "key 'smooth' must be true or false, got \"yes\""},
+        Case{R"({"mesh": {"eps_theta": "wide"}})", "key 'eps_theta' must be a number"},
+        Case{R"([1, 2])", "expected a JSON object"},
         Case{R"({"mesh": )", "not valid JSON"}}) {
     PipelineSettings s = pipeline_preset("kinect");
     s.segmentation.min_region_size = 77;
@@ -64,6 +66,10 @@ TEST(SettingsJson, ErrorsNameTheSourceAndKeyAndChangeNothing) {
     EXPECT_EQ(s.segmentation.min_region_size, 77) << c.json;
     EXPECT_EQ(s.segmentation.model, RegionModel::plane) << c.json;
   }
+  // A float that holds an integer is that integer (Python's json writes 200.0 so).
+  PipelineSettings whole = pipeline_preset("kinect");
+  EXPECT_EQ(error_of(R"({"segmentation": {"min_region_size": 200.0}})", whole), "");
+  EXPECT_EQ(whole.segmentation.min_region_size, 200);
   // A valid key beside an invalid one is not applied either.
   PipelineSettings s = pipeline_preset("kinect");
   const double angle = s.segmentation.max_normal_angle;

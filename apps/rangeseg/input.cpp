@@ -177,11 +177,6 @@ void take_viewpoint(LoadedInput& in, const std::array<double, 7>& p, const Input
 
 namespace {
 
-/// Coordinates from which float keeps no millimetre [m] (its steps there are 1-2 mm).
-constexpr double kFarCoordinate = 8192;
-/// A median distance of the points from the sensor beyond any range sensor's [m].
-constexpr double kFarMedianRange = 500;
-
 // Once per process: a batch's frames share their options and may load on several threads.
 // `message` runs only for the one that prints.
 template <class Message>
@@ -270,47 +265,10 @@ void check_depth_image(const InputOptions& o, const OrganizedCloud& cloud, bool 
 // Points in millimetres, or far from the origin (a georeferenced scan's UTM coordinates, which
 // float cuts to steps of up to 0.5 m): named once, as the results would be wrong without error.
 void check_cloud_scale(const std::string& path, const OrganizedCloud& cloud) {
-  std::vector<float> range;
-  double largest = 0;
-  double low[3] = {INFINITY, INFINITY, INFINITY}, high[3] = {-INFINITY, -INFINITY, -INFINITY};
-  const int step = std::max<int>(1, static_cast<int>(cloud.size() / 4096));
-  for (int v = 0; v < cloud.height(); ++v) {
-    const float *x = cloud.x.row(v), *y = cloud.y.row(v), *z = cloud.z.row(v);
-    for (int u = 0; u < cloud.width(); ++u) {
-      if (!std::isfinite(x[u]) || !std::isfinite(y[u]) || !std::isfinite(z[u])) continue;
-      largest = std::max(
-          {largest, std::fabs(double{x[u]}), std::fabs(double{y[u]}), std::fabs(double{z[u]})});
-      const float p[3] = {x[u], y[u], z[u]};
-      for (int a = 0; a < 3; ++a) {
-        low[a] = std::min(low[a], double{p[a]});
-        high[a] = std::max(high[a], double{p[a]});
-      }
-      if ((static_cast<long>(v) * cloud.width() + u) % step == 0) {
-        range.push_back(std::sqrt(x[u] * x[u] + y[u] * y[u] + z[u] * z[u]));
-      }
-    }
-  }
-  const double extent = std::hypot(high[0] - low[0], high[1] - low[1], high[2] - low[2]);
-  // Far from the origin and small beside that distance: a scan moved into map coordinates.
-  if (largest >= kFarCoordinate && extent < 0.1 * largest) {
-    static std::once_flag flag;
-    char text[200];
-    std::snprintf(text, sizeof text,
-                  "coordinates up to %.6g m, where float points lie %.3g m apart: move the "
-                  "origin near the sensor (e.g. subtract a UTM offset) before saving",
-                  largest, std::nextafter(static_cast<float>(largest), INFINITY) - largest);
-    warn_once(flag, [&] { return "warning: " + path + ": " + text; });
-    return;
-  }
-  if (const double median = median_of(range); median > kFarMedianRange) {
-    static std::once_flag flag;
-    char text[160];
-    std::snprintf(text, sizeof text,
-                  "the points' median distance from the sensor is %.4g m: rangeseg reads "
-                  "metres (a cloud in millimetres: scale it by 0.001)",
-                  median);
-    warn_once(flag, [&] { return "warning: " + path + ": " + text; });
-  }
+  const std::string problem = cloud_scale_problem(cloud);
+  if (problem.empty()) return;
+  static std::once_flag flag;
+  warn_once(flag, [&] { return "warning: " + path + ": " + problem; });
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "rangeseg/image.hpp"
@@ -68,6 +69,13 @@ CloudStats cloud_stats(const OrganizedCloud& cloud);
 /// z, is wrong (the `laser` preset's is one of the range). A camera's points lie in a cone (a
 /// Kinect's mean unit vector is 0.95 long). The points are taken in the sensor's frame.
 bool surrounds_its_sensor(const OrganizedCloud& cloud);
+
+/// What is implausible about the scale of the cloud's coordinates, in words for a user, else
+/// empty: coordinates of 8192 m or more that span under a tenth of that (a scan moved into map
+/// coordinates, where float points lie a millimetre or more apart), or a median distance of the
+/// valid points from the origin beyond 500 m (millimetres taken for metres) or below 1 cm. Reads
+/// at most ~4096 of the points for the median.
+std::string cloud_scale_problem(const OrganizedCloud& cloud);
 
 /// Throws std::invalid_argument naming `what` if the cloud's planes differ in size: x and y must
 /// have z's size, and so must intensity and label when present; r, g and b come together (all of

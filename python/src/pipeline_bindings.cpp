@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <initializer_list>
 #include <mutex>
 #include <optional>
 #include <stdexcept>
@@ -140,6 +141,51 @@ double sampled_median(const View<const T>& depth) {
   return static_cast<double>(*middle);
 }
 
+/// A field of a Result given to its constructor: a NumPy array of `dtype`, (H, W[, channels])
+/// of an organized result or (W[, channels]) of a per-point one.
+struct ResultField {
+  const char* name;
+  const py::object& value;
+  py::dtype dtype;
+  int channels;  ///< 0: none
+};
+
+/// A Result's constructor (pickle's) takes what Pipeline.process makes, nothing else.
+void require_result_fields(int width, int height, bool organized,
+                           std::initializer_list<ResultField> fields) {
+  if (width < 0 || height < 1 || organized != (height > 1)) {
+    throw std::invalid_argument("Result: width " + std::to_string(width) + ", height " +
+                                std::to_string(height) + ", organized " +
+                                (organized ? "True" : "False") +
+                                " (need width >= 0, height >= 1, organized exactly when height "
+                                "> 1)");
+  }
+  for (const ResultField& f : fields) {
+    std::vector<py::ssize_t> shape;
+    if (organized) shape.push_back(height);
+    shape.push_back(width);
+    if (f.channels > 0) shape.push_back(f.channels);
+    const bool is_array = py::isinstance<py::array>(f.value);
+    const auto a = is_array ? py::reinterpret_borrow<py::array>(f.value) : py::array();
+    const bool ok = is_array && a.dtype().equal(f.dtype) &&
+                    std::equal(shape.begin(), shape.end(), a.shape(), a.shape() + a.ndim()) &&
+                    static_cast<std::size_t>(a.ndim()) == shape.size();
+    if (ok) continue;
+    std::string want = "(";
+    for (std::size_t k = 0; k < shape.size(); ++k) {
+      want += (k > 0 ? ", " : "") + std::to_string(shape[k]);
+    }
+    want += shape.size() == 1 ? ",)" : ")";
+    const std::string got =
+        is_array ? "a " + py::str(py::object(a.dtype())).cast<std::string>() + " array of shape " +
+                       shape_text(a)
+                 : "a " + py::str(py::type::of(f.value).attr("__name__")).cast<std::string>();
+    throw std::invalid_argument("Result: " + std::string(f.name) + " must be a " +
+                                py::str(py::object(f.dtype)).cast<std::string>() +
+                                " array of shape " + want + ", got " + got);
+  }
+}
+
 void user_warning(const std::string& message) {
   if (PyErr_WarnEx(PyExc_UserWarning, message.c_str(), 1) != 0) throw py::error_already_set();
 }
@@ -157,11 +203,10 @@ void warn_if_not_metres(const View<const float>& depth) {
                " m; for millimetres pass depth_scale=0.001");
 }
 
-/// Integer depth: a UserWarning when its sampled median times `scale` lies outside 0.02-200 m
-/// (a depth_scale of 1 given for millimetres, or of 1e-6).
-void warn_if_scale_implausible(const View<const std::uint16_t>& depth, double scale) {
+/// Depth under a given (or an integer's default) scale: a UserWarning when the sampled median
+/// in metres lies outside 0.02-200 m (a depth_scale of 1 given for millimetres, or of 1e-6).
+void warn_if_scale_implausible(double median, double scale) {
   constexpr double kNearestMedian = 0.02;  // [m]
-  const double median = sampled_median(depth) * scale;
   if (std::isnan(median) || (median >= kNearestMedian && median <= kFarthestMedian)) return;
   user_warning("depth: the median depth is " + std::to_string(median) +
                " m with depth_scale=" + std::to_string(scale) +
@@ -198,11 +243,14 @@ class PyPipeline {
   Result process(const OrganizedCloud& cloud, double fx) {
     check_fx(fx);
     bool scanner = false;
+    std::string scale;
     Result result = run(nullptr, [&] {
+      scale = first_cloud_scale_problem(cloud);
       choose_preset(&cloud);
       pipeline_.process(cloud, fx);
       scanner = first_grid_is_a_scanners(cloud, fx);
     });
+    if (!scale.empty()) user_warning("points: " + scale);
     if (scanner) warn_scanner_grid();
     return result;
   }
@@ -222,12 +270,15 @@ class PyPipeline {
     const py::object i = array_or_none(intensity, "intensity");
     const py::object c = array_or_none(colors, "colors");
     bool scanner = false;
+    std::string scale;
     Result result = run([&] { cloud_from_arrays(p, i, c, py::none(), input_); },
                         [&] {
+                          scale = first_cloud_scale_problem(input_);
                           choose_preset(&input_);
                           pipeline_.process(input_, fx);
                           scanner = first_grid_is_a_scanners(input_, fx);
                         });
+    if (!scale.empty()) user_warning("points: " + scale);
     if (scanner) warn_scanner_grid();
     return result;
   }
@@ -255,7 +306,7 @@ class PyPipeline {
       const View<const std::uint16_t> view{d.data(), static_cast<int>(d.shape(1)),
                                            static_cast<int>(d.shape(0)), d.shape(1)};
       const double scale = depth_scale.value_or(0.001);
-      warn_if_scale_implausible(view, scale);
+      warn_if_scale_implausible(sampled_median(view) * scale, scale);
       return run(nullptr, [&] {
         choose_preset(nullptr);
         pipeline_.process(view, camera, scale);
@@ -268,7 +319,11 @@ class PyPipeline {
         kind == 'f' && scale == 1.0 ? py::object(a) : a.attr("__mul__")(scale));
     const View<const float> view{d.data(), static_cast<int>(d.shape(1)),
                                  static_cast<int>(d.shape(0)), d.shape(1)};
-    if (kind == 'f' && !depth_scale) warn_if_not_metres(view);
+    if (kind == 'f' && !depth_scale) {
+      warn_if_not_metres(view);
+    } else {
+      warn_if_scale_implausible(sampled_median(view), scale);  // the view is in metres
+    }
     return run(nullptr, [&] {
       choose_preset(nullptr);
       pipeline_.process(view, camera);
@@ -370,6 +425,13 @@ class PyPipeline {
     CameraIntrinsics camera;
     return !fit_intrinsics(cloud, camera);
   }
+  /// The first cloud's cloud_scale_problem (under the mutex, without the GIL): points in
+  /// millimetres or map coordinates give wrong segments without an error.
+  std::string first_cloud_scale_problem(const OrganizedCloud& cloud) {
+    if (scale_checked_ || cloud.count_valid() == 0) return {};
+    scale_checked_ = true;
+    return cloud_scale_problem(cloud);
+  }
   static void warn_scanner_grid() {
     user_warning(
         "no pinhole camera explains this grid (a scanner's, or points moved out of the camera's "
@@ -381,6 +443,7 @@ class PyPipeline {
   /// The memory of the result arrays, reused once a frame's result is dropped (GIL held).
   std::shared_ptr<ArrayPool> arrays_ = std::make_shared<ArrayPool>();
   bool grid_checked_ = false;
+  bool scale_checked_ = false;
   bool warned_no_segments_ = false;  ///< under the mutex
   mutable std::mutex mutex_;         ///< one frame at a time when Python threads share a pipeline
 };
@@ -423,6 +486,12 @@ void bind_pipeline(py::module_& m) {
                        const py::object& points, const py::object& normals,
                        const py::object& raw_normals, const py::object& curvature,
                        const py::list& segments, const py::dict& times) {
+             require_result_fields(width, height, organized,
+                                   {{"labels", labels, py::dtype::of<std::int32_t>(), 0},
+                                    {"points", points, py::dtype::of<float>(), 3},
+                                    {"normals", normals, py::dtype::of<float>(), 3},
+                                    {"raw_normals", raw_normals, py::dtype::of<float>(), 3},
+                                    {"curvature", curvature, py::dtype::of<float>(), 0}});
              return Result{.width = width,
                            .height = height,
                            .organized = organized,

@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include <array>
+#include <cmath>
 #include <charconv>
 #include <cstdint>
 #include <cstdlib>
@@ -26,8 +27,16 @@ void take(const json& obj, const char* key, T& field, const std::string& where) 
   const json& value = obj.at(key);
   // json's own conversion truncates 2.5 to 2 and wraps integers that do not fit.
   if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
-    bool fits = false;  // false for floats, strings, ...
-    if (value.is_number_unsigned()) {
+    bool fits = false;  // false for strings, fractions, ...
+    if (value.is_number_float()) {
+      // 200.0 (as Python's json writes a float that holds an integer) is the integer 200.
+      const double v = value.get<double>();
+      if (v == std::floor(v) && v >= static_cast<double>(std::numeric_limits<T>::min()) &&
+          v <= static_cast<double>(std::numeric_limits<T>::max())) {
+        field = static_cast<T>(v);
+        return;
+      }
+    } else if (value.is_number_unsigned()) {
       fits =
           value.get<std::uint64_t>() <= static_cast<std::uint64_t>(std::numeric_limits<T>::max());
     } else if (value.is_number_integer()) {
@@ -39,6 +48,17 @@ void take(const json& obj, const char* key, T& field, const std::string& where) 
       throw std::runtime_error(where + ": key '" + key + "' must be an integer in [" +
                                std::to_string(std::numeric_limits<T>::min()) + ", " +
                                std::to_string(std::numeric_limits<T>::max()) + "], got " +
+                               value.dump());
+    }
+  }
+  if constexpr (std::is_same_v<T, bool>) {
+    if (!value.is_boolean()) {
+      throw std::runtime_error(where + ": key '" + key + "' must be true or false, got " +
+                               value.dump());
+    }
+  } else if constexpr (std::is_floating_point_v<T>) {
+    if (!value.is_number()) {
+      throw std::runtime_error(where + ": key '" + key + "' must be a number, got " +
                                value.dump());
     }
   }
