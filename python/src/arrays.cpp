@@ -251,7 +251,7 @@ py::array_t<T> ArrayPool::array(const std::vector<py::ssize_t>& shape) {
   }
   auto block = std::make_unique<Block>(Block{shared_from_this(), memory, bytes});
   const py::capsule owner(block.get(), &ArrayPool::release);
-  block.release();  // the capsule owns it now
+  static_cast<void>(block.release());  // the capsule owns it now
   return py::array_t<T>(shape, static_cast<T*>(memory), owner);
 }
 

@@ -176,13 +176,17 @@ void require_result_fields(int width, int height, bool organized,
       want += (k > 0 ? ", " : "") + std::to_string(shape[k]);
     }
     want += shape.size() == 1 ? ",)" : ")";
-    const std::string got =
-        is_array ? "a " + py::str(py::object(a.dtype())).cast<std::string>() + " array of shape " +
-                       shape_text(a)
-                 : "a " + py::str(py::type::of(f.value).attr("__name__")).cast<std::string>();
-    throw std::invalid_argument("Result: " + std::string(f.name) + " must be a " +
-                                py::str(py::object(f.dtype)).cast<std::string>() +
-                                " array of shape " + want + ", got " + got);
+    std::string message = "Result: ";
+    message.append(f.name).append(" must be a ");
+    message.append(py::str(py::object(f.dtype)).cast<std::string>());
+    message.append(" array of shape ").append(want).append(", got a ");
+    if (is_array) {
+      message.append(py::str(py::object(a.dtype())).cast<std::string>());
+      message.append(" array of shape ").append(shape_text(a));
+    } else {
+      message.append(py::str(py::type::of(f.value).attr("__name__")).cast<std::string>());
+    }
+    throw std::invalid_argument(message);
   }
 }
 
