@@ -132,8 +132,9 @@ void validate(const MeshSettings& s) {
     }
   }
   // The noise model of the other stages: sigma(r) > 0 everywhere.
-  if (!std::isfinite(s.noise.a) || !(s.noise.a > 0))
+  if (!std::isfinite(s.noise.a) || !(s.noise.a > 0)) {
     fail("noise.a", text(s.noise.a), "finite and > 0");
+  }
   if (!std::isfinite(s.noise.b) || !(s.noise.b >= 0)) {
     fail("noise.b", text(s.noise.b), "finite and >= 0");
   }

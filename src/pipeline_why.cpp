@@ -149,8 +149,9 @@ std::string Pipeline::why_not_smooth() const {
     const double dot = static_cast<double>(n.nx(u0, v0)) * n.nx(u1, v1) +
                        static_cast<double>(n.ny(u0, v0)) * n.ny(u1, v1) +
                        static_cast<double>(n.nz(u0, v0)) * n.nz(u1, v1);
-    if (std::isfinite(dot))
+    if (std::isfinite(dot)) {
       angles.push_back(static_cast<float>(std::acos(std::clamp(dot, -1.0, 1.0))));
+    }
   };
   for (int v = 0; v + 1 < n.curvature.height(); v += 2) {
     for (int u = 0; u + 1 < n.curvature.width(); u += 2) {
