@@ -3,8 +3,8 @@
 #include <nlohmann/json.hpp>
 
 #include <array>
-#include <cmath>
 #include <charconv>
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -58,8 +58,7 @@ void take(const json& obj, const char* key, T& field, const std::string& where) 
     }
   } else if constexpr (std::is_floating_point_v<T>) {
     if (!value.is_number()) {
-      throw std::runtime_error(where + ": key '" + key + "' must be a number, got " +
-                               value.dump());
+      throw std::runtime_error(where + ": key '" + key + "' must be a number, got " + value.dump());
     }
   }
   try {
