@@ -56,8 +56,7 @@ TEST(SettingsJson, ErrorsNameTheSourceAndKeyAndChangeNothing) {
         Case{R"({"mesh": {"type": "triangles"}})", "unknown mesh type"},
         Case{R"({"smooth": "yes"})", "key 'smooth' must be true or false, got \"yes\""},
         Case{R"({"mesh": {"eps_theta": "wide"}})", "key 'eps_theta' must be a number"},
-        Case{R"([1, 2])", "expected a JSON object"},
-        Case{R"({"mesh": )", "not valid JSON"}}) {
+        Case{R"([1, 2])", "expected a JSON object"}, Case{R"({"mesh": )", "not valid JSON"}}) {
     PipelineSettings s = pipeline_preset("kinect");
     s.segmentation.min_region_size = 77;
     const std::string error = error_of(c.json, s);
