@@ -28,13 +28,13 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
 
+#include "detail/bad_setting.hpp"
 #include "detail/row_bands.hpp"
 #include "detail/simd.hpp"
 
@@ -104,42 +104,28 @@ const Kernels& kernels() { RANGESEG_SIMD_PICK(Kernels, RANGESEG_MESH_KERNELS); }
 }  // namespace
 
 void validate(const MeshSettings& s) {
-  const auto fail = [](const std::string& field, const std::string& value, const char* condition) {
-    throw std::invalid_argument("MeshSettings::" + field + " = " + value + " must be " + condition);
-  };
-  const auto text = [](double v) {
-    std::ostringstream out;
-    out << v;
-    return out.str();
+  const auto fail = [](std::string_view field, const auto& value, const char* condition) {
+    detail::throw_bad_setting("MeshSettings", field, value, condition);
   };
   const int t = static_cast<int>(s.type);
-  if (t < 0 || t > 3) {
-    fail("type", std::to_string(t), "a MeshType (quad, left_cut, right_cut or adaptive)");
-  }
+  if (t < 0 || t > 3) fail("type", t, "a MeshType (quad, left_cut, right_cut or adaptive)");
   if (!(s.eps_theta >= 0.0f && s.eps_theta <= 1.5707964f)) {
-    fail("eps_theta", text(s.eps_theta), "in [0, pi/2] rad");
+    fail("eps_theta", double{s.eps_theta}, "in [0, pi/2] rad");
   }
   const std::array<std::pair<const char*, float>, 4> bounds{{{"max_edge_a", s.max_edge_a},
                                                              {"max_edge_b", s.max_edge_b},
                                                              {"max_edge_c", s.max_edge_c},
                                                              {"jump_sigmas", s.jump_sigmas}}};
   for (const auto& [field, value] : bounds) {
-    if (!(value >= 0.0f) || !std::isfinite(value)) fail(field, text(value), "finite and >= 0");
+    if (!(value >= 0.0f) || !std::isfinite(value)) fail(field, double{value}, "finite and >= 0");
   }
   for (std::size_t k = 0; k < 3; ++k) {
     if (!std::isfinite(s.viewpoint[k])) {
-      fail("viewpoint[" + std::to_string(k) + "]", text(s.viewpoint[k]), "finite [m]");
+      fail("viewpoint[" + std::to_string(k) + "]", double{s.viewpoint[k]}, "finite [m]");
     }
   }
-  // The noise model of the other stages: sigma(r) > 0 everywhere.
-  if (!std::isfinite(s.noise.a) || !(s.noise.a > 0)) {
-    fail("noise.a", text(s.noise.a), "finite and > 0");
-  }
-  if (!std::isfinite(s.noise.b) || !(s.noise.b >= 0)) {
-    fail("noise.b", text(s.noise.b), "finite and >= 0");
-  }
-  if (!std::isfinite(s.noise.z0)) fail("noise.z0", text(s.noise.z0), "finite");
-  if (s.pixel_stride < 1) fail("pixel_stride", std::to_string(s.pixel_stride), ">= 1");
+  detail::require_noise(s.noise, "MeshSettings");
+  if (s.pixel_stride < 1) fail("pixel_stride", s.pixel_stride, ">= 1");
 }
 
 namespace {

@@ -30,10 +30,21 @@ Period period_of(const std::vector<int>& holding) {
   return p;
 }
 
-double median(std::vector<double>& values) {
-  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
-  std::nth_element(values.begin(), middle, values.end());
-  return *middle;
+/// The k-th smallest of `values` (reordered): the median is the upper middle one (k = n / 2), a
+/// quantile q the one at q (n - 1) rounded down.
+template <class T>
+double nth_value(std::vector<T>& values, std::size_t k) {
+  const auto at = values.begin() + static_cast<std::ptrdiff_t>(k);
+  std::nth_element(values.begin(), at, values.end());
+  return static_cast<double>(*at);
+}
+template <class T>
+double median(std::vector<T>& values) {
+  return nth_value(values, values.size() / 2);
+}
+template <class T>
+double quantile(std::vector<T>& values, double q) {
+  return nth_value(values, static_cast<std::size_t>(q * static_cast<double>(values.size() - 1)));
 }
 
 /// Points far apart on the lattice: the valid pixels lie on every k-th row or column, or too
@@ -168,12 +179,6 @@ std::string Pipeline::why_not_smooth() const {
     return static_cast<double>(above) /
            static_cast<double>(std::max<std::size_t>(values.size(), 1));
   };
-  const auto quantile = [](std::vector<float>& values, double q) {
-    const auto k =
-        values.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(values.size() - 1));
-    std::nth_element(values.begin(), k, values.end());
-    return static_cast<double>(*k);
-  };
   const double curved = share_above(curvatures, settings.max_curvature);
   const double bent = share_above(angles, settings.max_smooth_angle);
   // Half the points off, or a quarter of the neighbour pairs: growth stalls.
@@ -182,12 +187,12 @@ std::string Pipeline::why_not_smooth() const {
   std::string text = "the smooth model's bounds reject most of the points:";
   char part[300];
   if (by_curvature) {
-    const double median = quantile(curvatures, 0.5);
+    const double middle = median(curvatures);
     std::snprintf(part, sizeof part,
                   " %.0f %% lie above segmentation.max_curvature = %g 1/m (median %.3g 1/m: the "
                   "depth noise's curvature); raise it to about %.3g (the frame's 90th "
                   "percentile).",
-                  100 * curved, settings.max_curvature, median, quantile(curvatures, 0.9));
+                  100 * curved, settings.max_curvature, middle, quantile(curvatures, 0.9));
     text += part;
   }
   if (by_angle) {

@@ -8,10 +8,11 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
-#include <sstream>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
+#include "detail/bad_setting.hpp"
 #include "detail/headroom.hpp"
 #include "detail/segment_labels.hpp"
 #include "detail/simd.hpp"
@@ -800,27 +801,24 @@ PolygonSet extract_polygons(const OrganizedCloud& cloud, const Mesh& mesh,
 }
 
 void validate(const PolygonSettings& settings) {
-  // Runs every frame: the message is made only on failure (no allocation otherwise).
-  const auto require = [](bool ok, const char* field, int index, double value,
-                          const char* condition) {
-    if (ok) return;
-    std::ostringstream message;
-    message << "PolygonSettings::" << field;
-    if (index >= 0) message << "[" << index << "]";
-    message << " = " << value << " must be " << condition;
-    throw std::invalid_argument(message.str());
-  };
-  const auto finite_nonnegative = [&](double value, const char* field) {
-    require(std::isfinite(value) && value >= 0, field, -1, value, "finite and >= 0");
+  // Runs every frame: a message is made only on failure (no allocation otherwise).
+  constexpr std::string_view owner = "PolygonSettings";
+  const auto finite_nonnegative = [&](double value, std::string_view field) {
+    if (!std::isfinite(value) || !(value >= 0)) {
+      detail::throw_bad_setting(owner, field, value, "finite and >= 0");
+    }
   };
   finite_nonnegative(settings.simplify_tolerance, "simplify_tolerance");
   finite_nonnegative(settings.simplify_tolerance_pixels, "simplify_tolerance_pixels");
   finite_nonnegative(settings.min_loop_pixels, "min_loop_pixels");
-  require(settings.min_segment_pixels >= 0, "min_segment_pixels", -1, settings.min_segment_pixels,
-          ">= 0");
-  for (int k = 0; k < 3; ++k) {
-    require(std::isfinite(settings.viewpoint[static_cast<std::size_t>(k)]), "viewpoint", k,
-            settings.viewpoint[static_cast<std::size_t>(k)], "finite [m]");
+  if (settings.min_segment_pixels < 0) {
+    detail::throw_bad_setting(owner, "min_segment_pixels", settings.min_segment_pixels, ">= 0");
+  }
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (!std::isfinite(settings.viewpoint[k])) {
+      detail::throw_bad_setting(owner, "viewpoint[" + std::to_string(k) + "]",
+                                double{settings.viewpoint[k]}, "finite [m]");
+    }
   }
 }
 

@@ -14,6 +14,7 @@
 #include <emmintrin.h>
 #endif
 
+#include "detail/bad_setting.hpp"
 #include "detail/headroom.hpp"
 #include "detail/segment_labels.hpp"
 #include "segmentation/internal.hpp"
@@ -61,20 +62,11 @@ void require_edges_inside(const Mesh& mesh) {
   }
 }
 
-template <class T>
-void require_value(bool ok, const char* field, T value, const char* condition) {
-  if (!ok) {
-    std::ostringstream msg;
-    msg << "SegmentationSettings::" << field << " = " << value << " must be " << condition;
-    throw std::invalid_argument(msg.str());
-  }
-}
 void require(bool ok, const char* field, double value, const char* condition) {
-  require_value(ok, field, value, condition);
+  if (!ok) detail::throw_bad_setting("SegmentationSettings", field, value, condition);
 }
-// Integer fields print as integers (2147483647, not 2.14748e+09).
 void require(bool ok, const char* field, int value, const char* condition) {
-  require_value(ok, field, value, condition);
+  if (!ok) detail::throw_bad_setting("SegmentationSettings", field, value, condition);
 }
 
 }  // namespace
@@ -85,9 +77,7 @@ void validate(const SegmentationSettings& s) {
   constexpr double pi = 3.14159265358979323846;
   require(s.model <= RegionModel::automatic, "model", static_cast<int>(s.model),
           "a RegionModel (plane, smooth, incremental_plane or automatic)");
-  require(std::isfinite(s.noise.a) && s.noise.a > 0, "noise.a", s.noise.a, "finite and > 0");
-  require(std::isfinite(s.noise.b) && s.noise.b >= 0, "noise.b", s.noise.b, "finite and >= 0");
-  require(std::isfinite(s.noise.z0), "noise.z0", s.noise.z0, "finite");
+  detail::require_noise(s.noise, "SegmentationSettings");
   require(s.max_normal_angle > 0 && s.max_normal_angle <= pi, "max_normal_angle",
           s.max_normal_angle, "in (0, pi] rad");
   require(s.max_distance_sigmas > 0 && std::isfinite(s.max_distance_sigmas), "max_distance_sigmas",

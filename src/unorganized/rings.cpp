@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "detail/bad_setting.hpp"
 #include "rangeseg/unorganized.hpp"
 #include "unorganized/internal.hpp"
 #include "unorganized/kd_tree.hpp"
@@ -82,18 +83,11 @@ void unorganized::RingTreeDeleter::operator()(RingTree* tree) const { delete tre
 
 namespace {
 
-template <class T>
-[[noreturn]] void fail_with(const char* field, T value, const char* condition) {
-  std::ostringstream msg;
-  msg << "RingSettings::" << field << " = " << value << " must be " << condition;
-  throw std::invalid_argument(msg.str());
-}
 [[noreturn]] void fail(const char* field, double value, const char* condition) {
-  fail_with(field, value, condition);
+  detail::throw_bad_setting("RingSettings", field, value, condition);
 }
-// Integer fields print as integers (2147483647, not 2.14748e+09).
 [[noreturn]] void fail(const char* field, int value, const char* condition) {
-  fail_with(field, value, condition);
+  detail::throw_bad_setting("RingSettings", field, value, condition);
 }
 
 /// The ring test of the mesh (MeshSettings) for the edge from p to q.
@@ -211,9 +205,7 @@ void validate(const RingSettings& s) {
   if (!std::isfinite(s.jump_sigmas) || s.jump_sigmas < 0) {
     fail("jump_sigmas", s.jump_sigmas, "finite and >= 0");
   }
-  if (!std::isfinite(s.noise.a) || s.noise.a <= 0) fail("noise.a", s.noise.a, "finite and > 0");
-  if (!std::isfinite(s.noise.b) || s.noise.b < 0) fail("noise.b", s.noise.b, "finite and >= 0");
-  if (!std::isfinite(s.noise.z0)) fail("noise.z0", s.noise.z0, "finite");
+  detail::require_noise(s.noise, "RingSettings");
   for (const float c : s.viewpoint) {
     if (!std::isfinite(c)) fail("viewpoint", c, "finite");
   }
