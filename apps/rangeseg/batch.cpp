@@ -19,9 +19,9 @@
 #include <memory>
 #include <set>
 #include <thread>
+#include <vector>
 
 #include <unistd.h>
-#include <vector>
 
 #include "names.hpp"
 #include "output.hpp"
@@ -32,6 +32,7 @@ namespace rangeseg::cli {
 namespace {
 
 struct FrameResult {
+  bool ran = false;  ///< false for the frames after a stop (StopAfterCurrentFrames)
   bool ok = false;
   bool first = false;  ///< its pipeline's first frame, which allocated the buffers
   std::string error;
@@ -80,6 +81,7 @@ FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options
                       const std::string& preset, WorkerPipelines& pipelines,
                       const BatchOptions& options, std::string* sequence_preset) {
   FrameResult r;
+  r.ran = true;
   try {
     if (!frame.error.empty()) throw std::runtime_error(frame.error);
     InputOptions o = load_options;
@@ -117,12 +119,6 @@ FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options
   return r;
 }
 
-/// Every frame allocates its input cloud and output buffers anew (the readers and encoders
-/// return fresh objects), several MB each. By default glibc serves those with mmap and gives
-/// them back at free, so every frame page-faults all of them in again (112k faults and a third
-/// of the CPU time for 12 Kinect frames with mesh.ply; worse with threads, which contend on the
-/// kernel's address-space lock). Keeping freed memory in the heap for the next frame cuts this
-/// to 17k faults; the peak stays that of one frame per thread.
 /// The signal that asked the running batch to stop (SIGINT, SIGTERM, SIGHUP); 0 while none has.
 std::atomic<int> stop_signal{0};
 
@@ -160,6 +156,12 @@ const char* signal_name(int signal) {
   return signal == SIGINT ? "SIGINT" : signal == SIGTERM ? "SIGTERM" : "SIGHUP";
 }
 
+/// Every frame allocates its input cloud and output buffers anew (the readers and encoders
+/// return fresh objects), several MB each. By default glibc serves those with mmap and gives
+/// them back at free, so every frame page-faults all of them in again (112k faults and a third
+/// of the CPU time for 12 Kinect frames with mesh.ply; worse with threads, which contend on the
+/// kernel's address-space lock). Keeping freed memory in the heap for the next frame cuts this
+/// to 17k faults; the peak stays that of one frame per thread.
 void keep_freed_memory_for_reuse() {
 #if defined(__GLIBC__)
   mallopt(M_MMAP_THRESHOLD, 32 << 20);  // the largest glibc accepts on 64-bit
@@ -244,14 +246,9 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
   BatchOptions frame_options = options;
   frame_options.files.inputs = &inputs;
   // An earlier run's summary would describe folders this run is replacing.
-  if (const auto old = out_dir / "summary.json";
-      std::filesystem::is_regular_file(old) && !inputs.contains(old) && written_by_rangeseg(old)) {
-    std::error_code ignored;
-    std::filesystem::remove(old, ignored);
-  }
+  remove_earlier_result(out_dir / "summary.json", &inputs);
 
   std::vector<FrameResult> results(n);
-  std::vector<std::uint8_t> ran(n, 0);
   std::string sequence_preset;  // tracked: the one worker's
   std::atomic<std::size_t> next{0};
   const StopAfterCurrentFrames stop;
@@ -263,7 +260,6 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
       const FrameSource& frame = list.frames[i];
       results[i] = run_frame(frame, list.options_for(frame), settings.preset, worker, frame_options,
                              track ? &sequence_preset : nullptr);
-      ran[i] = 1;
       if (!results[i].ok) bar.message("skipped " + results[i].error);
       bar.advance(frame.name);
     }
@@ -288,10 +284,10 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
   bool any_png = false, any_tum = false;
   for (std::size_t i = 0; i < n; ++i) {
     const FrameSource& f = list.frames[i];
-    if (ran[i] == 0) continue;
-    ++run;
-    (f.tum ? any_tum : any_png) |= io::extension(f.path) == ".png";
     const FrameResult& r = results[i];
+    if (!r.ran) continue;
+    ++run;
+    if (io::extension(f.path) == ".png") (f.tum ? any_tum : any_png) = true;
     if (r.ok) {
       ++ok;
       nlohmann::json ms;

@@ -34,10 +34,7 @@ void run_noise(const NoiseOptions& o) {
   std::size_t used = 0;
   for (const FrameSource& frame : list.frames) {
     try {
-      if (!frame.error.empty()) {
-        throw std::runtime_error(
-            frame.error.starts_with(frame.path) ? frame.error : frame.path + ": " + frame.error);
-      }
+      if (!frame.error.empty()) throw std::runtime_error(frame.error);
       InputOptions in = list.options_for(frame);
       in.path = frame.path;
       LoadedInput loaded = load_input(in);

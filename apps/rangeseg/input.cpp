@@ -127,7 +127,7 @@ std::pair<double, double> focal_lengths(const InputOptions& o) {
 std::string camera_source(const InputOptions& o) {
   if (!o.intrinsics.empty()) return o.intrinsics;
   if (camera_options_given(o)) return "--fx / --fy / --cx / --cy";
-  return o.camera_by_convention ? "TUM RGB-D's" : "the default, a Kinect's";
+  return o.tum_sequence ? "TUM RGB-D's" : "the default, a Kinect's";
 }
 
 CameraIntrinsics intrinsics_for(const InputOptions& o, int width, int height) {
@@ -211,7 +211,7 @@ void check_depth_image(const InputOptions& o, const OrganizedCloud& cloud, bool 
       });
     }
   }
-  if (!camera_options_given(o) && !o.camera_by_convention) {
+  if (!camera_options_given(o) && !o.tum_sequence) {
     static std::once_flag flag;
     warn_once(flag, [&] {
       std::string beside;
@@ -556,7 +556,6 @@ FrameList gather_frames(const std::vector<std::string>& inputs, const InputOptio
   list.tum_options.tum_sequence = true;
   if (tum && !base.depth_scale_given) list.tum_options.depth_scale = kTumDepthScale;
   if (tum) {
-    list.tum_options.camera_by_convention = !camera_options_given(base);
     note("a TUM RGB-D sequence: depth in units of %g m%s, %s", list.tum_options.depth_scale,
          base.depth_scale_given ? " (--depth-scale)" : " (TUM's 5000 per metre)",
          camera_options_given(base) ? "the camera given"

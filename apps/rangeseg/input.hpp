@@ -22,10 +22,9 @@ struct InputOptions {
   bool fx_given = false, fy_given = false, cx_given = false, cy_given = false;
   double depth_scale = 0.001;  ///< metres per raw depth unit
   bool depth_scale_given = false;
-  /// The camera and depth scale are the input's documented ones (a TUM sequence), so a depth
-  /// PNG without a camera gets no note about the default camera.
-  bool camera_by_convention = false;
-  bool tum_sequence = false;  ///< a frame listed in a TUM sequence's depth.txt
+  /// A frame listed in a TUM sequence's depth.txt: the camera, unless one is given, and the
+  /// depth scale are TUM's documented ones, so such a PNG gets no note about the default camera.
+  bool tum_sequence = false;
   /// Move a PCD's points into the frame of the sensor its VIEWPOINT names (off by default:
   /// PCL's OpenNI grabber writes VIEWPOINT 0 0 0 0 1 0 0 for points in the camera's frame).
   bool apply_viewpoint = false;
@@ -90,7 +89,7 @@ void require_grid(OrganizedCloud& cloud, const std::string& path, const std::str
 struct FrameSource {
   std::string path;
   std::string name;   ///< file stem, or the TUM timestamp; unique within the batch
-  std::string error;  ///< set when the frame is known to be unreadable before loading
+  std::string error;  ///< the file and why, when the frame is unreadable before loading
   bool tum = false;   ///< listed in a TUM sequence's depth.txt: loaded with FrameList::tum_options
 };
 

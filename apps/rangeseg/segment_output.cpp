@@ -265,20 +265,25 @@ void remove_earlier_results(const std::filesystem::path& dir,
   }
   for (const char* name : kFolderFiles) {
     const std::filesystem::path path = dir / name;
-    if (std::find(written.begin(), written.end(), path.string()) != written.end()) continue;
-    std::error_code error;
-    if (!std::filesystem::is_regular_file(path, error)) continue;
-    if (inputs != nullptr && inputs->contains(path)) continue;  // this run's input
-    if (!written_by_rangeseg(path)) {
-      note("warning: kept %s: a result's name, but rangeseg did not write it", path.c_str());
-      continue;
+    if (std::find(written.begin(), written.end(), path.string()) == written.end()) {
+      remove_earlier_result(path, inputs);
     }
-    if (std::filesystem::remove(path, error)) {
-      note("removed %s of an earlier run", path.c_str());
-    } else if (error) {
-      throw std::runtime_error(path.string() + ": cannot remove the earlier run's file (" +
-                               error.message() + ")");
-    }
+  }
+}
+
+void remove_earlier_result(const std::filesystem::path& path, const InputFiles* inputs) {
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error)) return;
+  if (inputs != nullptr && inputs->contains(path)) return;  // this run's input
+  if (!written_by_rangeseg(path)) {
+    note("warning: kept %s: a result's name, but rangeseg did not write it", path.c_str());
+    return;
+  }
+  if (std::filesystem::remove(path, error)) {
+    note("removed %s of an earlier run", path.c_str());
+  } else if (error) {
+    throw std::runtime_error(path.string() + ": cannot remove the earlier run's file (" +
+                             error.message() + ")");
   }
 }
 

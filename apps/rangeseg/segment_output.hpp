@@ -30,7 +30,6 @@ RgbImage colorize_surface_types(const Segmentation& segmentation, RgbImage shade
 /// included): a result folder's clean-up never removes one.
 class InputFiles {
  public:
-  InputFiles() = default;
   /// Paths that do not exist (yet) are left out.
   explicit InputFiles(const std::vector<std::string>& paths);
   bool contains(const std::filesystem::path& path) const;
@@ -74,6 +73,10 @@ void warn_if_no_segments(const Pipeline& pipeline, const std::string& path);
 void remove_earlier_results(const std::filesystem::path& dir,
                             const std::vector<std::string>& written,
                             const InputFiles* inputs = nullptr);
+
+/// One file of remove_earlier_results: removed if rangeseg wrote it and it is not among
+/// `inputs`; kept with a warning if rangeseg did not write it.
+void remove_earlier_result(const std::filesystem::path& path, const InputFiles* inputs);
 
 /// Whether the file at `path` names rangeseg as its writer: PNG (a Software text chunk), PLY,
 /// OBJ and PCD (a header comment), a batch's summary.json (its keys).
