@@ -211,6 +211,12 @@ TEST(CameraFile, ReadsYamlOrJsonByName) {
   const std::string misnamed = (dir / "message.json").string();
   io::write_file_atomic(misnamed, std::string(kRos2Message));
   expect_runtime_error_with([&] { io::read_camera_file(misnamed); }, "invalid JSON");
+  // A focal length given twice (an edit that JSON would drop) is refused.
+  const std::string twice = (dir / "twice.json").string();
+  io::write_file_atomic(twice, std::string(R"({"fx": 383.5, "fy": 384, "cx": 321.25, )"
+                                           R"("cy": 238.75, "fx": 600})"));
+  expect_runtime_error_with([&] { io::read_camera_file(twice); },
+                            "twice.json': key 'fx' is given twice in the top-level object");
   expect_runtime_error_with([&] { io::read_camera_file((dir / "none.yaml").string()); },
                             "none.yaml");
 }

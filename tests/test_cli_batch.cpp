@@ -1,5 +1,6 @@
 // End-to-end tests of `rangeseg segment` over several frames: what the clean-up of result folders
-// keeps, inputs that hold no frame, TUM sequences beside other depth images, an interrupted batch.
+// keeps, inputs that hold no frame or a dangling link, TUM sequences beside other depth images,
+// an interrupted batch.
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -88,6 +89,24 @@ TEST(CliBatch, AnInputWithoutFramesIsReportedAndSkipped) {
   EXPECT_EQ(summary["failed"], 2);
   // No PNG among the frames: nothing to say about depth images.
   EXPECT_FALSE(summary.contains("depth_png"));
+}
+
+/// A dangling symbolic link of a frame's name in a scanned folder (a sequence whose files moved)
+/// is a failed frame that says where it points, not a frame left out without a word.
+TEST(CliBatch, ADanglingLinkInAFolderIsAFailedFrame) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_batch_link");
+  write_small_pcd(dir / "seq" / "0001.pcd", 8);
+  fs::create_symlink(dir / "moved" / "0002.pcd", dir / "seq" / "0002.pcd");
+  fs::create_symlink(dir / "moved" / "notes.txt", dir / "seq" / "notes.txt");  // no frame
+  const rangeseg::test::CliResult r =
+      run_cli("segment " + (dir / "seq").string() + " -o " + (dir / "out").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(contains(r.out, "0002.pcd: a symbolic link to")) << r.out;
+  EXPECT_TRUE(contains(r.out, "which does not exist")) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "out" / "0001" / "labels.png"));
+  const nlohmann::json summary = read_json(dir / "out" / "summary.json");
+  EXPECT_EQ(summary["frames"], 2);
+  EXPECT_EQ(summary["failed"], 1);
 }
 
 /// TUM's 5000 units per metre apply to the frames its depth.txt lists, not to a millimetre depth

@@ -56,7 +56,12 @@ TEST(SettingsJson, ErrorsNameTheSourceAndKeyAndChangeNothing) {
         Case{R"({"mesh": {"type": "triangles"}})", "unknown mesh type"},
         Case{R"({"smooth": "yes"})", "key 'smooth' must be true or false, got \"yes\""},
         Case{R"({"mesh": {"eps_theta": "wide"}})", "key 'eps_theta' must be a number"},
-        Case{R"([1, 2])", "expected a JSON object"}, Case{R"({"mesh": )", "not valid JSON"}}) {
+        Case{R"([1, 2])", "expected a JSON object"}, Case{R"({"mesh": )", "invalid JSON"},
+        // A key given twice is an edit that did not take effect: JSON keeps one value.
+        Case{R"({"segmentation": {"min_region_size": 50, "min_region_size": 90}})",
+             "key 'min_region_size' is given twice in 'segmentation'"},
+        Case{R"({"smooth": true, "mesh": {}, "smooth": false})",
+             "key 'smooth' is given twice in the top-level object"}}) {
     PipelineSettings s = pipeline_preset("kinect");
     s.segmentation.min_region_size = 77;
     const std::string error = error_of(c.json, s);

@@ -118,7 +118,7 @@ std::vector<int> curved_labels(const std::string& path) {
   try {
     j = nlohmann::json::parse(bytes.begin(), bytes.end());
   } catch (const nlohmann::json::exception& e) {
-    throw std::runtime_error(path + ": not valid JSON: " + e.what());
+    throw std::runtime_error(path + ": invalid JSON: " + e.what());
   }
   if (!j.is_object() || !j.contains("surfaces") || !j["surfaces"].is_array()) {
     throw std::runtime_error(path +

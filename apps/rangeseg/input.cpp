@@ -472,7 +472,10 @@ void add_tum_frames(const fs::path& list, std::vector<FrameSource>& frames) {
 void add_directory_frames(const fs::path& dir, std::vector<FrameSource>& frames) {
   std::vector<fs::path> files;
   for (const fs::directory_entry& e : fs::directory_iterator(dir)) {
-    if (e.is_regular_file() && is_frame_file(e.path())) files.push_back(e.path());
+    // A dangling link of a frame's name is a frame that fails, not one left out unseen.
+    std::error_code error;
+    const bool dangling = e.is_symlink(error) && !e.exists(error);
+    if ((dangling || e.is_regular_file()) && is_frame_file(e.path())) files.push_back(e.path());
   }
   if (files.empty()) {
     // Reported with the other failures: one empty folder among the inputs stops nothing.
@@ -487,7 +490,13 @@ void add_directory_frames(const fs::path& dir, std::vector<FrameSource>& frames)
   }
   std::sort(files.begin(), files.end(), natural_less);
   for (const fs::path& f : files) {
-    frames.push_back({.path = f.string(), .name = f.stem().string(), .error = {}});
+    std::error_code error;
+    std::string why;
+    if (!fs::exists(f, error)) {
+      why = f.string() + ": a symbolic link to '" + fs::read_symlink(f, error).string() +
+            "', which does not exist";
+    }
+    frames.push_back({.path = f.string(), .name = f.stem().string(), .error = why});
   }
 }
 

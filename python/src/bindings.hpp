@@ -3,6 +3,8 @@
 
 #include <pybind11/pybind11.h>
 
+#include <string>
+
 namespace rangeseg::python {
 
 namespace py = pybind11;
@@ -10,5 +12,8 @@ namespace py = pybind11;
 void bind_cloud(py::module_& m);     ///< Cloud, read_cloud, read_depth_png, ...
 void bind_pipeline(py::module_& m);  ///< Pipeline, Result
 void bind_eval(py::module_& m);      ///< evaluate
+
+/// Issues a Python UserWarning (an exception when the warning filters make it one).
+void user_warning(const std::string& message);
 
 }  // namespace rangeseg::python

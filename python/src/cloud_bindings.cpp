@@ -4,6 +4,7 @@
 #include <pybind11/stl.h>
 
 #include <string>
+#include <utility>
 
 #include "arrays.hpp"
 #include "bindings.hpp"
@@ -105,9 +106,18 @@ SegComp .range image. Raises RuntimeError naming the file and the problem.)");
       "read_depth_png",
       [](const py::object& file) {
         const std::string path = path_of(file, "path");
-        return plane_array(without_gil([&] { return io::read_depth_png(path); }), true);
+        bool eight_bit = false;
+        DepthImage depth = without_gil([&] { return io::read_depth_png(path, &eight_bit); });
+        if (eight_bit) {
+          user_warning(path +
+                       ": an 8-bit PNG, read as depth in raw units 0..255; a depth camera writes "
+                       "16-bit PNGs: is it a picture or a mask?");
+        }
+        return plane_array(std::move(depth), true);
       },
-      "path"_a, "A 16-bit depth PNG as uint16 (H, W), raw units (0 = no measurement).");
+      "path"_a,
+      R"(A 16-bit depth PNG as uint16 (H, W), raw units (0 = no measurement). An 8-bit
+grayscale PNG is read too, with a UserWarning.)");
   m.def(
       "read_label_png",
       [](const py::object& file) {

@@ -3,6 +3,14 @@
 
 #include "bindings.hpp"
 
+namespace rangeseg::python {
+
+void user_warning(const std::string& message) {
+  if (PyErr_WarnEx(PyExc_UserWarning, message.c_str(), 1) != 0) throw py::error_already_set();
+}
+
+}  // namespace rangeseg::python
+
 PYBIND11_MODULE(rangeseg, m) {
   m.doc() = R"(Fast range image segmentation and smoothing (Holz & Behnke).
 

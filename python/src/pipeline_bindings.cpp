@@ -190,10 +190,6 @@ void require_result_fields(int width, int height, bool organized,
   }
 }
 
-void user_warning(const std::string& message) {
-  if (PyErr_WarnEx(PyExc_UserWarning, message.c_str(), 1) != 0) throw py::error_already_set();
-}
-
 /// Depth beyond this median lies beyond any depth sensor's range [m]: ten times a depth camera's
 /// 20 m, as the command line's check.
 constexpr double kFarthestMedian = 200.0;
@@ -256,6 +252,7 @@ class PyPipeline {
     });
     if (!scale.empty()) user_warning("points: " + scale);
     if (scanner) warn_scanner_grid();
+    if (fx > 0 && !cloud.is_organized()) warn_fx_unused();
     return result;
   }
 
@@ -273,7 +270,7 @@ class PyPipeline {
     const py::object p = numeric_array(points, "points");
     const py::object i = array_or_none(intensity, "intensity");
     const py::object c = array_or_none(colors, "colors");
-    bool scanner = false;
+    bool scanner = false, organized = true;
     std::string scale;
     Result result = run([&] { cloud_from_arrays(p, i, c, py::none(), input_); },
                         [&] {
@@ -281,9 +278,11 @@ class PyPipeline {
                           choose_preset(&input_);
                           pipeline_.process(input_, fx);
                           scanner = first_grid_is_a_scanners(input_, fx);
+                          organized = input_.is_organized();
                         });
     if (!scale.empty()) user_warning("points: " + scale);
     if (scanner) warn_scanner_grid();
+    if (fx > 0 && !organized) warn_fx_unused();
     return result;
   }
 
@@ -436,6 +435,15 @@ class PyPipeline {
     scale_checked_ = true;
     return cloud_scale_problem(cloud);
   }
+  /// fx names the camera of organized points; an unorganized cloud's comes from its pixel grid
+  /// when its points lie on one (and is not needed over rings).
+  static void warn_fx_unused() {
+    user_warning(
+        "fx is not used for unorganized points (N, 3): their camera is found from the points "
+        "when they lie on its pixel grid, and rings need none. Give (H, W, 3) points, or "
+        "process_depth, for fx to apply");
+  }
+
   static void warn_scanner_grid() {
     user_warning(
         "no pinhole camera explains this grid (a scanner's, or points moved out of the camera's "
@@ -594,7 +602,9 @@ intensity term. fx [pixel]: the focal length of the camera of organized points, 
 for the smoothing's pixel angle 1 / fx (unless the settings give smoothing.pixel_angle) and
 the smallest segment (segmentation.min_region_size pixels at min_region_fx, the same solid
 angle for a coarser camera); 0 = unknown: the pinhole camera fitted to the points, else
-1 / 525 (a Kinect at 640 x 480) and min_region_size as given. Returns a Result.)")
+1 / 525 (a Kinect at 640 x 480) and min_region_size as given. Unorganized points (N, 3) do
+not use fx (a UserWarning says so): their camera comes from their pixel grid. Returns a
+Result.)")
       .def(
           "process_depth",
           [](PyPipeline& p, const py::object& depth, double fx, double fy, double cx, double cy,

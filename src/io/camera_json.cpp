@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "detail/json_parse.hpp"
 #include "rangeseg/io/file.hpp"
 
 namespace rangeseg::io {
@@ -42,9 +43,9 @@ int size_value(const json& object, const char* key, const std::string& name, boo
 CameraIntrinsics parse_camera_json(const std::string& text, const std::string& name) {
   json root;
   try {
-    root = json::parse(text);
-  } catch (const json::exception& e) {
-    fail(name, std::string("invalid JSON: ") + e.what());
+    root = detail::parse_json_keys_once(text);
+  } catch (const std::runtime_error& e) {
+    fail(name, e.what());
   }
   if (!root.is_object()) fail(name, "top level is not a JSON object");
 

@@ -14,6 +14,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "detail/json_parse.hpp"
 #include "rangeseg/io/file.hpp"
 
 namespace rangeseg::io {
@@ -221,9 +222,9 @@ void apply_settings_json(std::string_view text, const std::string& path,
                          PipelineSettings& settings) {
   json j;
   try {
-    j = json::parse(text.begin(), text.end());
-  } catch (const json::exception& e) {
-    throw std::runtime_error(path + ": not valid JSON: " + e.what());
+    j = detail::parse_json_keys_once(text);
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(path + ": " + e.what());
   }
   PipelineSettings s = settings;  // `settings` stays as it was when anything is wrong
   read_settings(j, path, s);

@@ -1,8 +1,12 @@
 """What the module says about input that would give wrong results without an error: points in
 millimetres, depth under a wrong scale, results built from anything, config values of the wrong
 type."""
+import os
+import struct
+import tempfile
 import unittest
 import warnings
+import zlib
 
 import numpy as np
 
@@ -73,6 +77,41 @@ class InputChecks(unittest.TestCase):
             rangeseg.Pipeline(config={"smooth": "yes"})
         pipeline = rangeseg.Pipeline(config={"segmentation": {"min_region_size": 200.0}})
         self.assertEqual(pipeline.settings["segmentation"]["min_region_size"], 200)
+
+    def test_fx_given_for_unorganized_points_says_it_is_not_used(self):
+        wall = wall_points()
+        _, said = warnings_of(lambda: rangeseg.Pipeline().process(wall.reshape(-1, 3), fx=300.0))
+        self.assertTrue(any("fx is not used for unorganized points" in s for s in said), said)
+        _, organized = warnings_of(lambda: rangeseg.Pipeline().process(wall, fx=FX / 2))
+        self.assertFalse(any("fx is not used" in s for s in organized), organized)
+        _, unknown = warnings_of(lambda: rangeseg.Pipeline().process(wall.reshape(-1, 3)))
+        self.assertFalse(any("fx is not used" in s for s in unknown), unknown)
+
+    def test_an_8_bit_png_read_as_depth_warns_and_a_16_bit_one_does_not(self):
+        def write_png(path, bits, value):
+            width, height = 8, 4
+            sample = bytes([value]) if bits == 8 else struct.pack(">H", value)
+            rows = b"".join(b"\x00" + sample * width for _ in range(height))
+
+            def chunk(kind, data):
+                return (struct.pack(">I", len(data)) + kind + data +
+                        struct.pack(">I", zlib.crc32(kind + data)))
+
+            header = struct.pack(">IIBBBBB", width, height, bits, 0, 0, 0, 0)
+            with open(path, "wb") as f:
+                f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) +
+                        chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
+
+        with tempfile.TemporaryDirectory() as folder:
+            eight, sixteen = os.path.join(folder, "mask.png"), os.path.join(folder, "depth.png")
+            write_png(eight, 8, 200)
+            write_png(sixteen, 16, 2000)
+            depth, said = warnings_of(lambda: rangeseg.read_depth_png(eight))
+            self.assertTrue(any("mask.png: an 8-bit PNG" in s for s in said), said)
+            self.assertEqual(int(depth[0, 0]), 200)
+            depth, none = warnings_of(lambda: rangeseg.read_depth_png(sixteen))
+            self.assertEqual(none, [])
+            self.assertEqual(int(depth[3, 7]), 2000)
 
 
 if __name__ == "__main__":
