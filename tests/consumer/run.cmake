@@ -42,11 +42,19 @@ else()
   message(FATAL_ERROR "pkg-config or the installed rangeseg.pc not found")
 endif()
 
-# The build folder itself as the package, without an install.
+# The build folder itself as the package, without an install: for CMake, and for pkg-config.
 run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/consumer -B ${WORK_DIR}/build_tree -Drangeseg_DIR=${BUILD_DIR}
     -DCMAKE_BUILD_TYPE=Release -DMY_APP_SOURCE=${WORK_DIR}/my_app.cpp)
 run(${CMAKE_COMMAND} --build ${WORK_DIR}/build_tree --target consumer)
 run(${WORK_DIR}/build_tree/consumer)
+execute_process(COMMAND ${CMAKE_COMMAND} -E env PKG_CONFIG_PATH=${BUILD_DIR}
+                        ${pkg_config} --cflags --libs rangeseg
+                OUTPUT_VARIABLE flags OUTPUT_STRIP_TRAILING_WHITESPACE RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "pkg-config --cflags --libs rangeseg of the build folder failed (${rc})")
+endif()
+separate_arguments(flags UNIX_COMMAND "${flags}")
+run(c++ -O1 ${WORK_DIR}/my_app.cpp ${flags} -o ${WORK_DIR}/my_app_build_tree_pkg_config)
 
 set(data ${SOURCE_DIR}/../shared/data)
 if(EXISTS ${data}/kinect/grabber_frame0.pcd AND EXISTS ${data}/depth_png/00000.png)
