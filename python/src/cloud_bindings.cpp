@@ -4,7 +4,6 @@
 #include <pybind11/stl.h>
 
 #include <string>
-#include <utility>
 
 #include "arrays.hpp"
 #include "bindings.hpp"
@@ -107,13 +106,13 @@ SegComp .range image. Raises RuntimeError naming the file and the problem.)");
       [](const py::object& file) {
         const std::string path = path_of(file, "path");
         bool eight_bit = false;
-        DepthImage depth = without_gil([&] { return io::read_depth_png(path, &eight_bit); });
+        const DepthImage depth = without_gil([&] { return io::read_depth_png(path, &eight_bit); });
         if (eight_bit) {
           user_warning(path +
                        ": an 8-bit PNG, read as depth in raw units 0..255; a depth camera writes "
                        "16-bit PNGs: is it a picture or a mask?");
         }
-        return plane_array(std::move(depth), true);
+        return plane_array(depth, true);
       },
       "path"_a,
       R"(A 16-bit depth PNG as uint16 (H, W), raw units (0 = no measurement). An 8-bit
