@@ -9,6 +9,7 @@
 #include <string>
 
 #include "detail/fit_camera.hpp"
+#include "detail/number_text.hpp"
 
 namespace rangeseg {
 
@@ -32,7 +33,7 @@ void require_scale(double depth_scale) {
   if (!(depth_scale > 0) || !std::isfinite(depth_scale)) {
     throw std::invalid_argument(
         "depth_to_cloud: depth_scale [m per unit] must be finite and > 0, got " +
-        std::to_string(depth_scale));
+        rangeseg::detail::number_text(depth_scale));
   }
 }
 
@@ -232,7 +233,7 @@ DepthImage cloud_to_depth(const OrganizedCloud& cloud, double depth_scale) {
   if (!(depth_scale > 0) || !std::isfinite(depth_scale)) {
     throw std::invalid_argument(
         "cloud_to_depth: depth_scale [m per unit] must be finite and > 0, got " +
-        std::to_string(depth_scale));
+        rangeseg::detail::number_text(depth_scale));
   }
   DepthImage depth(cloud.width(), cloud.height(), 0);
   for (int v = 0; v < cloud.height(); ++v) {

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "detail/gather_points.hpp"
+#include "detail/number_text.hpp"
 #include "rangeseg/cloud.hpp"
 
 namespace rangeseg {
@@ -139,7 +140,7 @@ void to_sensor_frame(OrganizedCloud& cloud, const std::array<double, 7>& pose) {
     std::string values;
     for (const double v : pose) {
       if (!values.empty()) values += ' ';
-      values += std::to_string(v);
+      values += rangeseg::detail::number_text(v);
     }
     throw std::invalid_argument("to_sensor_frame: pose (tx ty tz qw qx qy qz) = " + values +
                                 " needs finite values and a quaternion of norm >= 1e-6");

@@ -1,4 +1,5 @@
 #include "rangeseg/colorize.hpp"
+#include "detail/number_text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -235,8 +236,9 @@ std::array<std::uint8_t, 3> colour_map(float t) {
 
 RgbImage colorize_scalar(View<const float> values, float lo, float hi) {
   if (!std::isfinite(lo) || !std::isfinite(hi) || !(lo < hi)) {
-    throw std::invalid_argument("colorize_scalar: need finite lo < hi, got lo = " +
-                                std::to_string(lo) + ", hi = " + std::to_string(hi));
+    throw std::invalid_argument(
+        "colorize_scalar: need finite lo < hi, got lo = " + rangeseg::detail::number_text(lo) +
+        ", hi = " + rangeseg::detail::number_text(hi));
   }
   RgbImage image = RgbImage::black(values.width, values.height);
   const float scale = 1.0f / (hi - lo);

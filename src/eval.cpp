@@ -1,5 +1,6 @@
 // SegComp evaluation (Hoover et al. 1996): region classification, plane fits, angle differences.
 #include "rangeseg/eval.hpp"
+#include "detail/number_text.hpp"
 
 #include <Eigen/Eigenvalues>
 
@@ -149,7 +150,7 @@ EvalResult evaluate(const LabelImage& ground_truth, const LabelImage& machine,
   }
   if (!(settings.tolerance > 0.5 && settings.tolerance <= 1.0)) {
     throw std::invalid_argument("eval::evaluate: tolerance must be in (0.5, 1], got " +
-                                std::to_string(settings.tolerance));
+                                rangeseg::detail::number_text(settings.tolerance));
   }
   if (settings.min_gt_label < 0) {
     throw std::invalid_argument("eval::evaluate: min_gt_label must be >= 0, got " +
@@ -476,7 +477,7 @@ std::vector<std::optional<PlaneParams>> fit_planes(const OrganizedCloud& cloud,
   }
   if (!(trim_sigmas >= 0.0) || !std::isfinite(trim_sigmas)) {
     throw std::invalid_argument("eval::fit_planes: trim_sigmas must be finite and >= 0, got " +
-                                std::to_string(trim_sigmas));
+                                rangeseg::detail::number_text(trim_sigmas));
   }
   const int width = labels.width(), height = labels.height();
   std::int32_t max_label = -1;
@@ -584,10 +585,11 @@ std::array<double, 3> oriented_normal(const PlaneParams& plane, const char* whic
   const auto& n = plane.normal;
   const double length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
   if (!(length > 0.0) || !std::isfinite(length) || !std::isfinite(plane.offset)) {
-    throw std::invalid_argument(std::string("eval::angle_error: ") + which + " plane of label " +
-                                std::to_string(label) + " has normal (" + std::to_string(n[0]) +
-                                ", " + std::to_string(n[1]) + ", " + std::to_string(n[2]) +
-                                ") and offset " + std::to_string(plane.offset));
+    throw std::invalid_argument(
+        std::string("eval::angle_error: ") + which + " plane of label " + std::to_string(label) +
+        " has normal (" + rangeseg::detail::number_text(n[0]) + ", " +
+        rangeseg::detail::number_text(n[1]) + ", " + rangeseg::detail::number_text(n[2]) +
+        ") and offset " + rangeseg::detail::number_text(plane.offset));
   }
   const double s = (plane.offset < 0.0 ? -1.0 : 1.0) / length;
   return {n[0] * s, n[1] * s, n[2] * s};

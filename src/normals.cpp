@@ -32,6 +32,7 @@
 #include <utility>
 #include <vector>
 
+#include "detail/number_text.hpp"
 #include "detail/row_bands.hpp"
 #include "detail/simd.hpp"
 
@@ -229,7 +230,7 @@ void validate(const NormalSettings& settings) {
   for (const float p : settings.viewpoint) {
     if (!std::isfinite(p)) {
       throw std::invalid_argument("NormalSettings::viewpoint must be finite, got " +
-                                  std::to_string(p));
+                                  rangeseg::detail::number_text(p));
     }
   }
 }

@@ -11,6 +11,7 @@
 
 #include "detail/fit_camera.hpp"
 #include "detail/gather_points.hpp"
+#include "detail/number_text.hpp"
 #include "detail/row_bands.hpp"
 #include "segmentation/internal.hpp"
 #include "unorganized/internal.hpp"
@@ -305,7 +306,7 @@ void Pipeline::set_input(const OrganizedCloud& cloud) {
 void Pipeline::process(const OrganizedCloud& cloud, double camera_fx) {
   if (!(camera_fx >= 0) || !std::isfinite(camera_fx)) {
     throw std::invalid_argument("Pipeline::process: camera_fx must be >= 0 and finite, got " +
-                                std::to_string(camera_fx));
+                                rangeseg::detail::number_text(camera_fx));
   }
   camera_fx_ = camera_fx;  // a pixel grid found in an unorganized cloud names its own
   process_cloud(cloud);

@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "detail/number_text.hpp"
 #include "rangeseg/cloud.hpp"
 
 namespace rangeseg {
@@ -99,13 +100,15 @@ NoiseEstimator::NoiseEstimator(const NoiseEstimateSettings& settings) : settings
     fail("block must be in [4, 256] pixels, got " + std::to_string(settings.block));
   }
   if (!(settings.quantile > 0 && settings.quantile < 1)) {
-    fail("quantile must be in (0, 1), got " + std::to_string(settings.quantile));
+    fail("quantile must be in (0, 1), got " + rangeseg::detail::number_text(settings.quantile));
   }
   if (!(settings.bin_ratio > 1 && std::isfinite(settings.bin_ratio))) {
-    fail("bin_ratio must be finite and > 1, got " + std::to_string(settings.bin_ratio));
+    fail("bin_ratio must be finite and > 1, got " +
+         rangeseg::detail::number_text(settings.bin_ratio));
   }
   if (!(settings.max_missing >= 0 && settings.max_missing < 0.5)) {
-    fail("max_missing must be in [0, 0.5), got " + std::to_string(settings.max_missing));
+    fail("max_missing must be in [0, 0.5), got " +
+         rangeseg::detail::number_text(settings.max_missing));
   }
   if (settings.min_blocks_per_bin < 1) {
     fail("min_blocks_per_bin must be >= 1, got " + std::to_string(settings.min_blocks_per_bin));
@@ -187,10 +190,11 @@ NoiseEstimate NoiseEstimator::estimate() const {
   }
   if (out.bins.empty()) {
     throw std::runtime_error(
-        "noise estimate: no depth bin (a factor " + std::to_string(settings_.bin_ratio) +
-        " in depth) has " + std::to_string(settings_.min_blocks_per_bin) + " blocks of " +
-        std::to_string(side) + "x" + std::to_string(side) + " pixels with at most " +
-        std::to_string(settings_.max_missing) + " of them invalid (" +
+        "noise estimate: no depth bin (a factor " +
+        rangeseg::detail::number_text(settings_.bin_ratio) + " in depth) has " +
+        std::to_string(settings_.min_blocks_per_bin) + " blocks of " + std::to_string(side) + "x" +
+        std::to_string(side) + " pixels with at most " +
+        rangeseg::detail::number_text(settings_.max_missing) + " of them invalid (" +
         std::to_string(blocks_seen_) + " such blocks in all)");
   }
   out.noise = fit_model(out.bins);

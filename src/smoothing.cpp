@@ -12,6 +12,7 @@
 #include "rangeseg/smoothing.hpp"
 
 #include "detail/gather_points.hpp"
+#include "detail/number_text.hpp"
 #include "detail/simd.hpp"
 #include "detail/smoothing_rows.hpp"
 
@@ -424,14 +425,15 @@ __attribute__((target("avx2"))) float intensity_range_avx2(const OrganizedCloud&
 void check_positive(float value, const char* name) {
   if (!(value > 0.0f) || !std::isfinite(value)) {
     throw std::invalid_argument(std::string("SmoothingSettings::") + name +
-                                " must be positive and finite, got " + std::to_string(value));
+                                " must be positive and finite, got " +
+                                rangeseg::detail::number_text(value));
   }
 }
 
 void check_finite(float value, const char* name) {
   if (!std::isfinite(value)) {
     throw std::invalid_argument(std::string("SmoothingSettings::") + name +
-                                " must be finite, got " + std::to_string(value));
+                                " must be finite, got " + rangeseg::detail::number_text(value));
   }
 }
 
@@ -506,13 +508,13 @@ void validate(const SmoothingSettings& settings) {
     throw std::invalid_argument(
         "SmoothingSettings::pixel_angle must be >= 0 (0 = from the "
         "camera), got " +
-        std::to_string(settings.pixel_angle));
+        rangeseg::detail::number_text(settings.pixel_angle));
   }
   check_positive(settings.noise.a, "noise.a");
   check_finite(settings.noise.b, "noise.b");
   if (settings.noise.b < 0.0f) {
     throw std::invalid_argument("SmoothingSettings::noise.b must be >= 0, got " +
-                                std::to_string(settings.noise.b));
+                                rangeseg::detail::number_text(settings.noise.b));
   }
   check_finite(settings.noise.z0, "noise.z0");
   check_positive(settings.normal_scale, "normal_scale");
@@ -520,7 +522,7 @@ void validate(const SmoothingSettings& settings) {
   check_finite(settings.intensity_range, "intensity_range");
   if (settings.intensity_range < 0.0f) {
     throw std::invalid_argument("SmoothingSettings::intensity_range must be >= 0, got " +
-                                std::to_string(settings.intensity_range));
+                                rangeseg::detail::number_text(settings.intensity_range));
   }
   for (float c : settings.viewpoint) check_finite(c, "viewpoint");
 }
@@ -530,7 +532,7 @@ Smoother::Smoother(const SmoothingSettings& settings) : settings_(settings) { va
 void Smoother::set_camera_fx(double fx) {
   if (!(fx >= 0) || !std::isfinite(fx)) {
     throw std::invalid_argument("Smoother::set_camera_fx: fx must be >= 0 and finite, got " +
-                                std::to_string(fx));
+                                rangeseg::detail::number_text(fx));
   }
   camera_fx_ = fx;
 }

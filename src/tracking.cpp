@@ -1,4 +1,5 @@
 #include "rangeseg/tracking.hpp"
+#include "detail/number_text.hpp"
 
 #include <algorithm>
 #include <bit>
@@ -75,15 +76,15 @@ void for_each_run(const std::uint64_t* bits, int n, Run&& run) {
 void validate(const TrackingSettings& settings) {
   if (!(settings.min_overlap > 0 && settings.min_overlap <= 1)) {
     throw std::invalid_argument("TrackingSettings::min_overlap must be in (0, 1], got " +
-                                std::to_string(settings.min_overlap));
+                                rangeseg::detail::number_text(settings.min_overlap));
   }
   if (!(settings.max_normal_angle >= 0 && settings.max_normal_angle <= std::numbers::pi)) {
     throw std::invalid_argument("TrackingSettings::max_normal_angle must be in [0, pi] rad, got " +
-                                std::to_string(settings.max_normal_angle));
+                                rangeseg::detail::number_text(settings.max_normal_angle));
   }
   if (!(settings.max_distance >= 0 && std::isfinite(settings.max_distance))) {
     throw std::invalid_argument("TrackingSettings::max_distance must be finite and >= 0 m, got " +
-                                std::to_string(settings.max_distance));
+                                rangeseg::detail::number_text(settings.max_distance));
   }
 }
 

@@ -90,6 +90,12 @@ TEST(Camera, DepthToCloudAndBackIsExact) {
   EXPECT_THROW(depth_to_cloud(depth.view(), CameraIntrinsics{.fx = 0}, 0.001),
                std::invalid_argument);
   EXPECT_THROW(depth_to_cloud(depth.view(), cam, -1.0), std::invalid_argument);
+  try {  // a tiny wrong value keeps its digits ("%f" printed -0.000000)
+    depth_to_cloud(depth.view(), cam, -1e-9);
+    ADD_FAILURE() << "depth_scale -1e-9 accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("got -1e-09"), std::string::npos) << e.what();
+  }
   // The message says what is wrong, with every value.
   try {
     validate(CameraIntrinsics{.width = -1});

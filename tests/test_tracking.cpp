@@ -201,6 +201,13 @@ TEST(Tracking, InvalidLabelsThrowAndLeaveTheTrackerAsItWas) {
   EXPECT_THROW(SegmentTracker({.max_normal_angle = NAN}), std::invalid_argument);
   EXPECT_THROW(SegmentTracker({.max_distance = -0.1}), std::invalid_argument);
   EXPECT_THROW(SegmentTracker({.max_distance = INFINITY}), std::invalid_argument);
+  // The message keeps the value: "%f" would print 1.0000001 as 1.000000, a valid overlap.
+  try {
+    SegmentTracker({.min_overlap = 1.0000001});
+    ADD_FAILURE() << "min_overlap 1.0000001 accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("got 1.0000001"), std::string::npos) << e.what();
+  }
 }
 
 // The runs are found 4 pixels at a time from bit masks of 64-pixel words: every pixel must be

@@ -1,6 +1,8 @@
 #include "input.hpp"
 
 #include <algorithm>
+#include <array>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -329,7 +331,10 @@ LoadedInput load_input(const InputOptions& o) {
     }
     check_depth_image(o, in.cloud, eight_bit);
     in.format = eight_bit ? "8-bit depth PNG" : "16-bit depth PNG";
-    in.fields = "depth (scale " + std::to_string(o.depth_scale) + " m/unit)";
+    std::array<char, 32> scale{};
+    char* const scale_end =
+        std::to_chars(scale.data(), scale.data() + scale.size(), o.depth_scale).ptr;
+    in.fields = "depth (scale " + std::string(scale.data(), scale_end) + " m/unit)";
   } else if (ext == ".ply") {
     io::PlyCloudInfo info;
     in.cloud = io::read_ply_cloud(o.path, &info);

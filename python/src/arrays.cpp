@@ -1,4 +1,5 @@
 #include "arrays.hpp"
+#include "bindings.hpp"
 
 #include <algorithm>
 #include <climits>
@@ -82,7 +83,7 @@ void set_colors(const py::array& a, OrganizedCloud& cloud) {
           throw std::invalid_argument(
               std::string("colors must be uint8 0..255 or floats 0..1; point ") +
               std::to_string(static_cast<std::size_t>(v) * cloud.width() + u) + " has " +
-              std::to_string(c[k]));
+              number_text(c[k]));
         }
         rgb[static_cast<std::size_t>(k)] = static_cast<std::uint8_t>(std::lround(value));
       }

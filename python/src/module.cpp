@@ -1,9 +1,19 @@
 // The rangeseg Python module: the library's pipeline on NumPy arrays.
 #include <pybind11/pybind11.h>
 
+#include <array>
+#include <charconv>
+#include <string>
+
 #include "bindings.hpp"
 
 namespace rangeseg::python {
+
+std::string number_text(double value) {
+  std::array<char, 64> text{};
+  const auto result = std::to_chars(text.data(), text.data() + text.size(), value);
+  return {text.data(), result.ptr};
+}
 
 void user_warning(const std::string& message) {
   if (PyErr_WarnEx(PyExc_UserWarning, message.c_str(), 1) != 0) throw py::error_already_set();

@@ -121,7 +121,7 @@ void check_depth_shape(const py::array& a) {
 void check_fx(double fx) {
   if (!(fx >= 0) || !std::isfinite(fx)) {
     throw std::invalid_argument("fx must be >= 0 pixels and finite (0 = unknown), got " +
-                                std::to_string(fx));
+                                number_text(fx));
   }
 }
 
@@ -199,7 +199,7 @@ constexpr double kFarthestMedian = 200.0;
 void warn_if_not_metres(const View<const float>& depth) {
   const double median = sampled_median(depth);
   if (!(median > kFarthestMedian)) return;
-  user_warning("depth: floats are taken as metres, and their median is " + std::to_string(median) +
+  user_warning("depth: floats are taken as metres, and their median is " + number_text(median) +
                " m; for millimetres pass depth_scale=0.001");
 }
 
@@ -208,8 +208,8 @@ void warn_if_not_metres(const View<const float>& depth) {
 void warn_if_scale_implausible(double median, double scale) {
   constexpr double kNearestMedian = 0.02;  // [m]
   if (std::isnan(median) || (median >= kNearestMedian && median <= kFarthestMedian)) return;
-  user_warning("depth: the median depth is " + std::to_string(median) +
-               " m with depth_scale=" + std::to_string(scale) +
+  user_warning("depth: the median depth is " + number_text(median) +
+               " m with depth_scale=" + number_text(scale) +
                " m per unit; is the scale right? (0.001 for millimetres, 0.0001 for a RealSense "
                "D400's default 0.1 mm units)");
 }
@@ -292,7 +292,7 @@ class PyPipeline {
     check_depth_shape(a);
     if (depth_scale && !(*depth_scale > 0 && std::isfinite(*depth_scale))) {
       throw std::invalid_argument("depth_scale must be > 0 metres per unit, got " +
-                                  std::to_string(*depth_scale));
+                                  number_text(*depth_scale));
     }
     const char kind = a.dtype().kind();
     // Integers of any dtype in 0..65535 take the uint16 path, so that they give its result.

@@ -7,6 +7,7 @@
 #include <string_view>
 #include <vector>
 
+#include "detail/number_text.hpp"
 #include "rangeseg/io/camera_file.hpp"
 #include "rangeseg/io/camera_json.hpp"
 #include "rangeseg/io/file.hpp"
@@ -115,7 +116,7 @@ CameraIntrinsics from_k(const std::vector<double>& k, const std::string& key,
   // Row-major: k[0] = fx, k[2] = cx, k[4] = fy, k[5] = cy.
   if (k[1] != 0 || k[3] != 0 || k[6] != 0 || k[7] != 0 || k[8] != 1) {
     std::string text;
-    for (const double x : k) text += (text.empty() ? "" : ", ") + std::to_string(x);
+    for (const double x : k) text += (text.empty() ? "" : ", ") + rangeseg::detail::number_text(x);
     fail(name, "key \"" + key + "\" [" + text +
                    "] is not a pinhole matrix [fx, 0, cx, 0, fy, cy, 0, 0, 1] (row-major, no "
                    "skew)");
@@ -135,7 +136,7 @@ void from_p(const std::vector<double>& p, const std::string& key, const std::str
   if (std::all_of(p.begin(), p.end(), [](double x) { return x == 0; })) return;
   if (p[1] != 0 || p[4] != 0 || p[8] != 0 || p[9] != 0 || p[10] != 1 || p[11] != 0) {
     std::string text;
-    for (const double x : p) text += (text.empty() ? "" : ", ") + std::to_string(x);
+    for (const double x : p) text += (text.empty() ? "" : ", ") + rangeseg::detail::number_text(x);
     fail(name, "key \"" + key + "\" [" + text +
                    "] is not a projection matrix [fx, 0, cx, Tx, 0, fy, cy, Ty, 0, 0, 1, 0] "
                    "(row-major, no skew)");

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "detail/number_text.hpp"
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/pcd.hpp"
 
@@ -126,7 +127,7 @@ std::vector<std::uint8_t> encode_pcd(const OrganizedCloud& cloud, const PcdWrite
   for (const double v : options.viewpoint) {
     if (!std::isfinite(v)) {
       throw std::invalid_argument("encode_pcd: VIEWPOINT values must be finite, got " +
-                                  std::to_string(v));
+                                  rangeseg::detail::number_text(v));
     }
     // Shortest text that reads back to the same double.
     char text[32];

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "detail/number_text.hpp"
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/rasterfile.hpp"
 
@@ -30,11 +31,14 @@ void require_calibration(const PerceptronCalibration& c) {
     throw std::invalid_argument(
         "PerceptronCalibration: lengths must be finite, delta and metres_per_unit > 0, angles in "
         "(0, pi) rad; got h1 " +
-        std::to_string(c.h1) + ", h2 " + std::to_string(c.h2) + ", r0 " + std::to_string(c.r0) +
-        ", delta " + std::to_string(c.delta) + ", metres_per_unit " +
-        std::to_string(c.metres_per_unit) + ", gamma " + std::to_string(c.gamma) + ", theta " +
-        std::to_string(c.theta) + ", h_fov " + std::to_string(c.h_fov) + ", v_fov " +
-        std::to_string(c.v_fov));
+        rangeseg::detail::number_text(c.h1) + ", h2 " + rangeseg::detail::number_text(c.h2) +
+        ", r0 " + rangeseg::detail::number_text(c.r0) + ", delta " +
+        rangeseg::detail::number_text(c.delta) + ", metres_per_unit " +
+        rangeseg::detail::number_text(c.metres_per_unit) + ", gamma " +
+        rangeseg::detail::number_text(c.gamma) + ", theta " +
+        rangeseg::detail::number_text(c.theta) + ", h_fov " +
+        rangeseg::detail::number_text(c.h_fov) + ", v_fov " +
+        rangeseg::detail::number_text(c.v_fov));
   }
 }
 

@@ -17,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+#include "detail/number_text.hpp"
 #include "quoted.hpp"
 #include "rangeseg/io/ply.hpp"
 
@@ -215,7 +216,7 @@ class DataReader {
 
   std::uint64_t list_count(Type type) {
     const double v = value(type);
-    if (!(v >= 0)) fail(name_, "negative list count " + std::to_string(v) + where());
+    if (!(v >= 0)) fail(name_, "negative list count " + rangeseg::detail::number_text(v) + where());
     return static_cast<std::uint64_t>(v);
   }
 
@@ -471,8 +472,8 @@ OrganizedCloud read_vertices(DataReader& in, const Element& vertex, const Format
           // PCL's labels are uint32: values above 2^31 - 1 keep their bits, as in a PCD.
           if (!(v == std::floor(v) && v >= std::numeric_limits<std::int32_t>::min() &&
                 v <= std::numeric_limits<std::uint32_t>::max())) {
-            fail(name, "vertex " + std::to_string(i) + ": label " + std::to_string(v) +
-                           " is not an int32 or uint32 value");
+            fail(name, "vertex " + std::to_string(i) + ": label " +
+                           rangeseg::detail::number_text(v) + " is not an int32 or uint32 value");
           }
           cloud.label(i, 0) = v < 0 ? static_cast<std::int32_t>(v)
                                     : std::bit_cast<std::int32_t>(static_cast<std::uint32_t>(v));

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "detail/number_text.hpp"
 #include "little_endian.hpp"
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/ply.hpp"
@@ -50,14 +51,14 @@ std::vector<std::uint8_t> encode_ply_cloud(const OrganizedCloud& cloud,
   for (const double c : viewpoint) {
     if (!std::isfinite(c)) {
       throw std::invalid_argument("encode_ply_cloud: viewpoint with a non-finite value " +
-                                  std::to_string(c));
+                                  rangeseg::detail::number_text(c));
     }
   }
   const double norm = std::sqrt(viewpoint[3] * viewpoint[3] + viewpoint[4] * viewpoint[4] +
                                 viewpoint[5] * viewpoint[5] + viewpoint[6] * viewpoint[6]);
   if (!(norm >= 1e-6)) {
     throw std::invalid_argument("encode_ply_cloud: viewpoint quaternion of norm " +
-                                std::to_string(norm) + ", expected about 1");
+                                rangeseg::detail::number_text(norm) + ", expected about 1");
   }
   const int w = cloud.width(), h = cloud.height();
   const bool organized = cloud.is_organized();

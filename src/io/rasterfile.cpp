@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "detail/number_text.hpp"
 #include "rangeseg/io/file.hpp"
 
 namespace rangeseg::io {
@@ -150,9 +151,10 @@ OrganizedCloud abw_range_to_cloud(View<const std::uint8_t> range, const AbwCalib
       !std::isfinite(calib.f) || !(calib.c > 0) || !std::isfinite(calib.c) ||
       !std::isfinite(calib.scal)) {
     throw std::invalid_argument("abw_range_to_cloud: invalid calibration offset " +
-                                std::to_string(calib.offset) + ", scal " +
-                                std::to_string(calib.scal) + ", f " + std::to_string(calib.f) +
-                                ", c " + std::to_string(calib.c));
+                                rangeseg::detail::number_text(calib.offset) + ", scal " +
+                                rangeseg::detail::number_text(calib.scal) + ", f " +
+                                rangeseg::detail::number_text(calib.f) + ", c " +
+                                rangeseg::detail::number_text(calib.c));
   }
   OrganizedCloud cloud(range.width, range.height);
   const double inv_f = 1.0 / std::abs(calib.f);

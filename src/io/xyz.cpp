@@ -11,6 +11,7 @@
 #include <string_view>
 #include <vector>
 
+#include "detail/number_text.hpp"
 #include "quoted.hpp"
 #include "rangeseg/io/file.hpp"
 
@@ -163,7 +164,7 @@ OrganizedCloud decode_text_cloud(const std::uint8_t* data, std::size_t size,
         const double c = v[columns.rgb + k];
         if (!(c >= 0 && c <= columns.colour_max)) {
           fail(name, line_no,
-               "colour " + std::to_string(c) + " outside 0.." +
+               "colour " + rangeseg::detail::number_text(c) + " outside 0.." +
                    (columns.colour_max == 1 ? std::string("1 (.xyzrgb colours are 0..1)")
                                             : std::string("255")));
         }

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "detail/headroom.hpp"
+#include "detail/number_text.hpp"
 #include "detail/simd.hpp"
 #include "polygons/internal.hpp"
 #include "rangeseg/polygons.hpp"
@@ -392,7 +393,7 @@ void polygons_detail::outline_raster(std::vector<std::uint8_t>& occ, int cols, i
 void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha, Polygons2D& out) {
   if (!(alpha > 0) || !std::isfinite(alpha)) {
     throw std::invalid_argument("concave_hull: alpha must be finite and > 0 [m], got " +
-                                std::to_string(alpha));
+                                rangeseg::detail::number_text(alpha));
   }
   out.points.clear();
   out.first.clear();
@@ -414,9 +415,10 @@ void concave_hull(const std::vector<std::array<float, 2>>& points, double alpha,
   const double cols_d = std::floor((maxx - minx) / h) + 1 + 2 * kMargin;
   const double rows_d = std::floor((maxy - miny) / h) + 1 + 2 * kMargin;
   if (cols_d * rows_d > static_cast<double>(1 << 26)) {
-    throw std::invalid_argument("concave_hull: alpha " + std::to_string(alpha) +
-                                " m is too small for the extent " + std::to_string(maxx - minx) +
-                                " x " + std::to_string(maxy - miny) + " m (grid over 2^26 cells)");
+    throw std::invalid_argument(
+        "concave_hull: alpha " + rangeseg::detail::number_text(alpha) +
+        " m is too small for the extent " + rangeseg::detail::number_text(maxx - minx) + " x " +
+        rangeseg::detail::number_text(maxy - miny) + " m (grid over 2^26 cells)");
   }
   const int cols = static_cast<int>(cols_d), rows = static_cast<int>(rows_d);
   const double x0 = minx - kMargin * h, y0 = miny - kMargin * h;

@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "detail/number_text.hpp"
 #include "synth/tracer.hpp"
 
 namespace rangeseg::synth {
@@ -13,7 +14,7 @@ namespace rangeseg::synth {
 KinectModel constant_noise(double sigma) {
   if (!(sigma > 0 && std::isfinite(sigma))) {
     throw std::invalid_argument("synth: constant noise needs a finite sigma > 0, got " +
-                                std::to_string(sigma));
+                                rangeseg::detail::number_text(sigma));
   }
   return {.sigma_base = sigma,
           .sigma_quadratic = 0,
@@ -52,7 +53,7 @@ void validate(const KinectModel& m) {
   auto check = [](double value, bool ok, const char* name) {
     if (!ok || !std::isfinite(value)) {
       throw std::invalid_argument(std::string("synth: KinectModel::") + name +
-                                  " out of range: " + std::to_string(value));
+                                  " out of range: " + rangeseg::detail::number_text(value));
     }
   };
   check(m.sigma_base, m.sigma_base >= 0, "sigma_base");

@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "detail/number_text.hpp"
 #include "synth/tracer.hpp"
 
 namespace rangeseg::synth {
@@ -161,12 +162,12 @@ Scene random_scene(std::uint64_t seed, bool with_curved) {
 Scene plane_scene(double distance, double tilt_rad) {
   if (!(distance > 0.0) || !std::isfinite(distance)) {
     throw std::invalid_argument("synth::plane_scene: distance must be positive, got " +
-                                std::to_string(distance));
+                                rangeseg::detail::number_text(distance));
   }
   if (!(std::abs(tilt_rad) < 1.1)) {
     throw std::invalid_argument(
         "synth::plane_scene: |tilt_rad| must be < 1.1 so the plane fills the view, got " +
-        std::to_string(tilt_rad));
+        rangeseg::detail::number_text(tilt_rad));
   }
   constexpr double half_size = 100.0;  // m: far larger than the view at any usable distance
   Scene scene;

@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "detail/number_text.hpp"
 #include "synth/tracer.hpp"
 
 namespace rangeseg::synth {
@@ -15,8 +16,8 @@ namespace {
 constexpr double kMinT = 1e-9;
 
 std::string to_string(const Vec3& v) {
-  return "(" + std::to_string(v[0]) + ", " + std::to_string(v[1]) + ", " + std::to_string(v[2]) +
-         ")";
+  return "(" + rangeseg::detail::number_text(v[0]) + ", " + rangeseg::detail::number_text(v[1]) +
+         ", " + rangeseg::detail::number_text(v[2]) + ")";
 }
 
 bool finite(const Vec3& v) {
@@ -26,7 +27,7 @@ bool finite(const Vec3& v) {
 void require_positive(double value, const std::string& what) {
   if (!(value > 0.0) || !std::isfinite(value)) {
     throw std::invalid_argument("synth: " + what + " must be positive and finite, got " +
-                                std::to_string(value));
+                                rangeseg::detail::number_text(value));
   }
 }
 
@@ -93,7 +94,8 @@ Tracer::Tracer(const Scene& scene) {
     require_finite(room.centre, "room centre");
     for (int i = 0; i < 3; ++i) require_positive(room.half_extent[i], "room half extent");
     if (!std::isfinite(room.yaw)) {
-      throw std::invalid_argument("synth: room yaw is not finite: " + std::to_string(room.yaw));
+      throw std::invalid_argument("synth: room yaw is not finite: " +
+                                  rangeseg::detail::number_text(room.yaw));
     }
     const Mat3 r = rotation({.yaw = room.yaw});
     const Vec3 ex = scale(column(r, 0), room.half_extent[0]);
