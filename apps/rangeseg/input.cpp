@@ -64,8 +64,8 @@ void add_input_options(CLI::App& cmd, InputOptions& o, bool positional) {
                "taken as stored, in the sensor's frame (PCL's OpenNI grabber writes VIEWPOINT 0 "
                "0 0 0 1 0 0 for such points)");
   cmd.add_option("--depth-scale", o.depth_scale,
-                 "Metres per depth PNG unit (0.001 = millimetres; RealSense D400 at its "
-                 "default 0.1 mm: 0.0001; TUM sequences: 0.0002)")
+                 "Metres per depth PNG unit (0.001 = millimetres, as a RealSense D400 "
+                 "writes by default; D405: 0.0001; TUM sequences: 0.0002)")
       ->capture_default_str()
       ->check(CLI::Validator(
           [](const std::string& text) {
@@ -259,8 +259,8 @@ void check_depth_image(const InputOptions& o, const OrganizedCloud& cloud, bool 
     std::snprintf(text, sizeof text, "the median depth is %.4g m with --depth-scale %g m/unit",
                   median, o.depth_scale);
     return "warning: " + o.path + ": " + text +
-           ": is the scale right? (0.001 for millimetres, 0.0001 for a RealSense D400's default "
-           "0.1 mm units, 0.0002 for TUM)";
+           ": is the scale right? (0.001 for millimetres, as a RealSense D400's default; 0.0001 "
+           "for a D405's 0.1 mm units, 0.0002 for TUM)";
   });
 }
 

@@ -210,8 +210,8 @@ void warn_if_scale_implausible(double median, double scale) {
   if (std::isnan(median) || (median >= kNearestMedian && median <= kFarthestMedian)) return;
   user_warning("depth: the median depth is " + number_text(median) +
                " m with depth_scale=" + number_text(scale) +
-               " m per unit; is the scale right? (0.001 for millimetres, 0.0001 for a RealSense "
-               "D400's default 0.1 mm units)");
+               " m per unit; is the scale right? (0.001 for millimetres, as a RealSense D400's "
+               "default; 0.0001 for a D405's 0.1 mm units)");
 }
 
 class PyPipeline {
