@@ -200,39 +200,46 @@ void SegmentTracker::add_candidates(const Segmentation& segmentation) {
       return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     };
     if (before.plane && dot(before.normal, now.normal) < min_cos) continue;
-    if (std::abs(dot(before.normal, now.centroid) + before.offset) > settings_.max_distance) {
-      continue;
-    }
+    // Near the previous plane, or at its distance from the camera: a camera turning in place
+    // moves the centroid off the previous plane (a wall 3 m away, a turn of 4 deg: 0.2 m) but
+    // keeps the distance, while a fitted normal a few degrees off changes the distance (|c|
+    // times the angle) and keeps the centroid near the plane. (A fit's normal may point either
+    // way: its distance is |offset|.)
+    const double off_plane = std::abs(dot(before.normal, now.centroid) + before.offset);
+    const double nearer = std::abs(std::abs(now.offset) - std::abs(before.offset));
+    if (std::min(off_plane, nearer) > settings_.max_distance) continue;
     candidates_.push_back({counts_[s], p, c});
   }
 }
 
 std::array<int, 2> SegmentTracker::image_motion(int width, int height) {
-  // The shift of the image between the frames, from the segments that continue one another
-  // without touching the image's border (a segment cut by the border moves less than the
-  // image): per axis the median of their centroids' shifts, weighted by shared pixels.
-  motions_.clear();
-  for (const Pair& pair : candidates_) {
-    const Footprint& a = previous_[static_cast<std::size_t>(pair.previous - 1)].footprint;
-    const Footprint& b = footprints_[static_cast<std::size_t>(pair.current)];
-    const auto inside = [&](const Footprint& f) {
-      return f.min_u > 0 && f.min_v > 0 && f.max_u < width - 1 && f.max_v < height - 1;
-    };
-    if (!inside(a) || !inside(b)) continue;
-    motions_.push_back({b.sum_u / b.pixels - a.sum_u / a.pixels,
-                        b.sum_v / b.pixels - a.sum_v / a.pixels, static_cast<double>(pair.shared)});
-  }
+  // The shift of the image between the frames, from the segments that continue one another:
+  // per axis the median of their centroids' shifts, weighted by shared pixels, over the
+  // segments that touch neither image border across that axis (a segment cut by the border
+  // moves less than the image; a wall from the top of the image to its bottom still shows a
+  // turn of the camera about its vertical axis).
   std::array<int, 2> shift{0, 0};
-  if (motions_.empty()) return shift;
   for (std::size_t axis = 0; axis < 2; ++axis) {
+    motions_.clear();
+    for (const Pair& pair : candidates_) {
+      const Footprint& a = previous_[static_cast<std::size_t>(pair.previous - 1)].footprint;
+      const Footprint& b = footprints_[static_cast<std::size_t>(pair.current)];
+      const auto inside = [&](const Footprint& f) {
+        return axis == 0 ? f.min_u > 0 && f.max_u < width - 1 : f.min_v > 0 && f.max_v < height - 1;
+      };
+      if (!inside(a) || !inside(b)) continue;
+      const double moved = axis == 0 ? b.sum_u / b.pixels - a.sum_u / a.pixels
+                                     : b.sum_v / b.pixels - a.sum_v / a.pixels;
+      motions_.push_back({moved, static_cast<double>(pair.shared)});
+    }
     std::sort(motions_.begin(), motions_.end(),
-              [axis](const auto& x, const auto& y) { return x[axis] < y[axis]; });
+              [](const auto& x, const auto& y) { return x[0] < y[0]; });
     double total = 0, below = 0;
-    for (const auto& m : motions_) total += m[2];
+    for (const auto& m : motions_) total += m[1];
     for (const auto& m : motions_) {
-      below += m[2];
+      below += m[1];
       if (2 * below < total) continue;
-      shift[axis] = static_cast<int>(std::lround(m[axis]));
+      shift[axis] = static_cast<int>(std::lround(m[0]));
       break;
     }
   }
@@ -250,6 +257,9 @@ void SegmentTracker::update(Segmentation& segmentation) {
                                   ", expected " + std::to_string(i + 1));
     }
   }
+  // A frame without segments (a dropped or blank sensor frame) leaves the tracks as they were:
+  // the next frame continues the one before it.
+  if (n == 0) return;
   const LabelImage& labels = segmentation.labels;
   const bool same_size = !previous_.empty() && previous_labels_.width() == labels.width() &&
                          previous_labels_.height() == labels.height();

@@ -264,12 +264,39 @@ std::map<int, const Segment*> correct_detections(const synth::Rendering& truth,
   return out;
 }
 
-}  // namespace
+/// Turns the scene by `angle` [rad] about the camera's vertical axis (y): the camera turning
+/// in place by -angle.
+synth::Scene turned(synth::Scene scene, double angle) {
+  const auto turn = [&](const synth::Vec3& p) -> synth::Vec3 {
+    const double c = std::cos(angle), s = std::sin(angle);
+    return {c * p[0] + s * p[2], p[1], -s * p[0] + c * p[2]};
+  };
+  if (scene.room) {
+    scene.room->centre = turn(scene.room->centre);
+    scene.room->yaw += angle;
+  }
+  for (auto& r : scene.rectangles) {
+    r.centre = turn(r.centre);
+    r.half_u = turn(r.half_u);
+    r.half_v = turn(r.half_v);
+  }
+  for (auto& b : scene.boxes) {
+    b.centre = turn(b.centre);
+    b.orientation.yaw += angle;
+  }
+  for (auto& c : scene.cylinders) {
+    c.base = turn(c.base);
+    c.axis = turn(c.axis);
+  }
+  for (auto& sphere : scene.spheres) sphere.centre = turn(sphere.centre);
+  return scene;
+}
 
-// A camera panning by a few pixels per frame over a rendered scene with Kinect noise (new
-// noise each frame): every surface found correctly in two consecutive frames keeps its id.
-TEST(Tracking, SurfacesOfARenderedSceneKeepTheirIdsWhileTheCameraPans) {
-  const synth::Scene scene = synth::random_scene(4);
+/// Four frames of `scene` moved by `move(scene, render, frame)`, with Kinect noise (new noise
+/// each frame): every surface found correctly in two consecutive frames keeps its id, and no
+/// surface takes another's. Returns how many kept their ids.
+template <class Move>
+int ids_kept_over_four_frames(const synth::Scene& scene, Move&& move) {
   PipelineSettings settings = pipeline_preset("kinect");
   settings.track = true;
   Pipeline pipeline(settings);
@@ -278,12 +305,11 @@ TEST(Tracking, SurfacesOfARenderedSceneKeepTheirIdsWhileTheCameraPans) {
   for (int f = 0; f < 4; ++f) {
     synth::RenderSettings render{.noise = synth::Noise::kinect,
                                  .seed = static_cast<std::uint64_t>(10 + f)};
-    render.camera.cx += 6.0 * f;  // the image moves 6 px to the right per frame
-    render.camera.cy -= 3.0 * f;
-    const synth::Rendering r = synth::render(scene, render);
+    const synth::Scene moved = move(scene, render, f);
+    const synth::Rendering r = synth::render(moved, render);
     pipeline.process(r.cloud);
     const std::map<int, const Segment*> found = correct_detections(r, pipeline.segmentation());
-    ASSERT_GE(found.size(), 6U) << "frame " << f;
+    EXPECT_GE(found.size(), 6U) << "frame " << f;
     std::map<int, std::uint32_t> ids_now;
     for (const auto& [surface, segment] : found) {
       ids_now[surface] = segment->track_id;
@@ -300,7 +326,46 @@ TEST(Tracking, SurfacesOfARenderedSceneKeepTheirIdsWhileTheCameraPans) {
     id_of_surface = ids_now;
     EXPECT_GT(pipeline.times().tracking, 0.0);
   }
+  return kept;
+}
+
+}  // namespace
+
+// A camera panning by a few pixels per frame over a rendered scene.
+TEST(Tracking, SurfacesOfARenderedSceneKeepTheirIdsWhileTheCameraPans) {
+  const int kept = ids_kept_over_four_frames(
+      synth::random_scene(4), [](const synth::Scene& scene, synth::RenderSettings& render, int f) {
+        render.camera.cx += 6.0 * f;  // the image moves 6 px to the right per frame
+        render.camera.cy -= 3.0 * f;
+        return scene;
+      });
   EXPECT_GE(kept, 18);  // 6 or more per pair of frames
+}
+
+// A camera turning in place by 2 deg per frame (60 deg/s at 30 Hz): the walls 3-5 m away move
+// by 0.1-0.17 m off their planes of the frame before, but not closer to the camera. (At 4 deg
+// per frame the boxes move by more than their width in the image, 37 px, and lose their
+// tracks.)
+TEST(Tracking, SurfacesOfARenderedSceneKeepTheirIdsWhileTheCameraTurns) {
+  constexpr double kDegree = 3.14159265358979323846 / 180;
+  const int kept = ids_kept_over_four_frames(
+      synth::random_scene(4), [](const synth::Scene& scene, synth::RenderSettings&, int f) {
+        return turned(scene, 2 * kDegree * f);
+      });
+  EXPECT_GE(kept, 18);
+}
+
+// A dropped sensor frame (no valid point, so no segment) between two frames changes no track.
+TEST(Tracking, AFrameWithoutSegmentsLeavesTheTracksAsTheyWere) {
+  SegmentTracker tracker;
+  Segmentation a = frame({{0, 0, 32, 48}, {32, 0, 64, 48}});
+  tracker.update(a);
+  Segmentation blank;
+  blank.labels.resize(64, 48, 0);
+  tracker.update(blank);
+  Segmentation b = frame({{0, 0, 30, 48}, {30, 0, 64, 48}});
+  tracker.update(b);
+  EXPECT_EQ(ids(b), ids(a));
 }
 
 // Tracks need frames on a pixel grid: a cloud over rings in between starts new tracks, and

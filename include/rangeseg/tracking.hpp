@@ -18,12 +18,15 @@ struct TrackingSettings {
   /// move by up to half of its own extent across the image.
   double min_overlap = 0.5;
   /// ... and, when both are planes, only if their normals are at most this far apart [rad],
-  /// default 0.35 (20 deg): a camera turning at up to 300 deg/s at 15 Hz, while the table and a
-  /// box top beside it at the same place in the image stay apart from a wall.
+  /// default 0.35 (20 deg): far more than a frame's turn of a camera whose segments still
+  /// overlap (min_overlap; a few degrees per frame), while the table and a box top beside it at
+  /// the same place in the image stay apart from a wall.
   double max_normal_angle = 0.35;
   /// ... and only if the segment's centroid lies at most this far from the plane fitted to the
-  /// previous one [m], default 0.1: a camera moving at up to 3 m/s at 30 Hz, while a board put
-  /// up before a wall, or a new scene after a cut, starts its own track.
+  /// previous one, or the distances of the two fitted planes from the camera differ by at most
+  /// this [m], default 0.1: a camera moving at up to 3 m/s at 30 Hz (turning in place moves a
+  /// far centroid off the previous plane, but changes no such distance), while a board put up
+  /// before a wall, or a new scene after a cut, starts its own track.
   double max_distance = 0.1;
 };
 
@@ -47,14 +50,17 @@ class SegmentTracker {
   /// twice). A segment continues a previous one when both are planes or both are not (a
   /// curved surface may be fitted as a cylinder in one frame and a sphere in the next), the
   /// normals of two planes are within `max_normal_angle`, its centroid is within
-  /// `max_distance` of the previous one's fitted plane, and they share at least `min_overlap`
+  /// `max_distance` of the previous one's fitted plane or their fitted planes' distances from
+  /// the camera differ by at most that, and they share at least `min_overlap`
   /// of the smaller one's pixels (counted once as they lie, and once more for segments
   /// without a match with the image's shift between the frames undone). A track continues in one
   /// segment at most: of the pairs that qualify, those sharing the most pixels are taken first, so
   /// a segment split in two goes on in its larger part, and of two merged the one sharing more
   /// pixels goes on. A frame of another size than the previous one (or the first) starts new
-  /// tracks. Throws std::invalid_argument when a label lies outside [0, segments.size()] or
-  /// segments[i].label is not i + 1; the tracker is then as before the call.
+  /// tracks; a frame without segments (a dropped or blank sensor frame) changes nothing, so the
+  /// next frame continues the one before it. Throws std::invalid_argument when a label lies
+  /// outside [0, segments.size()] or segments[i].label is not i + 1; the tracker is then as
+  /// before the call.
   void update(Segmentation& segmentation);
 
   /// Forgets the previous frame: the next `update` starts new tracks (with new ids).
@@ -101,7 +107,7 @@ class SegmentTracker {
   std::vector<Footprint> footprints_;    ///< per label of the current frame (0 unused)
   std::vector<std::uint64_t> run_bits_;  ///< a row's run starts
   std::vector<Pair> candidates_;
-  std::vector<std::array<double, 3>> motions_;  ///< du, dv, weight of matched pairs
+  std::vector<std::array<double, 2>> motions_;  ///< shift along one axis and weight, per pair
   std::vector<std::uint8_t> taken_;             ///< per previous label - 1: its track continues
   std::vector<std::uint8_t> open_;              ///< per current label: no candidate pair yet
   std::uint32_t next_id_ = 1;
