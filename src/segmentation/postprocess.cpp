@@ -623,7 +623,7 @@ bool group_seam_pieces(const Frame& f, const SegmentationSettings& settings,
   const std::size_t bands = s.growth_rows.size() < 2 ? 1 : s.growth_rows.size() - 1;
   if (bands < 2 || s.growth_rows.back() != f.height) return false;
   const auto region_count = static_cast<std::int32_t>(s.regions.size());
-  s.seam_parent.resize(static_cast<std::size_t>(region_count));
+  detail::resize_with_headroom(s.seam_parent, static_cast<std::size_t>(region_count));
   std::iota(s.seam_parent.begin(), s.seam_parent.end(), 0);
   const auto small = [&](std::int32_t r) { return s.regions[r].count < settings.min_region_size; };
   const int step = f.pixel_stride;
@@ -647,7 +647,7 @@ bool group_seam_pieces(const Frame& f, const SegmentationSettings& settings,
       }
     }
   }
-  s.seam_count.assign(static_cast<std::size_t>(region_count), 0);
+  detail::assign_with_headroom(s.seam_count, static_cast<std::size_t>(region_count), 0);
   for (std::int32_t r = 1; r < region_count; ++r) {
     s.seam_count[find_root(s.seam_parent, r)] += s.regions[r].count;
   }
@@ -661,17 +661,17 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
   const auto region_count = static_cast<std::int32_t>(s.regions.size());  // incl. label 0
   const bool planes = settings.model == RegionModel::plane;
 
-  s.parent.resize(region_count);
+  detail::resize_with_headroom(s.parent, static_cast<std::size_t>(region_count));
   std::iota(s.parent.begin(), s.parent.end(), 0);
-  s.fits.assign(region_count, PlaneFit{});
-  s.grazing_region.assign(region_count, 0);
+  detail::assign_with_headroom(s.fits, static_cast<std::size_t>(region_count), PlaneFit{});
+  detail::assign_with_headroom(s.grazing_region, static_cast<std::size_t>(region_count), 0);
   // Small-region removal first: the points between two pieces of one surface (e.g. the steps of
   // a disparity-quantised wall) often form tiny regions of their own, which would keep the
   // pieces from being adjacent. Raw labels map to themselves or to 0.
-  s.remap.assign(region_count, 0);
+  detail::assign_with_headroom(s.remap, static_cast<std::size_t>(region_count), 0);
   const double footprint = planes ? pixel_footprint(f, s) : 0;
   const bool seams = planes && settings.merge_planes && group_seam_pieces(f, settings, s);
-  if (seams) s.seam_kept.assign(static_cast<std::size_t>(region_count), 0);
+  if (seams) detail::assign_with_headroom(s.seam_kept, static_cast<std::size_t>(region_count), 0);
   for (std::int32_t r = 1; r < region_count; ++r) {
     bool keep = s.regions[r].count >= settings.min_region_size ||
                 wide_enough(s.regions[r], settings.min_region_size, footprint);
@@ -724,7 +724,7 @@ void postprocess(const Frame& f, const SegmentationSettings& settings, Segmenter
   for (std::int32_t r = 1; r < region_total; ++r) {
     if (s.remap[r] == r) s.order.push_back(r);
   }
-  s.compact.assign(region_total, 0);
+  detail::assign_with_headroom(s.compact, static_cast<std::size_t>(region_total), 0);
   std::sort(s.order.begin(), s.order.end(), [&](std::int32_t a, std::int32_t b) {
     const auto ca = s.regions[a].count, cb = s.regions[b].count;
     return ca != cb ? ca > cb : a < b;

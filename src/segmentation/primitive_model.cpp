@@ -15,6 +15,7 @@
 #include <string_view>
 #include <vector>
 
+#include "detail/headroom.hpp"
 #include "detail/primitive_fit.hpp"
 #include "rangeseg/primitives.hpp"
 #include "segmentation/primitive_internal.hpp"
@@ -286,17 +287,18 @@ class PrimitivePass {
 
   void init_groups() {
     const auto size = static_cast<std::size_t>(n_) + 1;
-    s_.parent.resize(size);
+    // Sized by the frame's segments: with headroom, so that a stream settles.
+    detail::resize_with_headroom(s_.parent, size);
     std::iota(s_.parent.begin(), s_.parent.end(), 0);
-    s_.next_member.assign(size, 0);
-    s_.last_member.resize(size);
+    detail::assign_with_headroom(s_.next_member, size, 0);
+    detail::resize_with_headroom(s_.last_member, size);
     std::iota(s_.last_member.begin(), s_.last_member.end(), 0);
-    s_.group_pixels.assign(size, 0);
-    s_.stats.assign(size, detail::PlaneStats{});
-    s_.changed.assign(size, 0);
-    s_.grown.assign(size, -1);
+    detail::assign_with_headroom(s_.group_pixels, size, 0);
+    detail::assign_with_headroom(s_.stats, size, detail::PlaneStats{});
+    detail::assign_with_headroom(s_.changed, size, 0);
+    detail::assign_with_headroom(s_.grown, size, -1);
     s_.narrow_pairs.clear();
-    s_.models.assign(size, Model{});
+    detail::assign_with_headroom(s_.models, size, Model{});
     for (std::int32_t l = 1; l <= n_; ++l) s_.group_pixels[l] = end(l) - begin(l);
   }
 
@@ -741,7 +743,7 @@ class PrimitivePass {
   /// (noise-free mixed scene 3 with `--preset ideal`: one cylinder in halves of 2594 and
   /// 2138 px, radius exact in both). Returns how many joined.
   int join_grown_facet_pairs() {
-    s_.round_grown.assign(s_.parent.size(), 0);
+    detail::assign_with_headroom(s_.round_grown, s_.parent.size(), 0);
     for (const std::int32_t r : s_.grown_roots) s_.round_grown[static_cast<std::size_t>(r)] = 1;
     int joined = 0;
     for (int added = 1; added > 0;) {
@@ -809,7 +811,7 @@ class PrimitivePass {
       const auto ca = s_.group_pixels[a], cb = s_.group_pixels[b];
       return ca != cb ? ca > cb : a < b;
     });
-    s_.remap.assign(static_cast<std::size_t>(n_) + 1, 0);
+    detail::assign_with_headroom(s_.remap, static_cast<std::size_t>(n_) + 1, 0);
     for (std::size_t j = 0; j < s_.order.size(); ++j) {
       s_.remap[s_.order[j]] = static_cast<std::int32_t>(j + 1);
     }
@@ -817,9 +819,9 @@ class PrimitivePass {
     const int step = f_.pixel_stride;
     // Plane statistics of the changed segments (merged, or with re-assigned points).
     const std::size_t m = s_.order.size();
-    s_.final_changed.assign(m + 1, 0);
+    detail::assign_with_headroom(s_.final_changed, m + 1, 0);
     for (std::size_t j = 0; j < m; ++j) s_.final_changed[j + 1] = s_.changed[s_.order[j]];
-    s_.stats.assign(m + 1, detail::PlaneStats{});
+    detail::assign_with_headroom(s_.stats, m + 1, detail::PlaneStats{});
     // The labels stay as they are only when no group was joined or dropped, no point moved and
     // the order by size is the old one: a tentative patch, labelled after every plane
     // segment, may be larger than some of them.

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "detail/headroom.hpp"
 #include "segmentation/internal.hpp"
 
 namespace rangeseg::seg {
@@ -378,7 +379,7 @@ bool apply_border_moves(const Frame& f, Segmenter::Scratch& s) {
 void reassign_before_seeds(const Frame& f, const SegmentationSettings& settings,
                            Segmenter::Scratch& s) {
   const auto region_count = static_cast<std::int32_t>(s.regions.size());  // incl. label 0
-  s.fits.assign(region_count, PlaneFit{});
+  detail::assign_with_headroom(s.fits, static_cast<std::size_t>(region_count), PlaneFit{});
   bool any = false;
   for (std::int32_t r = 1; r < region_count; ++r) {
     if (s.regions[r].count >= settings.min_region_size) {
@@ -436,12 +437,12 @@ void reassign_boundary(const Frame& f, const SegmentationSettings& settings,
 void refine_plane_boundaries(const Frame& f, const SegmentationSettings& settings,
                              Segmenter::Scratch& s) {
   const std::size_t regions = s.regions.size();
-  s.root_of.assign(regions, 0);
+  detail::assign_with_headroom(s.root_of, regions, 0);
   for (std::size_t r = 1; r < regions && r < s.remap.size(); ++r) {
     const auto label = static_cast<std::int32_t>(r);
     if (s.remap[r] == label) s.root_of[r] = find_root(s.parent, label);
   }
-  s.refit.assign(regions, 0);
+  detail::assign_with_headroom(s.refit, regions, 0);
   s.row_pixels.resize(static_cast<std::size_t>(f.width));
   collect_border_moves(f, settings, s);
   for (int round = 1; apply_border_moves(f, s) && round < kBorderRounds; ++round) {
