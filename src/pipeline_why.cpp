@@ -222,21 +222,25 @@ std::string Pipeline::why_no_segments() const {
     return "the cloud has no point (every x, y or z is NaN or infinite, or the point is the "
            "sensor's origin)";
   }
+  // Last, coordinates at an implausible scale (depth in millimetres read as metres, a float
+  // depth of 1e30): the command line and Python say so for a stream's first cloud, a C++
+  // caller learns it here.
+  const auto scale = [&] { return cloud_scale_problem(points); };
   // The mesh is the last frame's when it was a grid, or an unorganized cloud put back on its
   // pixel grid (whose points are grid_cloud_).
   const OrganizedCloud* grid = points.is_organized() ? &points : nullptr;
   if (grid == nullptr && grid_.found()) grid = &grid_cloud_;
   if (grid == nullptr || mesh_.width() != grid->width() || mesh_.height() != grid->height()) {
-    return {};
+    return scale();
   }
   const auto s = static_cast<std::size_t>(std::max(1, mesh_.pixel_stride));
   const std::size_t lattice_points = std::max<std::size_t>(1, valid / (s * s));
   const std::size_t faces = count_faces(mesh_);
   if (10 * faces >= lattice_points) {
-    return settings_.segmentation.model == RegionModel::smooth ? why_not_smooth() : std::string();
+    return settings_.segmentation.model == RegionModel::smooth ? why_not_smooth() : scale();
   }
   const std::string cause = why_no_faces(*grid, settings_.mesh);
-  if (cause.empty()) return {};
+  if (cause.empty()) return scale();
   return "the mesh joins hardly any of the points (" + std::to_string(faces) + " faces for " +
          std::to_string(valid) + " points): " + cause;
 }

@@ -1,5 +1,6 @@
-// Pipeline::why_no_segments for the smooth model: a noisy sensor's 1-ring curvature lies above
-// max_curvature nearly everywhere, and the reason names the bound that admits the points.
+// Pipeline::why_no_segments for the smooth model (a noisy sensor's 1-ring curvature lies above
+// max_curvature nearly everywhere, and the reason names the bound that admits the points) and
+// for points at an implausible scale.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -59,6 +60,35 @@ TEST(Pipeline, SaysWhenTheSmoothModelsCurvatureBoundAdmitsTooFewPoints) {
   planes.process(wall);
   EXPECT_FALSE(planes.segmentation().segments.empty());
   EXPECT_TRUE(planes.why_no_segments().empty());
+}
+
+// A depth image whose floats are 1e30 (garbage for "no depth"), and a wall in millimetres read
+// as metres: no other cause is found, and the reason is the points' scale.
+TEST(Pipeline, SaysWhenThePointsScaleIsImplausible) {
+  const CameraIntrinsics camera{.fx = 525, .fy = 525, .cx = 319.5, .cy = 239.5};
+  FloatPlane huge(640, 480, 1e30f);
+  Pipeline pipeline(pipeline_preset("kinect"));
+  pipeline.process(huge.view(), camera);
+  ASSERT_TRUE(pipeline.segmentation().segments.empty());
+  EXPECT_NE(pipeline.why_no_segments().find("median distance"), std::string::npos)
+      << pipeline.why_no_segments();
+
+  OrganizedCloud millimetres = noisy_wall();
+  for (FloatPlane* plane : {&millimetres.x, &millimetres.y, &millimetres.z}) {
+    for (int v = 0; v < plane->height(); ++v) {
+      for (int u = 0; u < plane->width(); ++u) (*plane)(u, v) *= 1000.0f;
+    }
+  }
+  pipeline.process(millimetres);
+  if (pipeline.segmentation().segments.empty()) {
+    EXPECT_NE(pipeline.why_no_segments().find("median distance"), std::string::npos)
+        << pipeline.why_no_segments();
+  }
+  // A plausible wall: segments, nothing to say.
+  const OrganizedCloud wall = noisy_wall();
+  pipeline.process(wall);
+  EXPECT_FALSE(pipeline.segmentation().segments.empty());
+  EXPECT_EQ(pipeline.why_no_segments(), "");
 }
 
 }  // namespace

@@ -181,7 +181,9 @@ class Pipeline {
   /// max_edge_b that joins them). Empty too when the points themselves leave no face (noise,
   /// surfaces seen edge-on), when there are segments, when segmentation is off, and over rings.
   /// For the smooth model also when most points' curvature lies above its max_curvature (a
-  /// noisy sensor's), with the bound that admits them.
+  /// noisy sensor's), with the bound that admits them. When no such cause is found, the
+  /// points' implausible scale if they have one (cloud_scale_problem: millimetres read as
+  /// metres, a float depth of 1e30).
   std::string why_no_segments() const;
   /// Forgets the previous frame of the segment tracks (PipelineSettings::track): the next frame
   /// starts new tracks, e.g. at a cut in a sequence.
