@@ -52,6 +52,11 @@ double quantile(std::vector<T>& values, double q) {
 /// valid pixels have a period, and nothing when they do not (random dropouts, a checkerboard).
 std::string sparse_cause(const OrganizedCloud& points, int s, std::size_t lattice_valid,
                          std::size_t with_cell) {
+  if (s >= points.width() || s >= points.height()) {
+    return "mesh.pixel_stride = " + std::to_string(s) + " leaves no lattice cell in this " +
+           std::to_string(points.width()) + " x " + std::to_string(points.height()) +
+           " grid (a cell needs two rows and two columns of it)";
+  }
   std::vector<int> rows, columns;
   std::vector<char> column_holds(static_cast<std::size_t>(points.width()), 0);
   for (int v = 0; v < points.height(); ++v) {

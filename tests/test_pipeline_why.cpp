@@ -84,8 +84,17 @@ TEST(Pipeline, SaysWhenThePointsScaleIsImplausible) {
     EXPECT_NE(pipeline.why_no_segments().find("median distance"), std::string::npos)
         << pipeline.why_no_segments();
   }
-  // A plausible wall: segments, nothing to say.
+  // A lattice step beyond the image leaves no cell to mesh.
   const OrganizedCloud wall = noisy_wall();
+  PipelineSettings coarse = pipeline_preset("kinect");
+  coarse.mesh.pixel_stride = 1000;
+  Pipeline strided(coarse);
+  strided.process(wall);
+  EXPECT_NE(strided.why_no_segments().find("mesh.pixel_stride = 1000 leaves no lattice cell in "
+                                           "this 640 x 480 grid"),
+            std::string::npos)
+      << strided.why_no_segments();
+  // A plausible wall: segments, nothing to say.
   pipeline.process(wall);
   EXPECT_FALSE(pipeline.segmentation().segments.empty());
   EXPECT_EQ(pipeline.why_no_segments(), "");
