@@ -119,13 +119,6 @@ std::vector<double> mesh_areas(const OrganizedCloud& cloud, const Mesh& mesh,
   return area;
 }
 
-const SegmentPolygons* find_segment(const PolygonSet& ps, int label) {
-  for (const SegmentPolygons& sp : ps.segments) {
-    if (sp.label == label) return &sp;
-  }
-  return nullptr;
-}
-
 double dist_to_segment(const V3& p, const V3& a, const V3& b) {
   const V3 e{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, d{p[0] - a[0], p[1] - a[1], p[2] - a[2]};
   const double t = std::clamp(dot(d, e) / dot(e, e), 0.0, 1.0);
@@ -175,9 +168,13 @@ TEST(Polygons, WallWithBoxNoiseFreeCornersAreaAndHole) {
   check_properties(ps);
 
   // Wall: label 1. Outer loop = the rectangle, one hole = the box silhouette.
-  const SegmentPolygons* wall = find_segment(ps, 1);
+  const SegmentPolygons* wall = ps.find(1);
   ASSERT_NE(wall, nullptr);
   ASSERT_EQ(wall->loop_count, 2);
+  // find: every segment by its label, null for a label without polygons.
+  for (const SegmentPolygons& sp : ps.segments) EXPECT_EQ(ps.find(sp.label), &sp);
+  EXPECT_EQ(ps.find(0), nullptr);
+  EXPECT_EQ(ps.find(ps.segments.back().label + 1), nullptr);
   const PolygonLoop& outer = ps.loops[wall->first_loop];
   const PolygonLoop& hole = ps.loops[wall->first_loop + 1];
   EXPECT_FALSE(outer.is_hole);
@@ -201,7 +198,7 @@ TEST(Polygons, WallWithBoxNoiseFreeCornersAreaAndHole) {
   EXPECT_NEAR(wall->hull_area, 1.4, 0.01 * 1.4);
 
   // Box front face (-z, label 1 + 6): 0.6 x 0.4 m at z = 1.0.
-  const SegmentPolygons* front = find_segment(ps, 1 + 6);
+  const SegmentPolygons* front = ps.find(1 + 6);
   ASSERT_NE(front, nullptr);
   ASSERT_EQ(front->loop_count, 1);
   EXPECT_EQ(ps.loops[front->first_loop].count, 4);
@@ -254,7 +251,7 @@ TEST(Polygons, KinectNoiseAt2mAreaWithin5Percent) {
   const Mesh mesh = build_mesh(r.cloud);
   const PolygonSet ps = extract_polygons(r.cloud, mesh, seg);
   check_properties(ps);
-  const SegmentPolygons* wall = find_segment(ps, 1);
+  const SegmentPolygons* wall = ps.find(1);
   ASSERT_NE(wall, nullptr);
   std::vector<P2> silhouette, hull;
   for (int k = 0; k < 8; ++k) {
@@ -270,7 +267,7 @@ TEST(Polygons, KinectNoiseAt2mAreaWithin5Percent) {
     holes += ps.loops[li].is_hole;
   }
   EXPECT_GE(holes, 1);
-  const SegmentPolygons* front = find_segment(ps, 1 + 6);
+  const SegmentPolygons* front = ps.find(1 + 6);
   ASSERT_NE(front, nullptr);
   EXPECT_NEAR(front->area, 0.5 * 0.4, 0.05 * 0.2);
   EXPECT_LE(ps.loops[front->first_loop].count, 12);

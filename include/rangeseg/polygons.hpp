@@ -15,6 +15,7 @@
 // 1 / cos(incidence)); the mesh's angle test (MeshSettings::eps_theta) keeps such faces rare.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -122,6 +123,15 @@ struct PolygonSet {
   std::vector<std::array<float, 3>> hull_points3d;
   std::vector<std::array<float, 2>> hull_points2d;
   std::vector<std::array<float, 2>> hull_pixels;
+
+  /// The polygons of the segment labelled `label`, or null when it has none (a curved segment,
+  /// one below min_segment_pixels): a binary search over `segments`.
+  const SegmentPolygons* find(int label) const {
+    const auto at = std::lower_bound(
+        segments.begin(), segments.end(), label,
+        [](const SegmentPolygons& s, int wanted) { return s.label < wanted; });
+    return at != segments.end() && at->label == label ? &*at : nullptr;
+  }
 
   /// Empties every array, keeping their capacity (the extractors start each frame so).
   void clear() {
