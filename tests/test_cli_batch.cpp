@@ -70,43 +70,33 @@ TEST(CliBatch, CleanUpKeepsInputsAndFilesRangesegDidNotWrite) {
 }
 
 /// An input folder without frames, or a depth.txt that lists none, is one failed frame of the
-/// batch, as a missing file is: the other inputs are segmented.
+/// batch, as a missing file is, and so is a dangling symbolic link of a frame's name in a
+/// scanned folder (a sequence whose files moved), which says where it points: the other inputs
+/// are segmented.
 TEST(CliBatch, AnInputWithoutFramesIsReportedAndSkipped) {
   const fs::path dir = rangeseg::test::scratch_dir("cli_batch_empty");
   fs::create_directories(dir / "empty");
   fs::create_directories(dir / "tum");
   std::ofstream(dir / "tum" / "depth.txt") << "# depth maps\n";
   write_small_pcd(dir / "a.pcd", 6);
-  const rangeseg::test::CliResult r =
-      run_cli("segment " + (dir / "empty").string() + " " + (dir / "tum").string() + " " +
-              (dir / "a.pcd").string() + " -o " + (dir / "out").string());
-  ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_TRUE(contains(r.out, "no .pcd")) << r.out;
-  EXPECT_TRUE(contains(r.out, "lists no depth images")) << r.out;
-  EXPECT_TRUE(fs::exists(dir / "out" / "a" / "labels.png"));
-  const nlohmann::json summary = read_json(dir / "out" / "summary.json");
-  EXPECT_EQ(summary["frames"], 3);
-  EXPECT_EQ(summary["failed"], 2);
-  // No PNG among the frames: nothing to say about depth images.
-  EXPECT_FALSE(summary.contains("depth_png"));
-}
-
-/// A dangling symbolic link of a frame's name in a scanned folder (a sequence whose files moved)
-/// is a failed frame that says where it points, not a frame left out without a word.
-TEST(CliBatch, ADanglingLinkInAFolderIsAFailedFrame) {
-  const fs::path dir = rangeseg::test::scratch_dir("cli_batch_link");
   write_small_pcd(dir / "seq" / "0001.pcd", 8);
   fs::create_symlink(dir / "moved" / "0002.pcd", dir / "seq" / "0002.pcd");
   fs::create_symlink(dir / "moved" / "notes.txt", dir / "seq" / "notes.txt");  // no frame
-  const rangeseg::test::CliResult r =
-      run_cli("segment " + (dir / "seq").string() + " -o " + (dir / "out").string());
+  const rangeseg::test::CliResult r = run_cli(
+      "segment " + (dir / "empty").string() + " " + (dir / "tum").string() + " " +
+      (dir / "seq").string() + " " + (dir / "a.pcd").string() + " -o " + (dir / "out").string());
   ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(contains(r.out, "no .pcd")) << r.out;
+  EXPECT_TRUE(contains(r.out, "lists no depth images")) << r.out;
   EXPECT_TRUE(contains(r.out, "0002.pcd: a symbolic link to")) << r.out;
   EXPECT_TRUE(contains(r.out, "which does not exist")) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "out" / "a" / "labels.png"));
   EXPECT_TRUE(fs::exists(dir / "out" / "0001" / "labels.png"));
   const nlohmann::json summary = read_json(dir / "out" / "summary.json");
-  EXPECT_EQ(summary["frames"], 2);
-  EXPECT_EQ(summary["failed"], 1);
+  EXPECT_EQ(summary["frames"], 5);
+  EXPECT_EQ(summary["failed"], 3);
+  // No PNG among the frames: nothing to say about depth images.
+  EXPECT_FALSE(summary.contains("depth_png"));
 }
 
 /// TUM's 5000 units per metre apply to the frames its depth.txt lists, not to a millimetre depth

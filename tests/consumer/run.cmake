@@ -25,36 +25,31 @@ run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/consumer -B ${WORK_DIR}/build -DCMAK
     -DCMAKE_BUILD_TYPE=Release -DMY_APP_SOURCE=${WORK_DIR}/my_app.cpp)
 run(${CMAKE_COMMAND} --build ${WORK_DIR}/build)
 run(${WORK_DIR}/build/consumer)
-# The same example built without CMake, with the flags of the installed rangeseg.pc.
+# The same example built without CMake, with the flags of a rangeseg.pc in `pc_dir`.
 find_program(pkg_config pkg-config)
-file(GLOB_RECURSE pc_file ${WORK_DIR}/prefix/*/rangeseg.pc)
-if(pkg_config AND pc_file)
-  get_filename_component(pc_dir "${pc_file}" DIRECTORY)
+function(build_with_pkg_config pc_dir output)
   execute_process(COMMAND ${CMAKE_COMMAND} -E env PKG_CONFIG_PATH=${pc_dir}
                           ${pkg_config} --cflags --libs rangeseg
                   OUTPUT_VARIABLE flags OUTPUT_STRIP_TRAILING_WHITESPACE RESULT_VARIABLE rc)
   if(NOT rc EQUAL 0)
-    message(FATAL_ERROR "pkg-config --cflags --libs rangeseg failed (${rc})")
+    message(FATAL_ERROR "pkg-config --cflags --libs rangeseg with ${pc_dir} failed (${rc})")
   endif()
   separate_arguments(flags UNIX_COMMAND "${flags}")
-  run(c++ -O1 ${WORK_DIR}/my_app.cpp ${flags} -o ${WORK_DIR}/my_app_pkg_config)
-else()
+  run(c++ -O1 ${WORK_DIR}/my_app.cpp ${flags} -o ${output})
+endfunction()
+file(GLOB_RECURSE pc_file ${WORK_DIR}/prefix/*/rangeseg.pc)
+if(NOT pkg_config OR NOT pc_file)
   message(FATAL_ERROR "pkg-config or the installed rangeseg.pc not found")
 endif()
+get_filename_component(pc_dir "${pc_file}" DIRECTORY)
+build_with_pkg_config(${pc_dir} ${WORK_DIR}/my_app_pkg_config)
 
 # The build folder itself as the package, without an install: for CMake, and for pkg-config.
 run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/consumer -B ${WORK_DIR}/build_tree -Drangeseg_DIR=${BUILD_DIR}
     -DCMAKE_BUILD_TYPE=Release -DMY_APP_SOURCE=${WORK_DIR}/my_app.cpp)
 run(${CMAKE_COMMAND} --build ${WORK_DIR}/build_tree --target consumer)
 run(${WORK_DIR}/build_tree/consumer)
-execute_process(COMMAND ${CMAKE_COMMAND} -E env PKG_CONFIG_PATH=${BUILD_DIR}
-                        ${pkg_config} --cflags --libs rangeseg
-                OUTPUT_VARIABLE flags OUTPUT_STRIP_TRAILING_WHITESPACE RESULT_VARIABLE rc)
-if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "pkg-config --cflags --libs rangeseg of the build folder failed (${rc})")
-endif()
-separate_arguments(flags UNIX_COMMAND "${flags}")
-run(c++ -O1 ${WORK_DIR}/my_app.cpp ${flags} -o ${WORK_DIR}/my_app_build_tree_pkg_config)
+build_with_pkg_config(${BUILD_DIR} ${WORK_DIR}/my_app_build_tree_pkg_config)
 
 set(data ${SOURCE_DIR}/../shared/data)
 if(EXISTS ${data}/kinect/grabber_frame0.pcd AND EXISTS ${data}/depth_png/00000.png)
