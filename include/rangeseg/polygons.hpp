@@ -127,9 +127,9 @@ struct PolygonSet {
   /// The polygons of the segment labelled `label`, or null when it has none (a curved segment,
   /// one below min_segment_pixels): a binary search over `segments`.
   const SegmentPolygons* find(int label) const {
-    const auto at = std::lower_bound(
-        segments.begin(), segments.end(), label,
-        [](const SegmentPolygons& s, int wanted) { return s.label < wanted; });
+    const auto at =
+        std::lower_bound(segments.begin(), segments.end(), label,
+                         [](const SegmentPolygons& s, int wanted) { return s.label < wanted; });
     return at != segments.end() && at->label == label ? &*at : nullptr;
   }
 
