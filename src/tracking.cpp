@@ -88,7 +88,8 @@ void validate(const TrackingSettings& settings) {
   }
 }
 
-SegmentTracker::SegmentTracker(const TrackingSettings& settings) : settings_(settings) {
+SegmentTracker::SegmentTracker(const TrackingSettings& settings)
+    : settings_(settings), min_cos_(std::cos(settings.max_normal_angle)) {
   validate(settings_);
 }
 
@@ -183,63 +184,104 @@ void SegmentTracker::count_shared_pixels(const LabelImage& labels, int du, int d
   }
 }
 
+bool SegmentTracker::may_continue(const Track& before, const Segment& now) const {
+  if (before.plane != is_plane(now)) return false;
+  const auto dot = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  };
+  if (before.plane && dot(before.normal, now.normal) < min_cos_) return false;
+  // Near the previous plane, or at its distance from the camera: a camera turning in place
+  // moves the centroid off the previous plane (a wall 3 m away, a turn of 4 deg: 0.2 m) but
+  // keeps the distance, while a fitted normal a few degrees off changes the distance (|c| times
+  // the angle) and keeps the centroid near the plane. (A fit's normal may point either way:
+  // its distance is |offset|.)
+  const double off_plane = std::abs(dot(before.normal, now.centroid) + before.offset);
+  const double nearer = std::abs(std::abs(now.offset) - std::abs(before.offset));
+  return std::min(off_plane, nearer) <= settings_.max_distance;
+}
+
 void SegmentTracker::add_candidates(const Segmentation& segmentation) {
-  const double min_cos = std::cos(settings_.max_normal_angle);
   for (std::size_t s = 0; s < keys_.size(); ++s) {
     if (keys_[s] == kEmpty) continue;
     const auto p = static_cast<std::int32_t>(keys_[s] >> 32);
     const auto c = static_cast<std::int32_t>(keys_[s] & 0xffffffffU);
     const Track& before = previous_[static_cast<std::size_t>(p - 1)];
     const Segment& now = segmentation.segments[static_cast<std::size_t>(c - 1)];
-    if (before.plane != is_plane(now)) continue;
     if (static_cast<double>(counts_[s]) <
-        settings_.min_overlap * std::min(before.pixels, now.pixel_count)) {
+            settings_.min_overlap * std::min(before.pixels, now.pixel_count) ||
+        !may_continue(before, now)) {
       continue;
     }
-    const auto dot = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
-      return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    };
-    if (before.plane && dot(before.normal, now.normal) < min_cos) continue;
-    // Near the previous plane, or at its distance from the camera: a camera turning in place
-    // moves the centroid off the previous plane (a wall 3 m away, a turn of 4 deg: 0.2 m) but
-    // keeps the distance, while a fitted normal a few degrees off changes the distance (|c|
-    // times the angle) and keeps the centroid near the plane. (A fit's normal may point either
-    // way: its distance is |offset|.)
-    const double off_plane = std::abs(dot(before.normal, now.centroid) + before.offset);
-    const double nearer = std::abs(std::abs(now.offset) - std::abs(before.offset));
-    if (std::min(off_plane, nearer) > settings_.max_distance) continue;
     candidates_.push_back({counts_[s], p, c});
   }
 }
 
-std::array<int, 2> SegmentTracker::image_motion(int width, int height) {
-  // The shift of the image between the frames, from the segments that continue one another:
-  // per axis the median of their centroids' shifts, weighted by shared pixels, over the
-  // segments that touch neither image border across that axis (a segment cut by the border
-  // moves less than the image; a wall from the top of the image to its bottom still shows a
-  // turn of the camera about its vertical axis).
+std::array<int, 2> SegmentTracker::image_motion(const Segmentation& segmentation, int width,
+                                                int height) {
+  // The shift of the image between the frames, voted for by the pairs of segments, one of each
+  // frame, that may be one surface (may_continue, sizes within a factor 2), whether or not they
+  // share pixels: a camera turning by a few degrees moves small segments by more than their
+  // width (4 deg: 37 px at 525 px focal length). Each pair proposes the shift of its centroids,
+  // weighted by the smaller segment's pixels; the shift is that of the proposals within kNear
+  // pixels of the best supported one (weighted medians), when there are two or more. Segments that
+  // touch the image's border are left out: cut by it, they move less than the image.
+  constexpr double kNear = 3;          // [pixels]
+  constexpr std::size_t kVoters = 96;  // the heaviest proposals (a frame has tens of segments)
+  const auto inside = [&](const Footprint& f) {
+    return f.pixels > 0 && f.min_u > 0 && f.min_v > 0 && f.max_u < width - 1 &&
+           f.max_v < height - 1;
+  };
+  motions_.clear();
+  for (std::size_t p = 0; p < previous_.size(); ++p) {
+    const Track& before = previous_[p];
+    if (!inside(before.footprint)) continue;
+    for (std::size_t c = 0; c < segmentation.segments.size(); ++c) {
+      const Footprint& now = footprints_[c + 1];
+      if (!inside(now) ||
+          2 * std::min(before.pixels, now.pixels) < std::max(before.pixels, now.pixels)) {
+        continue;
+      }
+      if (!may_continue(before, segmentation.segments[c])) continue;
+      const Footprint& was = before.footprint;
+      motions_.push_back({now.sum_u / now.pixels - was.sum_u / was.pixels,
+                          now.sum_v / now.pixels - was.sum_v / was.pixels,
+                          static_cast<double>(std::min(before.pixels, now.pixels))});
+    }
+  }
+  if (motions_.empty()) return {0, 0};
+  const auto heavier = [](const auto& x, const auto& y) { return x[2] > y[2]; };
+  if (motions_.size() > kVoters) {
+    std::nth_element(motions_.begin(), motions_.begin() + kVoters, motions_.end(), heavier);
+    motions_.resize(kVoters);
+  }
+  const auto near = [&](const std::array<double, 3>& a, const std::array<double, 3>& b) {
+    return std::abs(a[0] - b[0]) <= kNear && std::abs(a[1] - b[1]) <= kNear;
+  };
+  std::size_t best = 0;
+  double best_support = -1;
+  for (std::size_t i = 0; i < motions_.size(); ++i) {
+    double support = 0;
+    for (const auto& m : motions_) support += near(motions_[i], m) ? m[2] : 0;
+    if (support > best_support) {
+      best_support = support;
+      best = i;
+    }
+  }
+  const std::array<double, 3> centre = motions_[best];
+  const auto last = std::partition(motions_.begin(), motions_.end(),
+                                   [&](const auto& m) { return near(centre, m); });
+  // One pair alone is a segment that moved, not the image: it would vote for its own track.
+  if (last - motions_.begin() < 2) return {0, 0};
   std::array<int, 2> shift{0, 0};
   for (std::size_t axis = 0; axis < 2; ++axis) {
-    motions_.clear();
-    for (const Pair& pair : candidates_) {
-      const Footprint& a = previous_[static_cast<std::size_t>(pair.previous - 1)].footprint;
-      const Footprint& b = footprints_[static_cast<std::size_t>(pair.current)];
-      const auto inside = [&](const Footprint& f) {
-        return axis == 0 ? f.min_u > 0 && f.max_u < width - 1 : f.min_v > 0 && f.max_v < height - 1;
-      };
-      if (!inside(a) || !inside(b)) continue;
-      const double moved = axis == 0 ? b.sum_u / b.pixels - a.sum_u / a.pixels
-                                     : b.sum_v / b.pixels - a.sum_v / a.pixels;
-      motions_.push_back({moved, static_cast<double>(pair.shared)});
-    }
-    std::sort(motions_.begin(), motions_.end(),
-              [](const auto& x, const auto& y) { return x[0] < y[0]; });
+    std::sort(motions_.begin(), last,
+              [axis](const auto& x, const auto& y) { return x[axis] < y[axis]; });
     double total = 0, below = 0;
-    for (const auto& m : motions_) total += m[1];
-    for (const auto& m : motions_) {
-      below += m[1];
+    for (auto m = motions_.begin(); m != last; ++m) total += (*m)[2];
+    for (auto m = motions_.begin(); m != last; ++m) {
+      below += (*m)[2];
       if (2 * below < total) continue;
-      shift[axis] = static_cast<int>(std::lround(m[0]));
+      shift[axis] = static_cast<int>(std::lround((*m)[axis]));
       break;
     }
   }
@@ -274,7 +316,7 @@ void SegmentTracker::update(Segmentation& segmentation) {
     // The second count is for the segments without a candidate yet.
     open_.assign(segments.size() + 1, 1);
     for (const Pair& pair : candidates_) open_[static_cast<std::size_t>(pair.current)] = 0;
-    const auto [du, dv] = image_motion(labels.width(), labels.height());
+    const auto [du, dv] = image_motion(segmentation, labels.width(), labels.height());
     // A shift of one pixel, which noise in the centroids gives too, changes little.
     if (std::max(std::abs(du), std::abs(dv)) >= 2 && std::abs(du) < labels.width() &&
         std::abs(dv) < labels.height()) {

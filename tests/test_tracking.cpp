@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <map>
 #include <set>
 #include <stdexcept>
@@ -292,16 +293,21 @@ synth::Scene turned(synth::Scene scene, double angle) {
   return scene;
 }
 
+/// Surfaces of four frames that kept their ids (found correctly in two consecutive frames with
+/// the same id) and that lost them.
+struct Kept {
+  int kept = 0, lost = 0;
+};
+
 /// Four frames of `scene` moved by `move(scene, render, frame)`, with Kinect noise (new noise
-/// each frame): every surface found correctly in two consecutive frames keeps its id, and no
-/// surface takes another's. Returns how many kept their ids.
+/// each frame); no surface may take another's id.
 template <class Move>
-int ids_kept_over_four_frames(const synth::Scene& scene, Move&& move) {
+Kept ids_kept_over_four_frames(const synth::Scene& scene, Move&& move) {
   PipelineSettings settings = pipeline_preset("kinect");
   settings.track = true;
   Pipeline pipeline(settings);
   std::map<int, std::uint32_t> id_of_surface;
-  int kept = 0;
+  Kept out;
   for (int f = 0; f < 4; ++f) {
     synth::RenderSettings render{.noise = synth::Noise::kinect,
                                  .seed = static_cast<std::uint64_t>(10 + f)};
@@ -318,41 +324,49 @@ int ids_kept_over_four_frames(const synth::Scene& scene, Move&& move) {
             << "surface " << surface << " took the track of surface " << other << " in frame " << f;
       }
       if (!id_of_surface.contains(surface)) continue;
-      EXPECT_EQ(segment->track_id, id_of_surface[surface])
-          << "surface " << surface << " (" << r.surfaces[static_cast<std::size_t>(surface - 1)].name
-          << ") in frame " << f;
-      ++kept;
+      const bool same = segment->track_id == id_of_surface[surface];
+      ++(same ? out.kept : out.lost);
+      if (!same) {
+        std::printf("surface %d (%s) lost its track in frame %d\n", surface,
+                    r.surfaces[static_cast<std::size_t>(surface - 1)].name.c_str(), f);
+      }
     }
     id_of_surface = ids_now;
     EXPECT_GT(pipeline.times().tracking, 0.0);
   }
-  return kept;
+  return out;
 }
 
 }  // namespace
 
-// A camera panning by a few pixels per frame over a rendered scene.
+// A camera panning by a few pixels per frame over a rendered scene: every surface keeps its id.
 TEST(Tracking, SurfacesOfARenderedSceneKeepTheirIdsWhileTheCameraPans) {
-  const int kept = ids_kept_over_four_frames(
+  const Kept k = ids_kept_over_four_frames(
       synth::random_scene(4), [](const synth::Scene& scene, synth::RenderSettings& render, int f) {
         render.camera.cx += 6.0 * f;  // the image moves 6 px to the right per frame
         render.camera.cy -= 3.0 * f;
         return scene;
       });
-  EXPECT_GE(kept, 18);  // 6 or more per pair of frames
+  EXPECT_EQ(k.lost, 0);
+  EXPECT_GE(k.kept, 18);  // 6 or more per pair of frames
 }
 
-// A camera turning in place by 2 deg per frame (60 deg/s at 30 Hz): the walls 3-5 m away move
-// by 0.1-0.17 m off their planes of the frame before, but not closer to the camera. (At 4 deg
-// per frame the boxes move by more than their width in the image, 37 px, and lose their
-// tracks.)
+// A camera turning in place. At 2 deg per frame (60 deg/s at 30 Hz) the walls 3-5 m away move
+// by 0.1-0.17 m off their planes of the frame before, but not closer to the camera: every
+// surface keeps its id. At 4 deg per frame (120 deg/s) the boxes also move by more than their
+// width in the image (37 px): the image's shift, voted for by the pairs of segments that may be
+// one surface, finds them (27 lost before the vote), but for a thin face near the image's
+// edge, where a turn moves the image by a third more than at its centre.
 TEST(Tracking, SurfacesOfARenderedSceneKeepTheirIdsWhileTheCameraTurns) {
   constexpr double kDegree = 3.14159265358979323846 / 180;
-  const int kept = ids_kept_over_four_frames(
-      synth::random_scene(4), [](const synth::Scene& scene, synth::RenderSettings&, int f) {
-        return turned(scene, 2 * kDegree * f);
-      });
-  EXPECT_GE(kept, 18);
+  for (const double degrees : {2.0, 4.0}) {
+    const Kept k = ids_kept_over_four_frames(
+        synth::random_scene(4), [&](const synth::Scene& scene, synth::RenderSettings&, int f) {
+          return turned(scene, degrees * kDegree * f);
+        });
+    EXPECT_GE(k.kept, 18) << degrees << " deg";
+    EXPECT_LE(k.lost, degrees == 2.0 ? 0 : 6) << degrees << " deg";  // 4 lost; 27 without the vote
+  }
 }
 
 // A dropped sensor frame (no valid point, so no segment) between two frames changes no track.

@@ -94,10 +94,13 @@ class SegmentTracker {
   /// Counts for the labels of the current frame that are `open_` only.
   void count_shared_pixels(const LabelImage& labels, int du, int dv);
   void add_shared(std::uint64_t key, std::uint32_t count);
+  /// Whether `now` may continue `before` by their kinds and planes (not by their pixels).
+  bool may_continue(const Track& before, const Segment& now) const;
   void add_candidates(const Segmentation& segmentation);
-  std::array<int, 2> image_motion(int width, int height);
+  std::array<int, 2> image_motion(const Segmentation& segmentation, int width, int height);
 
   TrackingSettings settings_;
+  double min_cos_;  ///< cos(settings_.max_normal_angle)
   LabelImage previous_labels_;
   std::vector<Track> previous_;  ///< per label - 1 of previous_labels_
   /// Open-addressing table of (previous << 32 | current) -> shared pixels; key 0 = empty.
@@ -107,7 +110,7 @@ class SegmentTracker {
   std::vector<Footprint> footprints_;    ///< per label of the current frame (0 unused)
   std::vector<std::uint64_t> run_bits_;  ///< a row's run starts
   std::vector<Pair> candidates_;
-  std::vector<std::array<double, 2>> motions_;  ///< shift along one axis and weight, per pair
+  std::vector<std::array<double, 3>> motions_;  ///< du, dv and weight of a pair's proposal
   std::vector<std::uint8_t> taken_;             ///< per previous label - 1: its track continues
   std::vector<std::uint8_t> open_;              ///< per current label: no candidate pair yet
   std::uint32_t next_id_ = 1;
