@@ -113,6 +113,7 @@ class SegmentTracker {
   std::vector<std::array<double, 3>> motions_;  ///< du, dv and weight of a pair's proposal
   std::vector<std::uint8_t> taken_;             ///< per previous label - 1: its track continues
   std::vector<std::uint8_t> open_;              ///< per current label: no candidate pair yet
+  std::vector<std::uint8_t> open_rows_;         ///< per row: an open segment lies on it
   std::uint32_t next_id_ = 1;
 };
 
