@@ -110,18 +110,18 @@ void validate(const MeshSettings& s) {
   const int t = static_cast<int>(s.type);
   if (t < 0 || t > 3) fail("type", t, "a MeshType (quad, left_cut, right_cut or adaptive)");
   if (!(s.eps_theta >= 0.0f && s.eps_theta <= 1.5707964f)) {
-    fail("eps_theta", double{s.eps_theta}, "in [0, pi/2] rad");
+    fail("eps_theta", s.eps_theta, "in [0, pi/2] rad");
   }
   const std::array<std::pair<const char*, float>, 4> bounds{{{"max_edge_a", s.max_edge_a},
                                                              {"max_edge_b", s.max_edge_b},
                                                              {"max_edge_c", s.max_edge_c},
                                                              {"jump_sigmas", s.jump_sigmas}}};
   for (const auto& [field, value] : bounds) {
-    if (!(value >= 0.0f) || !std::isfinite(value)) fail(field, double{value}, "finite and >= 0");
+    if (!(value >= 0.0f) || !std::isfinite(value)) fail(field, value, "finite and >= 0");
   }
   for (std::size_t k = 0; k < 3; ++k) {
     if (!std::isfinite(s.viewpoint[k])) {
-      fail("viewpoint[" + std::to_string(k) + "]", double{s.viewpoint[k]}, "finite [m]");
+      fail("viewpoint[" + std::to_string(k) + "]", s.viewpoint[k], "finite [m]");
     }
   }
   detail::require_noise(s.noise, "MeshSettings");

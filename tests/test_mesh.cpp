@@ -384,6 +384,10 @@ TEST(Mesh, ReusesBuffersAndValidates) {
             "MeshSettings::noise.a = 0 must be finite and > 0");
   EXPECT_EQ(message({.noise = {.b = -1.0}}), "MeshSettings::noise.b = -1 must be finite and >= 0");
   EXPECT_EQ(message({.pixel_stride = 0}), "MeshSettings::pixel_stride = 0 must be >= 1");
+  // A value just past the bound keeps its digits (an ostream's 6 would print 1.5708), and a
+  // float prints as the float it is.
+  EXPECT_EQ(message({.eps_theta = 1.5708001f}),
+            "MeshSettings::eps_theta = 1.5708001 must be in [0, pi/2] rad");
   EXPECT_EQ(message({}), "no exception");
 }
 

@@ -3,22 +3,25 @@
 #pragma once
 
 #include <cmath>
-#include <sstream>
 #include <stdexcept>
+#include <string>
 #include <string_view>
 
+#include "detail/number_text.hpp"
 #include "rangeseg/sensor.hpp"
 
 namespace rangeseg::detail {
 
-/// Throws std::invalid_argument "Owner::field = value must be condition"; an integer prints as
-/// an integer (2147483647, not 2.14748e+09).
+/// Throws std::invalid_argument "Owner::field = value must be condition", the value as the
+/// shortest text that reads back as it (number_text: an integer as an integer, 2147483647, a
+/// float as the float it is, 0.2182, and 1.0000001 not as 1).
 template <class T>
-[[noreturn]] void throw_bad_setting(std::string_view owner, std::string_view field, const T& value,
+[[noreturn]] void throw_bad_setting(std::string_view owner, std::string_view field, T value,
                                     std::string_view condition) {
-  std::ostringstream message;
-  message << owner << "::" << field << " = " << value << " must be " << condition;
-  throw std::invalid_argument(message.str());
+  std::string message(owner);
+  message.append("::").append(field).append(" = ").append(number_text(value));
+  message.append(" must be ").append(condition);
+  throw std::invalid_argument(message);
 }
 
 /// sigma(z) > 0 at every depth: a finite and > 0, b finite and >= 0, z0 finite; else throws

@@ -817,7 +817,7 @@ void validate(const PolygonSettings& settings) {
   for (std::size_t k = 0; k < 3; ++k) {
     if (!std::isfinite(settings.viewpoint[k])) {
       detail::throw_bad_setting(owner, "viewpoint[" + std::to_string(k) + "]",
-                                double{settings.viewpoint[k]}, "finite [m]");
+                                settings.viewpoint[k], "finite [m]");
     }
   }
 }

@@ -62,10 +62,8 @@ void require_edges_inside(const Mesh& mesh) {
   }
 }
 
-void require(bool ok, const char* field, double value, const char* condition) {
-  if (!ok) detail::throw_bad_setting("SegmentationSettings", field, value, condition);
-}
-void require(bool ok, const char* field, int value, const char* condition) {
+template <class T>
+void require(bool ok, const char* field, T value, const char* condition) {
   if (!ok) detail::throw_bad_setting("SegmentationSettings", field, value, condition);
 }
 

@@ -83,10 +83,8 @@ void unorganized::RingTreeDeleter::operator()(RingTree* tree) const { delete tre
 
 namespace {
 
-[[noreturn]] void fail(const char* field, double value, const char* condition) {
-  detail::throw_bad_setting("RingSettings", field, value, condition);
-}
-[[noreturn]] void fail(const char* field, int value, const char* condition) {
+template <class T>
+[[noreturn]] void fail(const char* field, T value, const char* condition) {
   detail::throw_bad_setting("RingSettings", field, value, condition);
 }
 
