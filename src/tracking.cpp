@@ -308,10 +308,18 @@ void SegmentTracker::update(Segmentation& segmentation) {
                                   ", expected " + std::to_string(i + 1));
     }
   }
-  // A frame without segments (a dropped or blank sensor frame) leaves the tracks as they were:
-  // the next frame continues the one before it.
-  if (n == 0) return;
   const LabelImage& labels = segmentation.labels;
+  // A frame without segments (a dropped or blank sensor frame) leaves the tracks as they were:
+  // the next frame continues the one before it. Its labels must all be 0 still.
+  if (n == 0) {
+    for (int v = 0; v < labels.height(); ++v) {
+      const std::int32_t* row = labels.row(v);
+      const std::int32_t* const label =
+          std::find_if(row, row + labels.width(), [](std::int32_t l) { return l != 0; });
+      if (label != row + labels.width()) bad_label(*label, static_cast<int>(label - row), v, 0);
+    }
+    return;
+  }
   const bool same_size = !previous_.empty() && previous_labels_.width() == labels.width() &&
                          previous_labels_.height() == labels.height();
   measure_footprints(labels, n, same_size);

@@ -376,6 +376,9 @@ TEST(Tracking, AFrameWithoutSegmentsLeavesTheTracksAsTheyWere) {
   tracker.update(a);
   Segmentation blank;
   blank.labels.resize(64, 48, 0);
+  Segmentation mislabelled = blank;
+  mislabelled.labels(3, 4) = 1;  // no segment 1
+  EXPECT_THROW(tracker.update(mislabelled), std::invalid_argument);
   tracker.update(blank);
   Segmentation b = frame({{0, 0, 30, 48}, {30, 0, 64, 48}});
   tracker.update(b);
