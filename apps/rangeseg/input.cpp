@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -331,10 +330,9 @@ LoadedInput load_input(const InputOptions& o) {
     }
     check_depth_image(o, in.cloud, eight_bit);
     in.format = eight_bit ? "8-bit depth PNG" : "16-bit depth PNG";
-    std::array<char, 32> scale{};
-    char* const scale_end =
-        std::to_chars(scale.data(), scale.data() + scale.size(), o.depth_scale).ptr;
-    in.fields = "depth (scale " + std::string(scale.data(), scale_end) + " m/unit)";
+    char scale[48];
+    std::snprintf(scale, sizeof scale, "depth (scale %g m/unit)", o.depth_scale);
+    in.fields = scale;
   } else if (ext == ".ply") {
     io::PlyCloudInfo info;
     in.cloud = io::read_ply_cloud(o.path, &info);
