@@ -62,8 +62,9 @@ TEST(Pipeline, SaysWhenTheSmoothModelsCurvatureBoundAdmitsTooFewPoints) {
   EXPECT_TRUE(planes.why_no_segments().empty());
 }
 
-// A depth image whose floats are 1e30 (garbage for "no depth"), and a wall in millimetres read
-// as metres: no other cause is found, and the reason is the points' scale.
+// A depth image whose floats are 1e30 (garbage for "no depth"): no other cause is found, and
+// the reason is the points' scale. (A wall in millimetres read as metres still gives a segment,
+// a plane 2 km away; the command line and Python warn for it.)
 TEST(Pipeline, SaysWhenThePointsScaleIsImplausible) {
   const CameraIntrinsics camera{.fx = 525, .fy = 525, .cx = 319.5, .cy = 239.5};
   FloatPlane huge(640, 480, 1e30f);
@@ -73,17 +74,6 @@ TEST(Pipeline, SaysWhenThePointsScaleIsImplausible) {
   EXPECT_NE(pipeline.why_no_segments().find("median distance"), std::string::npos)
       << pipeline.why_no_segments();
 
-  OrganizedCloud millimetres = noisy_wall();
-  for (FloatPlane* plane : {&millimetres.x, &millimetres.y, &millimetres.z}) {
-    for (int v = 0; v < plane->height(); ++v) {
-      for (int u = 0; u < plane->width(); ++u) (*plane)(u, v) *= 1000.0f;
-    }
-  }
-  pipeline.process(millimetres);
-  if (pipeline.segmentation().segments.empty()) {
-    EXPECT_NE(pipeline.why_no_segments().find("median distance"), std::string::npos)
-        << pipeline.why_no_segments();
-  }
   // A lattice step beyond the image leaves no cell to mesh.
   const OrganizedCloud wall = noisy_wall();
   PipelineSettings coarse = pipeline_preset("kinect");
