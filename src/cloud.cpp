@@ -3,11 +3,14 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "rangeseg/sensor.hpp"
 
 namespace rangeseg {
 
@@ -56,13 +59,18 @@ CloudStats cloud_stats(const OrganizedCloud& cloud) {
   return s;
 }
 
-std::string cloud_scale_problem(const OrganizedCloud& cloud) {
-  // Coordinates from which float keeps no millimetre [m] (its steps there are 1-2 mm), and
-  // median distances from the sensor beyond any range sensor's, or below any's [m].
-  constexpr double kFarCoordinate = 8192, kFarMedian = 500, kNearMedian = 0.01;
-  require_consistent(cloud, "cloud_scale_problem");
+namespace {
+
+/// Where a cloud's valid points lie: their largest coordinate and bounding-box diagonal [m], and
+/// the median of their distances from the origin [m] over at most ~4096 of them (0 points: all
+/// zero, `median_range` NaN).
+struct PointSpread {
+  double largest = 0, extent = 0, median_range = std::numeric_limits<double>::quiet_NaN();
+};
+
+PointSpread point_spread(const OrganizedCloud& cloud) {
   std::vector<float> range;
-  double largest = 0;
+  PointSpread spread;
   std::array<double, 3> low{INFINITY, INFINITY, INFINITY}, high{-INFINITY, -INFINITY, -INFINITY};
   const std::size_t step = std::max<std::size_t>(1, cloud.size() / 4096);
   std::size_t index = 0;
@@ -72,28 +80,53 @@ std::string cloud_scale_problem(const OrganizedCloud& cloud) {
       if (!std::isfinite(x[u]) || !std::isfinite(y[u]) || !std::isfinite(z[u])) continue;
       const std::array<double, 3> p{x[u], y[u], z[u]};
       for (std::size_t a = 0; a < 3; ++a) {
-        largest = std::max(largest, std::fabs(p[a]));
+        spread.largest = std::max(spread.largest, std::fabs(p[a]));
         low[a] = std::min(low[a], p[a]);
         high[a] = std::max(high[a], p[a]);
       }
       if (index % step == 0) range.push_back(static_cast<float>(std::hypot(p[0], p[1], p[2])));
     }
   }
-  if (range.empty()) return {};
-  char text[240];
-  const double extent = std::hypot(high[0] - low[0], high[1] - low[1], high[2] - low[2]);
-  if (largest >= kFarCoordinate && extent < 0.1 * largest) {
+  if (range.empty()) return spread;
+  spread.extent = std::hypot(high[0] - low[0], high[1] - low[1], high[2] - low[2]);
+  const auto middle = range.begin() + static_cast<std::ptrdiff_t>(range.size() / 2);
+  std::nth_element(range.begin(), middle, range.end());
+  spread.median_range = *middle;
+  return spread;
+}
+
+}  // namespace
+
+std::string cloud_scale_problem(const OrganizedCloud& cloud) {
+  // Coordinates from which float keeps no millimetre [m] (its steps there are 1-2 mm), and
+  // median distances from the sensor beyond any range sensor's, or below any's [m].
+  constexpr double kFarCoordinate = 8192, kFarMedian = 500, kNearMedian = 0.01;
+  // A cloud this much smaller than its distance from the origin lies far from it, whatever its
+  // unit (a room in millimetres is about as wide as it is far from its camera).
+  constexpr double kFarFromOrigin = 0.1;
+  require_consistent(cloud, "cloud_scale_problem");
+  const PointSpread spread = point_spread(cloud);
+  if (!std::isfinite(spread.median_range)) return {};
+  char text[320];
+  if (spread.largest >= kFarCoordinate && spread.extent < 0.1 * spread.largest) {
     std::snprintf(
         text, sizeof text,
         "coordinates up to %.6g m, where float points lie %.3g m apart: move the origin "
         "near the sensor (e.g. subtract a UTM offset)",
-        largest,
-        static_cast<double>(std::nextafter(static_cast<float>(largest), INFINITY)) - largest);
+        spread.largest,
+        static_cast<double>(std::nextafter(static_cast<float>(spread.largest), INFINITY)) -
+            spread.largest);
     return text;
   }
-  const auto middle = range.begin() + static_cast<std::ptrdiff_t>(range.size() / 2);
-  std::nth_element(range.begin(), middle, range.end());
-  const double median = *middle;
+  const double median = spread.median_range;
+  if (median > kFarMedian && spread.extent < kFarFromOrigin * median) {
+    std::snprintf(text, sizeof text,
+                  "the points lie %.4g m from the origin and span %.3g m: rangeseg takes the "
+                  "sensor to be at the origin; points in a map's or another frame need the "
+                  "sensor's pose applied, or the origin moved near the sensor",
+                  median, spread.extent);
+    return text;
+  }
   if (median > kFarMedian) {
     std::snprintf(text, sizeof text,
                   "the points' median distance from the sensor is %.4g m: rangeseg reads metres "
@@ -109,6 +142,27 @@ std::string cloud_scale_problem(const OrganizedCloud& cloud) {
     return text;
   }
   return {};
+}
+
+std::string noise_scale_problem(const OrganizedCloud& cloud, const SensorNoise& noise) {
+  // The segmentation's distance tests take about 3 sigma; beyond a tenth of the scene, they
+  // join surfaces that lie apart in it (a room's floor and table top).
+  constexpr double kSigmasOfTests = 3, kPartOfScene = 0.1;
+  require_consistent(cloud, "noise_scale_problem");
+  const PointSpread spread = point_spread(cloud);
+  if (!std::isfinite(spread.median_range) || spread.extent <= 0) return {};
+  const double sigma = noise.sigma(spread.median_range);
+  if (!(kSigmasOfTests * sigma > kPartOfScene * spread.extent)) return {};
+  char text[640];
+  std::snprintf(text, sizeof text,
+                "at the points' median distance from the origin (%.4g m) the noise model's sigma "
+                "is %.3g m, over a thirtieth of their extent (%.3g m), so its tests cannot tell "
+                "their surfaces apart; rangeseg takes the sensor to be at the origin: points "
+                "beyond its range, or in a map's or another frame (merged scans), need the "
+                "sensor's pose applied or the origin moved near it, or a noise model of their "
+                "own (a map: a constant sigma, b = 0)",
+                spread.median_range, sigma, spread.extent);
+  return text;
 }
 
 bool surrounds_its_sensor(const OrganizedCloud& cloud) {

@@ -303,13 +303,55 @@ void Pipeline::set_input(const OrganizedCloud& cloud) {
   }
 }
 
+template <class Frame>
+void Pipeline::guarded(Frame&& frame) {
+  try {
+    frame();
+  } catch (const std::invalid_argument&) {
+    throw;
+  } catch (...) {
+    drop_frame_state();
+    throw;
+  }
+}
+
+void Pipeline::drop_frame_state() {
+  input_kind_ = InputKind::depth;
+  input_ = nullptr;
+  depth_cloud_ = {};
+  own_input_ = {};
+  mesh_ = {};
+  rings_ = {};
+  raw_normals_ = {};
+  smoother_ = Smoother(settings_.smoothing);
+  smoothed_cloud_ = {};
+  smoothed_normals_ = {};
+  ring_buffers_ = {};
+  segmentation_ = {};
+  polygons_ = {};
+  tracker_ = SegmentTracker(settings_.tracking);
+  times_ = {};
+  ordered_input_ = {};
+  ordered_rings_ = {};
+  grid_.clear();
+  grid_cloud_ = {};
+  grid_smoothed_cloud_ = {};
+  grid_raw_normals_ = {};
+  grid_smoothed_normals_ = {};
+  grid_labels_ = {};
+  grid_offsets_ = {};
+  // Last, once the buffers above are freed: these allocate their scratch.
+  segmenter_ = Segmenter{};
+  polygon_extractor_ = PolygonExtractor{};
+}
+
 void Pipeline::process(const OrganizedCloud& cloud, double camera_fx) {
   if (!(camera_fx >= 0) || !std::isfinite(camera_fx)) {
     throw std::invalid_argument("Pipeline::process: camera_fx must be >= 0 and finite, got " +
                                 rangeseg::detail::number_text(camera_fx));
   }
   camera_fx_ = camera_fx;  // a pixel grid found in an unorganized cloud names its own
-  process_cloud(cloud);
+  guarded([&] { process_cloud(cloud); });
 }
 
 void Pipeline::process_cloud(const OrganizedCloud& cloud) {
@@ -508,14 +550,19 @@ void Pipeline::process_depth(int width, int height, double fx, Convert&& convert
 
 void Pipeline::process(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
                        double depth_scale) {
-  process_depth(depth.width, depth.height, camera.fx, [&](int v0, int v1) {
-    depth_to_cloud_rows(depth, camera, depth_scale, depth_cloud_, v0, v1);
+  guarded([&] {
+    process_depth(depth.width, depth.height, camera.fx, [&](int v0, int v1) {
+      depth_to_cloud_rows(depth, camera, depth_scale, depth_cloud_, v0, v1);
+    });
   });
 }
 
 void Pipeline::process(View<const float> depth, const CameraIntrinsics& camera) {
-  process_depth(depth.width, depth.height, camera.fx,
-                [&](int v0, int v1) { depth_to_cloud_rows(depth, camera, depth_cloud_, v0, v1); });
+  guarded([&] {
+    process_depth(depth.width, depth.height, camera.fx, [&](int v0, int v1) {
+      depth_to_cloud_rows(depth, camera, depth_cloud_, v0, v1);
+    });
+  });
 }
 
 }  // namespace rangeseg

@@ -31,17 +31,24 @@ inline bool contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;
 }
 
-/// Runs `rangeseg ARGS` through the shell and returns its exit code and output.
-inline CliResult run_cli(const std::string& args) {
-  const std::string cmd = std::string(RANGESEG_CLI) + " " + args + " 2>&1";
+/// Runs a shell command line (with its own redirections) and returns its exit code (-1 for a
+/// signal) and what it printed on stdout.
+inline CliResult run_shell(const std::string& command) {
   CliResult r;
-  FILE* pipe = popen(cmd.c_str(), "r");
+  FILE* pipe = popen(command.c_str(), "r");
   if (pipe == nullptr) return r;
   char buffer[4096];
   while (const std::size_t n = fread(buffer, 1, sizeof buffer, pipe)) r.out.append(buffer, n);
   const int status = pclose(pipe);
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
+}
+
+/// Runs `rangeseg ARGS` through the shell and returns its exit code and output.
+inline CliResult run_cli(const std::string& args) {
+  std::string command = RANGESEG_CLI;
+  command.append(" ").append(args).append(" 2>&1");
+  return run_shell(command);
 }
 
 inline std::string read_text(const std::filesystem::path& p) {

@@ -224,8 +224,9 @@ TEST(CliUnorganized, BatchMixesOrganizedAndUnorganizedFrames) {
   EXPECT_NE(error.find("plane, smooth or auto"), std::string::npos) << error;
 }
 
-// A cloud in millimetres, and one in map coordinates far from the origin (as float: steps of
-// 0.5 m at 5000 km), are named on stderr; a cloud in metres near its sensor is not.
+// A cloud in millimetres, one in map coordinates far from the origin (as float: steps of 0.5 m
+// at 5000 km), and one whose noise model cannot tell its surfaces apart are named on stderr; a
+// cloud in metres near its sensor is not.
 TEST(CliUnorganized, CloudsInMillimetresOrFarFromTheOriginAreNamed) {
   const fs::path dir = rangeseg::test::scratch_dir("cli_unorganized_scale");
   const auto write = [&](const std::string& name, double scale, double offset) {
@@ -249,6 +250,17 @@ TEST(CliUnorganized, CloudsInMillimetresOrFarFromTheOriginAreNamed) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("subtract a UTM offset"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("millimetres"), std::string::npos) << r.out;
+  // 30 m from the origin, where the Kinect's noise model gives sigma = 3.3 m for points that
+  // span 2.8 m (a map's frame); a constant sigma is right for them.
+  const std::string moved = write("moved.xyz", 1.0, 30.0);
+  const std::string out = (dir / "out").string();
+  r = run("segment " + moved + " -o " + out);
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("warning: " + moved + ": at the points' median distance"), std::string::npos)
+      << r.out;
+  r = run("segment " + moved + " -o " + out + " --preset laser");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(r.out.find("warning"), std::string::npos) << r.out;
 }
 
 // `--preset auto` takes a cloud whose points surround its sensor for a laser scanner's (a

@@ -1,5 +1,5 @@
 // downsample: every k-th pixel, with the optional planes, against an index formula;
-// interleaved_to_cloud against the planes it was made from; to_sensor_frame.
+// interleaved_to_cloud against the planes it was made from; to_sensor_frame; the scale checks.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "rangeseg/cloud.hpp"
+#include "rangeseg/sensor.hpp"
 
 namespace {
 
@@ -298,4 +299,57 @@ TEST(Interleaved, RejectsBadArgumentsWithTheirValues) {
   EXPECT_NE(message(xyz.data(), 2, 2, 8).find("stride 8"), std::string::npos);
   EXPECT_NE(message(xyz.data(), 2, 2, 14).find("stride 14"), std::string::npos);
   EXPECT_EQ(message(xyz.data(), 2, 2, 16), "no exception");
+}
+
+namespace {
+
+// A wall 4 m wide and 3 m high, 3 m in front of the origin, moved by `shift` along x: its
+// bounding box's diagonal is 5 m.
+rangeseg::OrganizedCloud wall(double shift) {
+  rangeseg::OrganizedCloud c(41, 31);
+  for (int v = 0; v < 31; ++v) {
+    for (int u = 0; u < 41; ++u) {
+      c.x(u, v) = static_cast<float>(-2.0 + 0.1 * u + shift);
+      c.y(u, v) = static_cast<float>(-1.5 + 0.1 * v);
+      c.z(u, v) = 3.0F;
+    }
+  }
+  return c;
+}
+
+}  // namespace
+
+// The rule: 3 sigma at the points' median distance from the origin above a tenth of their
+// extent. A depth camera's model fits the wall in front of it, not the same wall 30 m away (a
+// map's frame); a constant sigma fits both.
+TEST(NoiseScale, NamesANoiseModelThatCannotTellTheSurfacesApart) {
+  const rangeseg::SensorNoise kinect{.a = 0.0012, .b = 0.0019, .z0 = 0.4};
+  EXPECT_EQ(rangeseg::noise_scale_problem(wall(0), kinect), "");
+  const std::string far = rangeseg::noise_scale_problem(wall(30), kinect);
+  // The median point lies sqrt(30^2 + 3^2) = 30.15 m away: 0.0012 + 0.0019 * 29.75^2 = 1.68 m.
+  EXPECT_NE(far.find("sigma is 1.68 m"), std::string::npos) << far;
+  EXPECT_NE(far.find("(5 m)"), std::string::npos) << far;
+  EXPECT_EQ(rangeseg::noise_scale_problem(wall(30), {.a = 0.015, .b = 0, .z0 = 0}), "");
+  // At the bound: 3 sigma = 0.5 m.
+  EXPECT_EQ(rangeseg::noise_scale_problem(wall(30), {.a = 0.16, .b = 0, .z0 = 0}), "");
+  EXPECT_NE(rangeseg::noise_scale_problem(wall(30), {.a = 0.17, .b = 0, .z0 = 0}), "");
+  EXPECT_EQ(rangeseg::noise_scale_problem(rangeseg::OrganizedCloud(3, 2), kinect), "")
+      << "no points, no problem";
+}
+
+// A metre-scale cloud 1 km from the origin is named as far from it, not as millimetres; a
+// millimetre-scale room (as wide as it is far) as millimetres.
+TEST(NoiseScale, ACloudFarFromTheOriginIsNotTakenForMillimetres) {
+  const std::string far = rangeseg::cloud_scale_problem(wall(1000));
+  EXPECT_NE(far.find("from the origin and span 5 m"), std::string::npos) << far;
+  EXPECT_EQ(far.find("millimetres"), std::string::npos) << far;
+  rangeseg::OrganizedCloud millimetres = wall(0);
+  for (int v = 0; v < millimetres.height(); ++v) {
+    for (int u = 0; u < millimetres.width(); ++u) {
+      millimetres.x(u, v) *= 1000;
+      millimetres.y(u, v) *= 1000;
+      millimetres.z(u, v) *= 1000;
+    }
+  }
+  EXPECT_NE(rangeseg::cloud_scale_problem(millimetres).find("millimetres"), std::string::npos);
 }

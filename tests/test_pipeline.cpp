@@ -31,11 +31,18 @@
 
 namespace {
 std::atomic<long> g_allocations{0};
+/// The allocation (by g_allocations' count) that fails with std::bad_alloc, as if memory had run
+/// out there; -1: none.
+std::atomic<long> g_fail_allocation{-1};
+
+void fail_if_asked(long count) {
+  if (count == g_fail_allocation.load(std::memory_order_relaxed)) throw std::bad_alloc();
+}
 }  // namespace
 
 // Counting allocator for this test binary: every operator new goes through here.
 void* operator new(std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  fail_if_asked(g_allocations.fetch_add(1, std::memory_order_relaxed) + 1);
   if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
   throw std::bad_alloc();
 }
@@ -43,7 +50,7 @@ void operator delete(void* p) noexcept { std::free(p); }
 void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 // Image planes and row buffers are cache-line aligned: count those too.
 void* operator new(std::size_t size, std::align_val_t alignment) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  fail_if_asked(g_allocations.fetch_add(1, std::memory_order_relaxed) + 1);
   const auto a = static_cast<std::size_t>(alignment);
   const std::size_t rounded = (std::max<std::size_t>(size, 1) + a - 1) / a * a;
   if (void* p = std::aligned_alloc(a, rounded)) return p;
@@ -220,6 +227,62 @@ synth::Rendering qvga_with_a_split() {
   }
   ADD_FAILURE() << "no random QVGA scene in which a region is split";
   return qvga(3);
+}
+
+// A frame that runs out of memory at any of its allocations throws std::bad_alloc and leaves
+// the pipeline able to run the next frame as a new pipeline would (before, a stage that failed
+// midway left buffers whose sizes disagreed, and the next frame could crash in the polygons).
+// Every allocation of a first frame, and of a larger frame after it, fails once in turn.
+TEST(Pipeline, AFrameThatRunsOutOfMemoryLeavesThePipelineAsGoodAsNew) {
+  constexpr CameraIntrinsics kSmall{
+      .fx = 131.25, .fy = 131.25, .cx = 79.5, .cy = 59.5, .width = 160, .height = 120};
+  const OrganizedCloud small =
+      synth::render(synth::random_scene(4),
+                    {.camera = kSmall, .noise = synth::Noise::kinect, .seed = 4})
+          .cloud;
+  const OrganizedCloud& large = qvga(5).cloud;
+  PipelineSettings settings = pipeline_preset("kinect");
+  settings.track = true;
+  Pipeline fresh(settings);
+  fresh.process(large);
+  const Segmentation expected = fresh.segmentation();
+  const PolygonSet expected_polygons = fresh.polygons();
+  ASSERT_GT(expected.segments.size(), 3U);
+  const auto same_labels = [](const LabelImage& a, const LabelImage& b) {
+    if (a.width() != b.width() || a.height() != b.height()) return false;
+    for (int v = 0; v < a.height(); ++v) {
+      if (!std::equal(a.row(v), a.row(v) + a.width(), b.row(v))) return false;
+    }
+    return true;
+  };
+  for (const bool warm : {false, true}) {
+    // The allocations of the frame that fails, counted once without a failure.
+    Pipeline counting(settings);
+    if (warm) counting.process(small);
+    const long first = g_allocations.load();
+    counting.process(large);
+    const long allocations = g_allocations.load() - first;
+    ASSERT_GT(allocations, 20);
+    int failed = 0;
+    for (long k = 1; k <= allocations; ++k) {
+      Pipeline pipeline(settings);
+      if (warm) pipeline.process(small);
+      g_fail_allocation = g_allocations.load() + k;
+      try {
+        pipeline.process(large);
+      } catch (const std::bad_alloc&) {
+        ++failed;
+      }
+      g_fail_allocation = -1;
+      pipeline.process(large);
+      const std::string at = (warm ? "after a smaller frame, " : "first frame, ") +
+                             std::string("allocation ") + std::to_string(k);
+      ASSERT_EQ(pipeline.segmentation().segments.size(), expected.segments.size()) << at;
+      ASSERT_TRUE(same_labels(pipeline.segmentation().labels, expected.labels)) << at;
+      expect_identical_polygons(pipeline.polygons(), expected_polygons, at);
+    }
+    EXPECT_EQ(failed, allocations) << "every allocation of the frame was made to fail once";
+  }
 }
 
 TEST(Pipeline, NoAllocationPerFrameAfterTheFirst) {

@@ -9,19 +9,20 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
-#include <cerrno>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
-#include <cstring>
 #include <exception>
 #include <map>
 #include <memory>
+#include <mutex>
+#include <new>
 #include <set>
+#include <stdexcept>
+#include <string>
+#include <system_error>
 #include <thread>
 #include <vector>
-
-#include <unistd.h>
 
 #include "names.hpp"
 #include "output.hpp"
@@ -36,6 +37,7 @@ struct FrameResult {
   bool ok = false;
   bool first = false;  ///< its pipeline's first frame, which allocated the buffers
   std::string error;
+  bool out_of_memory = false;  ///< memory is still short after the frame failed for lack of it
   std::string preset;
   StageTimes times;
   std::size_t segments = 0;
@@ -97,6 +99,7 @@ FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options
     }
     Pipeline& pipeline = pipelines(r.preset);
     require_model_for(in.cloud, pipeline.settings(), frame.path);
+    check_noise_scale(frame.path, in.cloud, pipeline.settings().segmentation.noise);
     pipeline.process(in.cloud, in.camera_fx);
     r.first = pipelines.first_frame(r.preset);
     warn_if_no_segments(pipeline, frame.path);
@@ -109,6 +112,9 @@ FrameResult run_frame(const FrameSource& frame, const InputOptions& load_options
     r.segments = pipeline.segmentation().segments.size();
     r.organized = in.cloud.is_organized();
     r.pixel_grid = pipeline.pixel_grid().found();
+  } catch (const std::bad_alloc&) {
+    r.error = "out of memory";  // short enough to need no allocation
+    r.out_of_memory = !reserve_memory_for_errors();
   } catch (const std::exception& e) {
     r.error = e.what();
   } catch (...) {
@@ -191,12 +197,7 @@ double median(std::vector<double> v) {
 
 std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
                           const BatchOptions& options) {
-  const auto out_dir = ensure_dir(options.out_dir);
-  // Found before any frame is read, not after all of them.
-  if (::access(out_dir.c_str(), W_OK | X_OK) != 0) {
-    throw std::runtime_error(out_dir.string() + ": cannot write into the output folder (" +
-                             std::strerror(errno) + ")");
-  }
+  const auto out_dir = ensure_writable_dir(options.out_dir);
   keep_freed_memory_for_reuse();
   const std::size_t n = list.frames.size();
   // Tracked segments need the frames in order, on one pipeline: the threads then work inside
@@ -255,13 +256,25 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
   ProgressBar bar(n);
   // Each worker takes the next unclaimed frame; a frame's result depends only on the frame, so
   // the outputs are the same for any number of threads.
+  // What ends the batch from a worker (an allocation failing outside a frame's own handler,
+  // e.g. while reporting it): the first is thrown again here once the workers have stopped.
+  std::exception_ptr fatal;
+  std::mutex fatal_mutex;
+  std::atomic<bool> failed{false};
   const auto work = [&](WorkerPipelines& worker) {
-    for (std::size_t i = next++; i < n && stop_signal.load() == 0; i = next++) {
-      const FrameSource& frame = list.frames[i];
-      results[i] = run_frame(frame, list.options_for(frame), settings.preset, worker, frame_options,
-                             track ? &sequence_preset : nullptr);
-      if (!results[i].ok) bar.message("skipped " + results[i].error);
-      bar.advance(frame.name);
+    try {
+      for (std::size_t i = next++; i < n && stop_signal.load() == 0 && !failed.load(); i = next++) {
+        const FrameSource& frame = list.frames[i];
+        results[i] = run_frame(frame, list.options_for(frame), settings.preset, worker,
+                               frame_options, track ? &sequence_preset : nullptr);
+        if (results[i].out_of_memory) throw std::bad_alloc();  // later frames would fail too
+        if (!results[i].ok) bar.message("skipped " + results[i].error);
+        bar.advance(frame.name);
+      }
+    } catch (...) {
+      const std::lock_guard lock(fatal_mutex);
+      if (!fatal) fatal = std::current_exception();
+      failed = true;
     }
   };
   const auto start = std::chrono::steady_clock::now();
@@ -269,11 +282,19 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
     work(pipelines[0]);
   } else {
     std::vector<std::jthread> workers;
-    for (std::size_t t = 0; t < threads; ++t) workers.emplace_back(work, std::ref(pipelines[t]));
+    try {
+      for (std::size_t t = 0; t < threads; ++t) workers.emplace_back(work, std::ref(pipelines[t]));
+    } catch (const std::system_error& e) {
+      failed = true;  // the workers started stop after their frames; they are joined here
+      workers.clear();
+      throw std::runtime_error("cannot start " + std::to_string(threads) +
+                               " threads for the batch (" + e.what() + "): give fewer --threads");
+    }
   }
   const double wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   bar.finish();
+  if (fatal) std::rethrow_exception(fatal);
   const int stopped_by = stop_signal.load();
 
   // Medians over the frames after each pipeline's first, which allocates its buffers (all

@@ -250,7 +250,7 @@ void add_bench(CLI::App& app) {
         result["throughput_speedup"] = r.throughput_speedup;
       }
       if (o->json) {
-        std::printf("%s\n", result.dump().c_str());
+        std::printf("%s\n", json_text(result).c_str());
         return;
       }
       const std::string size =
@@ -296,11 +296,10 @@ void add_bench(CLI::App& app) {
         }
         list.push_back(std::move(j));
       }
-      std::printf("%s\n", nlohmann::json{{"input", o->in.path},
-                                         {"repeat", o->repeat},
-                                         {"threads", o->threads},
-                                         {"sizes", list}}
-                              .dump()
+      std::printf("%s\n", json_text({{"input", o->in.path},
+                                     {"repeat", o->repeat},
+                                     {"threads", o->threads},
+                                     {"sizes", list}})
                               .c_str());
       return;
     }

@@ -6,6 +6,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <system_error>
 
 #include "commands.hpp"
 #include "input.hpp"
@@ -45,6 +46,9 @@ void convert(const ConvertOptions& o) {
                                 ": a depth PNG needs a pixel grid, which --unorganized and "
                                 "--shuffle remove (write .pcd or .ply)");
   }
+  const std::string json_path = (fs::path(o.out).replace_extension(".json")).string();
+  require_distinct_outputs(o.in.path, {o.out, ext == ".png" ? json_path : ""}, "convert");
+  if (ext == ".png") require_distinct_outputs(o.in.intrinsics, {json_path}, "convert");
   LoadedInput in = load_input(o.in);
   if (o.shuffle) {
     in.cloud = shuffled_valid_points(in.cloud, *o.shuffle);
@@ -71,12 +75,18 @@ void convert(const ConvertOptions& o) {
                                ": a depth PNG keeps only z, from which x and y could not be "
                                "computed again; convert it to .pcd or .ply");
     }
-    const std::string json_path = (fs::path(o.out).replace_extension(".json")).string();
     io::write_depth_png(o.out, cloud_to_depth(in.cloud, o.in.depth_scale).view());
-    write_json(json_path,
-               {{"width", camera.width},
-                {"height", camera.height},
-                {"intrinsic_matrix", {camera.fx, 0, 0, 0, camera.fy, 0, camera.cx, camera.cy, 1}}});
+    try {
+      write_json(json_path, {{"width", camera.width},
+                             {"height", camera.height},
+                             {"intrinsic_matrix",
+                              {camera.fx, 0, 0, 0, camera.fy, 0, camera.cx, camera.cy, 1}}});
+    } catch (...) {
+      // The depth PNG is of no use without its intrinsics: none of the pair is left.
+      std::error_code ignored;
+      fs::remove(o.out, ignored);
+      throw;
+    }
     char numbers[160];
     std::snprintf(numbers, sizeof numbers, "fx %.3f, fy %.3f, cx %.3f, cy %.3f px", camera.fx,
                   camera.fy, camera.cx, camera.cy);
@@ -91,6 +101,8 @@ void convert(const ConvertOptions& o) {
     throw std::runtime_error(o.out + ": unsupported output type '" + ext +
                              "' (expected .pcd, .png (16-bit depth) or .ply (points))");
   }
+  remove_stale_temporaries(o.out);
+  if (ext == ".png") remove_stale_temporaries(json_path);
   progress("wrote " + o.out + note);
 }
 

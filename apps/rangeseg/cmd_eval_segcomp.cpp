@@ -132,6 +132,7 @@ void run_segcomp(const SegcompOptions& o) {
   for (const io::SegcompSensor sensor : {io::SegcompSensor::abw, io::SegcompSensor::perceptron}) {
     pipeline_for(sensor);
   }
+  if (!o.out_dir.empty()) ensure_writable_dir(o.out_dir);
   std::unique_ptr<Pipeline> pipelines[2];
   const std::size_t n_t = o.tolerances.size();
   std::vector<std::vector<eval::EvalResult>> results(n_t);  // per T, per image scored
@@ -141,6 +142,7 @@ void run_segcomp(const SegcompOptions& o) {
   if (n_t > 1) std::printf("T = %.2f (the first of --T):\n", o.tolerances.front());
   print_eval_header();
   for (const fs::path& range : images) {
+    bool writing = false;  // a result that cannot be written ends the run (a full disk)
     try {
       fs::path gt_path = range;
       gt_path.replace_extension(".gt-seg");
@@ -159,11 +161,13 @@ void run_segcomp(const SegcompOptions& o) {
         a[t] = angles_for(r[t], gt, planes);
       }
       if (!o.out_dir.empty()) {
+        writing = true;
         const std::string stem = range.stem().string();
         const auto dir = ensure_dir(o.out_dir);
         write_ms_seg((dir / (stem + ".ms-seg")).string(), ms);
         write_ms_nor((dir / (stem + ".ms-nor")).string(), pipeline.segmentation(), gt.sensor);
         write_segmentation_folder((dir / stem).string(), *gt.cloud, pipeline, {.mesh = false});
+        writing = false;
       }
       print_eval_row(range.filename().string().c_str(), r.front(), a.front());
       nlohmann::json per_t = nlohmann::json::array();
@@ -177,6 +181,7 @@ void run_segcomp(const SegcompOptions& o) {
       }
       image_list.push_back({{"image", range.filename().string()}, {"results", per_t}});
     } catch (const std::exception& e) {
+      if (writing) throw;
       std::printf("%-22s skipped: %s\n", range.filename().string().c_str(), e.what());
       failures.push_back(e.what());
       image_list.push_back({{"image", range.filename().string()}, {"error", e.what()}});

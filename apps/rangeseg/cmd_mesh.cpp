@@ -1,6 +1,9 @@
+#include <filesystem>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <system_error>
+#include <vector>
 
 #include "commands.hpp"
 #include "input.hpp"
@@ -57,6 +60,7 @@ void add_mesh(CLI::App& app) {
     for (const std::string* png : {&o->normal_png, &o->curvature_png}) {
       if (!png->empty()) require_output_extension(*png, {".png"}, "mesh");
     }
+    require_distinct_outputs(o->in.path, {o->out, o->normal_png, o->curvature_png}, "mesh");
     mesh_settings("");  // bad options fail before the input is read
     LoadedInput in = load_input(o->in);
     require_grid(in.cloud, o->in.path, "a mesh",
@@ -65,10 +69,25 @@ void add_mesh(CLI::App& app) {
     const NormalMap normals = compute_normals(in.cloud, mesh);
     const RgbImage colours =
         colorize_normals(normals.nx.view(), normals.ny.view(), normals.nz.view());
-    write_mesh_ply(o->out, in.cloud, mesh, &normals, &colours);
-    if (!o->normal_png.empty()) io::write_rgb_png(o->normal_png, colours);
-    if (!o->curvature_png.empty()) {
-      io::write_rgb_png(o->curvature_png, colorize_scalar_auto(normals.curvature.view()));
+    // A failed command leaves none of its outputs (each is written atomically, in turn).
+    std::vector<std::string> written;
+    try {
+      write_mesh_ply(o->out, in.cloud, mesh, &normals, &colours);
+      written.push_back(o->out);
+      if (!o->normal_png.empty()) {
+        io::write_rgb_png(o->normal_png, colours);
+        written.push_back(o->normal_png);
+      }
+      if (!o->curvature_png.empty()) {
+        io::write_rgb_png(o->curvature_png, colorize_scalar_auto(normals.curvature.view()));
+      }
+    } catch (...) {
+      std::error_code ignored;
+      for (const std::string& path : written) std::filesystem::remove(path, ignored);
+      throw;
+    }
+    for (const std::string* path : {&o->out, &o->normal_png, &o->curvature_png}) {
+      if (!path->empty()) remove_stale_temporaries(*path);
     }
     progress("wrote " + o->out + " (" + std::to_string(count_faces(mesh)) + " faces)");
   });

@@ -70,7 +70,7 @@ void run_noise(const NoiseOptions& o) {
                                 {"bins", bins},
                                 {"blocks_used", e.blocks_used},
                                 {"max_relative_misfit", e.max_relative_misfit}};
-    std::printf("%s\n", out.dump(2).c_str());
+    std::printf("%s\n", json_text(out, 2).c_str());
     return;
   }
   const std::size_t skipped = list.frames.size() - used;
@@ -91,7 +91,7 @@ void run_noise(const NoiseOptions& o) {
     std::printf("wrote %s: use it with `rangeseg segment IN --config %s`\n", o.output.c_str(),
                 o.output.c_str());
   } else {
-    std::printf("as --config: %s\n", config.dump().c_str());
+    std::printf("as --config: %s\n", json_text(config).c_str());
   }
 }
 

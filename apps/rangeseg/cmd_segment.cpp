@@ -178,6 +178,7 @@ void add_segment(CLI::App& app) {
     PipelineSettings settings = settings_for(preset);
     settings.threads = o->threads;
     require_model_for(in.cloud, settings, o->in.path);
+    check_noise_scale(o->in.path, in.cloud, settings.segmentation.noise);
     Pipeline pipeline(settings);
     pipeline.process(in.cloud, in.camera_fx);
     warn_if_no_segments(pipeline, o->in.path);

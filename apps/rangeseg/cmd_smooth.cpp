@@ -38,6 +38,7 @@ void add_smooth(CLI::App& app) {
       ->check(CLI::Range(0, std::numeric_limits<int>::max()));
   cmd->callback([o] {
     require_output_extension(o->out, {".pcd"}, "smooth");
+    require_distinct_outputs(o->in.path, {o->out}, "smooth");
     settings_from(resolve_preset(o->preset, ""), "plane", o->config, false);  // bad options first
     const LoadedInput in = load_input(o->in);
     PipelineSettings s =
@@ -48,9 +49,11 @@ void add_smooth(CLI::App& app) {
       s.smooth = *o->iterations > 0;
     }
     s.segment = false;
+    check_noise_scale(o->in.path, in.cloud, s.smoothing.noise);
     Pipeline pipeline(s);
     pipeline.process(in.cloud, in.camera_fx);
     write_pcd_with_normals(o->out, pipeline.cloud(), pipeline.normals(), in.pose);
+    remove_stale_temporaries(o->out);
     progress("wrote " + o->out +
              (s.smooth ? ""
                        : " (not filtered: the input's points with their raw normals; --iterations "

@@ -274,6 +274,22 @@ void check_cloud_scale(const std::string& path, const OrganizedCloud& cloud) {
 
 }  // namespace
 
+void check_noise_scale(const std::string& path, const OrganizedCloud& cloud,
+                       const SensorNoise& noise) {
+  static std::once_flag checked;
+  std::call_once(checked, [&] {
+    if (!cloud_scale_problem(cloud).empty()) return;  // named already, and the likelier cause
+    const std::string problem = noise_scale_problem(cloud, noise);
+    if (problem.empty()) return;
+    static std::once_flag flag;
+    warn_once(flag, [&] {
+      return "warning: " + path + ": " + problem +
+             " (--apply-viewpoint applies a PCD's VIEWPOINT; a constant noise: --config "
+             "'{\"noise\": {\"a\": 0.01, \"b\": 0}}')";
+    });
+  });
+}
+
 void note_auto_preset(const std::string& preset_option, const LoadedInput& in,
                       const std::string& path) {
   // A grid without points tells nothing (the no-segments warning says what is wrong with it).
@@ -397,6 +413,32 @@ void require_output_extension(const std::string& path, const std::vector<std::st
   throw std::invalid_argument(path + ": " + command + " cannot write " +
                               (ext.empty() ? "a file without extension" : "'" + ext + "' files") +
                               " (expected " + expected + ")");
+}
+
+void require_distinct_outputs(const std::string& input, const std::vector<std::string>& outputs,
+                              const std::string& command) {
+  const auto same = [](const std::string& a, const std::string& b) {
+    std::error_code error;
+    if (std::filesystem::equivalent(a, b, error)) return true;
+    const auto normal = [](const std::string& p) {
+      std::error_code e;
+      return std::filesystem::weakly_canonical(std::filesystem::absolute(p, e), e);
+    };
+    return normal(a) == normal(b);
+  };
+  for (std::size_t i = 0; i < outputs.size(); ++i) {
+    if (outputs[i].empty()) continue;
+    if (same(outputs[i], input)) {
+      throw std::invalid_argument(outputs[i] + ": the output is the input file: " + command +
+                                  " would write its result over it (give another output file)");
+    }
+    for (std::size_t j = 0; j < i; ++j) {
+      if (!outputs[j].empty() && same(outputs[i], outputs[j])) {
+        throw std::invalid_argument(outputs[i] + ": given for two of " + command +
+                                    "'s outputs, which would write one over the other");
+      }
+    }
+  }
 }
 
 void require_grid(OrganizedCloud& cloud, const std::string& path, const std::string& what,

@@ -12,6 +12,7 @@
 #include "rangeseg/camera.hpp"
 #include "rangeseg/cloud.hpp"
 #include "rangeseg/image.hpp"
+#include "rangeseg/sensor.hpp"
 
 namespace rangeseg::cli {
 
@@ -72,10 +73,22 @@ LoadedInput load_input(const InputOptions& opts);
 void note_auto_preset(const std::string& preset_option, const LoadedInput& in,
                       const std::string& path);
 
+/// A warning on stderr, for the first cloud of a run only, when the noise model `noise` (the
+/// preset's, or the --config's) cannot tell the cloud's surfaces apart (noise_scale_problem).
+void check_noise_scale(const std::string& path, const OrganizedCloud& cloud,
+                       const SensorNoise& noise);
+
 /// Throws std::invalid_argument naming `path` and `extensions` unless `path` ends in one of them
 /// (any case): `command` checks its outputs before any work, so that e.g. `-o x.ply` does not
 /// get PCD bytes.
 void require_output_extension(const std::string& path, const std::vector<std::string>& extensions,
+                              const std::string& command);
+
+/// Throws std::invalid_argument unless the `outputs` (empty ones skipped) are distinct files and
+/// none of them is the input file `input` (by device and inode once they exist, else by their
+/// absolute, normalised paths): a run never writes its result over its own input, nor two of
+/// its results over each other. `command` names the command in the message.
+void require_distinct_outputs(const std::string& input, const std::vector<std::string>& outputs,
                               const std::string& command);
 
 /// For the commands that need a pixel grid (`what`, e.g. "a mesh"): an organized cloud stays as

@@ -1,11 +1,15 @@
 // rangeseg: command-line front end. Every subcommand lives in its own file (cmd_*.cpp).
 #include <CLI/CLI.hpp>
 
+#include <cerrno>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <exception>
+#include <new>
 
 #include "commands.hpp"
+#include "output.hpp"
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/version.hpp"
 
@@ -19,12 +23,7 @@ extern "C" void remove_temporaries_and_exit(int signal) {
   std::raise(signal);
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  for (const int signal : {SIGINT, SIGTERM, SIGHUP}) {
-    std::signal(signal, remove_temporaries_and_exit);
-  }
+int run(int argc, char** argv) {
   try {
     CLI::App app{"rangeseg: fast range image meshing, smoothing and segmentation"};
     app.require_subcommand(1);
@@ -36,9 +35,30 @@ int main(int argc, char** argv) {
       const int rc = app.exit(e);
       return rc == 0 ? 0 : rangeseg::cli::kExitUsage;
     }
+  } catch (const std::bad_alloc&) {
+    std::fputs("rangeseg: error: out of memory\n", stderr);
+    return rangeseg::cli::kExitInput;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "rangeseg: error: %s\n", e.what());
     return rangeseg::cli::kExitInput;
   }
   return rangeseg::cli::exit_code();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  for (const int signal : {SIGINT, SIGTERM, SIGHUP}) {
+    std::signal(signal, remove_temporaries_and_exit);
+  }
+  rangeseg::cli::reserve_memory_for_errors();
+  const int rc = run(argc, argv);
+  // What a command printed on stdout (JSON, tables) is its result: a redirection to a full disk
+  // must not end in success with a truncated file.
+  if (std::fflush(stdout) != 0 || std::ferror(stdout) != 0) {
+    std::fprintf(stderr, "rangeseg: error: cannot write standard output (%s)\n",
+                 std::strerror(errno));
+    return rc == 0 ? rangeseg::cli::kExitInput : rc;
+  }
+  return rc;
 }

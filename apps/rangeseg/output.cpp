@@ -1,12 +1,20 @@
 #include "output.hpp"
 
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
+#include <cerrno>
 #include <cstdarg>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <new>
 #include <stdexcept>
+#include <string>
+#include <system_error>
 
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/pcd.hpp"
@@ -21,6 +29,15 @@ std::filesystem::path ensure_dir(const std::string& dir) {
     throw std::runtime_error(dir + ": cannot create output directory: " + ec.message());
   }
   return dir;
+}
+
+std::filesystem::path ensure_writable_dir(const std::string& dir) {
+  auto path = ensure_dir(dir);
+  if (::access(path.c_str(), W_OK | X_OK) != 0) {
+    throw std::runtime_error(path.string() + ": cannot write into the output folder (" +
+                             std::strerror(errno) + ")");
+  }
+  return path;
 }
 
 void write_mesh_ply(const std::string& path, const OrganizedCloud& cloud, const Mesh& mesh,
@@ -65,8 +82,75 @@ void write_pcd_with_normals(const std::string& path, const OrganizedCloud& cloud
                                         {"curvature", &normals.curvature}}});
 }
 
+std::string json_text(const nlohmann::json& value, int indent) {
+  return value.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
 void write_json(const std::string& path, const nlohmann::json& value) {
-  io::write_file_atomic(path, value.dump(2) + "\n");
+  io::write_file_atomic(path, json_text(value, 2) + "\n");
+}
+
+void remove_stale_temporaries(const std::filesystem::path& dir,
+                              const std::function<bool(const std::string&)>& is_output) {
+  std::error_code error;
+  for (const auto& entry : std::filesystem::directory_iterator(dir, error)) {
+    const std::string name = entry.path().filename().string();
+    const std::size_t mark = name.rfind(".tmp.");
+    if (mark == std::string::npos || !is_output(name.substr(0, mark))) continue;
+    const std::string pid_text = name.substr(mark + 5);
+    if (pid_text.empty() || pid_text.size() > 9 ||
+        pid_text.find_first_not_of("0123456789") != std::string::npos) {
+      continue;
+    }
+    const auto pid = static_cast<pid_t>(std::stol(pid_text));
+    if (::kill(pid, 0) == 0 || errno != ESRCH) continue;  // its writer may still run
+    std::error_code removed;
+    if (std::filesystem::remove(entry.path(), removed)) {
+      note("removed %s, left by an interrupted run", entry.path().c_str());
+    }
+  }
+}
+
+void remove_stale_temporaries(const std::string& path) {
+  const std::filesystem::path p(path);
+  const std::string name = p.filename().string();
+  remove_stale_temporaries(p.parent_path().empty() ? "." : p.parent_path(),
+                           [&](const std::string& base) { return base == name; });
+}
+
+namespace {
+
+// Blocks a failing allocation frees one at a time before it throws: each failure's unwinding
+// has one, also when two threads run out of memory together.
+constexpr std::size_t kErrorReserveBlocks = 4, kErrorReserveBytes = std::size_t{4} << 20;
+std::array<std::atomic<void*>, kErrorReserveBlocks> error_reserve{};
+
+void release_reserve_and_throw() {
+  for (auto& block : error_reserve) {
+    if (void* memory = block.exchange(nullptr)) {
+      std::free(memory);
+      break;
+    }
+  }
+  throw std::bad_alloc();
+}
+
+}  // namespace
+
+bool reserve_memory_for_errors() {
+  bool complete = true;
+  for (auto& block : error_reserve) {
+    if (block.load() != nullptr) continue;
+    void* memory = std::malloc(kErrorReserveBytes);
+    void* none = nullptr;
+    if (memory == nullptr) {
+      complete = false;
+    } else if (!block.compare_exchange_strong(none, memory)) {
+      std::free(memory);
+    }
+  }
+  std::set_new_handler(release_reserve_and_throw);
+  return complete;
 }
 
 void progress(const std::string& what) { std::fprintf(stderr, "rangeseg: %s\n", what.c_str()); }

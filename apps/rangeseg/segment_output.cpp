@@ -1,11 +1,9 @@
 #include "segment_output.hpp"
 
-#include <signal.h>
 #include <sys/stat.h>
 
 #include <algorithm>
 #include <array>
-#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -239,30 +237,10 @@ bool written_by_rangeseg(const std::filesystem::path& path) {
 
 void remove_earlier_results(const std::filesystem::path& dir,
                             const std::vector<std::string>& written, const InputFiles* inputs) {
-  // Temporaries of a run that was killed (SIGKILL, a power cut: no handler ran): NAME.tmp.PID of
-  // a process that no longer runs.
-  std::error_code error;
-  for (const auto& entry : std::filesystem::directory_iterator(dir, error)) {
-    const std::string name = entry.path().filename().string();
-    const std::size_t mark = name.rfind(".tmp.");
-    if (mark == std::string::npos ||
-        std::find_if(kFolderFiles.begin(), kFolderFiles.end(), [&](const char* f) {
-          return name.compare(0, mark, f) == 0 && std::strlen(f) == mark;
-        }) == kFolderFiles.end()) {
-      continue;
-    }
-    const std::string pid_text = name.substr(mark + 5);
-    if (pid_text.empty() || pid_text.size() > 9 ||
-        pid_text.find_first_not_of("0123456789") != std::string::npos) {
-      continue;
-    }
-    const auto pid = static_cast<pid_t>(std::stol(pid_text));
-    if (::kill(pid, 0) == 0 || errno != ESRCH) continue;  // its writer may still run
-    std::error_code removed;
-    if (std::filesystem::remove(entry.path(), removed)) {
-      note("removed %s, left by an interrupted run", entry.path().c_str());
-    }
-  }
+  remove_stale_temporaries(dir, [](const std::string& name) {
+    return std::find_if(kFolderFiles.begin(), kFolderFiles.end(),
+                        [&](const char* f) { return name == f; }) != kFolderFiles.end();
+  });
   for (const char* name : kFolderFiles) {
     const std::filesystem::path path = dir / name;
     if (std::find(written.begin(), written.end(), path.string()) == written.end()) {
@@ -290,16 +268,32 @@ void remove_earlier_result(const std::filesystem::path& path, const InputFiles* 
 std::string write_segmentation_folder(const std::string& dir_name, const OrganizedCloud& input,
                                       const Pipeline& pipeline, FolderFiles files) {
   const auto dir = ensure_dir(dir_name);
+  const Segmentation& seg = pipeline.segmentation();
+  const bool organized = input.is_organized();
+  const bool polygons = !pipeline.polygons().segments.empty();
+  if (files.inputs != nullptr) {
+    // Checked before any file is written, so that the folder does not get half a result set.
+    for (const auto& [name, writes] :
+         {std::pair{"labels.png", organized}, std::pair{"segments.json", true},
+          std::pair{"polygons.obj", polygons}, std::pair{"types.png", organized},
+          std::pair{"overlay.png", organized}, std::pair{"mesh.ply", organized && files.mesh},
+          std::pair{"cloud.pcd", !organized || files.cloud}}) {
+      if (writes && files.inputs->contains(dir / name)) {
+        throw std::runtime_error((dir / name).string() +
+                                 ": an input of this run, which its result " + name +
+                                 " would replace: write the results into another folder (-o)");
+      }
+    }
+  }
   std::vector<std::string> written;
   const auto file = [&](const char* name) {
     written.push_back((dir / name).string());
     return written.back();
   };
-  const Segmentation& seg = pipeline.segmentation();
-  if (!input.is_organized()) {
+  if (!organized) {
     write_json(file("segments.json"),
                segments_json(seg, &pipeline.polygons(), pipeline.settings().segmentation));
-    if (!pipeline.polygons().segments.empty()) {
+    if (polygons) {
       write_polygons_obj(file("polygons.obj"), pipeline.polygons(), &seg);
     }
     write_labelled_cloud(file("cloud.pcd"), pipeline, files.pose);
@@ -309,7 +303,7 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
   io::write_label_png(file("labels.png"), seg.labels);
   write_json(file("segments.json"),
              segments_json(seg, &pipeline.polygons(), pipeline.settings().segmentation));
-  if (!pipeline.polygons().segments.empty()) {
+  if (polygons) {
     write_polygons_obj(file("polygons.obj"), pipeline.polygons(), &seg);
   }
   LabelImage ids;

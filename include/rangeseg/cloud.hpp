@@ -12,6 +12,8 @@
 
 namespace rangeseg {
 
+struct SensorNoise;  // sensor.hpp
+
 /// A `width x height` grid of 3D points in metres, camera frame (x right, y down, z forward),
 /// stored as separate planes. A pixel without a measurement has NaN in x, y and z.
 /// An unorganized cloud is a cloud with height 1; functions that need a grid check
@@ -73,9 +75,19 @@ bool surrounds_its_sensor(const OrganizedCloud& cloud);
 /// What is implausible about the scale of the cloud's coordinates, in words for a user, else
 /// empty: coordinates of 8192 m or more that span under a tenth of that (a scan moved into map
 /// coordinates, where float points lie a millimetre or more apart), or a median distance of the
-/// valid points from the origin beyond 500 m (millimetres taken for metres) or below 1 cm. Reads
-/// at most ~4096 of the points for the median.
+/// valid points from the origin beyond 500 m: points far from the origin when they span under a
+/// tenth of that distance, else millimetres taken for metres; or below 1 cm. Reads at most ~4096
+/// of the points for the median.
 std::string cloud_scale_problem(const OrganizedCloud& cloud);
+
+/// What makes the depth noise model `noise` wrong for the cloud, in words for a user, else
+/// empty: at the valid points' median distance from the origin (where the sensor is taken to be),
+/// 3 sigma (about the segmentation's distance tests) exceeds a tenth of the points' extent (their
+/// bounding box's diagonal), so that the tests join surfaces that lie apart in the scene. It
+/// happens to points beyond the range of the sensor the model describes, and to points not in
+/// their sensor's frame (a map, scans merged in a world frame, a cloud moved away from the
+/// origin). Reads at most ~4096 of the points for the median.
+std::string noise_scale_problem(const OrganizedCloud& cloud, const SensorNoise& noise);
 
 /// Throws std::invalid_argument naming `what` if the cloud's planes differ in size: x and y must
 /// have z's size, and so must intensity and label when present; r, g and b come together (all of

@@ -126,6 +126,9 @@ class Pipeline {
   /// row and column at 640x480, ~0.04 ms), else, when they are no such camera's (a scanner's
   /// grid), kDefaultPixelAngle and min_region_size as given. Throws std::invalid_argument for a
   /// negative or non-finite camera_fx.
+  /// A frame that throws anything else (std::bad_alloc when memory runs out midway) leaves no
+  /// results, and the pipeline drops its buffers and tracks: the next frame runs as a new
+  /// pipeline's first. Every process overload does so.
   void process(const OrganizedCloud& cloud, double camera_fx = 0);
   /// The pipeline reads a cloud in place (cloud() is the caller's without smoothing): a
   /// temporary would be gone before its results are read. Keep the cloud in a variable.
@@ -197,6 +200,15 @@ class Pipeline {
   void process_restored(const OrganizedCloud& cloud, double find_ms);
   template <class Convert>
   void process_depth(int width, int height, double fx, Convert&& convert_rows);
+
+  /// Runs one frame; if it throws anything but std::invalid_argument (which input checks throw
+  /// before any state changes), drop_frame_state() first: a stage that failed midway (out of
+  /// memory) may have left its buffers inconsistent with each other.
+  template <class Frame>
+  void guarded(Frame&& frame);
+  /// Every buffer, result and track back to a new pipeline's (none): the next frame allocates
+  /// as a first frame does.
+  void drop_frame_state();
 
   /// Remembers the input of the frame for cloud(): the caller's cloud, or one of the pipeline's
   /// own (named, not pointed to, so that cloud() stays right when the pipeline is moved).

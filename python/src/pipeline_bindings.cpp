@@ -245,8 +245,8 @@ class PyPipeline {
     bool scanner = false;
     std::string scale;
     Result result = run(nullptr, [&] {
-      scale = first_cloud_scale_problem(cloud);
       choose_preset(&cloud);
+      scale = first_cloud_scale_problem(cloud);
       pipeline_.process(cloud, fx);
       scanner = first_grid_is_a_scanners(cloud, fx);
     });
@@ -274,8 +274,8 @@ class PyPipeline {
     std::string scale;
     Result result = run([&] { cloud_from_arrays(p, i, c, py::none(), input_); },
                         [&] {
-                          scale = first_cloud_scale_problem(input_);
                           choose_preset(&input_);
+                          scale = first_cloud_scale_problem(input_);
                           pipeline_.process(input_, fx);
                           scanner = first_grid_is_a_scanners(input_, fx);
                           organized = input_.is_organized();
@@ -428,12 +428,17 @@ class PyPipeline {
     CameraIntrinsics camera;
     return !fit_intrinsics(cloud, camera);
   }
-  /// The first cloud's cloud_scale_problem (under the mutex, without the GIL): points in
-  /// millimetres or map coordinates give wrong segments without an error.
+  /// The first cloud's cloud_scale_problem, else its noise_scale_problem under the pipeline's
+  /// noise model (under the mutex, without the GIL): points in millimetres, in map coordinates
+  /// or far from the origin give wrong segments without an error.
   std::string first_cloud_scale_problem(const OrganizedCloud& cloud) {
     if (scale_checked_ || cloud.count_valid() == 0) return {};
     scale_checked_ = true;
-    return cloud_scale_problem(cloud);
+    std::string problem = cloud_scale_problem(cloud);
+    if (problem.empty()) {
+      problem = noise_scale_problem(cloud, pipeline_.settings().segmentation.noise);
+    }
+    return problem;
   }
   /// fx names the camera of organized points; an unorganized cloud's comes from its pixel grid
   /// when its points lie on one (and is not needed over rings).

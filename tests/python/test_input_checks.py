@@ -43,6 +43,17 @@ class InputChecks(unittest.TestCase):
         self.assertFalse(any("median distance" in s for s in none), none)
         self.assertEqual(len(result.segments), 1)
 
+    def test_points_moved_far_from_the_origin_name_the_noise_model(self):
+        # A wall 2 m from its camera, moved 30 m aside (a map's frame): the Kinect's sigma there
+        # (1.7 m) is above a thirtieth of the wall's 3 m; a constant sigma (laser) is not.
+        moved = wall_points() + np.array([30.0, 0.0, 0.0], dtype=np.float32)
+        _, said = warnings_of(lambda: rangeseg.Pipeline(preset="kinect").process(moved))
+        self.assertTrue(any("the noise model's sigma is" in s for s in said), said)
+        _, laser = warnings_of(lambda: rangeseg.Pipeline(preset="laser").process(moved))
+        self.assertFalse(any("noise model" in s for s in laser), laser)
+        _, near = warnings_of(lambda: rangeseg.Pipeline(preset="kinect").process(wall_points()))
+        self.assertFalse(any("noise model" in s for s in near), near)
+
     def test_float_depth_under_a_given_scale_is_checked_as_integer_depth_is(self):
         depth_mm = np.full((240, 320), 2000.0, dtype=np.float32)
         camera = dict(fx=FX / 2, fy=FX / 2, cx=159.5, cy=119.5)
