@@ -706,3 +706,27 @@ TEST(Eval, DepthImagesGivenAsLabelsAreTold) {
   EXPECT_FALSE(depth_likeness(blocks).likely) << "piecewise constant, whatever the numbers";
   EXPECT_FALSE(depth_likeness(LabelImage(64, 48, 0)).likely);
 }
+
+// An under-segmentation needs the ground-truth regions it holds to make up T of the machine
+// region's own size, not of theirs: A and B (100 px each) lie wholly in m, which also holds 150
+// of C's 400 px, so they fill 200 / 350 = 57 % of m, below T = 0.8: no under-segmentation, and
+// m and the rest of C (250 px) are noise; A, B and C are missed.
+TEST(Eval, UnderSegmentationCountsTheMachineRegionsOwnSize) {
+  LabelImage gt(20, 30, 0), ms(20, 30, 0);
+  fill_rect(gt, 0, 0, 10, 10, 1);    // A
+  fill_rect(gt, 10, 0, 20, 10, 2);   // B
+  fill_rect(gt, 0, 10, 20, 30, 3);   // C
+  fill_rect(ms, 0, 0, 20, 17, 11);   // A, B and 140 px of C
+  fill_rect(ms, 0, 17, 10, 18, 11);  // 10 px more of C
+  fill_rect(ms, 10, 17, 20, 18, 12);
+  fill_rect(ms, 0, 18, 20, 30, 12);  // the other 250 px of C
+  const EvalResult r = evaluate(gt, ms, {.tolerance = 0.8});
+  expect_counts(r, 0, 0, 0, 3, 2);
+  // With m holding only 12 px of C (200 / 212 >= 0.8), it is one.
+  fill_rect(ms, 0, 10, 20, 18, 12);
+  fill_rect(ms, 0, 10, 12, 11, 11);
+  const EvalResult under = evaluate(gt, ms, {.tolerance = 0.8});
+  EXPECT_EQ(under.under, 1);
+  EXPECT_EQ(gt_outcome(under, 1), Outcome::under);
+  EXPECT_EQ(gt_outcome(under, 2), Outcome::under);
+}

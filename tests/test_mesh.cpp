@@ -108,6 +108,38 @@ TEST(Mesh, DiagonalChoice) {
   }
 }
 
+// The length bound eps_d(r) of an edge is that of its farther end, and its linear term grows with
+// the pixel stride: a (0, 0, 1) and b (0.01, 0, 1.4), 0.4001 m apart, with eps_d = 0.3 r per
+// pixel of stride (eps_theta 0 and jump_sigmas 0 leave the length test alone): eps_d(b) = 0.42 m
+// admits the edge, eps_d(a) = 0.30 m would not; at stride 2, 0.15 r per pixel is the same bound.
+// (Edges are those of faces: c = (0, 0.01, 1) below a makes the triangle a b c.)
+TEST(Mesh, AnEdgeIsBoundByItsFartherEndsLengthLimit) {
+  for (const int stride : {1, 2}) {
+    OrganizedCloud cloud(stride + 1, stride + 1);
+    cloud.x(0, 0) = 0.0F;
+    cloud.y(0, 0) = 0.0F;
+    cloud.z(0, 0) = 1.0F;
+    cloud.x(stride, 0) = 0.01F;
+    cloud.y(stride, 0) = 0.0F;
+    cloud.z(stride, 0) = 1.4F;
+    cloud.x(0, stride) = 0.0F;  // c, below a: the triangle a b c carries the edge
+    cloud.y(0, stride) = 0.01F;
+    cloud.z(0, stride) = 1.0F;
+    for (const float per_pixel :
+         {0.3F / static_cast<float>(stride), 0.28F / static_cast<float>(stride)}) {
+      const Mesh mesh = rangeseg::build_mesh(cloud, {.eps_theta = 0.0F,
+                                                     .max_edge_a = 0.0F,
+                                                     .max_edge_b = per_pixel,
+                                                     .max_edge_c = 0.0F,
+                                                     .pixel_stride = stride,
+                                                     .jump_sigmas = 0.0F});
+      // 0.28 r: eps_d(b) = 0.392 m, shorter than the edge.
+      const bool expected = per_pixel * static_cast<float>(stride) > 0.29F;
+      EXPECT_EQ((mesh.edges(0, 0) & 1) != 0, expected) << "stride " << stride << ", " << per_pixel;
+    }
+  }
+}
+
 TEST(Mesh, DepthJumpIsCut) {
   // Box face at 1 m in front of a wall at 2 m.
   const int w = 80, h = 60;

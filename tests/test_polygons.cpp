@@ -854,5 +854,32 @@ TEST(Polygons, CrossingGridMatchesSweep) {
   EXPECT_EQ(std::count(none.begin(), none.end(), 1), 0);
 }
 
+// A loop traced from the middle of a straight side (a rectangle turned slightly traces from
+// wherever its first boundary vertex lies) keeps its four corners only: vertex 0, an anchor by
+// position, goes too.
+TEST(Polygons, SimplificationDropsAStartVertexOnAStraightSide) {
+  std::vector<double> xy;
+  std::vector<int> corners;
+  const auto walk = [&](int x0, int y0, int x1, int y1) {  // (x0, y0) included, (x1, y1) not
+    const int steps = std::abs(x1 - x0) + std::abs(y1 - y0);
+    for (int i = 0; i < steps; ++i) {
+      xy.push_back(x0 + (x1 - x0) * i / steps);
+      xy.push_back(y0 + (y1 - y0) * i / steps);
+    }
+    corners.push_back(static_cast<int>(xy.size() / 2));  // the next vertex is (x1, y1)
+  };
+  walk(5, 0, 10, 0);
+  walk(10, 0, 10, 4);
+  walk(10, 4, 0, 4);
+  walk(0, 4, 0, 0);
+  walk(0, 0, 5, 0);
+  corners.pop_back();  // (5, 0) again: vertex 0
+  std::vector<int> keep;
+  std::vector<std::array<int, 2>> stack;
+  polygons_detail::simplify_closed(xy.data(), static_cast<int>(xy.size() / 2), 0.1, keep, stack);
+  std::sort(keep.begin(), keep.end());
+  EXPECT_EQ(keep, corners);
+}
+
 }  // namespace
 }  // namespace rangeseg

@@ -795,5 +795,32 @@ TEST(Segmentation, RejectsMeshEdgesThatLeaveTheImage) {
   }
 }
 
+/// A region of exactly min_region_size pixels is kept, one pixel fewer than that is not: a
+/// strip 8 pixels wide (one column of cells) and 40 high 1.5 m in front of a wall at 3 m (the depth
+/// jump cuts the mesh), too narrow for the wide-region exception. Its size is read with
+/// min_region_size 1. (Both tests of the size, the region's own and its seam group's, keep a region
+/// of exactly min_region_size; one of them off by one alone goes unnoticed here.)
+TEST(Segmentation, MinRegionSizeKeepsARegionOfExactlyThatSize) {
+  const OrganizedCloud cloud = cast(640, 480, [](double a, double b) {
+    const double u = a * kF + kCx, v = b * kF + kCy;
+    return u >= 296 && u < 304 && v >= 200 && v < 240 ? 1.5 : 3.0;
+  });
+  const Mesh mesh = build_mesh(cloud);
+  const NormalMap normals = compute_normals(cloud, mesh);
+  SegmentationSettings settings = preset("kinect");
+  // The pixel count of the strip's segment, 0 when the strip is in none.
+  const auto strip_segment = [&](int min_region_size) {
+    settings.min_region_size = min_region_size;
+    const Segmentation seg = segment(cloud, mesh, normals, settings);
+    const int label = seg.labels(300, 220);
+    return label == 0 ? 0 : seg.segments[static_cast<std::size_t>(label - 1)].pixel_count;
+  };
+  const int size = strip_segment(1);
+  ASSERT_GT(size, 200);
+  ASSERT_LE(size, 320);
+  EXPECT_EQ(strip_segment(size), size) << "min_region_size " << size;
+  EXPECT_EQ(strip_segment(size + 1), 0) << "min_region_size " << size + 1;
+}
+
 }  // namespace
 }  // namespace rangeseg
