@@ -14,6 +14,7 @@
 
 #include "detail/gather_points.hpp"
 #include "detail/number_text.hpp"
+#include "detail/sensor_pose.hpp"
 #include "rangeseg/cloud.hpp"
 
 namespace rangeseg {
@@ -131,8 +132,9 @@ OrganizedCloud interleaved_to_cloud(const float* xyz, int width, int height,
   return cloud;
 }
 
-void to_sensor_frame(OrganizedCloud& cloud, const std::array<double, 7>& pose) {
-  require_consistent(cloud, "to_sensor_frame");
+namespace detail {
+
+SensorPose sensor_pose(const std::array<double, 7>& pose, const char* what) {
   const bool finite =
       std::all_of(pose.begin(), pose.end(), [](double v) { return std::isfinite(v); });
   Eigen::Quaterniond q(pose[3], pose[4], pose[5], pose[6]);
@@ -142,16 +144,23 @@ void to_sensor_frame(OrganizedCloud& cloud, const std::array<double, 7>& pose) {
       if (!values.empty()) values += ' ';
       values += rangeseg::detail::number_text(v);
     }
-    throw std::invalid_argument("to_sensor_frame: pose (tx ty tz qw qx qy qz) = " + values +
+    throw std::invalid_argument(std::string(what) + ": pose (tx ty tz qw qx qy qz) = " + values +
                                 " needs finite values and a quaternion of norm >= 1e-6");
   }
-  const Eigen::Matrix3d to_sensor = q.normalized().toRotationMatrix().transpose();
-  const Eigen::Vector3d origin(pose[0], pose[1], pose[2]);
+  return {q.normalized().toRotationMatrix().transpose(),
+          Eigen::Vector3d(pose[0], pose[1], pose[2])};
+}
+
+}  // namespace detail
+
+void to_sensor_frame(OrganizedCloud& cloud, const std::array<double, 7>& pose) {
+  require_consistent(cloud, "to_sensor_frame");
+  const detail::SensorPose motion = detail::sensor_pose(pose, "to_sensor_frame");
   for (int v = 0; v < cloud.height(); ++v) {
     for (int u = 0; u < cloud.width(); ++u) {
       if (!cloud.valid(u, v)) continue;
       const Eigen::Vector3d p =
-          to_sensor * (Eigen::Vector3d(cloud.x(u, v), cloud.y(u, v), cloud.z(u, v)) - origin);
+          motion.apply(Eigen::Vector3d(cloud.x(u, v), cloud.y(u, v), cloud.z(u, v)));
       cloud.x(u, v) = static_cast<float>(p.x());
       cloud.y(u, v) = static_cast<float>(p.y());
       cloud.z(u, v) = static_cast<float>(p.z());

@@ -76,8 +76,9 @@ Bytes compressed_file(const std::string& header, const Bytes& soa) {
   return out;
 }
 
-OrganizedCloud parse(const Bytes& bytes, PcdInfo* info = nullptr) {
-  return parse_pcd(bytes.data(), bytes.size(), "test.pcd", info);
+OrganizedCloud parse(const Bytes& bytes, PcdInfo* info = nullptr,
+                     const PcdReadOptions& options = {}) {
+  return parse_pcd(bytes.data(), bytes.size(), "test.pcd", info, options);
 }
 
 std::uint32_t bits(float f) { return std::bit_cast<std::uint32_t>(f); }
@@ -570,6 +571,54 @@ TEST(PcdHandWritten, ViewpointIsReportedAndThePointsKept) {
   parse(written, &back);
   EXPECT_EQ(back.viewpoint, pose);
   EXPECT_THROW(encode_pcd(c, {.viewpoint = {0, 0, 0, NAN, 0, 0, 0}}), std::invalid_argument);
+}
+
+// With to_sensor_frame the reader moves the points as to_sensor_frame does, from the stored
+// values in double: doubles 5.4e6 m from the origin (a map's UTM coordinates) keep their
+// millimetres, which floats there, 0.5 m apart, lose; float fields give to_sensor_frame's bits.
+TEST(PcdHandWritten, ViewpointAppliedWhileReadingKeepsTheDoublesPrecision) {
+  // The sensor at (500000, 5400000, 300), turned 90 deg about z: R^T maps (x, y) to (y, -x).
+  const std::string pose =
+      "VIEWPOINT 500000 5400000 300 0.7071067811865476 0 0 0.7071067811865476\n";
+  const std::string fields = "FIELDS x y z\nSIZE 8 8 8\nTYPE F F F\nWIDTH 2\nPOINTS 2\n";
+  const std::string data = "DATA ascii\n500001.2345 5400002.5 301.75\nnan nan nan\n";
+  PcdInfo info;
+  const OrganizedCloud moved =
+      parse(to_bytes(pose + fields + data), &info, {.to_sensor_frame = true});
+  EXPECT_NEAR(moved.x(0, 0), 2.5, 1e-6);
+  EXPECT_NEAR(moved.y(0, 0), -1.2345, 1e-6);
+  EXPECT_NEAR(moved.z(0, 0), 1.75, 1e-6);
+  EXPECT_FALSE(moved.valid(1, 0));
+  EXPECT_EQ(info.viewpoint[1], 5400000);  // the file's pose is still reported
+  OrganizedCloud as_float = parse(to_bytes(pose + fields + data));
+  to_sensor_frame(as_float, info.viewpoint);
+  EXPECT_GT(std::abs(as_float.y(0, 0) + 1.2345F) + std::abs(as_float.x(0, 0) - 2.5F), 0.01F)
+      << "float points at 5.4e6 m lose their centimetres";
+
+  const std::string near_pose = "VIEWPOINT 0.5 -1 2 0.9238795325112867 0 0.3826834323650898 0\n";
+  const std::string floats =
+      "FIELDS x y z\nWIDTH 2\nPOINTS 2\nDATA ascii\n1.25 -0.5 3.125\n0.1 0.2 nan\n";
+  const OrganizedCloud read_moved =
+      parse(to_bytes(near_pose + floats), nullptr, {.to_sensor_frame = true});
+  OrganizedCloud then_moved = parse(to_bytes(near_pose + floats), &info);
+  to_sensor_frame(then_moved, info.viewpoint);
+  for (int u = 0; u < 2; ++u) {
+    EXPECT_EQ(bits(read_moved.x(u, 0)), bits(then_moved.x(u, 0))) << u;
+    EXPECT_EQ(bits(read_moved.y(u, 0)), bits(then_moved.y(u, 0))) << u;
+    EXPECT_EQ(bits(read_moved.z(u, 0)), bits(then_moved.z(u, 0))) << u;
+  }
+
+  // A VIEWPOINT that is no rotation is an error only when it is applied.
+  const Bytes no_rotation = to_bytes("VIEWPOINT 1 2 3 0 0 0 0\n" + floats);
+  EXPECT_NO_THROW(parse(no_rotation));
+  try {
+    parse(no_rotation, nullptr, {.to_sensor_frame = true});
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("test.pcd"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("quaternion of norm >= 1e-6"), std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(PcdHandWritten, TrailingBytesAfterBinaryDataAreIgnored) {

@@ -154,7 +154,7 @@ namespace {
 // The sensor pose a PCD's VIEWPOINT or a PLY's camera element gives: kept in `in`, and with
 // --apply-viewpoint the points are moved into that sensor's frame.
 void take_viewpoint(LoadedInput& in, const std::array<double, 7>& p, const InputOptions& o,
-                    const char* what) {
+                    const char* what, bool moved_by_reader = false) {
   if (p == std::array<double, 7>{0, 0, 0, 1, 0, 0, 0}) return;
   char pose[160];
   std::snprintf(pose, sizeof pose, "%g %g %g %g %g %g %g", p[0], p[1], p[2], p[3], p[4], p[5],
@@ -163,7 +163,7 @@ void take_viewpoint(LoadedInput& in, const std::array<double, 7>& p, const Input
   in.pose = p;
   if (!o.apply_viewpoint) return;
   try {
-    to_sensor_frame(in.cloud, p);
+    if (!moved_by_reader) to_sensor_frame(in.cloud, p);
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error(o.path + ": " + what + " " + pose + ": " + e.what());
   }
@@ -324,12 +324,13 @@ LoadedInput load_input(const InputOptions& o) {
   const std::string ext = io::extension(o.path);
   if (ext == ".pcd") {
     io::PcdInfo info;
-    in.cloud = io::read_pcd(o.path, &info);
+    // The reader applies the VIEWPOINT to the stored values: doubles keep map coordinates.
+    in.cloud = io::read_pcd(o.path, &info, {.to_sensor_frame = o.apply_viewpoint});
     static const char* const names[] = {"ascii", "binary", "binary_compressed"};
     in.format = std::string("PCD ") + names[static_cast<int>(info.encoding)];
     in.fields = info.fields_summary;
     if (in.cloud.has_label()) in.ground_truth = in.cloud.label;
-    if (info.moved_from_sensor()) take_viewpoint(in, info.viewpoint, o, "VIEWPOINT");
+    if (info.moved_from_sensor()) take_viewpoint(in, info.viewpoint, o, "VIEWPOINT", true);
   } else if (ext == ".png") {
     bool eight_bit = false;
     const DepthImage depth = io::read_depth_png(o.path, &eight_bit);

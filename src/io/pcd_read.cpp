@@ -4,6 +4,7 @@
 #include <bit>
 #include <charconv>
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 #include <limits>
 #include <stdexcept>
@@ -11,6 +12,7 @@
 #include <string_view>
 #include <vector>
 
+#include "detail/sensor_pose.hpp"
 #include "quoted.hpp"
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/pcd.hpp"
@@ -312,6 +314,28 @@ void decode_float(const Column& c, FloatPlane& plane) {
   }
 }
 
+// The points whose stored x, y and z are finite, moved by `pose` in double from the stored values
+// (a double keeps map coordinates that a float cuts to half-metre steps); the others stay as
+// decode_float made them.
+void decode_in_sensor_frame(const Column& cx, const Column& cy, const Column& cz,
+                            const rangeseg::detail::SensorPose& pose, OrganizedCloud& cloud) {
+  const int w = cloud.width();
+  for (int v = 0; v < cloud.height(); ++v) {
+    const std::size_t row = static_cast<std::size_t>(v) * w;
+    for (int u = 0; u < w; ++u) {
+      const std::size_t i = row + static_cast<std::size_t>(u);
+      const Eigen::Vector3d p(load_as_double(*cx.field, cx.base + i * cx.stride),
+                              load_as_double(*cy.field, cy.base + i * cy.stride),
+                              load_as_double(*cz.field, cz.base + i * cz.stride));
+      if (!p.allFinite()) continue;
+      const Eigen::Vector3d q = pose.apply(p);
+      cloud.x(u, v) = static_cast<float>(q.x());
+      cloud.y(u, v) = static_cast<float>(q.y());
+      cloud.z(u, v) = static_cast<float>(q.z());
+    }
+  }
+}
+
 void decode_label(const Column& c, LabelImage& plane) {
   const Field& f = *c.field;
   const int w = plane.width();
@@ -505,7 +529,7 @@ const Field* used_field(const Header& h, std::string_view field_name, const std:
 }  // namespace
 
 OrganizedCloud parse_pcd(const std::uint8_t* data, std::size_t size, const std::string& name,
-                         PcdInfo* info) {
+                         PcdInfo* info, const PcdReadOptions& options) {
   if (data == nullptr && size != 0) throw std::invalid_argument(name + ": parse_pcd: null data");
   if (size == 0) fail(name, "empty file (0 bytes)");
   const Header h = parse_header(data, size, name);
@@ -589,6 +613,15 @@ OrganizedCloud parse_pcd(const std::uint8_t* data, std::size_t size, const std::
   decode_float(column(fx), cloud.x);
   decode_float(column(fy), cloud.y);
   decode_float(column(fz), cloud.z);
+  if (options.to_sensor_frame && h.info.moved_from_sensor()) {
+    rangeseg::detail::SensorPose pose;
+    try {
+      pose = rangeseg::detail::sensor_pose(h.info.viewpoint, "VIEWPOINT");
+    } catch (const std::invalid_argument& e) {
+      fail(name, e.what());
+    }
+    decode_in_sensor_frame(column(fx), column(fy), column(fz), pose, cloud);
+  }
   if (fintensity) {
     cloud.add_intensity();
     decode_float(column(fintensity), cloud.intensity);
@@ -605,9 +638,9 @@ OrganizedCloud parse_pcd(const std::uint8_t* data, std::size_t size, const std::
   return cloud;
 }
 
-OrganizedCloud read_pcd(const std::string& path, PcdInfo* info) {
+OrganizedCloud read_pcd(const std::string& path, PcdInfo* info, const PcdReadOptions& options) {
   const std::vector<std::uint8_t> bytes = read_file(path);
-  return parse_pcd(bytes.data(), bytes.size(), path, info);
+  return parse_pcd(bytes.data(), bytes.size(), path, info, options);
 }
 
 bool PcdInfo::moved_from_sensor() const {

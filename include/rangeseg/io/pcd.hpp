@@ -31,6 +31,15 @@ struct PcdInfo {
   bool moved_from_sensor() const;
 };
 
+/// Options of read_pcd and parse_pcd.
+struct PcdReadOptions {
+  /// Move the points into the frame of the sensor the header's VIEWPOINT names (p' = R^T (p - t),
+  /// as to_sensor_frame in cloud.hpp), computed in double from the values as stored: a PCD of
+  /// doubles in map coordinates (UTM: 5e6 m, where floats lie 0.5 m apart) keeps its precision.
+  /// PcdInfo::viewpoint still reports the file's VIEWPOINT. Default off: the points as stored.
+  bool to_sensor_frame = false;
+};
+
 /// Reads a PCD file (VERSION 0.7 and older headers; DATA ascii, binary or binary_compressed;
 /// any field order; TYPE F/U/I with SIZE 1/2/4/8; COUNT > 1 allowed).
 /// Fields used: x, y, z (required, metres), `rgb` (packed 0x00RRGGBB in a float or U4) or `rgba`
@@ -39,11 +48,14 @@ struct PcdInfo {
 /// file stays that NaN); a point is invalid when x, y or z is not finite.
 /// Throws std::runtime_error naming the file and the problem for any malformed input, and never
 /// allocates more than the file size can justify.
-OrganizedCloud read_pcd(const std::string& path, PcdInfo* info = nullptr);
+/// With `options.to_sensor_frame`, a VIEWPOINT that is no rigid motion (a non-finite value, a
+/// quaternion of norm below 1e-6) is such an error too.
+OrganizedCloud read_pcd(const std::string& path, PcdInfo* info = nullptr,
+                        const PcdReadOptions& options = {});
 
 /// Same as read_pcd for a file already in memory; `name` is used in error messages.
 OrganizedCloud parse_pcd(const std::uint8_t* data, std::size_t size, const std::string& name,
-                         PcdInfo* info = nullptr);
+                         PcdInfo* info = nullptr, const PcdReadOptions& options = {});
 
 struct PcdWriteOptions {
   PcdEncoding encoding = PcdEncoding::binary;
