@@ -429,7 +429,7 @@ void require_distinct_outputs(const std::string& input, const std::vector<std::s
   };
   for (std::size_t i = 0; i < outputs.size(); ++i) {
     if (outputs[i].empty()) continue;
-    if (same(outputs[i], input)) {
+    if (!input.empty() && same(outputs[i], input)) {
       throw std::invalid_argument(outputs[i] + ": the output is the input file: " + command +
                                   " would write its result over it (give another output file)");
     }

@@ -85,9 +85,9 @@ void require_output_extension(const std::string& path, const std::vector<std::st
                               const std::string& command);
 
 /// Throws std::invalid_argument unless the `outputs` (empty ones skipped) are distinct files and
-/// none of them is the input file `input` (by device and inode once they exist, else by their
-/// absolute, normalised paths): a run never writes its result over its own input, nor two of
-/// its results over each other. `command` names the command in the message.
+/// none of them is the input file `input` (none when empty) (by device and inode once they exist,
+/// else by their absolute, normalised paths): a run never writes its result over its own input, nor
+/// two of its results over each other. `command` names the command in the message.
 void require_distinct_outputs(const std::string& input, const std::vector<std::string>& outputs,
                               const std::string& command);
 
