@@ -526,23 +526,35 @@ void Pipeline::process_depth(int width, int height, double fx, Convert&& convert
         "Pipeline::process: a depth image needs at least 1 column and 2 rows, got " +
         std::to_string(width) + " x " + std::to_string(height));
   }
+  // The view, intrinsics and scale are checked before anything changes: a frame rejected with
+  // std::invalid_argument leaves the last frame's results, which may read depth_cloud_.
   if (depth_cloud_.width() != width || depth_cloud_.height() != height) {
-    depth_cloud_.resize(width, height);
+    OrganizedCloud resized;
+    resized.resize(width, height);
+    convert_rows(resized, 0, 0);
+    depth_cloud_ = std::move(resized);
+  } else {
+    convert_rows(depth_cloud_, 0, 0);
   }
-  convert_rows(0, 0);  // checks the view, intrinsics and scale before any band starts
   ThreadPool* const pool =
       static_cast<long>(width) * height >= kMinPixelsForThreads ? pool_.get() : nullptr;
   // The workers stay awake from the conversion into the stages (guards nest).
   std::optional<ThreadPool::KeepAwake> awake;
   if (pool != nullptr) {
     awake.emplace(*pool);
-    pool->for_each_band(height, 1, [&](int, int v0, int v1) { convert_rows(v0, v1); });
+    pool->for_each_band(height, 1,
+                        [&](int, int v0, int v1) { convert_rows(depth_cloud_, v0, v1); });
   } else {
-    convert_rows(0, height);
+    convert_rows(depth_cloud_, 0, height);
   }
   const double input_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   camera_fx_ = fx;
-  process_cloud(depth_cloud_);
+  try {
+    process_cloud(depth_cloud_);
+  } catch (const std::invalid_argument&) {
+    drop_frame_state();  // the last frame's results no longer match depth_cloud_
+    throw;
+  }
   input_kind_ = InputKind::depth;
   times_.input = input_ms;
   times_.total += input_ms;
@@ -551,17 +563,19 @@ void Pipeline::process_depth(int width, int height, double fx, Convert&& convert
 void Pipeline::process(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
                        double depth_scale) {
   guarded([&] {
-    process_depth(depth.width, depth.height, camera.fx, [&](int v0, int v1) {
-      depth_to_cloud_rows(depth, camera, depth_scale, depth_cloud_, v0, v1);
-    });
+    process_depth(depth.width, depth.height, camera.fx,
+                  [&](OrganizedCloud& points, int v0, int v1) {
+                    depth_to_cloud_rows(depth, camera, depth_scale, points, v0, v1);
+                  });
   });
 }
 
 void Pipeline::process(View<const float> depth, const CameraIntrinsics& camera) {
   guarded([&] {
-    process_depth(depth.width, depth.height, camera.fx, [&](int v0, int v1) {
-      depth_to_cloud_rows(depth, camera, depth_cloud_, v0, v1);
-    });
+    process_depth(depth.width, depth.height, camera.fx,
+                  [&](OrganizedCloud& points, int v0, int v1) {
+                    depth_to_cloud_rows(depth, camera, points, v0, v1);
+                  });
   });
 }
 

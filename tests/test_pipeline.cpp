@@ -536,6 +536,33 @@ TEST(Pipeline, DepthImagesGiveWhatTheirCloudsGive) {
                std::invalid_argument);
 }
 
+/// A depth image rejected for its intrinsics leaves the last frame's results as they were, also
+/// when it has another size: without smoothing, cloud() is the pipeline's own points of the
+/// last image, which the rejected one must not have resized.
+TEST(Pipeline, ARejectedDepthImageLeavesTheLastFramesResults) {
+  const DepthImage depth = cloud_to_depth(qvga(4).cloud, 0.001);
+  PipelineSettings settings = pipeline_preset("kinect");
+  settings.smooth = false;
+  Pipeline pipeline(settings);
+  pipeline.process(depth.view(), kQvgaCamera, 0.001);
+  const OrganizedCloud before = pipeline.cloud();
+  const LabelImage labels = pipeline.segmentation().labels;
+  ASSERT_GT(pipeline.segmentation().segments.size(), 0u);
+  const DepthImage smaller(160, 120, 1000);
+  CameraIntrinsics qvga_only = kQvgaCamera;
+  qvga_only.width = 320;
+  qvga_only.height = 240;
+  for (const bool resized : {true, false}) {
+    const DepthImage& rejected = resized ? smaller : depth;
+    EXPECT_THROW(pipeline.process(rejected.view(), resized ? qvga_only : kQvgaCamera, 0.0),
+                 std::invalid_argument);
+    ASSERT_EQ(pipeline.cloud().width(), 320) << resized;
+    ASSERT_EQ(pipeline.cloud().height(), 240) << resized;
+    EXPECT_TRUE(same_bits(pipeline.cloud().z, before.z)) << resized;
+    EXPECT_TRUE(same_bits(pipeline.segmentation().labels, labels)) << resized;
+  }
+}
+
 // The smoothing's scale follows the camera: a depth image's fx sets the pixel angle (here
 // twice the Kinect's at quarter VGA), as the settings or process's camera_fx do; a cloud alone
 // takes the camera fitted to its points, and a grid that is no pinhole camera's a Kinect's at VGA.
