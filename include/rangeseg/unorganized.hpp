@@ -33,6 +33,9 @@ namespace rangeseg {
 ///   the range difference is explained by the noise, |r_i - r_j| <= jump_sigmas *
 ///   sqrt(sigma(r_i)^2 + sigma(r_j)^2), with r the distance from `viewpoint`.
 /// For a cloud merged from several viewpoints set eps_theta = 0 (the veil test is off).
+/// A point closer than sigma(r_i) / 100 and a hundredth of the ring's median neighbour distance
+/// to p_i, or to a point already in the ring, is the same point measured again (overlapping
+/// scans, tiles stored twice): it takes no place in the ring, which holds k others instead.
 struct RingSettings {
   int k = 12;                 ///< ring size: nearest neighbours per point [1], 2..64
   float max_distance = 0.0f;  ///< neighbours farther away are not in the ring [m]; 0 = no bound

@@ -190,6 +190,58 @@ int balanced_ring(const float* space, const float* origin, std::uint32_t* idx, i
   return out;
 }
 
+/// Points closer together than this fraction of the sensor's noise sigma(range), and of the
+/// distance to the middle candidate of the ring (by distance, its median), are the same surface
+/// point measured again (overlapping scans, tiles stored twice), not neighbours on the surface:
+/// the direction between them is noise, and a second copy in a ring would take a place, so that
+/// the ring spans less of the surface (a merged room with a third of its points stored again
+/// 1e-5 m away: 106 segments, 16 with copies dropped). A real scan's points are a pixel's
+/// footprint apart, tens to hundreds of times this bound. (The second bound holds where a noise
+/// model is extrapolated far beyond its sensor's range: Kinect's at 150 m is 42 m.)
+constexpr double kCoincidentFraction = 0.01;
+
+/// The candidates of one ring, nearest first in the search space: their indices, squared
+/// distances from p in space (d2), distances from p in the search space (s), and an upper bound
+/// on the search-space distance between two of them per metre between them near each (scale:
+/// 1 by distance; by direction, 2 / range, as |a/|a| - b/|b|| <= 2 |a - b| / |a|).
+struct Candidates {
+  std::array<std::uint32_t, kMaxCandidates> idx;
+  std::array<float, kMaxCandidates> d2, s, scale;
+};
+
+/// Removes the candidates [0, m) closer to p or to a candidate kept before them than
+/// `noise_bound` [m] and kCoincidentFraction of the middle candidate's distance; returns the
+/// count left, in the same order.
+int drop_coincident(const float* xyz, Candidates& c, int m, float noise_bound) {
+  if (m == 0) return 0;
+  const float bound2 = std::min(noise_bound * noise_bound,
+                                static_cast<float>(kCoincidentFraction * kCoincidentFraction) *
+                                    c.d2[static_cast<std::size_t>(m / 2)]);
+  const float bound = std::sqrt(bound2);
+  int out = 0;
+  for (int j = 0; j < m; ++j) {
+    const auto uj = static_cast<std::size_t>(j);
+    if (c.d2[uj] < bound2) continue;
+    const float* q = xyz + 3 * static_cast<std::size_t>(c.idx[uj]);
+    // Two coincident candidates are as close in the search space, so only the last few kept
+    // need a look (the triangle inequality about p's position there).
+    const float reach = bound * c.scale[uj];
+    bool close = false;
+    for (int i = out - 1; i >= 0 && !close; --i) {
+      const auto ui = static_cast<std::size_t>(i);
+      if (c.s[uj] - c.s[ui] >= reach) break;
+      close =
+          unorganized::squared_distance(xyz + 3 * static_cast<std::size_t>(c.idx[ui]), q) < bound2;
+    }
+    if (close) continue;
+    const auto uo = static_cast<std::size_t>(out++);
+    c.idx[uo] = c.idx[uj];
+    c.d2[uo] = c.d2[uj];
+    c.s[uo] = c.s[uj];
+  }
+  return out;
+}
+
 }  // namespace
 
 void validate(const RingSettings& s) {
@@ -288,39 +340,68 @@ void build(const OrganizedCloud& cloud, const RingSettings& settings, PointRings
   const auto query = [&](int /*band*/, int begin, int end) {
     std::array<std::uint32_t, kMaxCandidates + 1> index{};
     std::array<float, kMaxCandidates + 1> distance2{};
-    std::array<std::uint32_t, kMaxCandidates> accepted{};
+    Candidates accepted{};
     for (int t = begin; t < end; ++t) {
       // In the tree's leaf order, so that consecutive queries walk the same nodes (1.8x faster
       // than input order for a shuffled 640x480 frame).
       const auto c = static_cast<std::uint32_t>(t);
       const float* p = leaf_xyz.data() + 3 * static_cast<std::size_t>(c);
       const float* origin = space + 3 * static_cast<std::size_t>(c);
-      // The `wanted` nearest that pass the edge test, nearest first, into `accepted`.
+      const float coincident = static_cast<float>(
+          kCoincidentFraction * settings.noise.sigma(std::sqrt(double{
+                                    unorganized::squared_distance(settings.viewpoint.data(), p)})));
+      // The `wanted` nearest that pass the edge test and coincide with no other, nearest
+      // first, into `accepted`.
       const auto nearest = [&](int wanted) {
-        // wanted + 1: the point itself is its own nearest neighbour.
-        nanoflann::KNNResultSet<float, std::uint32_t, std::uint32_t> result(
-            static_cast<std::uint32_t>(wanted + 1));
-        result.init(index.data(), distance2.data());
-        tree.findNeighbors(result, origin, nanoflann::SearchParams());
-        int m = 0;
-        for (std::uint32_t j = 0; j < result.size() && m < wanted; ++j) {
-          if (index[j] == c) continue;
-          const float* q = leaf_xyz.data() + 3 * static_cast<std::size_t>(index[j]);
-          const float d2 =
-              settings.by_direction ? unorganized::squared_distance(p, q) : distance2[j];
-          if (test(p, q, d2)) accepted[static_cast<std::size_t>(m++)] = index[j];
+        int asked = wanted;
+        for (;;) {
+          // asked + 1: the point itself is its own nearest neighbour.
+          nanoflann::KNNResultSet<float, std::uint32_t, std::uint32_t> result(
+              static_cast<std::uint32_t>(asked + 1));
+          result.init(index.data(), distance2.data());
+          tree.findNeighbors(result, origin, nanoflann::SearchParams());
+          int m = 0;
+          for (std::uint32_t j = 0; j < result.size() && m < asked; ++j) {
+            if (index[j] == c) continue;
+            const float* q = leaf_xyz.data() + 3 * static_cast<std::size_t>(index[j]);
+            const float d2 =
+                settings.by_direction ? unorganized::squared_distance(p, q) : distance2[j];
+            if (!test(p, q, d2)) continue;
+            const auto u = static_cast<std::size_t>(m++);
+            accepted.idx[u] = index[j];
+            accepted.d2[u] = d2;
+            accepted.s[u] = std::sqrt(distance2[j]);
+            accepted.scale[u] = 1.0f;
+            if (settings.by_direction) {
+              const float* dir = space + 3 * static_cast<std::size_t>(index[j]);
+              const float range = (q[0] - settings.viewpoint[0]) * dir[0] +
+                                  (q[1] - settings.viewpoint[1]) * dir[1] +
+                                  (q[2] - settings.viewpoint[2]) * dir[2];
+              accepted.scale[u] = range > 0 ? 2.0f / range : std::numeric_limits<float>::infinity();
+            }
+          }
+          const int kept = drop_coincident(leaf_xyz.data(), accepted, m, coincident);
+          // Coincident candidates dropped: ask for more in the same proportion, once or
+          // twice (the tree may have no more).
+          if (kept >= wanted || m == kept || result.size() <= static_cast<std::size_t>(asked) ||
+              asked >= kMaxCandidates) {
+            return std::min(kept, wanted);
+          }
+          asked = std::min(kMaxCandidates,
+                           (asked * wanted + std::max(kept, 1) - 1) / std::max(kept, 1) + 1);
         }
-        return m;
       };
       int m = nearest(k);
       if (settings.balanced && k >= kMinBalancedK && m >= kMinBalancedK &&
-          along_a_line(space, origin, accepted.data(), m)) {
-        m = balanced_ring(space, origin, accepted.data(), nearest(std::min(4 * k, kMaxCandidates)),
-                          k);
+          along_a_line(space, origin, accepted.idx.data(), m)) {
+        m = balanced_ring(space, origin, accepted.idx.data(),
+                          nearest(std::min(4 * k, kMaxCandidates)), k);
       }
       const auto i = static_cast<std::size_t>(leaf_original[c]);
       std::int32_t* ring = out.neighbours.data() + i * static_cast<std::size_t>(k);
-      for (int j = 0; j < m; ++j) ring[j] = leaf_original[accepted[static_cast<std::size_t>(j)]];
+      for (int j = 0; j < m; ++j) {
+        ring[j] = leaf_original[accepted.idx[static_cast<std::size_t>(j)]];
+      }
       out.count[i] = static_cast<std::uint8_t>(m);
     }
   };
