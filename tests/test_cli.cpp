@@ -23,6 +23,7 @@
 #include "rangeseg/io/png.hpp"
 #include "rangeseg/sensor.hpp"
 #include "rangeseg/synth.hpp"
+#include "rangeseg/version.hpp"
 #include "test_util.hpp"
 
 namespace fs = std::filesystem;
@@ -68,6 +69,7 @@ TEST(Cli, SynthSegmentEvalRoundTrip) {
   EXPECT_EQ(labels.width(), 640);
   EXPECT_EQ(labels.height(), 480);
   const auto json = nlohmann::json::parse(read_text(dir / "seg" / "segments.json"));
+  EXPECT_EQ(json["rangeseg_version"], RANGESEG_VERSION_STRING);
   ASSERT_FALSE(json["segments"].empty());
   int max_label = 0;
   for (int v = 0; v < labels.height(); ++v) {

@@ -18,6 +18,7 @@
 #include "rangeseg/camera.hpp"
 #include "rangeseg/io/ply.hpp"
 #include "rangeseg/io/png.hpp"
+#include "rangeseg/version.hpp"
 #include "test_util.hpp"
 
 namespace fs = std::filesystem;
@@ -93,6 +94,7 @@ TEST(CliBatch, AnInputWithoutFramesIsReportedAndSkipped) {
   EXPECT_TRUE(fs::exists(dir / "out" / "a" / "labels.png"));
   EXPECT_TRUE(fs::exists(dir / "out" / "0001" / "labels.png"));
   const nlohmann::json summary = read_json(dir / "out" / "summary.json");
+  EXPECT_EQ(summary["rangeseg_version"], RANGESEG_VERSION_STRING);
   EXPECT_EQ(summary["frames"], 5);
   EXPECT_EQ(summary["failed"], 3);
   // No PNG among the frames: nothing to say about depth images.

@@ -158,6 +158,17 @@ TEST(CliErrors, SegcompTakesTheModelOption) {
   EXPECT_FALSE(contains(bad.out, "skipped")) << bad.out;
 }
 
+// A usage error reads as every other error: prefixed, exit code 2, with a pointer to --help.
+TEST(CliErrors, UsageErrorsNameTheProgram) {
+  for (const char* args : {"segment", "segment a.pcd --no-such-option", "no-such-command",
+                           "segment a.pcd --threads many"}) {
+    const CliResult r = run(args);
+    EXPECT_EQ(r.code, 2) << args;
+    EXPECT_TRUE(r.out.starts_with("rangeseg: error: ")) << args << ": " << r.out;
+    EXPECT_TRUE(contains(r.out, "--help")) << args << ": " << r.out;
+  }
+}
+
 // Label PNGs bring no points: no plane pair, no angle error.
 TEST(CliErrors, EvalWithoutPlanePairsPrintsNoNan) {
   const fs::path dir = rangeseg::test::scratch_dir("cli_errors_nan");

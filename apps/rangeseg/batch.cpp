@@ -27,6 +27,7 @@
 #include "names.hpp"
 #include "output.hpp"
 #include "rangeseg/io/file.hpp"
+#include "rangeseg/version.hpp"
 #include "segment_output.hpp"
 
 namespace rangeseg::cli {
@@ -338,6 +339,7 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
     if (times.contains(stage)) medians[stage] = median(times[stage]);
   }
   nlohmann::json summary{
+      {"rangeseg_version", RANGESEG_VERSION_STRING},
       {"frames", n},
       {"run", run},
       {"succeeded", ok},

@@ -27,6 +27,10 @@ int run(int argc, char** argv) {
   try {
     CLI::App app{"rangeseg: fast range image meshing, smoothing and segmentation"};
     app.require_subcommand(1);
+    // Usage errors as every other error (subcommands take this from their parent when added).
+    app.failure_message([](const CLI::App* from, const CLI::Error& e) {
+      return "rangeseg: error: " + CLI::FailureMessage::simple(from, e);
+    });
     app.set_version_flag("--version", "rangeseg " RANGESEG_VERSION_STRING);
     rangeseg::cli::register_commands(app);
     try {

@@ -16,6 +16,7 @@
 #include "output.hpp"
 #include "rangeseg/colorize.hpp"
 #include "rangeseg/io/png.hpp"
+#include "rangeseg/version.hpp"
 
 namespace rangeseg::cli {
 
@@ -180,7 +181,8 @@ nlohmann::json segments_json(const Segmentation& seg, const PolygonSet* polygons
     }
     if (s.track_id != 0) item["track_id"] = s.track_id;
   }
-  return {{"plane_equation", "normal . x + offset = 0, camera frame, metres"},
+  return {{"rangeseg_version", RANGESEG_VERSION_STRING},
+          {"plane_equation", "normal . x + offset = 0, camera frame, metres"},
           {"surface",
            "type plane, cylinder, sphere or smooth; rms_residual: RMS distance to it [m]; "
            "sphere: centre, radius; cylinder: axis_point (start of the extent), unit axis, "
