@@ -78,6 +78,25 @@ TEST(CliOutputs, AFailedCommandLeavesNoneOfItsOutputs) {
   EXPECT_FALSE(fs::exists(dir / "d.png")) << r.out;
 }
 
+// An output folder that cannot be made says why; create_directories' own words were "File
+// exists" for a link to nothing and for a file of that name.
+TEST(CliOutputs, AnOutputFolderThatCannotBeMadeSaysWhy) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_outputs_folder");
+  const fs::path cloud = dir / "frame.pcd";
+  write_small_pcd(cloud, 4);
+  fs::create_directory_symlink(dir / "gone", dir / "link");
+  std::ofstream(dir / "file") << "x";
+  CliResult r = run_cli("segment " + cloud.string() + " -o " + (dir / "link").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(contains(
+      r.out, "a symbolic link to '" + (dir / "gone").string() + "', which is no directory"))
+      << r.out;
+  r = run_cli("segment " + cloud.string() + " -o " + (dir / "file").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(contains(r.out, "a file of that name exists")) << r.out;
+  EXPECT_FALSE(fs::exists(dir / "gone"));
+}
+
 // Temporaries NAME.tmp.PID of a killed process (no handler ran) go when a later run writes NAME;
 // before, only `segment`'s own result names were cleaned.
 TEST(CliOutputs, AKilledRunsTemporaryGoesWhenItsFileIsWrittenAgain) {

@@ -26,6 +26,18 @@ std::filesystem::path ensure_dir(const std::string& dir) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec || !std::filesystem::is_directory(dir)) {
+    // create_directories says "File exists" for a link to nothing and for a file.
+    std::error_code link_error;
+    const std::filesystem::path target = std::filesystem::read_symlink(dir, link_error);
+    if (!link_error) {
+      throw std::runtime_error(dir + ": cannot create output directory: a symbolic link to '" +
+                               target.string() + "', which is no directory");
+    }
+    if (std::filesystem::exists(dir, link_error)) {
+      throw std::runtime_error(dir +
+                               ": cannot create output directory: a file of that name "
+                               "exists");
+    }
     throw std::runtime_error(dir + ": cannot create output directory: " + ec.message());
   }
   return dir;
