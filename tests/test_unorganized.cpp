@@ -1027,8 +1027,9 @@ TEST(RingSegmentation, PlaneAreasOfALidarScanAreTheirPolygons) {
     EXPECT_EQ(s.area_m2, sp.area) << s.label;
     EXPECT_LE(s.area_m2, sp.hull_area * (1 + 1e-9)) << s.label;
     for (int i = 0; i < seg.labels.width(); ++i) {
-      if (seg.labels(i, 0) == s.label)
+      if (seg.labels(i, 0) == s.label) {
         ellipses += point_area(pipeline.cloud(), pipeline.rings(), static_cast<std::size_t>(i));
+      }
     }
     polygons += sp.area;
   }
