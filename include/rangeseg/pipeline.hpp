@@ -139,7 +139,8 @@ class Pipeline {
   /// cloud the pipeline owns, so a camera loop allocates nothing once its buffers fit; the
   /// smoothing's pixel angle is 1 / camera.fx unless the settings give one, and the minimum
   /// segment size is scaled to camera.fx (SegmentationSettings::min_region_fx). Throws
-  /// std::invalid_argument for invalid intrinsics or depth_scale, or fewer than 2 rows.
+  /// std::invalid_argument for invalid intrinsics or depth_scale, or fewer than 2 rows, before
+  /// anything changes: the last frame's results stay as they were.
   void process(View<const std::uint16_t> depth, const CameraIntrinsics& camera,
                double depth_scale = 0.001);
   /// The same for depth in metres (NaN, infinite or <= 0: no measurement; e.g. ROS 32FC1).
