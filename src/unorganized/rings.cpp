@@ -236,7 +236,6 @@ int drop_coincident(const float* xyz, Candidates& c, int m, float noise_bound) {
     if (close) continue;
     const auto uo = static_cast<std::size_t>(out++);
     c.idx[uo] = c.idx[uj];
-    c.d2[uo] = c.d2[uj];
     c.s[uo] = c.s[uj];
   }
   return out;
