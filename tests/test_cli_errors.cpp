@@ -169,6 +169,24 @@ TEST(CliErrors, UsageErrorsNameTheProgram) {
   }
 }
 
+// A file whose name starts with '-' is read as an option; before, the error said only "input is
+// required".
+TEST(CliErrors, AFileNamedLikeAnOptionGetsANote) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_errors_dash");
+  rangeseg::test::write_small_pcd(dir / "-frame.pcd", 3);
+  const std::string cd = "cd " + dir.string() + " && " + RANGESEG_CLI;
+  CliResult r = rangeseg::test::run_shell(cd + " segment -frame.pcd -o out 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(contains(r.out,
+                       "'-frame.pcd' is a file, read as an option here; name it "
+                       "./-frame.pcd"))
+      << r.out;
+  r = rangeseg::test::run_shell(cd + " segment ./-frame.pcd -o out 2>&1");
+  EXPECT_EQ(r.code, 0) << r.out;
+  r = run("segment a.pcd --no-such-option");  // no such file: no note
+  EXPECT_FALSE(contains(r.out, "note:")) << r.out;
+}
+
 // Label PNGs bring no points: no plane pair, no angle error.
 TEST(CliErrors, EvalWithoutPlanePairsPrintsNoNan) {
   const fs::path dir = rangeseg::test::scratch_dir("cli_errors_nan");

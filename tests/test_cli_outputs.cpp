@@ -9,6 +9,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include "cli_util.hpp"
@@ -61,8 +62,9 @@ TEST(CliOutputs, ARunNeverWritesOverItsInput) {
 }
 
 // Before: `mesh -o m.ply --normal-png unwritable/n.png` exited 2 with m.ply written, and
-// `convert x.pcd d.png` without room for d.json left the PNG without its intrinsics.
-TEST(CliOutputs, AFailedCommandLeavesNoneOfItsOutputs) {
+// `convert x.pcd d.png` without room for d.json left the PNG without its intrinsics. Later, a
+// failed command removed what it had written, so an earlier run's m.ply was lost with it.
+TEST(CliOutputs, AFailedCommandLeavesItsOutputsAsTheyWere) {
   const fs::path dir = rangeseg::test::scratch_dir("cli_outputs_failed");
   const fs::path cloud = dir / "frame.pcd";
   write_small_pcd(cloud, 4);
@@ -71,11 +73,65 @@ TEST(CliOutputs, AFailedCommandLeavesNoneOfItsOutputs) {
                         " --normal-png " + (dir / "not_a_folder" / "n.png").string());
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_FALSE(fs::exists(dir / "m.ply")) << r.out;
+  std::ofstream(dir / "m.ply") << "an earlier run's";
+  r = run_cli("mesh " + cloud.string() + " -o " + (dir / "m.ply").string() + " --normal-png " +
+              (dir / "not_a_folder" / "n.png").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_EQ(read_text(dir / "m.ply"), "an earlier run's") << r.out;
 
   fs::create_directory(dir / "d.json");  // where convert writes the PNG's intrinsics
   r = run_cli("convert " + cloud.string() + " " + (dir / "d.png").string());
   EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(contains(r.out, (dir / "d.json").string() + ": cannot be written: a folder"))
+      << r.out;
   EXPECT_FALSE(fs::exists(dir / "d.png")) << r.out;
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 4)
+      << "a temporary was left behind";
+}
+
+// A result folder is replaced as a unit: a run that fails at its last file leaves the earlier
+// run's labels, segments and pictures, not a mixture of two frames' results.
+TEST(CliOutputs, AResultFolderIsReplacedWhollyOrNotAtAll) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_outputs_unit");
+  const fs::path first = dir / "first.pcd", second = dir / "second.pcd";
+  write_small_pcd(first, 4);
+  write_small_pcd(second, 6);
+  const fs::path out = dir / "out";
+  CliResult r = run_cli("segment " + first.string() + " -o " + out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string labels = read_text(out / "labels.png");
+  const std::string segments = read_text(out / "segments.json");
+  // mesh.ply, the last file written, cannot replace a folder of that name.
+  fs::remove(out / "mesh.ply");
+  fs::create_directory(out / "mesh.ply");
+  r = run_cli("segment " + second.string() + " -o " + out.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(contains(r.out, "mesh.ply: cannot be written: a folder of that name exists"))
+      << r.out;
+  EXPECT_EQ(read_text(out / "labels.png"), labels);
+  EXPECT_EQ(read_text(out / "segments.json"), segments);
+  for (const auto& entry : fs::directory_iterator(out)) {
+    EXPECT_FALSE(contains(entry.path().filename().string(), ".tmp.")) << entry.path();
+  }
+  fs::remove(out / "mesh.ply");
+  r = run_cli("segment " + second.string() + " -o " + out.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(read_text(out / "segments.json"), segments) << "the frames should differ";
+}
+
+// Before: a file size limit (ulimit -f) ended the run by SIGXFSZ with a core dump, leaving its
+// temporaries; now the write fails with an error that names the file, and nothing is left.
+TEST(CliOutputs, AFileSizeLimitIsAnErrorNamingTheFile) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_outputs_fsize");
+  const fs::path cloud = dir / "frame.pcd";
+  write_small_pcd(cloud, 4);
+  const fs::path out = dir / "out";
+  // 1 KiB: more than the first file's header, less than any of the results.
+  const CliResult r = run_shell("ulimit -f 1 && " + std::string(RANGESEG_CLI) + " segment " +
+                                cloud.string() + " -o " + out.string() + " 2>&1");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_TRUE(contains(r.out, "write error: File too large")) << r.out;
+  EXPECT_TRUE(fs::is_empty(out)) << r.out;
 }
 
 // An output folder that cannot be made says why; create_directories' own words were "File

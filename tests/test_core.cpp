@@ -239,6 +239,62 @@ TEST(File, AtomicWriteLeavesNoTemporary) {
   EXPECT_EQ(io::extension("a/b.PCD"), ".pcd");
 }
 
+// A group's files appear only together: a failure while writing one of them leaves every path
+// with its earlier contents and no temporary behind.
+TEST(File, AGroupOfFilesIsRenamedOnlyWhenAllAreWritten) {
+  const auto dir = rangeseg::test::scratch_dir("file_group");
+  const std::string a = (dir / "a.txt").string(), b = (dir / "b.txt").string();
+  const auto text = [](const std::string& path) {
+    const std::vector<std::uint8_t> bytes = io::read_file(path);
+    return std::string(bytes.begin(), bytes.end());
+  };
+  const auto count = [&] {
+    return std::distance(std::filesystem::directory_iterator(dir),
+                         std::filesystem::directory_iterator());
+  };
+  io::write_file_atomic(a, std::string("old a"));
+  io::write_file_atomic(b, std::string("old b"));
+  {
+    io::FileGroup group;
+    io::write_file_atomic(a, std::string("new a"));
+    EXPECT_EQ(text(a), "old a") << "renamed before the group's commit";
+    EXPECT_EQ(count(), 3);  // a, b and a's temporary
+    io::AtomicFile half(b);
+    half.write("ne", 2);
+    // an exception here: neither file is committed
+  }
+  EXPECT_EQ(text(a), "old a");
+  EXPECT_EQ(text(b), "old b");
+  EXPECT_EQ(count(), 2) << "a temporary was left behind";
+  {
+    io::FileGroup group;
+    io::write_file_atomic(a, std::string("new a"));
+    {
+      io::FileGroup inner;  // dropped without its commit: only its own file is
+      io::write_file_atomic(b, std::string("inner b"));
+    }
+    {
+      io::FileGroup inner;  // committed: renamed with the outer group
+      io::write_file_atomic(b, std::string("new b"));
+      inner.commit();
+    }
+    EXPECT_EQ(text(b), "old b");
+    group.commit();
+    EXPECT_THROW(group.commit(), std::logic_error);
+  }
+  EXPECT_EQ(text(a), "new a");
+  EXPECT_EQ(text(b), "new b");
+  EXPECT_EQ(count(), 2);
+  // A signal handler's clean-up removes a group's temporaries too; its commit then fails.
+  io::FileGroup group;
+  io::write_file_atomic(a, std::string("newer a"));
+  EXPECT_EQ(count(), 3);
+  io::remove_temporary_files();
+  EXPECT_EQ(count(), 2);
+  EXPECT_THROW(group.commit(), std::runtime_error);
+  EXPECT_EQ(text(a), "new a");
+}
+
 // The radix sort must give exactly the order of a stable comparison sort of the float values,
 // ties (including -0 against +0) in input order, also for negative and infinite keys.
 TEST(RadixSort, EqualsStableSortOfTheFloatValues) {

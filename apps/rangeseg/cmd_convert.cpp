@@ -6,7 +6,6 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
-#include <system_error>
 
 #include "commands.hpp"
 #include "input.hpp"
@@ -75,18 +74,14 @@ void convert(const ConvertOptions& o) {
                                ": a depth PNG keeps only z, from which x and y could not be "
                                "computed again; convert it to .pcd or .ply");
     }
+    // The depth PNG is of no use without its intrinsics: the pair is written together or not.
+    io::FileGroup group;
     io::write_depth_png(o.out, cloud_to_depth(in.cloud, o.in.depth_scale).view());
-    try {
-      write_json(json_path, {{"width", camera.width},
-                             {"height", camera.height},
-                             {"intrinsic_matrix",
-                              {camera.fx, 0, 0, 0, camera.fy, 0, camera.cx, camera.cy, 1}}});
-    } catch (...) {
-      // The depth PNG is of no use without its intrinsics: none of the pair is left.
-      std::error_code ignored;
-      fs::remove(o.out, ignored);
-      throw;
-    }
+    write_json(json_path,
+               {{"width", camera.width},
+                {"height", camera.height},
+                {"intrinsic_matrix", {camera.fx, 0, 0, 0, camera.fy, 0, camera.cx, camera.cy, 1}}});
+    group.commit();
     char numbers[160];
     std::snprintf(numbers, sizeof numbers, "fx %.3f, fy %.3f, cx %.3f, cy %.3f px", camera.fx,
                   camera.fy, camera.cx, camera.cy);

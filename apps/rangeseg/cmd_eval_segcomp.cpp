@@ -164,9 +164,11 @@ void run_segcomp(const SegcompOptions& o) {
         writing = true;
         const std::string stem = range.stem().string();
         const auto dir = ensure_dir(o.out_dir);
+        io::FileGroup group;  // an image's .ms-seg, .ms-nor and folder: all of one run
         write_ms_seg((dir / (stem + ".ms-seg")).string(), ms);
         write_ms_nor((dir / (stem + ".ms-nor")).string(), pipeline.segmentation(), gt.sensor);
         write_segmentation_folder((dir / stem).string(), *gt.cloud, pipeline, {.mesh = false});
+        group.commit();
         writing = false;
       }
       print_eval_row(range.filename().string().c_str(), r.front(), a.front());

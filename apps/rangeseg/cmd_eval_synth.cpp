@@ -18,6 +18,7 @@
 #include "names.hpp"
 #include "output.hpp"
 #include "rangeseg/eval.hpp"
+#include "rangeseg/io/file.hpp"
 #include "rangeseg/io/png.hpp"
 #include "rangeseg/synth.hpp"
 #include "segment_output.hpp"
@@ -281,12 +282,14 @@ void run_eval_synth(const EvalSynthOptions& o) {
     per_seed.push_back(std::move(row));
     if (!o.out_dir.empty()) {
       const std::string dir = (ensure_dir(o.out_dir) / (o.scene + std::to_string(seed))).string();
+      io::FileGroup group;  // the scene's results and its ground truth, of one run
       if (o.unorganized) {
         io::write_label_png((ensure_dir(dir) / "labels.png").string(), segmentation.labels);
       } else {
         write_segmentation_folder(dir, scene.cloud, pipeline, {.mesh = false});
       }
       io::write_label_png((ensure_dir(dir) / "ground_truth.png").string(), scene.labels);
+      group.commit();
     }
   }
   const eval::EvalSummary s = eval::summarize(results, angles);

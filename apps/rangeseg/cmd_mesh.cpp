@@ -1,15 +1,13 @@
-#include <filesystem>
 #include <memory>
 #include <stdexcept>
 #include <string>
-#include <system_error>
-#include <vector>
 
 #include "commands.hpp"
 #include "input.hpp"
 #include "names.hpp"
 #include "output.hpp"
 #include "rangeseg/colorize.hpp"
+#include "rangeseg/io/file.hpp"
 #include "rangeseg/io/png.hpp"
 #include "rangeseg/mesh.hpp"
 #include "rangeseg/normals.hpp"
@@ -69,23 +67,14 @@ void add_mesh(CLI::App& app) {
     const NormalMap normals = compute_normals(in.cloud, mesh);
     const RgbImage colours =
         colorize_normals(normals.nx.view(), normals.ny.view(), normals.nz.view());
-    // A failed command leaves none of its outputs (each is written atomically, in turn).
-    std::vector<std::string> written;
-    try {
-      write_mesh_ply(o->out, in.cloud, mesh, &normals, &colours);
-      written.push_back(o->out);
-      if (!o->normal_png.empty()) {
-        io::write_rgb_png(o->normal_png, colours);
-        written.push_back(o->normal_png);
-      }
-      if (!o->curvature_png.empty()) {
-        io::write_rgb_png(o->curvature_png, colorize_scalar_auto(normals.curvature.view()));
-      }
-    } catch (...) {
-      std::error_code ignored;
-      for (const std::string& path : written) std::filesystem::remove(path, ignored);
-      throw;
+    // A failed command leaves its output paths as they were.
+    io::FileGroup group;
+    write_mesh_ply(o->out, in.cloud, mesh, &normals, &colours);
+    if (!o->normal_png.empty()) io::write_rgb_png(o->normal_png, colours);
+    if (!o->curvature_png.empty()) {
+      io::write_rgb_png(o->curvature_png, colorize_scalar_auto(normals.curvature.view()));
     }
+    group.commit();
     for (const std::string* path : {&o->out, &o->normal_png, &o->curvature_png}) {
       if (!path->empty()) remove_stale_temporaries(*path);
     }

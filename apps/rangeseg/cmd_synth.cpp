@@ -10,6 +10,7 @@
 #include "output.hpp"
 #include "rangeseg/camera.hpp"
 #include "rangeseg/colorize.hpp"
+#include "rangeseg/io/file.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/io/png.hpp"
 #include "rangeseg/synth.hpp"
@@ -178,6 +179,7 @@ void add_synth(CLI::App& app) {
     const synth::Scene scene = scene_by_name(o->scene, o->seed);
     const auto dir = ensure_dir(o->out_dir);
     const synth::Rendering r = synth::render(scene, settings);
+    io::FileGroup group;  // a scene and its ground truth are replaced together, or not at all
     io::write_pcd((dir / "cloud.pcd").string(), r.cloud,
                   {.encoding = io::PcdEncoding::binary_compressed});
     io::write_depth_png((dir / "depth.png").string(), cloud_to_depth(r.cloud, 0.001).view());
@@ -190,6 +192,7 @@ void add_synth(CLI::App& app) {
                 {"height", r.cloud.height()},
                 {"intrinsic_matrix", {cam.fx, 0, 0, 0, cam.fy, 0, cam.cx, cam.cy, 1}}});
     write_json((dir / "surfaces.json").string(), {{"surfaces", surfaces_json(r)}});
+    group.commit();
     progress("wrote " + dir.string() +
              "/{cloud.pcd, depth.png, labels.png, labels_colour.png, "
              "depth_colour.png, camera.json, surfaces.json}");

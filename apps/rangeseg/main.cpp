@@ -6,7 +6,10 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <filesystem>
 #include <new>
+#include <string>
+#include <system_error>
 
 #include "commands.hpp"
 #include "output.hpp"
@@ -23,6 +26,20 @@ extern "C" void remove_temporaries_and_exit(int signal) {
   std::raise(signal);
 }
 
+// CLI11 reads every argument that starts with '-' as an option, so a file of such a name gave
+// "input is required" or "not expected" alone.
+void note_files_taken_for_options(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--") break;
+    std::error_code ec;
+    if (arg.size() > 1 && arg[0] == '-' && std::filesystem::exists(arg, ec)) {
+      std::fprintf(stderr, "rangeseg: note: '%s' is a file, read as an option here; name it ./%s\n",
+                   arg.c_str(), arg.c_str());
+    }
+  }
+}
+
 int run(int argc, char** argv) {
   try {
     CLI::App app{"rangeseg: fast range image meshing, smoothing and segmentation"};
@@ -37,6 +54,7 @@ int run(int argc, char** argv) {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
       const int rc = app.exit(e);
+      if (rc != 0) note_files_taken_for_options(argc, argv);
       return rc == 0 ? 0 : rangeseg::cli::kExitUsage;
     }
   } catch (const std::bad_alloc&) {
@@ -55,6 +73,9 @@ int main(int argc, char** argv) {
   for (const int signal : {SIGINT, SIGTERM, SIGHUP}) {
     std::signal(signal, remove_temporaries_and_exit);
   }
+  // A file size limit (ulimit -f) then fails the write (EFBIG), an error that names the file,
+  // instead of ending the process with a core dump and its temporaries.
+  std::signal(SIGXFSZ, SIG_IGN);
   rangeseg::cli::reserve_memory_for_errors();
   const int rc = run(argc, argv);
   // What a command printed on stdout (JSON, tables) is its result: a redirection to a full disk

@@ -15,6 +15,7 @@
 
 #include "output.hpp"
 #include "rangeseg/colorize.hpp"
+#include "rangeseg/io/file.hpp"
 #include "rangeseg/io/png.hpp"
 #include "rangeseg/version.hpp"
 
@@ -288,6 +289,8 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
     }
   }
   std::vector<std::string> written;
+  // The folder's files replace an earlier run's together, or not at all.
+  io::FileGroup group;
   const auto file = [&](const char* name) {
     written.push_back((dir / name).string());
     return written.back();
@@ -299,6 +302,7 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
       write_polygons_obj(file("polygons.obj"), pipeline.polygons(), &seg);
     }
     write_labelled_cloud(file("cloud.pcd"), pipeline, files.pose);
+    group.commit();
     remove_earlier_results(dir, written, files.inputs);
     return joined(written);
   }
@@ -319,6 +323,7 @@ std::string write_segmentation_folder(const std::string& dir_name, const Organiz
     write_mesh_ply(file("mesh.ply"), pipeline.cloud(), pipeline.mesh(), &pipeline.normals(), &flat);
   }
   if (files.cloud) write_labelled_cloud(file("cloud.pcd"), pipeline, files.pose);
+  group.commit();
   remove_earlier_results(dir, written, files.inputs);
   return joined(written);
 }

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cctype>
 #include <cerrno>
@@ -10,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
+#include <system_error>
 #include <utility>
 
 namespace rangeseg::io {
@@ -41,7 +43,7 @@ namespace {
 // The temporaries being written, for remove_temporary_files(), which a signal handler calls:
 // fixed storage and lock-free atomics only. A slot is 0 (free), 1 (being filled or emptied) or
 // 2 (holds a path).
-constexpr int kTemporarySlots = 64;
+constexpr int kTemporarySlots = 256;
 constexpr std::size_t kMaxTemporaryPath = 1024;
 struct TemporarySlot {
   std::atomic<int> state{0};
@@ -68,7 +70,63 @@ void release_temporary(int& slot) {
   slot = -1;
 }
 
+// A closed temporary that a FileGroup renames when it commits.
+struct PendingFile {
+  std::string tmp, path;
+  int slot;
+};
+
+struct GroupState {
+  std::vector<PendingFile> pending;
+  int depth = 0;
+};
+thread_local GroupState t_group;
+
+void drop_pending(std::size_t from) {
+  auto& pending = t_group.pending;
+  for (std::size_t i = from; i < pending.size(); ++i) {
+    std::remove(pending[i].tmp.c_str());
+    release_temporary(pending[i].slot);
+  }
+  pending.resize(std::min(from, pending.size()));
+}
+
 }  // namespace
+
+FileGroup::FileGroup() : first_(t_group.pending.size()), outermost_(t_group.depth == 0) {
+  ++t_group.depth;
+}
+
+FileGroup::~FileGroup() {
+  --t_group.depth;
+  if (!committed_) drop_pending(first_);
+}
+
+void FileGroup::commit() {
+  if (committed_) throw std::logic_error("FileGroup committed twice");
+  committed_ = true;
+  if (!outermost_) return;
+  auto& pending = t_group.pending;
+  // The one failure of a rename that is foreseeable: checked for all before any is renamed.
+  for (std::size_t i = first_; i < pending.size(); ++i) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(pending[i].path, ec)) {
+      const std::string path = pending[i].path;
+      drop_pending(first_);
+      throw std::runtime_error(path + ": cannot be written: a folder of that name exists");
+    }
+  }
+  for (std::size_t i = first_; i < pending.size(); ++i) {
+    if (std::rename(pending[i].tmp.c_str(), pending[i].path.c_str()) != 0) {
+      const int err = errno;
+      const std::string path = pending[i].path;
+      drop_pending(i);
+      throw std::runtime_error(path + ": cannot rename temporary file: " + std::strerror(err));
+    }
+    release_temporary(pending[i].slot);
+  }
+  pending.resize(first_);
+}
 
 void remove_temporary_files() noexcept {
   for (TemporarySlot& slot : g_temporaries) {
@@ -101,18 +159,36 @@ AtomicFile::~AtomicFile() {
 void AtomicFile::write(const void* bytes, std::size_t size) {
   if (file_ == nullptr) throw std::runtime_error(path_ + ": write after commit");
   if (size != 0 && std::fwrite(bytes, 1, size, file_) != size) {
-    throw std::runtime_error(path_ + ": write error (disk full?)");
+    throw std::runtime_error(path_ + ": write error: " + std::strerror(errno));
   }
 }
 
 void AtomicFile::commit() {
   if (file_ == nullptr) throw std::runtime_error(path_ + ": committed twice");
   const bool closed = std::fclose(file_) == 0;
+  const int close_error = errno;
   file_ = nullptr;
   if (!closed) {
     std::remove(tmp_.c_str());
     release_temporary(slot_);
-    throw std::runtime_error(path_ + ": write error (disk full?)");
+    throw std::runtime_error(path_ + ": write error: " + std::strerror(close_error));
+  }
+  if (t_group.depth > 0) {
+    // The same path written twice in a group shares one temporary, the later contents.
+    for (const PendingFile& p : t_group.pending) {
+      if (p.tmp == tmp_) {
+        release_temporary(slot_);
+        return;
+      }
+    }
+    try {
+      t_group.pending.push_back({tmp_, path_, slot_});
+    } catch (...) {
+      std::remove(tmp_.c_str());
+      throw;  // the destructor releases the slot
+    }
+    slot_ = -1;
+    return;
   }
   // Released after the rename: a signal in between removes a name that no longer exists.
   const bool renamed = std::rename(tmp_.c_str(), path_.c_str()) == 0;

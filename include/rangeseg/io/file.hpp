@@ -1,6 +1,7 @@
 // Whole-file reading and atomic writing, shared by every format.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <string>
@@ -25,7 +26,7 @@ class AtomicFile {
   AtomicFile& operator=(const AtomicFile&) = delete;
 
   void write(const void* bytes, std::size_t size);
-  /// Closes the temporary and renames it to `path`.
+  /// Closes the temporary and renames it to `path`; within a FileGroup, the group renames it.
   void commit();
 
  private:
@@ -34,9 +35,38 @@ class AtomicFile {
   int slot_ = -1;  ///< its entry in the table remove_temporary_files() reads, or -1
 };
 
-/// Removes the temporaries of every AtomicFile of this process not yet committed or destroyed
-/// (up to 64 at once; more are not tracked). Async-signal-safe: for a program's SIGINT / SIGTERM
-/// handler, so that an interrupted run leaves no temporary behind.
+/// Makes the files that this thread writes while it lives (by AtomicFile, write_file_atomic and
+/// every writer built on them) one unit: each is written to its temporary as usual, but the
+/// temporaries are renamed over their paths only by `commit()`, after all of them are complete.
+/// Destroyed without a commit (an exception while one of them was written), it removes the
+/// temporaries, so the files at those paths keep their earlier contents: outputs that belong
+/// together (a frame's labels and its segments.json) are never left half of one run, half of
+/// another. `commit()` checks first that no path is a folder; a rename that fails after that
+/// (rare: the data is written by then) throws, and the files renamed before it stay. Groups nest:
+/// an inner group's files are renamed by the outermost group's commit, and dropped if the inner
+/// group ends without its own commit. Not thread-safe; each thread has its own groups.
+class FileGroup {
+ public:
+  FileGroup();
+  ~FileGroup();
+  FileGroup(const FileGroup&) = delete;
+  FileGroup& operator=(const FileGroup&) = delete;
+
+  /// Renames the group's temporaries over their paths (in the order written); for an inner
+  /// group, leaves that to the outermost. Throws std::runtime_error naming the file if one
+  /// cannot be renamed; the temporaries not yet renamed are removed.
+  void commit();
+
+ private:
+  std::size_t first_;  ///< this group's first entry in the thread's list of pending files
+  bool outermost_;
+  bool committed_ = false;
+};
+
+/// Removes the temporaries of every AtomicFile of this process not yet committed or destroyed,
+/// and those of FileGroups not yet committed (up to 256 at once; more are not tracked).
+/// Async-signal-safe: for a program's SIGINT / SIGTERM handler, so that an interrupted run leaves
+/// no temporary behind.
 void remove_temporary_files() noexcept;
 
 /// Writes `bytes` to a temporary file beside `path`, then renames it over `path`, so a reader
