@@ -237,6 +237,14 @@ TEST(File, AtomicWriteLeavesNoTemporary) {
   EXPECT_THROW(io::read_file((dir / "nope").string()), std::runtime_error);
   EXPECT_THROW(io::read_file(path, 2), std::runtime_error);
   EXPECT_EQ(io::extension("a/b.PCD"), ".pcd");
+  // A name that fits, but not with the temporary's ".tmp.PID": the error says what to do.
+  const std::string long_name = (dir / (std::string(250, 'n') + ".pcd")).string();
+  try {
+    io::write_file_atomic(long_name, std::string("x"));
+    ADD_FAILURE() << "no error for a temporary's name over 255 bytes";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("shorten the name by"), std::string::npos) << e.what();
+  }
 }
 
 // A group's files appear only together: a failure while writing one of them leaves every path

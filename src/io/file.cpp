@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
+#include <string>
 #include <system_error>
 #include <utility>
 
@@ -143,8 +144,18 @@ AtomicFile::AtomicFile(std::string path)
   slot_ = register_temporary(tmp_);
   file_ = std::fopen(tmp_.c_str(), "wb");
   if (file_ == nullptr) {
+    const int err = errno;
     release_temporary(slot_);
-    throw std::runtime_error(path_ + ": cannot create: " + std::strerror(errno));
+    const std::string name = std::filesystem::path(tmp_).filename().string();
+    if (err == ENAMETOOLONG && name.size() > 255) {
+      // The path itself may be fine: it is the temporary's suffix that is too much.
+      throw std::runtime_error(path_ + ": cannot create: its temporary " + name + " is " +
+                               std::to_string(name.size()) +
+                               " bytes long, more than a file name may be (255): shorten the "
+                               "name by " +
+                               std::to_string(name.size() - 255) + " bytes");
+    }
+    throw std::runtime_error(path_ + ": cannot create: " + std::strerror(err));
   }
 }
 
