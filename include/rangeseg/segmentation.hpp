@@ -131,7 +131,10 @@ struct SegmentationSettings {
   /// Presets kinect and ideal: 525 (a Kinect at 640x480); abw, laser and perceptron: 0 (their
   /// scanners' own grids).
   double min_region_fx = 525.0;
-  /// plane: merge adjacent segments whose least-squares planes agree.
+  /// plane: merge adjacent segments whose least-squares planes agree. On a grid whose columns go
+  /// once round the sensor (a spinning lidar's organized scan; the angle between the first and
+  /// the last column's rays at most 2.5 times that between neighbouring columns), segments that
+  /// meet across the first and last columns are adjacent too.
   bool merge_planes = true;
   /// Max angle between the normals of two planes to merge [rad] (5 deg).
   double merge_angle = 0.0873;

@@ -49,7 +49,30 @@ struct Frame {
   const std::int32_t* ring_neighbours = nullptr;
   const std::uint8_t* ring_count = nullptr;
   int ring_k = 0;
+  /// The first and last lattice columns are neighbours (columns_wrap): merging and the
+  /// primitive pass join segments across that seam.
+  bool columns_wrap = false;
 };
+
+/// Whether the first and last lattice columns of a grid frame are neighbours, as in a spinning
+/// lidar's organized scan whose columns go once round the sensor: in most rows where the two
+/// seam pixels and their inner neighbours are valid, the angle between the seam pixels' rays
+/// (from the origin, the sensor) is at most 2.5 times the larger angle between a seam pixel and
+/// its inner neighbour (a column may be missing at the seam). A camera's first and last columns
+/// lie its field of view apart. False for a frame of rings and for fewer than 3 lattice columns.
+bool columns_wrap(const Frame& f);
+
+/// The index of the last lattice column's pixel in row 0 (width - 1 rounded down to the lattice).
+inline int last_lattice_column(const Frame& f) {
+  return (f.width - 1) / f.pixel_stride * f.pixel_stride;
+}
+
+/// Whether the seam between pixels `last` (last lattice column) and `first` (first column) of
+/// one row is no larger a step than the steps beside it: both valid, and its length within three
+/// times the larger of the two pixels' distances to their valid inner neighbours (room for a
+/// column missing at the seam), as a mesh edge would join them. Otherwise the seam is a cut
+/// there (a depth step).
+bool column_seam_linked(const Frame& f, std::ptrdiff_t last, std::ptrdiff_t first);
 
 /// Calls fn(q) for the neighbours q of point i: its ring in a frame of rings, else its mesh
 /// neighbours in `directions` (bit k: direction k; 0x05: right and down only).

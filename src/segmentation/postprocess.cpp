@@ -394,6 +394,25 @@ void adjacent_pairs(const Frame& f, const std::vector<PlaneStats>& regions, int 
   }
 }
 
+/// The label pairs of adjacent_pairs across the column seam of a frame whose columns wrap: the
+/// pixels of the last and the first lattice column of each row; kAcrossCut where the seam is
+/// a step (column_seam_linked).
+void column_seam_pairs(const Frame& f, const std::vector<PlaneStats>& regions,
+                       std::vector<std::uint64_t>& pairs) {
+  const int last = last_lattice_column(f);
+  for (int v = 0; v < f.height; v += f.pixel_stride) {
+    const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(v) * f.stride;
+    const std::int32_t a = f.labels[row + last], b = f.labels[row];
+    if (a == 0 || b == 0 || a == b || regions[a].count < kMinFitPixels ||
+        regions[b].count < kMinFitPixels) {
+      continue;
+    }
+    const bool edge = column_seam_linked(f, row + last, row);
+    pairs.push_back((static_cast<std::uint64_t>(std::min(a, b)) << 32) |
+                    static_cast<std::uint32_t>(std::max(a, b)) | (edge ? 0 : kAcrossCut));
+  }
+}
+
 /// `settings` with its noise model scaled to what the frame's good planes show: the lower
 /// tercile of RMS residual / sigma(z) over the fitted regions of at least min_region_size pixels
 /// (with_measured_noise).
@@ -427,6 +446,7 @@ void merge_adjacent_planes(const Frame& f, const SegmentationSettings& settings,
     const auto& pairs = s.band_adjacency[static_cast<std::size_t>(band)];
     detail::append_with_headroom(s.adjacency, pairs.begin(), pairs.end());
   }
+  if (f.columns_wrap) column_seam_pairs(f, s.regions, s.adjacency);
   detail::sort_distinct(s.adjacency, s.adjacency_table);
 
   // Regions that meet only where the mesh is cut (a depth step, or a terrace crack of a surface
@@ -612,38 +632,50 @@ bool planes_merge(const PlaneStats& sa, const PlaneFit& a, const PlaneStats& sb,
 namespace {
 
 /// Union-find over raw labels in s.seam_parent: the regions below min_region_size on either
-/// side of a growth band's seam that a mesh edge joins across it and whose planes merge
-/// (planes_merge); and per root the pixels of its group in s.seam_count. A surface the seam
+/// side of a growth band's seam that a mesh edge joins across it, or of the column seam of a
+/// frame whose columns wrap (column_seam_linked), and whose planes merge (planes_merge); and
+/// per root the pixels of its group in s.seam_count. A surface the seam
 /// cuts into pieces, each below the minimum, would otherwise be removed before merging joins
 /// them again, so whether it is kept would depend on where the seam runs. (A small piece
 /// beside a large one goes, and boundary re-assignment gives its points to the large one.)
-/// Returns false when there is no seam.
+/// Returns false when there is neither seam.
 bool group_seam_pieces(const Frame& f, const SegmentationSettings& settings,
                        Segmenter::Scratch& s) {
-  const std::size_t bands = s.growth_rows.size() < 2 ? 1 : s.growth_rows.size() - 1;
-  if (bands < 2 || s.growth_rows.back() != f.height) return false;
+  std::size_t bands = s.growth_rows.size() < 2 ? 1 : s.growth_rows.size() - 1;
+  if (bands >= 2 && s.growth_rows.back() != f.height) bands = 1;
+  if (bands < 2 && !f.columns_wrap) return false;
   const auto region_count = static_cast<std::int32_t>(s.regions.size());
   detail::resize_with_headroom(s.seam_parent, static_cast<std::size_t>(region_count));
   std::iota(s.seam_parent.begin(), s.seam_parent.end(), 0);
   const auto small = [&](std::int32_t r) { return s.regions[r].count < settings.min_region_size; };
+  const auto join = [&](std::int32_t a, std::int32_t c) {
+    if (a <= 0 || c <= 0 || c == a || !small(a) || !small(c)) return;
+    const std::int32_t ra = find_root(s.seam_parent, a), rc = find_root(s.seam_parent, c);
+    if (ra == rc) return;
+    const detail::PlaneFit fa = s.regions[a].fit(), fc = s.regions[c].fit();
+    if (fa.ok && fc.ok && planes_merge(s.regions[a], fa, s.regions[c], fc, settings)) {
+      s.seam_parent[std::max(ra, rc)] = std::min(ra, rc);
+    }
+  };
   const int step = f.pixel_stride;
   for (std::size_t b = 1; b < bands; ++b) {
     const int above = s.growth_rows[b] - step;  // the last lattice row of band b - 1
     if (above < 0) continue;
     for (int u = 0; u < f.width; u += step) {
       const std::ptrdiff_t i = static_cast<std::ptrdiff_t>(above) * f.stride + u;
-      const std::int32_t a = f.labels[i];
-      if (a <= 0) continue;
+      if (f.labels[i] <= 0) continue;
       for (int k = 0; k < 8; ++k) {
         if (kNeighbourDv[k] != 1 || ((f.edges[i] >> k) & 1u) == 0) continue;
-        const std::int32_t c = f.labels[i + f.neighbour_offset[k]];
-        if (c <= 0 || c == a || !small(a) || !small(c)) continue;
-        const std::int32_t ra = find_root(s.seam_parent, a), rc = find_root(s.seam_parent, c);
-        if (ra == rc) continue;
-        const detail::PlaneFit fa = s.regions[a].fit(), fc = s.regions[c].fit();
-        if (fa.ok && fc.ok && planes_merge(s.regions[a], fa, s.regions[c], fc, settings)) {
-          s.seam_parent[std::max(ra, rc)] = std::min(ra, rc);
-        }
+        join(f.labels[i], f.labels[i + f.neighbour_offset[k]]);
+      }
+    }
+  }
+  if (f.columns_wrap) {
+    const int last = last_lattice_column(f);
+    for (int v = 0; v < f.height; v += step) {
+      const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(v) * f.stride;
+      if (f.labels[row + last] > 0 && f.labels[row] > 0 && column_seam_linked(f, row + last, row)) {
+        join(f.labels[row + last], f.labels[row]);
       }
     }
   }

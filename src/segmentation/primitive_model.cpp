@@ -281,6 +281,16 @@ class PrimitivePass {
       }
       for (; u < f_.width; u += step) visit(row + u);
     }
+    if (f_.columns_wrap) {
+      const int last = last_lattice_column(f_);
+      for (int v = 0; v < f_.height; v += step) {
+        const std::ptrdiff_t row = v * f_.stride;
+        const std::int32_t a = f_.labels[row + last], b = f_.labels[row];
+        if (a == 0 || b == 0 || a == b || !column_seam_linked(f_, row + last, row)) continue;
+        s_.pairs.push_back((static_cast<std::uint64_t>(std::min(a, b)) << 32) |
+                           static_cast<std::uint32_t>(std::max(a, b)));
+      }
+    }
     std::sort(s_.pairs.begin(), s_.pairs.end());
     s_.pairs.erase(std::unique(s_.pairs.begin(), s_.pairs.end()), s_.pairs.end());
   }

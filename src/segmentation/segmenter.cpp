@@ -370,7 +370,8 @@ void Segmenter::run(const OrganizedCloud& cloud, const Mesh& mesh, const NormalM
   } else {
     out.labels.fill(0);
   }
-  const seg::Frame f = seg::make_frame(cloud, mesh, normals, out.labels);
+  seg::Frame f = seg::make_frame(cloud, mesh, normals, out.labels);
+  f.columns_wrap = seg::columns_wrap(f);
 
   Scratch& s = *scratch_;
   // The pool is only borrowed for this call.
