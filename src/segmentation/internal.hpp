@@ -58,8 +58,9 @@ struct Frame {
 /// lidar's organized scan whose columns go once round the sensor: in most rows where the two
 /// seam pixels and their inner neighbours are valid, the angle between the seam pixels' rays
 /// (from the origin, the sensor) is at most 2.5 times the larger angle between a seam pixel and
-/// its inner neighbour (a column may be missing at the seam). A camera's first and last columns
-/// lie its field of view apart. False for a frame of rings and for fewer than 3 lattice columns.
+/// its inner neighbour (a column may be missing at the seam; up to 64 rows tested). A camera's
+/// first and last columns lie its field of view apart. False for a frame of rings and for fewer
+/// than 3 lattice columns.
 bool columns_wrap(const Frame& f);
 
 /// The index of the last lattice column's pixel in row 0 (width - 1 rounded down to the lattice).
