@@ -71,62 +71,67 @@ void release_temporary(int& slot) {
   slot = -1;
 }
 
-// A closed temporary that a FileGroup renames when it commits.
-struct PendingFile {
-  std::string tmp, path;
-  int slot;
-};
-
-struct GroupState {
-  std::vector<PendingFile> pending;
-  int depth = 0;
-};
-thread_local GroupState t_group;
-
-void drop_pending(std::size_t from) {
-  auto& pending = t_group.pending;
-  for (std::size_t i = from; i < pending.size(); ++i) {
-    std::remove(pending[i].tmp.c_str());
-    release_temporary(pending[i].slot);
-  }
-  pending.resize(std::min(from, pending.size()));
-}
+// The innermost FileGroup of each thread: a plain pointer, so that no thread registers a
+// destructor for it (glibc aborts when that registration finds no memory).
+thread_local FileGroup* t_group = nullptr;
 
 }  // namespace
 
-FileGroup::FileGroup() : first_(t_group.pending.size()), outermost_(t_group.depth == 0) {
-  ++t_group.depth;
-}
+FileGroup::FileGroup() : outer_(t_group) { t_group = this; }
 
 FileGroup::~FileGroup() {
-  --t_group.depth;
-  if (!committed_) drop_pending(first_);
+  t_group = outer_;
+  if (!committed_) drop(0);
+}
+
+void FileGroup::add(Pending file) {
+  // The same path written twice in a group shares one temporary, the later contents.
+  for (const Pending& p : pending_) {
+    if (p.tmp == file.tmp) {
+      release_temporary(file.slot);
+      return;
+    }
+  }
+  pending_.push_back(std::move(file));
+}
+
+void FileGroup::drop(std::size_t from) {
+  for (std::size_t i = from; i < pending_.size(); ++i) {
+    std::remove(pending_[i].tmp.c_str());
+    release_temporary(pending_[i].slot);
+  }
+  pending_.resize(std::min(from, pending_.size()));
 }
 
 void FileGroup::commit() {
   if (committed_) throw std::logic_error("FileGroup committed twice");
+  if (outer_ != nullptr) {
+    outer_->pending_.reserve(outer_->pending_.size() + pending_.size());
+    for (Pending& p : pending_) outer_->add(std::move(p));
+    pending_.clear();
+    committed_ = true;
+    return;
+  }
   committed_ = true;
-  if (!outermost_) return;
-  auto& pending = t_group.pending;
   // The one failure of a rename that is foreseeable: checked for all before any is renamed.
-  for (std::size_t i = first_; i < pending.size(); ++i) {
+  for (const Pending& p : pending_) {
     std::error_code ec;
-    if (std::filesystem::is_directory(pending[i].path, ec)) {
-      const std::string path = pending[i].path;
-      drop_pending(first_);
+    if (std::filesystem::is_directory(p.path, ec)) {
+      const std::string path = p.path;
+      drop(0);
       throw std::runtime_error(path + ": cannot be written: a folder of that name exists");
     }
   }
-  for (std::size_t i = first_; i < pending.size(); ++i) {
-    if (std::rename(pending[i].tmp.c_str(), pending[i].path.c_str()) != 0) {
+  for (std::size_t i = 0; i < pending_.size(); ++i) {
+    if (std::rename(pending_[i].tmp.c_str(), pending_[i].path.c_str()) != 0) {
       const int err = errno;
-      const std::string path = pending[i].path;
-      drop_pending(i);
+      const std::string path = pending_[i].path;
+      drop(i);
       throw std::runtime_error(path + ": cannot rename temporary file: " + std::strerror(err));
     }
-    release_temporary(pending[i].slot);
+    release_temporary(pending_[i].slot);
   }
-  pending.resize(first_);
+  pending_.clear();
 }
 
 void remove_temporary_files() noexcept {
@@ -184,16 +189,9 @@ void AtomicFile::commit() {
     release_temporary(slot_);
     throw std::runtime_error(path_ + ": write error: " + std::strerror(close_error));
   }
-  if (t_group.depth > 0) {
-    // The same path written twice in a group shares one temporary, the later contents.
-    for (const PendingFile& p : t_group.pending) {
-      if (p.tmp == tmp_) {
-        release_temporary(slot_);
-        return;
-      }
-    }
+  if (t_group != nullptr) {
     try {
-      t_group.pending.push_back({tmp_, path_, slot_});
+      t_group->add({tmp_, path_, slot_});
     } catch (...) {
       std::remove(tmp_.c_str());
       throw;  // the destructor releases the slot

@@ -44,7 +44,8 @@ class AtomicFile {
 /// another. `commit()` checks first that no path is a folder; a rename that fails after that
 /// (rare: the data is written by then) throws, and the files renamed before it stay. Groups nest:
 /// an inner group's files are renamed by the outermost group's commit, and dropped if the inner
-/// group ends without its own commit. Not thread-safe; each thread has its own groups.
+/// group ends without its own commit. Not thread-safe; each thread has its own groups (as scoped
+/// objects: a group ends on its thread, inner before outer).
 class FileGroup {
  public:
   FileGroup();
@@ -58,8 +59,17 @@ class FileGroup {
   void commit();
 
  private:
-  std::size_t first_;  ///< this group's first entry in the thread's list of pending files
-  bool outermost_;
+  friend class AtomicFile;
+  /// A closed temporary that the group renames when it commits.
+  struct Pending {
+    std::string tmp, path;
+    int slot;  ///< its entry in remove_temporary_files()'s table, or -1
+  };
+  void add(Pending file);
+  void drop(std::size_t from);
+
+  std::vector<Pending> pending_;
+  FileGroup* outer_;  ///< the group this one is nested in, or nullptr
   bool committed_ = false;
 };
 
