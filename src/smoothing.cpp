@@ -498,8 +498,11 @@ void smooth_rows(const SmoothRowsInput& in, const SmoothingSettings& settings, i
 }  // namespace detail
 
 void validate(const SmoothingSettings& settings) {
-  if (settings.iterations < 0) {
-    throw std::invalid_argument("SmoothingSettings::iterations must be >= 0, got " +
+  // The filter settles within tens of passes; a count in the millions is a typo that would run
+  // for hours.
+  if (settings.iterations < 0 || settings.iterations > kMaxSmoothingIterations) {
+    throw std::invalid_argument("SmoothingSettings::iterations must be within 0 .. " +
+                                std::to_string(kMaxSmoothingIterations) + ", got " +
                                 std::to_string(settings.iterations));
   }
   check_positive(settings.distance_scale, "distance_scale");

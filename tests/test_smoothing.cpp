@@ -657,6 +657,9 @@ TEST(Smoothing, RejectsBadInput) {
   NormalMap bad_normals;
   EXPECT_THROW(smooth(in.cloud, in.mesh, bad_normals, {}, out, out_normals), std::invalid_argument);
   EXPECT_THROW(Smoother({.iterations = -1}), std::invalid_argument);
+  // 2^31 - 1 passes ran for hours; the most a setting may ask for is kMaxSmoothingIterations.
+  EXPECT_NO_THROW(Smoother({.iterations = kMaxSmoothingIterations}));
+  EXPECT_THROW(Smoother({.iterations = kMaxSmoothingIterations + 1}), std::invalid_argument);
   EXPECT_THROW(Smoother({.distance_scale = 0}), std::invalid_argument);
   EXPECT_THROW(Smoother({.normal_scale = NAN}), std::invalid_argument);
   // The message names the member as it is spelt in code and in --config.

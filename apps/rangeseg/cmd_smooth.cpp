@@ -1,4 +1,3 @@
-#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -7,6 +6,7 @@
 #include "input.hpp"
 #include "names.hpp"
 #include "output.hpp"
+#include "rangeseg/smoothing.hpp"
 
 namespace rangeseg::cli {
 namespace {
@@ -35,7 +35,7 @@ void add_smooth(CLI::App& app) {
   cmd->add_option("--config", o->config, "JSON settings overriding the preset");
   cmd->add_option("--iterations", o->iterations,
                   "Filter passes, 0 = none (default: the preset's; abw and ideal do not filter)")
-      ->check(CLI::Range(0, std::numeric_limits<int>::max()));
+      ->check(CLI::Range(0, kMaxSmoothingIterations));
   cmd->callback([o] {
     require_output_extension(o->out, {".pcd"}, "smooth");
     require_distinct_outputs(o->in.path, {o->out}, "smooth");

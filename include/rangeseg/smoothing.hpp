@@ -53,9 +53,12 @@ float pixel_angle_for(const SmoothingSettings& settings, double camera_fx);
 /// cut by the mesh stay sharp. The exponential is evaluated with a polynomial approximation
 /// (relative error < 5e-5); weights below exp(-30) are treated as 0. Depths z are taken
 /// relative to `viewpoint`.
+/// The most filter passes SmoothingSettings::iterations may ask for.
+inline constexpr int kMaxSmoothingIterations = 1000;
+
 struct SmoothingSettings {
-  /// Filter passes [passes]; each reads the previous pass's points and normals, the mesh stays
-  /// the input's.
+  /// Filter passes [passes], 0 .. kMaxSmoothingIterations; each reads the previous pass's points
+  /// and normals, the mesh stays the input's.
   /// 3 passes (the default) halve point and normal errors on planes with Kinect noise from 1 to
   /// 4 m. 0 = the input unchanged.
   int iterations = 3;
