@@ -664,7 +664,7 @@ TEST(Smoothing, RejectsBadInput) {
   EXPECT_THROW(Smoother({.normal_scale = NAN}), std::invalid_argument);
   // The message names the member as it is spelt in code and in --config.
   try {
-    Smoother({.noise = {.a = 0.001, .b = -1.0}});
+    [[maybe_unused]] const Smoother rejected({.noise = {.a = 0.001, .b = -1.0}});
     ADD_FAILURE() << "a negative noise.b was accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("SmoothingSettings::noise.b must be >= 0"),
