@@ -20,7 +20,7 @@ double distance(const Frame& f, std::ptrdiff_t a, std::ptrdiff_t b) {
   return std::sqrt(dx * dx + dy * dy + dz * dz);
 }
 
-/// The angle between the rays from the origin to points a and b [rad]; NaN at the origin.
+/// The angle between the rays from the origin to points a and b [rad]; 0 when one is the origin.
 double ray_angle(const Frame& f, std::ptrdiff_t a, std::ptrdiff_t b) {
   const double ax = f.x[a], ay = f.y[a], az = f.z[a], bx = f.x[b], by = f.y[b], bz = f.z[b];
   // atan2 of |a x b| and a . b: accurate for the small angles between neighbouring columns.
