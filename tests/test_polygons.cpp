@@ -881,5 +881,41 @@ TEST(Polygons, SimplificationDropsAStartVertexOnAStraightSide) {
   EXPECT_EQ(keep, corners);
 }
 
+// The absolute tolerance (1 cm) is capped by the loop's size (simplify_inradius_fraction), so a
+// scene scaled down a hundredfold, as a structured-light scan of a small part sees it, keeps
+// its outlines: the box's 6 x 4 mm front face comes out as the rectangle it is, not cut down by
+// a tolerance as large as the face. At full scale the polygons are those of the 1 cm tolerance.
+TEST(Polygons, TheToleranceFollowsTheLoopsSize) {
+  for (const double scale : {1.0, 0.01}) {
+    synth::Scene scene = wall_and_box();
+    const auto scaled = [&](synth::Vec3 p) {
+      return synth::Vec3{p[0] * scale, p[1] * scale, p[2] * scale};
+    };
+    for (auto& r : scene.rectangles) {
+      r.centre = scaled(r.centre), r.half_u = scaled(r.half_u), r.half_v = scaled(r.half_v);
+    }
+    for (auto& b : scene.boxes) b.centre = scaled(b.centre), b.half_extent = scaled(b.half_extent);
+    const synth::Rendering r = synth::render(scene);
+    const Segmentation seg = truth_segmentation(r);
+    const PolygonSet ps = extract_polygons(r.cloud, build_mesh(r.cloud), seg);
+    check_properties(ps);
+    const SegmentPolygons* front = ps.find(1 + 6);
+    ASSERT_NE(front, nullptr) << scale;
+    ASSERT_EQ(front->loop_count, 1) << scale;
+    const PolygonLoop& loop = ps.loops[front->first_loop];
+    EXPECT_EQ(loop.count, 4) << scale;
+    const double s = scale;
+    expect_rectangle(ps, loop,
+                     {V3{-0.2 * s, -0.15 * s, 1.0 * s}, V3{0.4 * s, -0.15 * s, 1.0 * s},
+                      V3{0.4 * s, 0.25 * s, 1.0 * s}, V3{-0.2 * s, 0.25 * s, 1.0 * s}},
+                     0.01 * s);
+    EXPECT_NEAR(front->area, 0.24 * s * s, 0.01 * 0.24 * s * s) << scale;
+    // 2 area / perimeter of the 0.6 x 0.4 face is 0.24 m (5 %: 1.2 cm); a pixel footprint
+    // at depth 1.0 is 1 / 525 of it.
+    const double expected = std::max(std::min(0.01, 0.05 * 0.24 * s), 1.5 * s / 525);
+    EXPECT_NEAR(loop.tolerance, expected, 0.05 * expected) << scale;
+  }
+}
+
 }  // namespace
 }  // namespace rangeseg

@@ -40,6 +40,16 @@ TEST(SettingsJson, KeysSetTheirFieldsAndNamesSetModels) {
   io::apply_settings_json(R"({"smoothing": {"iterations": 2}})", "p", abw);
   EXPECT_TRUE(abw.smooth);
   EXPECT_EQ(abw.smoothing.iterations, 2);
+  // The polygons' settings ("polygons" turns them on or off).
+  io::apply_settings_json(
+      R"({"polygons": true, "polygon": {"simplify_tolerance": 0.002, "convex_hull": false,
+          "simplify_inradius_fraction": 0, "min_segment_pixels": 40}})",
+      "params.json", s);
+  EXPECT_TRUE(s.polygons);
+  EXPECT_DOUBLE_EQ(s.polygon.simplify_tolerance, 0.002);
+  EXPECT_DOUBLE_EQ(s.polygon.simplify_inradius_fraction, 0);
+  EXPECT_FALSE(s.polygon.convex_hull);
+  EXPECT_EQ(s.polygon.min_segment_pixels, 40);
 }
 
 TEST(SettingsJson, ErrorsNameTheSourceAndKeyAndChangeNothing) {
@@ -54,6 +64,9 @@ TEST(SettingsJson, ErrorsNameTheSourceAndKeyAndChangeNothing) {
              "[segmentation]: key 'min_region_size' = -3 is invalid"},
         Case{R"({"segmentation": {"model": "planes"}})", "unknown model 'planes'"},
         Case{R"({"mesh": {"type": "triangles"}})", "unknown mesh type"},
+        Case{R"({"polygon": {"simplify_tolerance": -0.01}})",
+             "[polygon]: key 'simplify_tolerance' = -0.01 is invalid"},
+        Case{R"({"polygon": {"viewpoint": [0, 0, 0]}})", "unknown key 'viewpoint'"},
         Case{R"({"smooth": "yes"})", "key 'smooth' must be true or false, got \"yes\""},
         Case{R"({"mesh": {"eps_theta": "wide"}})", "key 'eps_theta' must be a number"},
         Case{R"([1, 2])", "expected a JSON object"}, Case{R"({"mesh": )", "invalid JSON"},
@@ -92,6 +105,7 @@ TEST(SettingsJson, WrittenSettingsReadBack) {
     s.rings.k = 9;
     s.restore_grid = false;
     s.polygons = false;
+    s.polygon.min_loop_pixels = 3.5;
     const std::string text = io::settings_to_json(s);
     PipelineSettings back;
     io::apply_settings_json(text, "written", back);
@@ -105,6 +119,7 @@ TEST(SettingsJson, WrittenSettingsReadBack) {
     EXPECT_EQ(back.rings.k, 9);
     EXPECT_FALSE(back.restore_grid);
     EXPECT_FALSE(back.polygons);
+    EXPECT_EQ(back.polygon.min_loop_pixels, 3.5);
   }
   EXPECT_NE(io::settings_to_json(pipeline_preset("kinect")).find("\"eps_theta\": 0.2182,"),
             std::string::npos);

@@ -283,6 +283,26 @@ TEST(RingPolygons, RectangleWithHoleAndIslandOnAGrid) {
   EXPECT_EQ(fit.points_outside, 0);
 }
 
+// A 15 x 10 mm face of a 0.1 mm scan: the 1 cm absolute tolerance would cut its outline down
+// to a fraction of its area; capped at 5 % of the segment's inradius it keeps the rectangle.
+TEST(RingPolygons, TheToleranceFollowsTheSegmentsSize) {
+  const Shape shape{{{-0.0075, 0.0075, -0.005, 0.005}}, {}};
+  const double h = 0.0001;
+  const OrganizedCloud cloud =
+      shuffled_cloud(grid_points(kFrontal, shape, {-0.01, 0.01, -0.0075, 0.0075}, h), 3);
+  const PointRings rings = build_rings(cloud);
+  const PolygonSet set = extract_polygons(cloud, rings, one_plane(cloud, kFrontal));
+  ASSERT_EQ(set.segments.size(), 1u);
+  test::check_properties(set);
+  const Fit fit = measure(set, cloud, kFrontal, shape, max_tolerance(set));
+  EXPECT_EQ(fit.outer, 1);
+  EXPECT_NEAR(fit.area_ratio, 1.0, 0.02);
+  EXPECT_LE(fit.worst_vertex, 3 * h);
+  // The segment's area as a square's: inradius 0.5 sqrt(1.5e-4 m^2) = 6.1 mm, 5 % of it 0.3 mm.
+  EXPECT_LT(max_tolerance(set), 0.0004);
+  EXPECT_GT(max_tolerance(set), 0.0002);
+}
+
 /// A plane at `distance` along the optical axis, tilted about the x axis by `incidence` (the
 /// angle between its normal and the optical axis).
 TestPlane tilted_plane(double incidence, double distance) {

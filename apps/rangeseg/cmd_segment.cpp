@@ -90,8 +90,10 @@ void add_settings_options(CLI::App& cmd, std::string& model, std::string& preset
       "segmentation, rings (k-nearest-neighbour rings of unorganized clouds: k, "
       "max_distance, eps_theta, jump_sigmas, by_direction, balanced), smooth (true/false), "
       "restore_grid (true/false: an unorganized cloud on a camera's pixel grid runs on "
-      "that grid), track (true/false: segment tracks across frames) and tracking "
-      "(min_overlap, max_normal_angle, max_distance); `rangeseg settings` prints them all");
+      "that grid), polygons (true/false), polygon (simplify_tolerance [m], "
+      "simplify_tolerance_pixels, simplify_inradius_fraction, ...), track (true/false: segment "
+      "tracks across frames) and tracking (min_overlap, max_normal_angle, max_distance); "
+      "`rangeseg settings` prints them all");
   cmd.add_flag("--no-smooth", no_smooth, "Skip the bilateral filter");
 }
 

@@ -48,9 +48,18 @@ struct PlaneFrame {
 /// Settings of `PolygonExtractor::extract`.
 struct PolygonSettings {
   /// Douglas-Peucker tolerance: max distance of a dropped boundary vertex from the simplified
-  /// loop [m]. The tolerance used for a loop is the larger of this and
-  /// `simplify_tolerance_pixels` pixel footprints. 0 and 0 = no simplification.
+  /// loop [m]. The tolerance used for a loop is the larger of this (capped by
+  /// `simplify_inradius_fraction`) and `simplify_tolerance_pixels` pixel footprints. 0 and 0 =
+  /// no simplification.
   double simplify_tolerance = 0.01;
+  /// Caps `simplify_tolerance` at this fraction of the loop's inradius, 2 area / perimeter (a
+  /// square's half side, a disc's radius; a long strip's width) [dimensionless]. Dropping
+  /// vertices within t of the simplified loop changes its area by at most t times its
+  /// perimeter, so the cap bounds that change to 2 x 0.05 = 10 % of the area, whatever the
+  /// scale: 1 cm stays 1 cm for a table, and becomes 0.3 mm for a 15 x 10 mm face of a
+  /// 0.1 mm structured-light scan. Unorganized clouds take the segment's area as a square's.
+  /// 0 disables the absolute tolerance; a large value disables the cap.
+  double simplify_inradius_fraction = 0.05;
   /// Depth-aware part of the tolerance, in pixel footprints at the loop (one footprint = mean
   /// length of the loop's mesh boundary edges) [dimensionless]. The mesh outline is a staircase
   /// on the pixel grid whose steps are up to one footprint, plus ~1 pixel of edge dropouts.

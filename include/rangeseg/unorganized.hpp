@@ -235,7 +235,8 @@ inline Segmentation segment(const OrganizedCloud& cloud, const PointRings& rings
 /// cells per segment), closed with a 3x3 square and traced into outer loops and holes (no
 /// concavity or hole narrower than about a point spacing survives), which are simplified as on
 /// the grid. One "pixel" of the settings is the segment's median footprint side (the square
-/// root of its area): the simplification tolerance is the larger of simplify_tolerance and
+/// root of its area): the simplification tolerance is the larger of simplify_tolerance (capped
+/// by simplify_inradius_fraction of the segment's inradius, its area taken as a square's) and
 /// simplify_tolerance_pixels footprints, and loops smaller than min_loop_pixels footprints are
 /// dropped (except the largest outer loop). `raw_*` describe the traced raster outline; the
 /// convex hull is that of the outer loops' vertices. `pixels` and `hull_pixels` stay empty

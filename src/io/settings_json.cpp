@@ -155,13 +155,21 @@ void for_each_key(PipelineSettings& s, Visit&& visit) {
   visit("rings", "jump_sigmas", r.jump_sigmas);
   visit("rings", "by_direction", r.by_direction);
   visit("rings", "balanced", r.balanced);
+  auto& p = s.polygon;
+  visit("polygon", "simplify_tolerance", p.simplify_tolerance);
+  visit("polygon", "simplify_tolerance_pixels", p.simplify_tolerance_pixels);
+  visit("polygon", "simplify_inradius_fraction", p.simplify_inradius_fraction);
+  visit("polygon", "convex_hull", p.convex_hull);
+  visit("polygon", "min_segment_pixels", p.min_segment_pixels);
+  visit("polygon", "planes_only", p.planes_only);
+  visit("polygon", "min_loop_pixels", p.min_loop_pixels);
   visit("tracking", "min_overlap", s.tracking.min_overlap);
   visit("tracking", "max_normal_angle", s.tracking.max_normal_angle);
   visit("tracking", "max_distance", s.tracking.max_distance);
 }
 
-constexpr std::array<const char*, 5> kSections{"mesh", "smoothing", "segmentation", "rings",
-                                               "tracking"};
+constexpr std::array<const char*, 6> kSections{"mesh",  "smoothing", "segmentation",
+                                               "rings", "polygon",   "tracking"};
 
 void read_settings(const json& j, const std::string& path, PipelineSettings& s) {
   std::vector<const char*> top{"noise"};

@@ -417,8 +417,10 @@ void outline_segment(const OrganizedCloud& cloud, const Segmentation& segmentati
     const int n = w.xy_first[k + 1] - w.xy_first[k];
     polygons_detail::area_perimeter(xy_point(w.xy.data(), w.xy_first[k]), n, w.raw_area[k],
                                     w.raw_perimeter[k]);
-    w.tolerance[k] = std::max(settings.simplify_tolerance,
-                              settings.simplify_tolerance_pixels * w.raw_perimeter[k] / n);
+    const double inradius = w.raw_perimeter[k] > 0 ? 2 * w.raw_area[k] / w.raw_perimeter[k] : 0;
+    w.tolerance[k] = std::max(
+        std::min(settings.simplify_tolerance, settings.simplify_inradius_fraction * inradius),
+        settings.simplify_tolerance_pixels * w.raw_perimeter[k] / n);
   }
   for (int attempt = 0;; ++attempt) {
     // Only loops whose tolerance changed are simplified again.
@@ -810,6 +812,7 @@ void validate(const PolygonSettings& settings) {
   };
   finite_nonnegative(settings.simplify_tolerance, "simplify_tolerance");
   finite_nonnegative(settings.simplify_tolerance_pixels, "simplify_tolerance_pixels");
+  finite_nonnegative(settings.simplify_inradius_fraction, "simplify_inradius_fraction");
   finite_nonnegative(settings.min_loop_pixels, "min_loop_pixels");
   if (settings.min_segment_pixels < 0) {
     detail::throw_bad_setting(owner, "min_segment_pixels", settings.min_segment_pixels, ">= 0");

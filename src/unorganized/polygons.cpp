@@ -227,16 +227,18 @@ std::array<double, 2> beside_hole(const Polygons2D& loops, int loop, double step
 void require_settings(const PolygonSettings& s) {
   const bool ok = s.simplify_tolerance >= 0 && std::isfinite(s.simplify_tolerance) &&
                   s.simplify_tolerance_pixels >= 0 && std::isfinite(s.simplify_tolerance_pixels) &&
-                  s.min_loop_pixels >= 0 && std::isfinite(s.min_loop_pixels) &&
-                  std::isfinite(s.viewpoint[0]) && std::isfinite(s.viewpoint[1]) &&
-                  std::isfinite(s.viewpoint[2]);
+                  s.simplify_inradius_fraction >= 0 &&
+                  std::isfinite(s.simplify_inradius_fraction) && s.min_loop_pixels >= 0 &&
+                  std::isfinite(s.min_loop_pixels) && std::isfinite(s.viewpoint[0]) &&
+                  std::isfinite(s.viewpoint[1]) && std::isfinite(s.viewpoint[2]);
   if (!ok) {
     std::ostringstream msg;
     msg << "extract_polygons: tolerances and min_loop_pixels must be finite and >= 0, viewpoint "
            "finite; got simplify_tolerance "
         << s.simplify_tolerance << ", simplify_tolerance_pixels " << s.simplify_tolerance_pixels
-        << ", min_loop_pixels " << s.min_loop_pixels << ", viewpoint (" << s.viewpoint[0] << ", "
-        << s.viewpoint[1] << ", " << s.viewpoint[2] << ")";
+        << ", simplify_inradius_fraction " << s.simplify_inradius_fraction << ", min_loop_pixels "
+        << s.min_loop_pixels << ", viewpoint (" << s.viewpoint[0] << ", " << s.viewpoint[1] << ", "
+        << s.viewpoint[2] << ")";
     throw std::invalid_argument(msg.str());
   }
 }
@@ -519,8 +521,11 @@ void PolygonExtractor::extract(const OrganizedCloud& cloud, const PointRings& ri
     }
     for (const std::int32_t i : sc.members) sc.local[static_cast<std::size_t>(i)] = -1;
     const double side = sc.f.median_side;
-    const double tolerance =
-        std::max(settings.simplify_tolerance, settings.simplify_tolerance_pixels * side);
+    // The segment's inradius, its area (footprints of about side^2 each) taken as a square's.
+    const double inradius = 0.5 * side * std::sqrt(static_cast<double>(sc.members.size()));
+    const double tolerance = std::max(
+        std::min(settings.simplify_tolerance, settings.simplify_inradius_fraction * inradius),
+        settings.simplify_tolerance_pixels * side);
     if (!sc.trace(tolerance)) continue;
     sc.arrange(settings.min_loop_pixels * side * side, 1e-3 * side);
     sc.write(settings, out, static_cast<int>(out.segments.size()) - 1, sp);

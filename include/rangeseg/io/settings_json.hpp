@@ -20,6 +20,10 @@ namespace rangeseg::io {
 ///    "segmentation": {SegmentationSettings' fields by name but noise, coarse_cells and
 ///                     compute_area; "model": "plane"|"smooth"|"incremental_plane"|"auto"},
 ///    "rings": {"k", "max_distance", "eps_theta", "jump_sigmas", "by_direction", "balanced"},
+///    "polygons": bool (outline plane segments),
+///    "polygon": {PolygonSettings' fields by name but viewpoint: "simplify_tolerance",
+///                "simplify_tolerance_pixels", "simplify_inradius_fraction", "convex_hull",
+///                "min_segment_pixels", "planes_only", "min_loop_pixels"},
 ///    "tracking": {"min_overlap", "max_normal_angle", "max_distance"}}
 /// (`rangeseg settings` prints every key),
 /// with the units of the settings structs (metres, radians). Throws std::runtime_error naming
