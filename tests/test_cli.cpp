@@ -300,6 +300,23 @@ TEST(Cli, ConvertToDepthPngWritesItsIntrinsics) {
   }
   EXPECT_LT(worst, 6e-4);
 
+  // Depths that 16 bits in this unit cannot hold (1 to 5 m in 10 um: beyond 0.66 m) are refused
+  // with a unit that fits, not written as holes; --depth-scale is the output's unit here.
+  const CliResult lossy = run("convert " + (dir / "cloud.pcd").string() + " " +
+                              (dir / "fine.png").string() + " --depth-scale 0.00001");
+  EXPECT_EQ(lossy.code, 2) << lossy.out;
+  EXPECT_TRUE(contains(lossy.out, "cloud.pcd: " + std::to_string(a.count_valid()) + " of " +
+                                      std::to_string(a.count_valid()) + " points would be lost"))
+      << lossy.out;
+  EXPECT_TRUE(contains(lossy.out, "give --depth-scale 0.0001 ")) << lossy.out;
+  EXPECT_FALSE(contains(lossy.out, "apply to depth PNGs only")) << lossy.out;
+  EXPECT_FALSE(fs::exists(dir / "fine.png"));
+  EXPECT_FALSE(fs::exists(dir / "fine.json"));
+  const CliResult fine = run("convert " + (dir / "cloud.pcd").string() + " " +
+                             (dir / "fine.png").string() + " --depth-scale 0.0001");
+  EXPECT_EQ(fine.code, 0) << fine.out;
+  EXPECT_FALSE(contains(fine.out, "warning")) << fine.out;
+
   // x / z falling along the rows (a scanner's grid): no camera's image.
   const fs::path scan = dir / "scan.pcd";
   std::ofstream(scan) << "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"

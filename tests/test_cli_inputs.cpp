@@ -427,9 +427,17 @@ TEST(CliInputs, DepthImageCameraAndScaleAreChecked) {
   EXPECT_TRUE(contains(r.out, "no camera given")) << r.out;
   EXPECT_TRUE(contains(r.out, "the default, a Kinect's")) << r.out;
   EXPECT_FALSE(contains(r.out, "is the scale right")) << r.out;
+  // Only a file that reads as a camera for this image's size is suggested: not a settings
+  // file, nor another camera's intrinsics.
+  std::ofstream(dir / "params.json") << R"({"smooth": false})";
+  std::ofstream(dir / "vga.json") << R"({"width": 640, "height": 480, "fx": 525, "fy": 525,
+                                         "cx": 319.5, "cy": 239.5})";
+  r = run("info " + png);
+  EXPECT_TRUE(contains(r.out, "no camera given")) << r.out;
+  EXPECT_FALSE(contains(r.out, "beside it")) << r.out;
   std::ofstream(dir / "camera.json") << R"({"fx": 60, "fy": 60, "cx": 31.5, "cy": 23.5})";
   r = run("info " + png);
-  EXPECT_TRUE(contains(r.out, "camera.json lies beside it")) << r.out;
+  EXPECT_TRUE(contains(r.out, "camera.json beside it is a camera file")) << r.out;
 
   // One focal length is both (square pixels).
   r = run("info " + png + " --fx 600");
@@ -447,6 +455,14 @@ TEST(CliInputs, DepthImageCameraAndScaleAreChecked) {
   r = run("info " + png + " --fx 60 --depth-scale inf");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_TRUE(contains(r.out, "finite number > 0")) << r.out;
+  // Finite options whose points are not (beyond float's range) are named, not an empty cloud.
+  for (const char* options :
+       {"--fx 60 --depth-scale 1e300", "--fx 60 --depth-scale 1e-300", "--fx 1e-300"}) {
+    r = run("info " + png + " " + options);
+    EXPECT_EQ(r.code, 2) << options << r.out;
+    EXPECT_TRUE(contains(r.out, "d.png: 3072 of 3072 depth readings give no finite point"))
+        << options << r.out;
+  }
 
   // An 8-bit PNG (here by libpng's simplified API, as a picture would be written) is read, and
   // named.
@@ -500,4 +516,32 @@ TEST(CliInputs, AutoPresetNotesAScannersGrid) {
       run("segment " + write_small_pcd(dir).string() + " -o " + (dir / "c").string());
   ASSERT_EQ(camera.code, 0) << camera.out;
   EXPECT_FALSE(contains(camera.out, "no pinhole camera")) << camera.out;
+}
+
+// Floats in a map's frame (UTM) keep their 0.5 m steps when --apply-viewpoint moves them into
+// the sensor's frame, where the cloud no longer looks far from its origin: named on stderr.
+// Doubles keep the map's millimetres and are not.
+TEST(CliInputs, FloatPointsInAMapsFrameAreNamedWhenMovedToTheSensor) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_utm_float");
+  for (const int size : {4, 8}) {
+    const fs::path path = dir / ("utm" + std::to_string(size) + ".pcd");
+    std::ofstream out(path);
+    out << "VERSION .7\nFIELDS x y z\nSIZE " << size << ' ' << size << ' ' << size
+        << "\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 8\nHEIGHT 6\n"
+           "VIEWPOINT 500000 5000000 100 1 0 0 0\nPOINTS 48\nDATA ascii\n";
+    out.precision(12);
+    for (int v = 0; v < 6; ++v) {
+      for (int u = 0; u < 8; ++u) {
+        out << 500000 + (u - 3.5) / 60 * 2 << ' ' << 5000000 + (v - 2.5) / 60 * 2 << " 102\n";
+      }
+    }
+    out.close();
+    const CliResult r = run("info " + path.string() + " --apply-viewpoint");
+    EXPECT_EQ(r.code, 0) << r.out;
+    EXPECT_EQ(contains(r.out,
+                       "x y z are stored as float near the VIEWPOINT's coordinates (up to "
+                       "5e+06 m), where floats lie 0.5 m apart"),
+              size == 4)
+        << r.out;
+  }
 }

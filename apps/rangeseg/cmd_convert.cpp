@@ -1,4 +1,6 @@
+#include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -37,6 +39,49 @@ io::PcdEncoding parse_encoding(const std::string& name) {
                               "' (expected ascii, binary or binary_compressed)");
 }
 
+/// The smallest of 1, 2 and 5 times a power of ten that is at least `x` > 0.
+double round_up_125(double x) {
+  const double decade = std::pow(10.0, std::floor(std::log10(x)));
+  for (const double m : {1.0, 2.0, 5.0, 10.0}) {
+    if (m * decade >= x * (1 - 1e-12)) return m * decade;
+  }
+  return 10 * decade;
+}
+
+/// A 16-bit depth PNG holds 1..65535 units: a point outside that range would come back as no
+/// depth at all, so a convert that loses points is refused with a unit that fits.
+void require_depths_kept(const OrganizedCloud& cloud, const DepthImage& depth,
+                         const InputOptions& in) {
+  std::size_t lost = 0, valid = 0;
+  double z_min = INFINITY, z_max = -INFINITY;
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      if (!cloud.valid(u, v)) continue;
+      ++valid;
+      const double z = cloud.z(u, v);
+      z_min = std::min(z_min, z);
+      z_max = std::max(z_max, z);
+      if (depth(u, v) == 0) ++lost;
+    }
+  }
+  if (lost == 0) return;
+  const double unit = in.depth_scale;
+  char text[512];
+  std::snprintf(text, sizeof text,
+                "%s: %zu of %zu points would be lost: a 16-bit depth PNG in units of %g m "
+                "holds depths of %g to %g m, these points lie at %.4g to %.4g m",
+                in.path.c_str(), lost, valid, unit, unit, 65535 * unit, z_min, z_max);
+  const double fitting = z_max > 0 ? round_up_125(z_max / 65535.5) : 0;
+  std::string advice = "; convert to .pcd or .ply instead";
+  if (z_min > 0 && fitting > 0 && z_min >= 0.5 * fitting) {
+    char scale[96];
+    std::snprintf(scale, sizeof scale, "; give --depth-scale %g (a depth unit of %g mm)", fitting,
+                  fitting * 1e3);
+    advice = scale + std::string(" or") + advice.substr(1);
+  }
+  throw std::runtime_error(text + advice);
+}
+
 void convert(const ConvertOptions& o) {
   require_output_extension(o.out, {".pcd", ".png", ".ply"}, "convert");
   const std::string ext = io::extension(o.out);
@@ -48,7 +93,10 @@ void convert(const ConvertOptions& o) {
   const std::string json_path = (fs::path(o.out).replace_extension(".json")).string();
   require_distinct_outputs(o.in.path, {o.out, ext == ".png" ? json_path : ""}, "convert");
   if (ext == ".png") require_distinct_outputs(o.in.intrinsics, {json_path}, "convert");
-  LoadedInput in = load_input(o.in);
+  InputOptions read = o.in;
+  // Writing a depth PNG, --depth-scale is the output's unit whatever the input.
+  if (ext == ".png" && io::extension(o.in.path) != ".png") read.depth_scale_given = false;
+  LoadedInput in = load_input(read);
   if (o.shuffle) {
     in.cloud = shuffled_valid_points(in.cloud, *o.shuffle);
   } else if (o.unorganized) {
@@ -75,8 +123,10 @@ void convert(const ConvertOptions& o) {
                                "computed again; convert it to .pcd or .ply");
     }
     // The depth PNG is of no use without its intrinsics: the pair is written together or not.
+    const DepthImage depth = cloud_to_depth(in.cloud, o.in.depth_scale);
+    require_depths_kept(in.cloud, depth, o.in);
     io::FileGroup group;
-    io::write_depth_png(o.out, cloud_to_depth(in.cloud, o.in.depth_scale).view());
+    io::write_depth_png(o.out, depth.view());
     write_json(json_path,
                {{"width", camera.width},
                 {"height", camera.height},

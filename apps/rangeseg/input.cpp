@@ -193,6 +193,81 @@ double median_of(std::vector<float>& values) {
   return *middle;
 }
 
+/// Points stored as floats in a map's frame keep the steps floats have there when the VIEWPOINT
+/// moves them into the sensor's frame: the cloud then looks fine but is not (checked on the
+/// VIEWPOINT's translation, near which the stored points lie).
+void check_stored_precision(const std::string& path, const std::array<double, 7>& viewpoint) {
+  constexpr double kFarCoordinate = 8192;  // floats there lie 1 mm apart (as cloud_scale_problem)
+  const double largest =
+      std::max({std::abs(viewpoint[0]), std::abs(viewpoint[1]), std::abs(viewpoint[2])});
+  if (largest < kFarCoordinate) return;
+  const double step =
+      static_cast<double>(std::nextafter(static_cast<float>(largest), INFINITY)) - largest;
+  static std::once_flag flag;
+  warn_once(flag, [&] {
+    char text[320];
+    std::snprintf(text, sizeof text,
+                  ": x y z are stored as float near the VIEWPOINT's coordinates (up to %.6g m), "
+                  "where floats lie %.3g m apart: moved into the sensor's frame, the points keep "
+                  "those steps (store them as doubles, or subtract the offset before saving)",
+                  largest, step);
+    return "warning: " + path + text;
+  });
+}
+
+/// Every depth reading must become a point: a depth scale or focal length beyond float's range
+/// (e.g. --depth-scale 1e300 or 1e-300) would otherwise leave an empty cloud with no reason.
+void require_finite_points(const std::string& path, const DepthImage& depth,
+                           const OrganizedCloud& cloud, const CameraIntrinsics& cam,
+                           double depth_scale) {
+  std::size_t readings = 0;
+  for (int v = 0; v < depth.height(); ++v) {
+    for (int u = 0; u < depth.width(); ++u) readings += depth(u, v) != 0 ? 1 : 0;
+  }
+  const std::size_t points = cloud.count_valid();
+  if (points == readings) return;
+  char text[320];
+  std::snprintf(text, sizeof text,
+                ": %zu of %zu depth readings give no finite point in single precision (depth "
+                "scale %g m/unit, fx %g px, fy %g px): check --depth-scale and the camera",
+                readings - points, readings, depth_scale, cam.fx, cam.fy);
+  throw std::runtime_error(path + text);
+}
+
+/// A camera file (JSON or ROS YAML) in the folder of `image` that reads as one and states no
+/// other image size, the one named like the image first; "" when there is none. Looks at a
+/// bounded number of entries, so a huge folder costs little.
+std::string camera_file_beside(const std::string& image, int width, int height) {
+  const std::filesystem::path path(image);
+  const std::filesystem::path folder = path.parent_path().empty() ? "." : path.parent_path();
+  const auto fits = [&](const std::filesystem::path& file) {
+    const std::string ext = io::extension(file.string());
+    std::error_code ec;
+    if ((ext != ".json" && ext != ".yaml" && ext != ".yml") ||
+        !std::filesystem::is_regular_file(file, ec) ||
+        std::filesystem::file_size(file, ec) > (1u << 20) || ec) {
+      return false;
+    }
+    try {
+      const CameraIntrinsics c = io::read_camera_file(file.string()).intrinsics;
+      return (c.width == 0 || c.width == width) && (c.height == 0 || c.height == height);
+    } catch (const std::exception&) {
+      return false;  // a settings file or anything else that is no camera
+    }
+  };
+  for (const char* ext : {".json", ".yaml", ".yml"}) {
+    std::filesystem::path same = path;
+    if (fits(same.replace_extension(ext))) return same.string();
+  }
+  std::error_code ec;
+  int looked = 0;
+  for (const auto& e : std::filesystem::directory_iterator(folder, ec)) {
+    if (++looked > 1000) break;
+    if (fits(e.path())) return e.path().string();
+  }
+  return "";
+}
+
 // A depth image's camera and scale, when nothing named them or they are implausible.
 void check_depth_image(const InputOptions& o, const OrganizedCloud& cloud, bool eight_bit) {
   if (!o.tum_sequence && !o.depth_scale_given) {
@@ -215,17 +290,11 @@ void check_depth_image(const InputOptions& o, const OrganizedCloud& cloud, bool 
   if (!camera_options_given(o) && !o.tum_sequence) {
     static std::once_flag flag;
     warn_once(flag, [&] {
-      std::string beside;
-      const std::filesystem::path folder = std::filesystem::path(o.path).parent_path();
-      std::error_code ec;
-      for (const auto& e : std::filesystem::directory_iterator(
-               folder.empty() ? std::filesystem::path(".") : folder, ec)) {
-        const std::string ext = io::extension(e.path().string());
-        if (ext == ".json" || ext == ".yaml" || ext == ".yml") {
-          beside = " (" + e.path().string() + " lies beside it: pass it with --intrinsics)";
-          break;
-        }
-      }
+      const std::string camera = camera_file_beside(o.path, cloud.width(), cloud.height());
+      const std::string beside =
+          camera.empty() ? ""
+                         : " (" + camera + " beside it is a camera file for this image's size: " +
+                               "pass it with --intrinsics)";
       return "note: " + o.path +
              ": no camera given (--intrinsics, --fx/--fy): depth PNGs are taken as a Kinect's, "
              "fx = fy = 525 px, the principal point at the centre" +
@@ -330,7 +399,10 @@ LoadedInput load_input(const InputOptions& o) {
     in.format = std::string("PCD ") + names[static_cast<int>(info.encoding)];
     in.fields = info.fields_summary;
     if (in.cloud.has_label()) in.ground_truth = in.cloud.label;
-    if (info.moved_from_sensor()) take_viewpoint(in, info.viewpoint, o, "VIEWPOINT", true);
+    if (info.moved_from_sensor()) {
+      take_viewpoint(in, info.viewpoint, o, "VIEWPOINT", true);
+      if (o.apply_viewpoint && !info.xyz_double) check_stored_precision(o.path, info.viewpoint);
+    }
   } else if (ext == ".png") {
     bool eight_bit = false;
     const DepthImage depth = io::read_depth_png(o.path, &eight_bit);
@@ -345,6 +417,7 @@ LoadedInput load_input(const InputOptions& o) {
       throw std::runtime_error(o.path + (o.intrinsics.empty() ? "" : " with " + o.intrinsics) +
                                ": " + e.what());
     }
+    require_finite_points(o.path, depth, in.cloud, cam, o.depth_scale);
     check_depth_image(o, in.cloud, eight_bit);
     in.format = eight_bit ? "8-bit depth PNG" : "16-bit depth PNG";
     char scale[48];

@@ -634,7 +634,11 @@ OrganizedCloud parse_pcd(const std::uint8_t* data, std::size_t size, const std::
     cloud.add_label();
     decode_label(column(flabel), cloud.label);
   }
-  if (info) *info = h.info;
+  if (info) {
+    *info = h.info;
+    const auto is_double = [](const Field* f) { return f->type == 'F' && f->size == 8; };
+    info->xyz_double = is_double(fx) && is_double(fy) && is_double(fz);
+  }
   return cloud;
 }
 

@@ -23,6 +23,9 @@ struct PcdInfo {
   int width = 0, height = 0;        ///< grid size; height 1 = unorganized
   std::uint64_t points = 0;         ///< width * height
   PcdEncoding encoding = PcdEncoding::binary;
+  /// Whether x, y and z are all stored as doubles (TYPE F, SIZE 8), which keep a map's
+  /// coordinates (UTM: 5e6 m) to the nanometre; floats there lie 0.5 m apart.
+  bool xyz_double = false;
   /// VIEWPOINT: the sensor's pose in the points' frame, translation tx ty tz [m] and rotation
   /// quaternion qw qx qy qz, as PCL stores it (sensor_origin_, sensor_orientation_); identity
   /// when the header has none. The reader returns the points as stored, in the file's frame.
@@ -59,6 +62,9 @@ OrganizedCloud parse_pcd(const std::uint8_t* data, std::size_t size, const std::
 
 struct PcdWriteOptions {
   PcdEncoding encoding = PcdEncoding::binary;
+  /// Whether x, y and z are all stored as doubles (TYPE F, SIZE 8), which keep a map's
+  /// coordinates (UTM: 5e6 m) to the nanometre; floats there lie 0.5 m apart.
+  bool xyz_double = false;
   /// VIEWPOINT written (see PcdInfo::viewpoint; finite values, std::invalid_argument otherwise).
   std::array<double, 7> viewpoint{0, 0, 0, 1, 0, 0, 0};
   /// Additional F4 fields written after the cloud's own, e.g. {"normal_x", &nx}. Each plane
