@@ -860,11 +860,13 @@ TEST(Polygons, CrossingGridMatchesSweep) {
 TEST(Polygons, SimplificationDropsAStartVertexOnAStraightSide) {
   std::vector<double> xy;
   std::vector<int> corners;
-  const auto walk = [&](int x0, int y0, int x1, int y1) {  // (x0, y0) included, (x1, y1) not
+  // Along one axis, unit steps: (x0, y0) included, (x1, y1) not.
+  const auto walk = [&](int x0, int y0, int x1, int y1) {
     const int steps = std::abs(x1 - x0) + std::abs(y1 - y0);
+    const int dx = (x1 > x0) - (x1 < x0), dy = (y1 > y0) - (y1 < y0);
     for (int i = 0; i < steps; ++i) {
-      xy.push_back(x0 + (x1 - x0) * i / steps);
-      xy.push_back(y0 + (y1 - y0) * i / steps);
+      xy.push_back(x0 + dx * i);
+      xy.push_back(y0 + dy * i);
     }
     corners.push_back(static_cast<int>(xy.size() / 2));  // the next vertex is (x1, y1)
   };

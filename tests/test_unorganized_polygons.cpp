@@ -260,13 +260,24 @@ Shape rectangle_with_hole_and_island() {
   return {{{-0.3, 0.3, -0.2, 0.2}, {0.4, 0.5, -0.05, 0.05}}, {{-0.1, 0.1, -0.05, 0.05}}};
 }
 
+struct Outlined {
+  OrganizedCloud cloud;
+  PolygonSet set;
+};
+
+/// The polygons of `shape` on the frontal plane, sampled on a square grid of spacing h over
+/// `box` and shuffled with `seed`, as one plane segment over rings.
+Outlined outline_frontal_grid(const Shape& shape, const Rect& box, double h, unsigned seed) {
+  Outlined o{shuffled_cloud(grid_points(kFrontal, shape, box, h), seed), {}};
+  const PointRings rings = build_rings(o.cloud);
+  o.set = extract_polygons(o.cloud, rings, one_plane(o.cloud, kFrontal));
+  return o;
+}
+
 TEST(RingPolygons, RectangleWithHoleAndIslandOnAGrid) {
   const Shape shape = rectangle_with_hole_and_island();
   const double h = 0.005;
-  const OrganizedCloud cloud =
-      shuffled_cloud(grid_points(kFrontal, shape, {-0.4, 0.6, -0.3, 0.3}, h), 1);
-  const PointRings rings = build_rings(cloud);
-  const PolygonSet set = extract_polygons(cloud, rings, one_plane(cloud, kFrontal));
+  const auto [cloud, set] = outline_frontal_grid(shape, {-0.4, 0.6, -0.3, 0.3}, h, 1);
   ASSERT_EQ(set.segments.size(), 1u);
   test::check_properties(set);
   expect_hulls_hold_their_polygons(set);
@@ -288,10 +299,7 @@ TEST(RingPolygons, RectangleWithHoleAndIslandOnAGrid) {
 TEST(RingPolygons, TheToleranceFollowsTheSegmentsSize) {
   const Shape shape{{{-0.0075, 0.0075, -0.005, 0.005}}, {}};
   const double h = 0.0001;
-  const OrganizedCloud cloud =
-      shuffled_cloud(grid_points(kFrontal, shape, {-0.01, 0.01, -0.0075, 0.0075}, h), 3);
-  const PointRings rings = build_rings(cloud);
-  const PolygonSet set = extract_polygons(cloud, rings, one_plane(cloud, kFrontal));
+  const auto [cloud, set] = outline_frontal_grid(shape, {-0.01, 0.01, -0.0075, 0.0075}, h, 3);
   ASSERT_EQ(set.segments.size(), 1u);
   test::check_properties(set);
   const Fit fit = measure(set, cloud, kFrontal, shape, max_tolerance(set));
