@@ -162,7 +162,8 @@ void prepare_mesh(const OrganizedCloud& cloud, const MeshSettings& settings, Mes
 }
 
 void build_mesh_rows(const OrganizedCloud& cloud, const MeshSettings& settings, Mesh& mesh,
-                     int row_begin, int row_end) {
+                     int row_begin, int row_end, CacheLineVector<float>& float_buffer,
+                     CacheLineVector<std::uint8_t>& byte_buffer) {
   const int width = cloud.width(), height = cloud.height(), s = settings.pixel_stride;
   assert(mesh.faces.width() == width && mesh.faces.height() == height && s >= 1);
   // Lattice size and the band's lattice rows [j_begin, j_end).
@@ -196,9 +197,6 @@ void build_mesh_rows(const OrganizedCloud& cloud, const MeshSettings& settings, 
   constexpr int kBytePad = 64;
   const std::ptrdiff_t byte_len = blocks * cells_per_block + 2 * kBytePad;
 
-  // Reused across calls on the same thread: no allocation per frame.
-  thread_local detail::CacheLineVector<float> float_buffer;
-  thread_local detail::CacheLineVector<std::uint8_t> byte_buffer;
   float_buffer.resize(static_cast<std::size_t>(3 * kFloatsPerPixel + 3) * float_len);
   byte_buffer.assign(static_cast<std::size_t>(8) * byte_len, 0);
   std::array<PixelRow, 3> rows{};
@@ -288,7 +286,9 @@ void build_mesh_rows(const OrganizedCloud& cloud, const MeshSettings& settings, 
 
 void build_mesh(const OrganizedCloud& cloud, const MeshSettings& settings, Mesh& mesh) {
   detail::prepare_mesh(cloud, settings, mesh);
-  detail::build_mesh_rows(cloud, settings, mesh, 0, cloud.height());
+  detail::CacheLineVector<float> float_rows;
+  detail::CacheLineVector<std::uint8_t> byte_rows;
+  detail::build_mesh_rows(cloud, settings, mesh, 0, cloud.height(), float_rows, byte_rows);
 }
 
 std::size_t count_faces(const Mesh& mesh) {

@@ -106,7 +106,8 @@ void prepare_normals(const OrganizedCloud& cloud, const Mesh& mesh, const Normal
 
 void compute_normals_rows(const OrganizedCloud& cloud, const Mesh& mesh,
                           const NormalSettings& settings, NormalMap& out, int row_begin,
-                          int row_end) {
+                          int row_end, CacheLineVector<float>& float_buffer,
+                          CacheLineVector<std::uint8_t>& byte_buffer) {
   const int width = cloud.width(), height = cloud.height(), s = mesh.pixel_stride;
   assert(out.nz.width() == width && out.nz.height() == height && s >= 1);
   const int n = (width - 1) / s + 1, m = (height - 1) / s + 1;
@@ -127,9 +128,6 @@ void compute_normals_rows(const OrganizedCloud& cloud, const Mesh& mesh,
   constexpr int kOutRows = 4;        // compact nx, ny, nz, curvature at stride > 1
   constexpr int kFloatRows = kPointRows + kSumRows + kOutRows;
 
-  // Reused across calls on the same thread: no allocation per frame.
-  thread_local detail::CacheLineVector<float> float_buffer;
-  thread_local detail::CacheLineVector<std::uint8_t> byte_buffer;
   float_buffer.resize(static_cast<std::size_t>(kFloatRows) * row_len);
   std::fill(float_buffer.begin(), float_buffer.begin() + kPointRows * row_len, kNaN);
   std::fill(float_buffer.begin() + kPointRows * row_len, float_buffer.end(), 0.0f);
@@ -238,7 +236,10 @@ void validate(const NormalSettings& settings) {
 void compute_normals(const OrganizedCloud& cloud, const Mesh& mesh, const NormalSettings& settings,
                      NormalMap& out) {
   detail::prepare_normals(cloud, mesh, settings, out);
-  detail::compute_normals_rows(cloud, mesh, settings, out, 0, cloud.height());
+  detail::CacheLineVector<float> float_rows;
+  detail::CacheLineVector<std::uint8_t> byte_rows;
+  detail::compute_normals_rows(cloud, mesh, settings, out, 0, cloud.height(), float_rows,
+                               byte_rows);
 }
 
 }  // namespace rangeseg

@@ -13,6 +13,7 @@
 
 #include "detail/gather_points.hpp"
 #include "detail/number_text.hpp"
+#include "detail/row_bands.hpp"
 #include "detail/simd.hpp"
 #include "detail/smoothing_rows.hpp"
 
@@ -678,7 +679,11 @@ void Smoother::run_passes(const OrganizedCloud& cloud, const Mesh& mesh, const N
         pass(in, *src_normals, mesh, pass_prm, band_ps, dst, dst_normals, v0, v1);
       });
     }
-    if (!filter_normals) compute_normals(dst, mesh, normal_settings, dst_normals);
+    if (!filter_normals) {
+      detail::prepare_normals(dst, mesh, normal_settings, dst_normals);
+      detail::compute_normals_rows(dst, mesh, normal_settings, dst_normals, 0, height,
+                                   normal_floats_, normal_bytes_);
+    }
     src = &dst;
     src_normals = &dst_normals;
   }

@@ -791,6 +791,7 @@ TEST(Polygons, PointSortMatchesComparisonSort) {
 // lattice points (many shared ends and touching pairs), long edges across everything (the case
 // the grid is for), vertical and zero-length edges, sizes on both sides of the grid threshold.
 TEST(Polygons, CrossingGridMatchesSweep) {
+  polygons_detail::CrossingScratch scratch;
   std::mt19937 rng(11);
   std::uniform_int_distribution<int> lattice(0, 60);
   std::uniform_int_distribution<int> step(-2, 2);
@@ -813,8 +814,8 @@ TEST(Polygons, CrossingGridMatchesSweep) {
       }
       std::vector<polygons_detail::CheckEdge> copy = edges;
       std::vector<std::uint8_t> grid_bad(static_cast<std::size_t>(loops), 0), sweep_bad = grid_bad;
-      const bool grid_any = polygons_detail::mark_crossings(edges, grid_bad);
-      const bool sweep_any = polygons_detail::mark_crossings_sweep(copy, sweep_bad);
+      const bool grid_any = polygons_detail::mark_crossings(edges, grid_bad, scratch);
+      const bool sweep_any = polygons_detail::mark_crossings_sweep(copy, sweep_bad, scratch);
       EXPECT_EQ(grid_any, sweep_any) << "n " << n << " loops " << loops;
       EXPECT_EQ(grid_bad, sweep_bad) << "n " << n << " loops " << loops;
       crossing_sets += sweep_any;
@@ -828,8 +829,8 @@ TEST(Polygons, CrossingGridMatchesSweep) {
       std::vector<std::uint8_t> changed(static_cast<std::size_t>(loops));
       for (auto& c : changed) c = unit(rng) < 0.3 ? 1 : 0;
       std::vector<std::uint8_t> grid_part(changed.size(), 0), sweep_part = grid_part;
-      polygons_detail::mark_crossings(edges, grid_part, changed.data());
-      polygons_detail::mark_crossings_sweep(copy, sweep_part, changed.data());
+      polygons_detail::mark_crossings(edges, grid_part, scratch, changed.data());
+      polygons_detail::mark_crossings_sweep(copy, sweep_part, scratch, changed.data());
       EXPECT_EQ(grid_part, sweep_part) << "n " << n << " loops " << loops;
       for (std::size_t k = 0; k < changed.size(); ++k) {
         if (changed[k] != 0) {
@@ -838,7 +839,7 @@ TEST(Polygons, CrossingGridMatchesSweep) {
         EXPECT_LE(grid_part[k], grid_bad[k]) << "loop " << k;
       }
       std::vector<std::uint8_t> all_changed(changed.size(), 1), grid_all(changed.size(), 0);
-      polygons_detail::mark_crossings(edges, grid_all, all_changed.data());
+      polygons_detail::mark_crossings(edges, grid_all, scratch, all_changed.data());
       EXPECT_EQ(grid_all, grid_bad);
     }
   }
@@ -850,7 +851,7 @@ TEST(Polygons, CrossingGridMatchesSweep) {
     apart.push_back({x, 0.0, x + 0.05, 0.0, std::int64_t{2} * i, std::int64_t{2} * i + 1, i});
   }
   std::vector<std::uint8_t> none(300, 0);
-  EXPECT_FALSE(polygons_detail::mark_crossings(apart, none));
+  EXPECT_FALSE(polygons_detail::mark_crossings(apart, none, scratch));
   EXPECT_EQ(std::count(none.begin(), none.end(), 1), 0);
 }
 

@@ -143,7 +143,10 @@ class Smoother {
   OrganizedCloud shifted_;                           ///< points relative to a non-zero viewpoint
   detail::CacheLineVector<float> rows_;              ///< per-row inputs, scales, sums of a pass
   detail::CacheLineVector<std::uint8_t> row_bytes_;  ///< one row of edge bytes
-  std::size_t rows_layout_ = 0;                      ///< layout rows_ was made for
+  /// Row buffers of the normals recomputed after each pass (recompute_normals).
+  detail::CacheLineVector<float> normal_floats_;
+  detail::CacheLineVector<std::uint8_t> normal_bytes_;
+  std::size_t rows_layout_ = 0;  ///< layout rows_ was made for
   // The same per band 1.. of a threaded run (band 0 uses the buffers above).
   std::vector<detail::CacheLineVector<float>> band_rows_;
   std::vector<detail::CacheLineVector<std::uint8_t>> band_row_bytes_;

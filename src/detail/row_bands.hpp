@@ -13,7 +13,8 @@
 // a band computes the lattice rows v (v % pixel_stride == 0) with v0 <= v < v1 and writes only
 // those rows of the output planes, so concurrent bands never write the same memory. Each band
 // recomputes the one lattice row of cells above it that it needs (a band costs one extra row).
-// Row buffers are thread_local, so every thread may run bands of any size.
+// Each call takes row buffers, which it sizes to the frame's width and reuses call after call:
+// one pair per thread that runs bands at once (mesh and normals may share it).
 #pragma once
 
 #include "rangeseg/cloud.hpp"
@@ -30,7 +31,8 @@ void prepare_mesh(const OrganizedCloud& cloud, const MeshSettings& settings, Mes
 /// settings). Reads cloud rows [row_begin - stride, row_end + 2 stride). Clamps the range to
 /// [0, height); an empty range does nothing.
 void build_mesh_rows(const OrganizedCloud& cloud, const MeshSettings& settings, Mesh& mesh,
-                     int row_begin, int row_end);
+                     int row_begin, int row_end, CacheLineVector<float>& float_rows,
+                     CacheLineVector<std::uint8_t>& byte_rows);
 
 /// Validates the arguments as compute_normals does and sizes the four planes of `out`
 /// (off-lattice pixels NaN when stride > 1).
@@ -42,6 +44,7 @@ void prepare_normals(const OrganizedCloud& cloud, const Mesh& mesh, const Normal
 /// reads must be complete before it starts. Clamps the range to [0, height).
 void compute_normals_rows(const OrganizedCloud& cloud, const Mesh& mesh,
                           const NormalSettings& settings, NormalMap& out, int row_begin,
-                          int row_end);
+                          int row_end, CacheLineVector<float>& float_rows,
+                          CacheLineVector<std::uint8_t>& byte_rows);
 
 }  // namespace rangeseg::detail

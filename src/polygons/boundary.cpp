@@ -215,6 +215,7 @@ struct SegmentWork {
   std::vector<std::array<int, 2>> dp_stack;
   std::vector<CheckEdge> edges;
   std::vector<std::uint8_t> bad;
+  polygons_detail::CrossingScratch crossing;
   std::vector<std::uint8_t> changed;  ///< loops simplified again in this attempt
   std::vector<int> hull_order, hull_idx;
   polygons_detail::PointSortScratch hull_sort;
@@ -464,7 +465,7 @@ void outline_segment(const OrganizedCloud& cloud, const Segmentation& segmentati
     // unchanged loops that touched marked both, and they changed, unless already unsimplified.
     w.changed.assign(w.bad.begin(), w.bad.end());
     detail::assign_with_headroom(w.bad, nk, 0);
-    if (!polygons_detail::mark_crossings(w.edges, w.bad,
+    if (!polygons_detail::mark_crossings(w.edges, w.bad, w.crossing,
                                          attempt > 0 ? w.changed.data() : nullptr)) {
       break;
     }

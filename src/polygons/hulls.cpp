@@ -369,7 +369,7 @@ void polygons_detail::outline_raster(std::vector<std::uint8_t>& occ, int cols, i
       e.id1 = std::llround((e.x1 - x0) / h) * (vh + 1) + std::llround((e.y1 - y0) / h);
     }
     detail::assign_with_headroom(bad, n_loops, 0);
-    if (!mark_crossings(edges, bad) || attempt >= 5) break;
+    if (!mark_crossings(edges, bad, out.crossing) || attempt >= 5) break;
     for (std::size_t k = 0; k < n_loops; ++k) {
       if (bad[k]) tol[k] = attempt >= 4 ? 0.0 : 0.5 * tol[k];
     }

@@ -257,16 +257,26 @@ struct CheckEdge {
   std::int64_t id0, id1;
   int loop;
 };
+/// Buffers of mark_crossings, reused call after call: the sort of the edges by x0, and the
+/// buckets of a uniform grid over the edges' boxes (each widened by its margin).
+struct CrossingScratch {
+  std::vector<std::int32_t> order, order_tmp;
+  std::vector<std::uint64_t> keys, keys_tmp;
+  std::vector<CheckEdge> sorted;
+  std::vector<std::int32_t> cells;  ///< per edge: first cell x, last x, first y, last y
+  std::vector<std::int32_t> start;  ///< per grid cell: first entry in `items`, then one past
+  std::vector<std::int32_t> items;  ///< edge indices grouped by cell, ascending in each
+};
 /// Marks in `bad` (indexed by CheckEdge::loop, sized by the caller) every loop one of whose
 /// edges crosses or touches another edge (of any loop) not sharing an end id. Sorts `edges`.
 /// Returns whether any was found. Given `changed` (per loop), only pairs with an edge of a
 /// changed loop are tested: the others were, in an earlier check of the same loops.
 /// Large sets are bucketed on a grid over the edges' boxes (the same pairs, each tested once).
 bool mark_crossings(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& bad,
-                    const std::uint8_t* changed = nullptr);
+                    CrossingScratch& scratch, const std::uint8_t* changed = nullptr);
 /// The same by a sweep in x alone (the reference; quadratic under long edges).
 bool mark_crossings_sweep(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& bad,
-                          const std::uint8_t* changed = nullptr);
+                          CrossingScratch& scratch, const std::uint8_t* changed = nullptr);
 
 /// Signed area (counter-clockwise positive) and perimeter of a closed 2D loop.
 void area_perimeter(const double* xy, int n, double& area, double& perimeter);
@@ -315,6 +325,7 @@ struct RasterOutline {
   std::vector<std::array<int, 2>> dp_stack;
   std::vector<CheckEdge> edges;
   std::vector<std::uint8_t> bad;
+  CrossingScratch crossing;
   TraceSteps steps;
 };
 void outline_raster(std::vector<std::uint8_t>& occ, int cols, int rows, double x0, double y0,

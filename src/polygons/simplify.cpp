@@ -234,28 +234,12 @@ bool pair_touches(const CheckEdge& e, const CheckEdge& f) {
   return segments_touch(e, f, 1e-6 * scale);
 }
 
-/// Buckets of a uniform grid over the edges' boxes (each widened by its margin), reused across
-/// calls on a thread.
-struct CrossingGrid {
-  std::vector<std::int32_t> cells;  ///< per edge: first cell x, last x, first y, last y
-  std::vector<std::int32_t> start;  ///< per grid cell: first entry in `items`, then one past
-  std::vector<std::int32_t> items;  ///< edge indices grouped by cell, ascending in each
-};
-
 /// Sets of more edges than this go through the grid; fewer are swept in x order.
 constexpr std::size_t kGridMinEdges = 128;
 
-/// Buffers of sort_edges, reused across calls on a thread.
-struct EdgeSortScratch {
-  std::vector<std::int32_t> order, order_tmp;
-  std::vector<std::uint64_t> keys, keys_tmp;
-  std::vector<CheckEdge> sorted;
-};
-
 /// Both implementations start here: every edge left to right, sorted by x0 (stably, by a radix
 /// sort of the x0 bits: a comparison sort of these 56-byte records was a third of the check).
-void sort_edges(std::vector<CheckEdge>& edges) {
-  thread_local EdgeSortScratch sc;
+void sort_edges(std::vector<CheckEdge>& edges, CrossingScratch& sc) {
   const std::size_t n = edges.size();
   detail::resize_with_headroom(sc.order, n);
   detail::resize_with_headroom(sc.keys, n);
@@ -307,21 +291,21 @@ bool sweep_sorted(const std::vector<CheckEdge>& edges, std::vector<std::uint8_t>
 }  // namespace
 
 bool mark_crossings_sweep(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& bad,
-                          const std::uint8_t* changed) {
-  sort_edges(edges);
+                          CrossingScratch& scratch, const std::uint8_t* changed) {
+  sort_edges(edges, scratch);
   return sweep_sorted(edges, bad, changed);
 }
 
 bool mark_crossings(std::vector<CheckEdge>& edges, std::vector<std::uint8_t>& bad,
-                    const std::uint8_t* changed) {
-  sort_edges(edges);
+                    CrossingScratch& scratch, const std::uint8_t* changed) {
+  sort_edges(edges, scratch);
   const std::size_t n = edges.size();
   if (n <= kGridMinEdges) return sweep_sorted(edges, bad, changed);
   bool any = false;
   // A sweep in x alone meets every edge under a long one (the outline of a wall with many holes
   // is quadratic). The grid finds the same pairs: an edge is entered in every cell its widened box
   // covers, and a pair is tested once, in the first cell both cover, with the sweep's own test.
-  thread_local CrossingGrid grid;
+  CrossingScratch& grid = scratch;
   double x_lo = edges.front().x0, x_hi = x_lo, y_lo = edges.front().y0, y_hi = y_lo;
   for (const CheckEdge& e : edges) {
     const double margin = 1e-5 * (1.0 + std::abs(e.x1) + std::abs(e.y0) + std::abs(e.y1));
