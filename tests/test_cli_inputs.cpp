@@ -545,3 +545,19 @@ TEST(CliInputs, FloatPointsInAMapsFrameAreNamedWhenMovedToTheSensor) {
         << r.out;
   }
 }
+
+// A depth image of one row reads as an unorganized cloud (height 1); what needs a grid says so
+// rather than that its points lie on no camera's grid.
+TEST(CliInputs, AOneRowDepthImageIsNamedAsSuch) {
+  const fs::path dir = rangeseg::test::scratch_dir("cli_inputs_one_row");
+  const rangeseg::DepthImage depth(5, 1, 1000);
+  const std::string png = (dir / "row.png").string();
+  rangeseg::io::write_depth_png(png, depth.view());
+  for (const std::string& command : {"mesh " + png + " --fx 5 -o " + (dir / "m.ply").string(),
+                                     "convert " + png + " --fx 5 " + (dir / "d.png").string()}) {
+    const CliResult r = run(command);
+    EXPECT_EQ(r.code, 2) << command << r.out;
+    EXPECT_TRUE(contains(r.out, "row.png: a depth image of one row (5 x 1 pixels)"))
+        << command << r.out;
+  }
+}

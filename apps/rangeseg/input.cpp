@@ -518,6 +518,12 @@ void require_distinct_outputs(const std::string& input, const std::vector<std::s
 void require_grid(OrganizedCloud& cloud, const std::string& path, const std::string& what,
                   const std::string& instead) {
   if (cloud.is_organized()) return;
+  if (io::extension(path) == ".png") {
+    // A one-row depth image: height 1 reads as an unorganized cloud (PCL's convention).
+    throw std::runtime_error(path + ": a depth image of one row (" + std::to_string(cloud.width()) +
+                             " x 1 pixels), which reads as an " + "unorganized cloud: " + what +
+                             " needs two rows or more; " + instead);
+  }
   PixelGrid grid;
   if (!find_pixel_grid(cloud, grid)) {
     throw std::runtime_error(path + ": an unorganized cloud (" + std::to_string(cloud.size()) +
