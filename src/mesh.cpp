@@ -162,8 +162,9 @@ void prepare_mesh(const OrganizedCloud& cloud, const MeshSettings& settings, Mes
 }
 
 void build_mesh_rows(const OrganizedCloud& cloud, const MeshSettings& settings, Mesh& mesh,
-                     int row_begin, int row_end, CacheLineVector<float>& float_buffer,
-                     CacheLineVector<std::uint8_t>& byte_buffer) {
+                     int row_begin, int row_end, RowBuffers& buffers) {
+  CacheLineVector<float>& float_buffer = buffers.floats;
+  CacheLineVector<std::uint8_t>& byte_buffer = buffers.bytes;
   const int width = cloud.width(), height = cloud.height(), s = settings.pixel_stride;
   assert(mesh.faces.width() == width && mesh.faces.height() == height && s >= 1);
   // Lattice size and the band's lattice rows [j_begin, j_end).
@@ -286,9 +287,8 @@ void build_mesh_rows(const OrganizedCloud& cloud, const MeshSettings& settings, 
 
 void build_mesh(const OrganizedCloud& cloud, const MeshSettings& settings, Mesh& mesh) {
   detail::prepare_mesh(cloud, settings, mesh);
-  detail::CacheLineVector<float> float_rows;
-  detail::CacheLineVector<std::uint8_t> byte_rows;
-  detail::build_mesh_rows(cloud, settings, mesh, 0, cloud.height(), float_rows, byte_rows);
+  detail::RowBuffers rows;
+  detail::build_mesh_rows(cloud, settings, mesh, 0, cloud.height(), rows);
 }
 
 std::size_t count_faces(const Mesh& mesh) {

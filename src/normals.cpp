@@ -106,8 +106,9 @@ void prepare_normals(const OrganizedCloud& cloud, const Mesh& mesh, const Normal
 
 void compute_normals_rows(const OrganizedCloud& cloud, const Mesh& mesh,
                           const NormalSettings& settings, NormalMap& out, int row_begin,
-                          int row_end, CacheLineVector<float>& float_buffer,
-                          CacheLineVector<std::uint8_t>& byte_buffer) {
+                          int row_end, RowBuffers& buffers) {
+  CacheLineVector<float>& float_buffer = buffers.floats;
+  CacheLineVector<std::uint8_t>& byte_buffer = buffers.bytes;
   const int width = cloud.width(), height = cloud.height(), s = mesh.pixel_stride;
   assert(out.nz.width() == width && out.nz.height() == height && s >= 1);
   const int n = (width - 1) / s + 1, m = (height - 1) / s + 1;
@@ -236,10 +237,8 @@ void validate(const NormalSettings& settings) {
 void compute_normals(const OrganizedCloud& cloud, const Mesh& mesh, const NormalSettings& settings,
                      NormalMap& out) {
   detail::prepare_normals(cloud, mesh, settings, out);
-  detail::CacheLineVector<float> float_rows;
-  detail::CacheLineVector<std::uint8_t> byte_rows;
-  detail::compute_normals_rows(cloud, mesh, settings, out, 0, cloud.height(), float_rows,
-                               byte_rows);
+  detail::RowBuffers rows;
+  detail::compute_normals_rows(cloud, mesh, settings, out, 0, cloud.height(), rows);
 }
 
 }  // namespace rangeseg

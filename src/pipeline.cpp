@@ -391,33 +391,29 @@ void Pipeline::process_grid(const OrganizedCloud& cloud) {
   if (pool != nullptr) awake.emplace(*pool);
   // Row buffers per band (sized once; again only for a pipeline moved from).
   const auto bands = static_cast<std::size_t>(pool_ != nullptr ? pool_->threads() : 1);
-  if (row_floats_.size() < bands || row_bytes_.size() < bands) {
-    row_floats_.resize(bands);
-    row_bytes_.resize(bands);
-  }
+  if (band_rows_.size() < bands) band_rows_.resize(bands);
   if (pool != nullptr) {
     // Threads: all mesh bands, then (a band's normals read the mesh beyond it) all normal bands.
     pool->for_each_band(height, stride, [&](int band, int v0, int v1) {
-      const auto b = static_cast<std::size_t>(band);
-      detail::build_mesh_rows(cloud, settings_.mesh, mesh_, v0, v1, row_floats_[b], row_bytes_[b]);
+      detail::build_mesh_rows(cloud, settings_.mesh, mesh_, v0, v1,
+                              band_rows_[static_cast<std::size_t>(band)]);
     });
     times_.mesh += ms_since(t);
     pool->for_each_band(height, stride, [&](int band, int v0, int v1) {
-      const auto b = static_cast<std::size_t>(band);
       detail::compute_normals_rows(cloud, mesh_, settings_.normals, raw_normals_, v0, v1,
-                                   row_floats_[b], row_bytes_[b]);
+                                   band_rows_[static_cast<std::size_t>(band)]);
     });
     times_.normals = ms_since(t);
   }
   int normals_done = pool != nullptr ? height : 0;
   for (int v0 = normals_done; v0 < height; v0 += kMeshBandRows) {
     const int v1 = std::min(height, v0 + kMeshBandRows);
-    detail::build_mesh_rows(cloud, settings_.mesh, mesh_, v0, v1, row_floats_[0], row_bytes_[0]);
+    detail::build_mesh_rows(cloud, settings_.mesh, mesh_, v0, v1, band_rows_[0]);
     times_.mesh += ms_since(t);
     const int normals_end = v1 < height ? v1 - stride : height;
     if (normals_end > normals_done) {
       detail::compute_normals_rows(cloud, mesh_, settings_.normals, raw_normals_, normals_done,
-                                   normals_end, row_floats_[0], row_bytes_[0]);
+                                   normals_end, band_rows_[0]);
       normals_done = normals_end;
     }
     times_.normals += ms_since(t);

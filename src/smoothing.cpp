@@ -682,7 +682,7 @@ void Smoother::run_passes(const OrganizedCloud& cloud, const Mesh& mesh, const N
     if (!filter_normals) {
       detail::prepare_normals(dst, mesh, normal_settings, dst_normals);
       detail::compute_normals_rows(dst, mesh, normal_settings, dst_normals, 0, height,
-                                   normal_floats_, normal_bytes_);
+                                   normal_rows_);
     }
     src = &dst;
     src_normals = &dst_normals;

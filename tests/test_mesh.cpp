@@ -585,12 +585,10 @@ Mesh mesh_in_bands(const OrganizedCloud& cloud, const MeshSettings& settings, in
   mesh.faces.resize(cloud.width(), cloud.height(), 0xA5);
   mesh.edges.resize(cloud.width(), cloud.height(), 0x5A);
   rangeseg::detail::prepare_mesh(cloud, settings, mesh);
-  // One pair of row buffers for all bands, as one thread reuses them.
-  rangeseg::detail::CacheLineVector<float> floats;
-  rangeseg::detail::CacheLineVector<std::uint8_t> bytes;
+  rangeseg::detail::RowBuffers rows;  // one for all bands, as one thread reuses them
   for (int k = bands - 1; k >= 0; --k) {
     rangeseg::detail::build_mesh_rows(cloud, settings, mesh, k * cloud.height() / bands,
-                                      (k + 1) * cloud.height() / bands, floats, bytes);
+                                      (k + 1) * cloud.height() / bands, rows);
   }
   return mesh;
 }
@@ -616,12 +614,10 @@ TEST(Mesh, RowBandsAreBitIdentical) {
   // Empty and out-of-range bands write nothing.
   Mesh mesh = rangeseg::build_mesh(cloud, {});
   const Mesh before = mesh;
-  rangeseg::detail::CacheLineVector<float> floats;
-  rangeseg::detail::CacheLineVector<std::uint8_t> bytes;
-  rangeseg::detail::build_mesh_rows(cloud, {}, mesh, 10, 10, floats, bytes);
-  rangeseg::detail::build_mesh_rows(cloud, {}, mesh, -5, 0, floats, bytes);
-  rangeseg::detail::build_mesh_rows(cloud, {}, mesh, cloud.height(), cloud.height() + 4, floats,
-                                    bytes);
+  rangeseg::detail::RowBuffers rows;
+  rangeseg::detail::build_mesh_rows(cloud, {}, mesh, 10, 10, rows);
+  rangeseg::detail::build_mesh_rows(cloud, {}, mesh, -5, 0, rows);
+  rangeseg::detail::build_mesh_rows(cloud, {}, mesh, cloud.height(), cloud.height() + 4, rows);
   EXPECT_TRUE(same_bytes(mesh.edges, before.edges));
 }
 

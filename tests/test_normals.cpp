@@ -433,12 +433,10 @@ NormalMap normals_in_bands(const OrganizedCloud& cloud, const Mesh& mesh, int ba
     plane->resize(cloud.width(), cloud.height(), 12345.0f);
   }
   rangeseg::detail::prepare_normals(cloud, mesh, {}, out);
-  // One pair of row buffers for all bands, as one thread reuses them.
-  rangeseg::detail::CacheLineVector<float> floats;
-  rangeseg::detail::CacheLineVector<std::uint8_t> bytes;
+  rangeseg::detail::RowBuffers rows;  // one for all bands, as one thread reuses them
   for (int k = bands - 1; k >= 0; --k) {
     rangeseg::detail::compute_normals_rows(cloud, mesh, {}, out, k * cloud.height() / bands,
-                                           (k + 1) * cloud.height() / bands, floats, bytes);
+                                           (k + 1) * cloud.height() / bands, rows);
   }
   return out;
 }

@@ -42,7 +42,7 @@ io::PcdEncoding parse_encoding(const std::string& name) {
 /// The smallest of 1, 2 and 5 times a power of ten that is at least `x` > 0.
 double round_up_125(double x) {
   const double decade = std::pow(10.0, std::floor(std::log10(x)));
-  for (const double m : {1.0, 2.0, 5.0, 10.0}) {
+  for (const double m : {1.0, 2.0, 5.0}) {
     if (m * decade >= x * (1 - 1e-12)) return m * decade;
   }
   return 10 * decade;

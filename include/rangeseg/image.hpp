@@ -63,6 +63,12 @@ struct CacheLineAllocator {
 /// A vector on cache-line boundaries, for row scratch buffers of the kernels.
 template <class T>
 using CacheLineVector = std::vector<T, CacheLineAllocator<T>>;
+/// Row buffers of a band of the mesh or normals kernels (detail/row_bands.hpp), reused call
+/// after call; one per thread that runs bands at once.
+struct RowBuffers {
+  CacheLineVector<float> floats;
+  CacheLineVector<std::uint8_t> bytes;
+};
 }  // namespace detail
 
 /// Owning image plane. The row stride is the width rounded up to 16 elements on cache-line

@@ -239,10 +239,8 @@ class Pipeline {
   PolygonSet polygons_;
   SegmentTracker tracker_;
   StageTimes times_;
-  std::unique_ptr<ThreadPool> pool_;  ///< when settings.threads > 1
-  /// Row buffers of the mesh and normal bands: one pair per thread.
-  std::vector<detail::CacheLineVector<float>> row_floats_;
-  std::vector<detail::CacheLineVector<std::uint8_t>> row_bytes_;
+  std::unique_ptr<ThreadPool> pool_;           ///< when settings.threads > 1
+  std::vector<detail::RowBuffers> band_rows_;  ///< of the mesh and normal bands, one per thread
   /// Unorganized clouds: the points in the spatial order the stages run in, and their rings.
   OrganizedCloud ordered_input_;
   PointRings ordered_rings_;

@@ -19,6 +19,8 @@ namespace rangeseg {
 inline constexpr float kDefaultPixelAngle = 1.0f / 525.0f;
 
 struct SmoothingSettings;
+/// The most filter passes SmoothingSettings::iterations may ask for.
+inline constexpr int kMaxSmoothingIterations = 1000;
 /// The angle between neighbouring pixel rays the filter uses [rad]: settings.pixel_angle when
 /// it is > 0, else 1 / camera_fx when camera_fx [pixel] > 0, else kDefaultPixelAngle.
 float pixel_angle_for(const SmoothingSettings& settings, double camera_fx);
@@ -53,9 +55,6 @@ float pixel_angle_for(const SmoothingSettings& settings, double camera_fx);
 /// cut by the mesh stay sharp. The exponential is evaluated with a polynomial approximation
 /// (relative error < 5e-5); weights below exp(-30) are treated as 0. Depths z are taken
 /// relative to `viewpoint`.
-/// The most filter passes SmoothingSettings::iterations may ask for.
-inline constexpr int kMaxSmoothingIterations = 1000;
-
 struct SmoothingSettings {
   /// Filter passes [passes], 0 .. kMaxSmoothingIterations; each reads the previous pass's points
   /// and normals, the mesh stays the input's.
@@ -143,10 +142,8 @@ class Smoother {
   OrganizedCloud shifted_;                           ///< points relative to a non-zero viewpoint
   detail::CacheLineVector<float> rows_;              ///< per-row inputs, scales, sums of a pass
   detail::CacheLineVector<std::uint8_t> row_bytes_;  ///< one row of edge bytes
-  /// Row buffers of the normals recomputed after each pass (recompute_normals).
-  detail::CacheLineVector<float> normal_floats_;
-  detail::CacheLineVector<std::uint8_t> normal_bytes_;
-  std::size_t rows_layout_ = 0;  ///< layout rows_ was made for
+  detail::RowBuffers normal_rows_;                   ///< of the normals recomputed after each pass
+  std::size_t rows_layout_ = 0;                      ///< layout rows_ was made for
   // The same per band 1.. of a threaded run (band 0 uses the buffers above).
   std::vector<detail::CacheLineVector<float>> band_rows_;
   std::vector<detail::CacheLineVector<std::uint8_t>> band_row_bytes_;

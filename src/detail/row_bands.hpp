@@ -31,8 +31,7 @@ void prepare_mesh(const OrganizedCloud& cloud, const MeshSettings& settings, Mes
 /// settings). Reads cloud rows [row_begin - stride, row_end + 2 stride). Clamps the range to
 /// [0, height); an empty range does nothing.
 void build_mesh_rows(const OrganizedCloud& cloud, const MeshSettings& settings, Mesh& mesh,
-                     int row_begin, int row_end, CacheLineVector<float>& float_rows,
-                     CacheLineVector<std::uint8_t>& byte_rows);
+                     int row_begin, int row_end, RowBuffers& rows);
 
 /// Validates the arguments as compute_normals does and sizes the four planes of `out`
 /// (off-lattice pixels NaN when stride > 1).
@@ -44,7 +43,6 @@ void prepare_normals(const OrganizedCloud& cloud, const Mesh& mesh, const Normal
 /// reads must be complete before it starts. Clamps the range to [0, height).
 void compute_normals_rows(const OrganizedCloud& cloud, const Mesh& mesh,
                           const NormalSettings& settings, NormalMap& out, int row_begin,
-                          int row_end, CacheLineVector<float>& float_rows,
-                          CacheLineVector<std::uint8_t>& byte_rows);
+                          int row_end, RowBuffers& rows);
 
 }  // namespace rangeseg::detail
