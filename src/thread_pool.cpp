@@ -11,6 +11,18 @@
 #include <vector>
 
 namespace rangeseg {
+namespace {
+
+/// First row of band b of `bands` over [0, rows): split evenly and rounded up to `align`.
+int band_begin(int b, int rows, int align, int bands) {
+  if (b <= 0) return 0;
+  if (b >= bands) return rows;
+  const long long even = static_cast<long long>(rows) * b / bands;
+  const long long aligned = (even + align - 1) / align * align;
+  return static_cast<int>(aligned < rows ? aligned : rows);
+}
+
+}  // namespace
 
 /// Workers wait for a new generation of work, run their band and count down; the caller runs
 /// band 0 and waits for the count to reach zero. Both sides spin for some microseconds before
@@ -26,6 +38,7 @@ struct ThreadPool::Workers {
   std::atomic<std::uint64_t> generation{0};
   std::atomic<int> pending{0};
   std::atomic<int> keep_awake{0};  // live KeepAwake guards
+  std::atomic<bool> busy{false};   // a call is running on the workers
   bool stopping = false;           // guarded by mutex
   BandFn fn = nullptr;
   void* context = nullptr;
@@ -33,14 +46,8 @@ struct ThreadPool::Workers {
   std::exception_ptr error;  // guarded by mutex
   std::vector<std::thread> threads;
 
-  /// Rows of band b: [begin(b), begin(b + 1)), split evenly and rounded to `align`.
-  int begin(int b) const {
-    if (b <= 0) return 0;
-    if (b >= bands) return rows;
-    const long long even = static_cast<long long>(rows) * b / bands;
-    const long long aligned = (even + align - 1) / align * align;
-    return static_cast<int>(aligned < rows ? aligned : rows);
-  }
+  /// Rows of band b: [begin(b), begin(b + 1)).
+  int begin(int b) const { return band_begin(b, rows, align, bands); }
 
   void run_band(int b) {
     try {
@@ -125,6 +132,17 @@ void ThreadPool::run_bands(int rows, int align, BandFn fn, void* context) {
                                 " (need rows >= 0, align >= 1)");
   }
   Workers& w = *workers_;
+  if (threads_ == 1 || w.busy.exchange(true, std::memory_order_acquire)) {
+    // The workers belong to another call (made on another thread, or this one is made from
+    // inside one of its bands): the bands run here, one after another. Bands index their own
+    // buffers and never wait for each other, so the results are the same.
+    run_bands_here(rows, align, fn, context);
+    return;
+  }
+  struct Release {
+    std::atomic<bool>& busy;
+    ~Release() { busy.store(false, std::memory_order_release); }
+  } const release{w.busy};
   {
     // Workers read the job after seeing the new generation (release / acquire).
     const std::lock_guard<std::mutex> lock(w.mutex);
@@ -145,6 +163,19 @@ void ThreadPool::run_bands(int rows, int align, BandFn fn, void* context) {
     w.work_done.wait(lock, [&] { return w.pending.load(std::memory_order_acquire) == 0; });
     error = w.error;
     w.error = nullptr;
+  }
+  if (error) std::rethrow_exception(error);
+}
+
+void ThreadPool::run_bands_here(int rows, int align, BandFn fn, void* context) const {
+  std::exception_ptr error;
+  for (int b = 0; b < threads_; ++b) {
+    try {
+      fn(context, b, band_begin(b, rows, align, threads_),
+         band_begin(b + 1, rows, align, threads_));
+    } catch (...) {
+      if (!error) error = std::current_exception();
+    }
   }
   if (error) std::rethrow_exception(error);
 }

@@ -5,28 +5,21 @@
 #include <algorithm>
 #include <atomic>
 #include <bit>
-#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <iterator>
 #include <limits>
 #include <new>
 #include <random>
 #include <stdexcept>
 #include <string>
-#include <thread>
 #include <tuple>
 #include <vector>
-
-#include <unistd.h>
 
 #include "polygon_test_util.hpp"
 #include "rangeseg/pipeline.hpp"
 #include "rangeseg/synth.hpp"
-#include "rangeseg/thread_pool.hpp"
 #include "segmentation_test_util.hpp"
 
 namespace {
@@ -775,99 +768,6 @@ TEST(Pipeline, RejectsInvalidStageSettingsBeforeAnyFrame) {
   }
   EXPECT_THROW(validate(MeshSettings{.eps_theta = 2.0f}), std::invalid_argument);
   EXPECT_THROW(validate(SegmentationSettings{.max_normal_angle = -1}), std::invalid_argument);
-}
-
-/// Bands cover the rows exactly once, start at multiples of the alignment, run on distinct
-/// threads, and an exception in any band reaches the caller after all bands finished.
-TEST(ThreadPoolTest, BandsCoverRowsAndPropagateExceptions) {
-  ThreadPool pool(3);
-  for (const int rows : {0, 1, 2, 7, 480}) {
-    for (const int align : {1, 2, 8}) {
-      std::vector<int> hits(static_cast<std::size_t>(rows), 0);
-      std::atomic<int> calls{0};
-      pool.for_each_band(rows, align, [&](int band, int v0, int v1) {
-        ++calls;
-        EXPECT_TRUE(band >= 0 && band < 3);
-        EXPECT_LE(v0, v1);
-        if (v0 > 0 && v0 < v1) {
-          EXPECT_EQ(v0 % align, 0) << v0 << " align " << align;
-        }
-        for (int v = v0; v < v1; ++v) ++hits[static_cast<std::size_t>(v)];
-      });
-      EXPECT_EQ(calls.load(), 3);
-      for (int v = 0; v < rows; ++v) EXPECT_EQ(hits[static_cast<std::size_t>(v)], 1) << v;
-    }
-  }
-  std::atomic<int> finished{0};
-  EXPECT_THROW(pool.for_each_band(30, 1,
-                                  [&](int band, int, int) {
-                                    if (band == 2) throw std::runtime_error("band 2 failed");
-                                    ++finished;
-                                  }),
-               std::runtime_error);
-  EXPECT_EQ(finished.load(), 2);
-  // The pool still works after an exception.
-  std::atomic<int> again{0};
-  pool.for_each_band(30, 1, [&](int, int, int) { ++again; });
-  EXPECT_EQ(again.load(), 3);
-}
-
-namespace {
-
-/// Times the process's other threads went to sleep (voluntary context switches: a yield or a
-/// preemption does not count), from /proc; -1 where that is not available.
-long other_threads_sleeps() {
-  const std::string self = std::to_string(gettid());
-  long total = 0;
-  std::error_code error;
-  for (const auto& task : std::filesystem::directory_iterator("/proc/self/task", error)) {
-    if (task.path().filename() == self) continue;
-    std::ifstream status(task.path() / "status");
-    std::string line;
-    while (std::getline(status, line)) {
-      if (line.rfind("voluntary_ctxt_switches:", 0) == 0) total += std::stol(line.substr(24));
-    }
-  }
-  return error ? -1 : total;
-}
-
-}  // namespace
-
-/// Without a KeepAwake guard an idle worker goes to sleep soon after its band; with one it spins
-/// on while the caller waits between two calls, until the last guard is gone.
-TEST(ThreadPoolTest, KeepAwakeKeepsIdleWorkersSpinning) {
-#if defined(__SANITIZE_THREAD__)
-  // Its runtime adds a thread of its own and slows the worker's spinning: the test failed in 4
-  // of 7 runs there, also when counting only the threads started with the pool.
-  GTEST_SKIP() << "counts sleeps by timing, which ThreadSanitizer changes";
-#endif
-  if (other_threads_sleeps() < 0) GTEST_SKIP() << "no /proc/self/task to count sleeps";
-  ThreadPool pool(2);
-  std::atomic<int> bands{0};
-  // The worker's sleeps from a call to 30 ms after it (reading /proc takes longer than the
-  // worker spins before it sleeps, so the count starts before the call).
-  const auto idle_sleeps = [&] {
-    const long before = other_threads_sleeps();
-    pool.for_each_band(2, 1, [&](int, int, int) { ++bands; });
-    std::this_thread::sleep_for(std::chrono::milliseconds(30));
-    return other_threads_sleeps() - before;
-  };
-  const long asleep = idle_sleeps();
-  long awake = 0, nested = 0;
-  {
-    const ThreadPool::KeepAwake guard(pool);
-    awake = idle_sleeps();
-    {
-      const ThreadPool::KeepAwake inner(pool);
-      nested = idle_sleeps();
-    }
-  }
-  const long released = idle_sleeps();
-  EXPECT_GE(asleep, 1);
-  EXPECT_EQ(awake, 0);
-  EXPECT_EQ(nested, 0);
-  EXPECT_GE(released, 1);
-  EXPECT_EQ(bands.load(), 8);
 }
 
 TEST(Pipeline, UnorganizedCloudsTakeTheRingPathWithoutTheIncrementalPlaneModel) {

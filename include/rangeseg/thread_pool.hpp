@@ -39,8 +39,10 @@ class ThreadPool {
   /// Calls fn(band, row_begin, row_end) for `threads()` disjoint bands covering rows [0, rows),
   /// concurrently; the first row of every non-empty band but the first is a multiple of `align`
   /// (>= 1), and bands may be empty. Returns when every band is done and rethrows the first
-  /// exception a band threw. Not reentrant: one call at a time per pool. Throws
-  /// std::invalid_argument for rows < 0 or align < 1.
+  /// exception a band threw. Throws std::invalid_argument for rows < 0 or align < 1.
+  /// A pool may be shared: a call made while another one runs on the workers (from another
+  /// thread, or from inside a band) runs its bands one after another on the calling thread, the
+  /// same bands with the same results, without the parallelism.
   template <class F>
   void for_each_band(int rows, int align, F&& fn) {
     using Fn = std::remove_reference_t<F>;
@@ -55,6 +57,7 @@ class ThreadPool {
  private:
   using BandFn = void (*)(void* context, int band, int row_begin, int row_end);
   void run_bands(int rows, int align, BandFn fn, void* context);
+  void run_bands_here(int rows, int align, BandFn fn, void* context) const;
 
   struct Workers;
   int threads_ = 1;
