@@ -1,9 +1,10 @@
 // End-to-end tests of `rangeseg segment` over several frames: what the clean-up of result folders
 // keeps, inputs that hold no frame or a dangling link, TUM sequences beside other depth images,
-// an interrupted batch.
+// an interrupted batch, more threads than cores.
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <sched.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -212,6 +213,39 @@ TEST(CliBatch, UnwritableOutputFolderStopsBeforeAnyFrame) {
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_TRUE(contains(r.out, "cannot write into the output folder")) << r.out;
   EXPECT_FALSE(contains(r.out, "frames processed")) << r.out;
+}
+
+/// More threads than the cores the process may use (its affinity) are named, for one frame and
+/// for a batch; as many as the cores are not. The results are those of one thread.
+TEST(CliBatch, MoreThreadsThanCoresAreNamed) {
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  ASSERT_EQ(sched_getaffinity(0, sizeof allowed, &allowed), 0);
+  const int cores = CPU_COUNT(&allowed);
+  if (cores >= 256) GTEST_SKIP() << cores << " cores: --threads cannot exceed them";
+  const fs::path dir = rangeseg::test::scratch_dir("cli_threads_cores");
+  write_small_pcd(dir / "in" / "a.pcd", 3);
+  write_small_pcd(dir / "in" / "b.pcd", 4);
+  const std::string warning =
+      "warning: --threads " + std::to_string(cores + 1) + " on " + std::to_string(cores) + " core";
+  const std::string frame = (dir / "in" / "a.pcd").string();
+  const auto segment = [&](const std::string& input, int threads, const std::string& out) {
+    return run_cli("segment " + input + " --threads " + std::to_string(threads) + " -o " +
+                   (dir / out).string());
+  };
+  const auto one = segment(frame, 1, "one");
+  ASSERT_EQ(one.code, 0) << one.out;
+  EXPECT_FALSE(contains(one.out, "warning: --threads")) << one.out;
+  const auto as_many = segment(frame, cores, "cores");
+  ASSERT_EQ(as_many.code, 0) << as_many.out;
+  EXPECT_FALSE(contains(as_many.out, "warning: --threads")) << as_many.out;
+  const auto more = segment(frame, cores + 1, "more");
+  ASSERT_EQ(more.code, 0) << more.out;
+  EXPECT_TRUE(contains(more.out, warning)) << more.out;
+  EXPECT_EQ(read_text(dir / "more" / "labels.png"), read_text(dir / "one" / "labels.png"));
+  const auto batch = segment((dir / "in").string(), cores + 1, "batch");
+  ASSERT_EQ(batch.code, 0) << batch.out;
+  EXPECT_TRUE(contains(batch.out, warning)) << batch.out;
 }
 
 }  // namespace

@@ -227,13 +227,7 @@ std::size_t segment_batch(const FrameList& list, const BatchSettings& settings,
       track ? 1
             : std::clamp<std::size_t>(static_cast<std::size_t>(std::max(options.threads, 1)), 1,
                                       std::max<std::size_t>(n, 1));
-  if (const unsigned cores = std::thread::hardware_concurrency();
-      cores > 0 && static_cast<unsigned>(std::max(options.threads, 1)) > cores) {
-    note(
-        "warning: --threads %d on %u cores: the threads take turns, and the times per frame "
-        "include the waits",
-        options.threads, cores);
-  }
+  warn_if_more_threads_than_cores(options.threads);
   // The first pipeline of each worker is made here, so that invalid settings throw before any
   // work starts.
   std::vector<WorkerPipelines> pipelines;

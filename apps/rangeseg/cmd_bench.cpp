@@ -221,6 +221,7 @@ void add_bench(CLI::App& app) {
                                   "which an unorganized cloud (height 1) does not have");
     }
     require_model_for(in.cloud, settings, o->in.path);
+    warn_if_more_threads_than_cores(o->threads);
     std::vector<SizeResult> results;
     for (const int k : scales_for(*o, in.cloud.width(), in.cloud.height())) {
       PipelineSettings scaled = settings;

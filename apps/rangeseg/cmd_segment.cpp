@@ -179,6 +179,7 @@ void add_segment(CLI::App& app) {
     const std::string preset = resolve_preset(o->preset, in.sensor_preset);
     PipelineSettings settings = settings_for(preset);
     settings.threads = o->threads;
+    warn_if_more_threads_than_cores(o->threads);
     require_model_for(in.cloud, settings, o->in.path);
     check_noise_scale(o->in.path, in.cloud, settings.segmentation.noise);
     Pipeline pipeline(settings);

@@ -1,5 +1,6 @@
 #include "output.hpp"
 
+#include <sched.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -15,6 +16,7 @@
 #include <stdexcept>
 #include <string>
 #include <system_error>
+#include <thread>
 
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/pcd.hpp"
@@ -163,6 +165,21 @@ bool reserve_memory_for_errors() {
   }
   std::set_new_handler(release_reserve_and_throw);
   return complete;
+}
+
+void warn_if_more_threads_than_cores(int threads) {
+  unsigned cores = std::thread::hardware_concurrency();
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  if (sched_getaffinity(0, sizeof allowed, &allowed) == 0) {
+    cores = static_cast<unsigned>(CPU_COUNT(&allowed));
+  }
+  if (cores > 0 && static_cast<unsigned>(std::max(threads, 1)) > cores) {
+    note(
+        "warning: --threads %d on %u core%s: the threads take turns, and the times include "
+        "the waits",
+        threads, cores, cores == 1 ? "" : "s");
+  }
 }
 
 void progress(const std::string& what) { std::fprintf(stderr, "rangeseg: %s\n", what.c_str()); }
