@@ -1,5 +1,10 @@
 #include "rangeseg/thread_pool.hpp"
 
+#if defined(__linux__)
+#include <sched.h>
+#endif
+
+#include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -103,6 +108,17 @@ struct ThreadPool::Workers {
     }
   }
 };
+
+int usable_cores() {
+#if defined(__linux__)
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  if (sched_getaffinity(0, sizeof allowed, &allowed) == 0 && CPU_COUNT(&allowed) > 0) {
+    return CPU_COUNT(&allowed);
+  }
+#endif
+  return static_cast<int>(std::max(std::thread::hardware_concurrency(), 1u));
+}
 
 ThreadPool::ThreadPool(int threads) : threads_(threads), workers_(std::make_unique<Workers>()) {
   if (threads < 1 || threads > 256) {

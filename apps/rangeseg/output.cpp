@@ -1,6 +1,5 @@
 #include "output.hpp"
 
-#include <sched.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -16,11 +15,11 @@
 #include <stdexcept>
 #include <string>
 #include <system_error>
-#include <thread>
 
 #include "rangeseg/io/file.hpp"
 #include "rangeseg/io/pcd.hpp"
 #include "rangeseg/io/ply.hpp"
+#include "rangeseg/thread_pool.hpp"
 
 namespace rangeseg::cli {
 
@@ -168,16 +167,11 @@ bool reserve_memory_for_errors() {
 }
 
 void warn_if_more_threads_than_cores(int threads) {
-  unsigned cores = std::thread::hardware_concurrency();
-  cpu_set_t allowed;
-  CPU_ZERO(&allowed);
-  if (sched_getaffinity(0, sizeof allowed, &allowed) == 0) {
-    cores = static_cast<unsigned>(CPU_COUNT(&allowed));
-  }
-  if (cores > 0 && static_cast<unsigned>(std::max(threads, 1)) > cores) {
+  const int cores = usable_cores();
+  if (threads > cores) {
     note(
-        "warning: --threads %d on %u core%s: the threads take turns, and the times include "
-        "the waits",
+        "warning: --threads %d on %d core%s: the threads take turns, and the times include the "
+        "waits",
         threads, cores, cores == 1 ? "" : "s");
   }
 }

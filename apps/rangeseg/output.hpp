@@ -60,9 +60,7 @@ bool reserve_memory_for_errors();
 /// Prints a progress line on stderr ("rangeseg: <what>").
 void progress(const std::string& what);
 
-/// Warns (`note`) when `threads` exceed the cores this process may run on (its CPU affinity, as
-/// `taskset` sets it): the threads then take turns, and those of one frame spin while they wait
-/// for each other (a 640x480 frame on 256 threads and 2 cores took 1.5 s instead of 0.09).
+/// Warns (`note`) when `threads` exceed `usable_cores()`.
 void warn_if_more_threads_than_cores(int threads);
 
 /// Prints "rangeseg: " and the printf-formatted line on stderr; while a progress bar is drawn

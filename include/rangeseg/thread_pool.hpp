@@ -6,6 +6,12 @@
 
 namespace rangeseg {
 
+/// The cores this process may run on: its CPU affinity (as `taskset` or a container's CPU set
+/// allows), else the machine's hardware threads; at least 1. More threads than these take
+/// turns, and the threads of one frame spin while they wait for each other, so a frame on more
+/// threads than cores runs slower than on one (256 threads on 2 cores: 17x slower).
+int usable_cores();
+
 /// A fixed set of threads that run one function on disjoint bands of image rows. Created once
 /// and reused for every frame: dispatching a frame's bands allocates nothing.
 class ThreadPool {

@@ -20,6 +20,7 @@
 #include "rangeseg/camera.hpp"
 #include "rangeseg/io/settings_json.hpp"
 #include "rangeseg/pipeline.hpp"
+#include "rangeseg/thread_pool.hpp"
 #include "results.hpp"
 
 namespace rangeseg::python {
@@ -105,6 +106,11 @@ PipelineSettings settings_from(const std::string& preset, const std::optional<st
   }
   s.threads = threads;
   validate(s);
+  if (threads > usable_cores()) {
+    user_warning("threads=" + std::to_string(threads) + " on " + std::to_string(usable_cores()) +
+                 " cores this process may use: the threads take turns and a frame runs slower "
+                 "than on fewer");
+  }
   return s;
 }
 

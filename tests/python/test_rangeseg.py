@@ -270,6 +270,15 @@ class Inputs(unittest.TestCase):
         np.testing.assert_array_equal(two.labels, one.labels)
         np.testing.assert_array_equal(two.normals, one.normals)
 
+    def test_more_threads_than_cores_are_named(self):
+        cores = len(os.sched_getaffinity(0))
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            rangeseg.Pipeline(threads=min(cores, 256))
+        if cores < 256:
+            with self.assertWarnsRegex(UserWarning, f"threads={cores + 1} on {cores} cores"):
+                rangeseg.Pipeline(threads=cores + 1)
+
     def test_colours_as_open3d_floats_equal_uint8_colours(self):
         points = self.step_points()
         rgb = (np.indices(points.shape[:2]).sum(axis=0) % 256).astype(np.uint8)
