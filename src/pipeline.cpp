@@ -305,6 +305,16 @@ void Pipeline::set_input(const OrganizedCloud& cloud) {
 
 template <class Frame>
 void Pipeline::guarded(Frame&& frame) {
+  if (!running_.take()) {
+    throw std::logic_error(
+        "Pipeline::process: called while another thread's call runs on this pipeline; a pipeline "
+        "runs one frame at a time (use one pipeline per thread, or a mutex around process and "
+        "the reading of its results)");
+  }
+  struct Release {
+    RunningFlag& flag;
+    ~Release() { flag.release(); }
+  } const release{running_};
   try {
     frame();
   } catch (const std::invalid_argument&) {
@@ -350,8 +360,10 @@ void Pipeline::process(const OrganizedCloud& cloud, double camera_fx) {
     throw std::invalid_argument("Pipeline::process: camera_fx must be >= 0 and finite, got " +
                                 rangeseg::detail::number_text(camera_fx));
   }
-  camera_fx_ = camera_fx;  // a pixel grid found in an unorganized cloud names its own
-  guarded([&] { process_cloud(cloud); });
+  guarded([&] {
+    camera_fx_ = camera_fx;  // a pixel grid found in an unorganized cloud names its own
+    process_cloud(cloud);
+  });
 }
 
 void Pipeline::process_cloud(const OrganizedCloud& cloud) {

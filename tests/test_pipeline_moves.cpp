@@ -1,8 +1,13 @@
 // Moving images, meshes and pipelines: a moved-from object is empty and can be reused, and a
-// moved pipeline's results are its own.
+// moved pipeline's results are its own. A pipeline called from two threads at once refuses the
+// second call.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
+#include <stdexcept>
+#include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -75,7 +80,7 @@ TEST(Moves, AMovedFromPipelineProcessesTheNextFrame) {
 /// cloud() of a frame whose input was the pipeline's own points (a depth image's points fed
 /// back, or the smoothed points fed back) is the moved pipeline's, not the old object's.
 TEST(Moves, AMovedPipelineKeepsTheCloudOfAFedBackFrame) {
-  std::vector<float> depth(160 * 120, 2.0f);
+  std::vector<float> depth(std::size_t{160} * 120, 2.0f);
   const CameraIntrinsics camera{
       .fx = 131.25, .fy = 131.25, .cx = 79.5, .cy = 59.5, .width = 160, .height = 120};
   for (const bool smooth : {false, true}) {
@@ -90,6 +95,40 @@ TEST(Moves, AMovedPipelineKeepsTheCloudOfAFedBackFrame) {
     ASSERT_EQ(q.cloud().width(), 160) << smooth;
     EXPECT_FLOAT_EQ(q.cloud().z(80, 60), z) << smooth;
     EXPECT_NEAR(q.cloud().z(80, 60), 2.0f, 0.01f) << smooth;
+  }
+}
+
+/// Two threads calling one pipeline: a call made while the other thread's runs throws
+/// std::logic_error and leaves that frame alone; the pipeline then gives a new one's results.
+TEST(Moves, APipelineRefusesACallWhileAnotherThreadsRuns) {
+  const OrganizedCloud cloud = scene();
+  Pipeline fresh;
+  fresh.process(cloud);
+  Pipeline shared;
+  std::atomic<int> refused{0}, done{0};
+  const auto call = [&] {
+    // Until one call of either thread has been refused, at most 200 calls a thread.
+    for (int i = 0; i < 200 && refused.load() == 0; ++i) {
+      try {
+        shared.process(cloud);
+        ++done;
+      } catch (const std::logic_error& e) {
+        EXPECT_NE(std::string(e.what()).find("another thread"), std::string::npos) << e.what();
+        ++refused;
+      }
+    }
+  };
+  std::thread other(call);
+  call();
+  other.join();
+  EXPECT_GE(refused.load(), 1);
+  EXPECT_GE(done.load(), 1);
+  shared.process(cloud);
+  ASSERT_EQ(shared.segmentation().segments.size(), fresh.segmentation().segments.size());
+  for (int v = 0; v < cloud.height(); ++v) {
+    for (int u = 0; u < cloud.width(); ++u) {
+      ASSERT_EQ(shared.segmentation().labels(u, v), fresh.segmentation().labels(u, v));
+    }
   }
 }
 

@@ -1,6 +1,7 @@
 // The whole frame: mesh, normals, smoothing and segmentation with buffers reused across frames.
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -94,8 +95,9 @@ void validate(const PipelineSettings& settings);
 /// Runs the stages on frame after frame. It owns every intermediate buffer and keeps it, so
 /// after the first frame of a given size no stage allocates, except where a frame's content
 /// needs more than any frame before (more segments, polygon vertices, tracks: a stream settles
-/// within a few frames). Results stay valid until the next call of `process`. Not
-/// thread-safe.
+/// within a few frames). Results stay valid until the next call of `process`. One thread at a
+/// time: a `process` call while another thread's runs throws std::logic_error (the running
+/// frame goes on); reading results while another thread processes is a data race.
 class Pipeline {
  public:
   /// Throws std::invalid_argument for invalid settings (`validate`). Starts settings.threads - 1
@@ -202,9 +204,9 @@ class Pipeline {
   template <class Convert>
   void process_depth(int width, int height, double fx, Convert&& convert_rows);
 
-  /// Runs one frame; if it throws anything but std::invalid_argument (which input checks throw
-  /// before any state changes), drop_frame_state() first: a stage that failed midway (out of
-  /// memory) may have left its buffers inconsistent with each other.
+  /// Runs one frame, one call at a time (running_); if it throws anything but std::invalid_argument
+  /// (which input checks throw before any state changes), drop_frame_state() first: a stage that
+  /// failed midway (out of memory) may have left its buffers inconsistent with each other.
   template <class Frame>
   void guarded(Frame&& frame);
   /// Every buffer, result and track back to a new pipeline's (none): the next frame allocates
@@ -215,6 +217,24 @@ class Pipeline {
   /// own (named, not pointed to, so that cloud() stays right when the pipeline is moved).
   void set_input(const OrganizedCloud& cloud);
 
+  /// Held while a frame runs: a call from another thread meanwhile throws std::logic_error
+  /// instead of overwriting the buffers the frame is using. A moved-to pipeline's is free.
+  class RunningFlag {
+   public:
+    RunningFlag() = default;
+    RunningFlag(RunningFlag&& /*other*/) noexcept {}
+    RunningFlag& operator=(RunningFlag&& /*other*/) noexcept { return *this; }
+    RunningFlag(const RunningFlag&) = delete;
+    RunningFlag& operator=(const RunningFlag&) = delete;
+    ~RunningFlag() = default;
+    bool take() { return !taken_.exchange(true, std::memory_order_acquire); }
+    void release() { taken_.store(false, std::memory_order_release); }
+
+   private:
+    std::atomic<bool> taken_{false};
+  };
+
+  RunningFlag running_;
   PipelineSettings settings_;
   /// Whose points the last frame's input was: the caller's (input_), the pipeline's points of a
   /// depth image (depth_cloud_, also when cloud() was fed back) or its copy of a fed-back cloud.
