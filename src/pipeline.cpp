@@ -305,16 +305,13 @@ void Pipeline::set_input(const OrganizedCloud& cloud) {
 
 template <class Frame>
 void Pipeline::guarded(Frame&& frame) {
-  if (!running_.take()) {
+  const detail::CallFlag::Hold frame_running(running_);
+  if (!frame_running.held()) {
     throw std::logic_error(
         "Pipeline::process: called while another thread's call runs on this pipeline; a pipeline "
         "runs one frame at a time (use one pipeline per thread, or a mutex around process and "
         "the reading of its results)");
   }
-  struct Release {
-    RunningFlag& flag;
-    ~Release() { flag.release(); }
-  } const release{running_};
   try {
     frame();
   } catch (const std::invalid_argument&) {

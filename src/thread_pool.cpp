@@ -43,7 +43,7 @@ struct ThreadPool::Workers {
   std::atomic<std::uint64_t> generation{0};
   std::atomic<int> pending{0};
   std::atomic<int> keep_awake{0};  // live KeepAwake guards
-  std::atomic<bool> busy{false};   // a call is running on the workers
+  detail::CallFlag busy;           // held by the call running on the workers
   bool stopping = false;           // guarded by mutex
   BandFn fn = nullptr;
   void* context = nullptr;
@@ -148,17 +148,14 @@ void ThreadPool::run_bands(int rows, int align, BandFn fn, void* context) {
                                 " (need rows >= 0, align >= 1)");
   }
   Workers& w = *workers_;
-  if (threads_ == 1 || w.busy.exchange(true, std::memory_order_acquire)) {
+  const detail::CallFlag::Hold workers(w.busy);
+  if (threads_ == 1 || !workers.held()) {
     // The workers belong to another call (made on another thread, or this one is made from
     // inside one of its bands): the bands run here, one after another. Bands index their own
     // buffers and never wait for each other, so the results are the same.
     run_bands_here(rows, align, fn, context);
     return;
   }
-  struct Release {
-    std::atomic<bool>& busy;
-    ~Release() { busy.store(false, std::memory_order_release); }
-  } const release{w.busy};
   {
     // Workers read the job after seeing the new generation (release / acquire).
     const std::lock_guard<std::mutex> lock(w.mutex);

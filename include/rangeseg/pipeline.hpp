@@ -1,7 +1,6 @@
 // The whole frame: mesh, normals, smoothing and segmentation with buffers reused across frames.
 #pragma once
 
-#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -218,23 +217,8 @@ class Pipeline {
   void set_input(const OrganizedCloud& cloud);
 
   /// Held while a frame runs: a call from another thread meanwhile throws std::logic_error
-  /// instead of overwriting the buffers the frame is using. A moved-to pipeline's is free.
-  class RunningFlag {
-   public:
-    RunningFlag() = default;
-    RunningFlag(RunningFlag&& /*other*/) noexcept {}
-    RunningFlag& operator=(RunningFlag&& /*other*/) noexcept { return *this; }
-    RunningFlag(const RunningFlag&) = delete;
-    RunningFlag& operator=(const RunningFlag&) = delete;
-    ~RunningFlag() = default;
-    bool take() { return !taken_.exchange(true, std::memory_order_acquire); }
-    void release() { taken_.store(false, std::memory_order_release); }
-
-   private:
-    std::atomic<bool> taken_{false};
-  };
-
-  RunningFlag running_;
+  /// instead of overwriting the buffers the frame is using.
+  detail::CallFlag running_;
   PipelineSettings settings_;
   /// Whose points the last frame's input was: the caller's (input_), the pipeline's points of a
   /// depth image (depth_cloud_, also when cloud() was fed back) or its copy of a fed-back cloud.

@@ -1,10 +1,49 @@
 // Worker threads for splitting the rows of one frame over cores (Pipeline, Smoother::run).
 #pragma once
 
+#include <atomic>
 #include <memory>
 #include <type_traits>
 
 namespace rangeseg {
+
+namespace detail {
+
+/// A flag that one call at a time holds: the workers of a ThreadPool, the frame of a Pipeline.
+/// A moved-to object's flag is free (a call never runs while its object is moved).
+class CallFlag {
+ public:
+  CallFlag() = default;
+  CallFlag(CallFlag&& /*other*/) noexcept {}
+  CallFlag& operator=(CallFlag&& /*other*/) noexcept { return *this; }
+  CallFlag(const CallFlag&) = delete;
+  CallFlag& operator=(const CallFlag&) = delete;
+  ~CallFlag() = default;
+
+  /// Takes the flag, if it is free, for the hold's lifetime.
+  class Hold {
+   public:
+    explicit Hold(CallFlag& flag)
+        : flag_(flag.taken_.exchange(true, std::memory_order_acquire) ? nullptr : &flag) {}
+    ~Hold() {
+      if (flag_ != nullptr) flag_->taken_.store(false, std::memory_order_release);
+    }
+    Hold(const Hold&) = delete;
+    Hold& operator=(const Hold&) = delete;
+    Hold(Hold&&) = delete;
+    Hold& operator=(Hold&&) = delete;
+    /// Whether this hold took the flag (false: another call holds it).
+    bool held() const { return flag_ != nullptr; }
+
+   private:
+    CallFlag* flag_;
+  };
+
+ private:
+  std::atomic<bool> taken_{false};
+};
+
+}  // namespace detail
 
 /// The cores this process may run on: its CPU affinity (as `taskset` or a container's CPU set
 /// allows), else the machine's hardware threads; at least 1. More threads than these take

@@ -106,8 +106,8 @@ PipelineSettings settings_from(const std::string& preset, const std::optional<st
   }
   s.threads = threads;
   validate(s);
-  if (threads > usable_cores()) {
-    user_warning("threads=" + std::to_string(threads) + " on " + std::to_string(usable_cores()) +
+  if (const int cores = usable_cores(); threads > cores) {
+    user_warning("threads=" + std::to_string(threads) + " on " + std::to_string(cores) +
                  " cores this process may use: the threads take turns and a frame runs slower "
                  "than on fewer");
   }
